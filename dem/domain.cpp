@@ -1,0 +1,88 @@
+#include "dem/domain.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace millflow::dem {
+
+void Domain::validate() const {
+  for (int a = 0; a < 3; ++a) {
+    if (!(hi[a] > lo[a])) {
+      throw std::invalid_argument(fmt::format(
+          "domain: hi[{}] = {} must be greater than lo[{}] = {}", a, hi[a], a, lo[a]));
+    }
+  }
+  if (lees_edwards.enabled) {
+    const int f = lees_edwards.flow_axis, g = lees_edwards.gradient_axis;
+    if (f < 0 || f > 2 || g < 0 || g > 2 || f == g) {
+      throw std::invalid_argument(fmt::format(
+          "domain: Lees-Edwards flow_axis = {} and gradient_axis = {} must be distinct axes 0..2", f, g));
+    }
+    if (!periodic[f] || !periodic[g]) {
+      throw std::invalid_argument(
+          "domain: Lees-Edwards needs both its flow and gradient axes periodic");
+    }
+    if (!std::isfinite(lees_edwards.velocity)) {
+      throw std::invalid_argument("domain: Lees-Edwards velocity is not finite");
+    }
+  }
+}
+
+Vec3 Domain::separation(const Vec3& a, const Vec3& b, Vec3* velocity_shift) const {
+  Vec3 d = b - a;
+  const Vec3 len = length();
+  if (velocity_shift) velocity_shift->setZero();
+  if (lees_edwards.enabled) {
+    // The gradient axis first: crossing it moves the image along the flow axis.
+    const int g = lees_edwards.gradient_axis, f = lees_edwards.flow_axis;
+    const double n = std::round(d[g] / len[g]);
+    if (n != 0.0) {
+      d[g] -= n * len[g];
+      d[f] -= n * lees_edwards.offset;
+      if (velocity_shift) (*velocity_shift)[f] = -n * lees_edwards.velocity;
+    }
+  }
+  for (int axis = 0; axis < 3; ++axis) {
+    if (!periodic[axis]) continue;
+    if (lees_edwards.enabled && axis == lees_edwards.gradient_axis) continue;
+    d[axis] -= std::round(d[axis] / len[axis]) * len[axis];
+  }
+  return d;
+}
+
+bool Domain::wrap(Vec3& position, Vec3& velocity) const {
+  bool changed = false;
+  const Vec3 len = length();
+  if (lees_edwards.enabled) {
+    const int g = lees_edwards.gradient_axis, f = lees_edwards.flow_axis;
+    const double n = std::floor((position[g] - lo[g]) / len[g]);
+    if (n != 0.0) {
+      position[g] -= n * len[g];
+      position[f] -= n * lees_edwards.offset;
+      velocity[f] -= n * lees_edwards.velocity;
+      changed = true;
+    }
+  }
+  for (int axis = 0; axis < 3; ++axis) {
+    if (!periodic[axis]) continue;
+    const double n = std::floor((position[axis] - lo[axis]) / len[axis]);
+    if (n != 0.0) {
+      position[axis] -= n * len[axis];
+      changed = true;
+    }
+    // Rounding can leave position == hi; keep the half-open interval.
+    if (position[axis] >= hi[axis]) position[axis] = lo[axis];
+  }
+  return changed;
+}
+
+void Domain::advance_shear(double dt) {
+  if (!lees_edwards.enabled) return;
+  const double len = length()[lees_edwards.flow_axis];
+  lees_edwards.offset = std::fmod(lees_edwards.offset + lees_edwards.velocity * dt, len);
+  if (lees_edwards.offset < 0.0) lees_edwards.offset += len;
+}
+
+}  // namespace millflow::dem

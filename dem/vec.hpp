@@ -1,0 +1,9 @@
+#pragma once
+// Vector type of the DEM library. All quantities are SI (m, kg, s, N, J, Pa).
+#include <Eigen/Core>
+
+namespace millflow::dem {
+
+using Vec3 = Eigen::Vector3d;
+
+}  // namespace millflow::dem

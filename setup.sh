@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# One entry point for a fresh Debian 12 machine (README.md, "Getting started").
+#   ./setup.sh run   install what is missing, build (Release), run the default campaign
+#   ./setup.sh test  install what is missing, build (Release), run every CTest test
+# Environment: BUILD_DIR (default build), JOBS (default: nproc).
+set -euo pipefail
+cd "$(dirname "$0")"
+mode=${1:-}
+build_dir=${BUILD_DIR:-build}
+jobs=${JOBS:-$(nproc)}
+
+packages=(build-essential cmake ninja-build ccache git pkg-config
+          libtbb-dev libeigen3-dev libsqlite3-dev sqlite3 nlohmann-json3-dev libfmt-dev libspdlog-dev
+          libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libssl-dev python3 python3-jsonschema)
+
+install_missing() {
+  local missing=()
+  for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  echo "setup.sh: installing ${missing[*]}"
+  local sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo=sudo
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+build() {
+  cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release -DMILLFLOW_WERROR=ON
+  cmake --build "$build_dir" -j "$jobs"
+}
+
+case "$mode" in
+  run)
+    install_missing
+    build
+    "$build_dir/millflow" demo
+    ;;
+  test)
+    install_missing
+    build
+    ctest --test-dir "$build_dir" -j "$jobs" --output-on-failure --timeout 600
+    ;;
+  *)
+    echo "usage: ./setup.sh run|test" >&2
+    exit 2
+    ;;
+esac
