@@ -1,0 +1,28 @@
+#pragma once
+// Errors in user input (campaign files, command-line values). Every error names the JSON path,
+// what is wrong, and how to fix it; all errors of one input are collected and reported together.
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace millflow::engine {
+
+struct ValidationError {
+  std::string path;     // JSON pointer-like path, e.g. "/mill/lifters/count" ("" for the document)
+  std::string problem;  // what is wrong, with the offending value
+  std::string fix;      // how to fix it (may be empty)
+
+  // "<path>: <problem>" plus "; <fix>" when a fix is given. Tests assert this exact text.
+  std::string message() const;
+};
+
+class InvalidInput : public std::runtime_error {
+ public:
+  explicit InvalidInput(std::vector<ValidationError> errors);
+  const std::vector<ValidationError>& errors() const { return errors_; }
+
+ private:
+  std::vector<ValidationError> errors_;
+};
+
+}  // namespace millflow::engine
