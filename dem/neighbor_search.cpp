@@ -1,0 +1,275 @@
+#include "dem/neighbor_search.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+namespace millflow::dem {
+
+namespace {
+
+// Levels halve the cell size: 8 levels cover size ratios up to ~128 with cells within 2x of the
+// particles; smaller particles all share the finest level.
+constexpr int kMaxLevels = 8;
+// Particles per parallel task; the candidate lists do not depend on it.
+constexpr std::size_t kChunkSize = 256;
+
+// The pair criterion shared by the search and the reference; a has the smaller index, so both
+// evaluate exactly the same floating-point expression.
+bool within_cutoff(const Domain& domain, const Vec3& xa, double ra, const Vec3& xb, double rb, double skin) {
+  const double cutoff = ra + rb + skin;
+  return domain.separation(xa, xb).squaredNorm() < cutoff * cutoff;
+}
+
+void validate_particles(std::span<const Vec3> positions, std::span<const double> radii) {
+  if (positions.size() != radii.size()) {
+    throw std::invalid_argument(fmt::format(
+        "neighbour search: {} positions but {} radii; pass one radius per particle",
+        positions.size(), radii.size()));
+  }
+  if (positions.size() > std::numeric_limits<std::uint32_t>::max()) {
+    throw std::invalid_argument(fmt::format(
+        "neighbour search: {} particles exceed the 32-bit particle index", positions.size()));
+  }
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    if (!positions[i].allFinite()) {
+      throw std::invalid_argument(fmt::format(
+          "neighbour search: position of particle {} = ({}, {}, {}) is not finite", i,
+          positions[i].x(), positions[i].y(), positions[i].z()));
+    }
+    if (!(radii[i] > 0.0) || !std::isfinite(radii[i])) {
+      throw std::invalid_argument(fmt::format(
+          "neighbour search: radius of particle {} = {} must be positive and finite", i, radii[i]));
+    }
+  }
+}
+
+void validate_skin(double skin) {
+  if (!(skin >= 0.0) || !std::isfinite(skin)) {
+    throw std::invalid_argument(fmt::format("neighbour search: skin = {} must be finite and >= 0", skin));
+  }
+}
+
+// Margin added to every query reach so that rounding in cell indices and image shifts (a few ulps
+// of the coordinates) can never hide a pair that is within the cutoff.
+double reach_padding(const Domain& domain, double largest_reach) {
+  const double scale = std::max(domain.lo.cwiseAbs().maxCoeff(), domain.hi.cwiseAbs().maxCoeff()) +
+                       domain.length().maxCoeff() + largest_reach;
+  return 1e-10 * scale;
+}
+
+// Most cells a level's grid may have: enough for dense packings, bounded for sparse fine levels
+// in big boxes.
+std::size_t max_cells_for(std::size_t member_count) { return std::max<std::size_t>(4096, 8 * member_count); }
+
+}  // namespace
+
+NeighborSearch::NeighborSearch(NeighborSearchOptions options) : options_(options) {
+  validate_skin(options_.skin);
+}
+
+void NeighborSearch::build(const Domain& domain, std::span<const Vec3> positions,
+                           std::span<const double> radii) {
+  domain.validate();
+  validate_particles(positions, radii);
+  assign_levels(radii);
+  bin_levels(domain, positions, radii);
+  search(domain, positions, radii);
+  assemble_pairs(positions.size());
+
+  reference_positions_.assign(positions.begin(), positions.end());
+  reference_offset_ = domain.lees_edwards.offset;
+  built_ = true;
+  ++build_count_;
+}
+
+void NeighborSearch::assign_levels(std::span<const double> radii) {
+  const double skin = options_.skin;
+  const double r_max = radii.empty() ? 0.0 : *std::max_element(radii.begin(), radii.end());
+  const double top_cell = 2.0 * r_max + skin;
+  // Nominal level: how many times the top cell size can be halved and still hold the particle.
+  const auto nominal_level = [&](double r) {
+    int level = 0;
+    for (double cell = 0.5 * top_cell; options_.multilevel && level + 1 < kMaxLevels && cell >= 2.0 * r + skin;
+         cell *= 0.5) {
+      ++level;
+    }
+    return level;
+  };
+  std::array<double, kMaxLevels> level_r_max{};
+  level_of_.resize(radii.size());
+  for (std::size_t i = 0; i < radii.size(); ++i) {
+    const int level = nominal_level(radii[i]);
+    level_of_[i] = static_cast<std::uint8_t>(level);
+    level_r_max[level] = std::max(level_r_max[level], radii[i]);
+  }
+  // Drop empty levels (radii are positive, so an empty level has r_max 0).
+  std::array<std::uint8_t, kMaxLevels> compact{};
+  level_max_radius_.clear();
+  for (int level = 0; level < kMaxLevels; ++level) {
+    compact[level] = static_cast<std::uint8_t>(level_max_radius_.size());
+    if (level_r_max[level] > 0.0) level_max_radius_.push_back(level_r_max[level]);
+  }
+  for (auto& level : level_of_) level = compact[level];
+}
+
+void NeighborSearch::bin_levels(const Domain& domain, std::span<const Vec3> positions,
+                                std::span<const double> radii) {
+  grids_.resize(level_max_radius_.size());
+  for (std::size_t level = 0; level < grids_.size(); ++level) {
+    level_members_.clear();
+    for (std::uint32_t i = 0; i < level_of_.size(); ++i) {
+      if (level_of_[i] == level) level_members_.push_back(i);
+    }
+    grids_[level].configure(domain, 2.0 * level_max_radius_[level] + options_.skin,
+                            max_cells_for(level_members_.size()));
+    grids_[level].bin(positions, radii, level_members_);
+  }
+}
+
+void NeighborSearch::search(const Domain& domain, std::span<const Vec3> positions,
+                            std::span<const double> radii) {
+  const std::size_t n = positions.size();
+  chunks_.resize((n + kChunkSize - 1) / kChunkSize);
+  partner_begin_.resize(n);
+  partner_count_.resize(n);
+  lower_count_.resize(n);
+  const double largest_reach =
+      level_max_radius_.empty() ? 0.0 : 2.0 * level_max_radius_.front() + options_.skin;
+  const double padding = reach_padding(domain, largest_reach);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks_.size()),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t c = range.begin(); c != range.end(); ++c) {
+                        search_chunk(domain, positions, radii, c, padding);
+                      }
+                    });
+  stats_ = Stats{grids_.size(), 0, 0};
+  for (const Chunk& chunk : chunks_) {
+    stats_.cells_visited += chunk.cells_visited;
+    stats_.candidates_tested += chunk.candidates_tested;
+  }
+}
+
+void NeighborSearch::search_chunk(const Domain& domain, std::span<const Vec3> positions,
+                                  std::span<const double> radii, std::size_t chunk_index,
+                                  double reach_padding) {
+  Chunk& chunk = chunks_[chunk_index];
+  chunk.partners.clear();
+  chunk.cells_visited = 0;
+  chunk.candidates_tested = 0;
+  const auto first = static_cast<std::uint32_t>(chunk_index * kChunkSize);
+  const auto last = static_cast<std::uint32_t>(std::min(positions.size(), (chunk_index + 1) * kChunkSize));
+  for (std::uint32_t q = first; q < last; ++q) {
+    const std::size_t begin = chunk.partners.size();
+    const std::size_t own_level = level_of_[q];
+    const Vec3& xq = positions[q];
+    const double rq = radii[q];
+    for (std::size_t level = 0; level <= own_level; ++level) {
+      // Within its own level a pair is found by its smaller index; across levels by the finer one.
+      const bool same_level = level == own_level;
+      const double reach = rq + level_max_radius_[level] + options_.skin + reach_padding;
+      chunk.cells_visited += grids_[level].visit_near(xq, reach, [&](const CellGrid::Member& m) {
+        if (same_level && m.index <= q) return;
+        ++chunk.candidates_tested;
+        const bool found = m.index > q ? within_cutoff(domain, xq, rq, m.position, m.radius, options_.skin)
+                                       : within_cutoff(domain, m.position, m.radius, xq, rq, options_.skin);
+        if (found) chunk.partners.push_back(m.index);
+      });
+    }
+    // Cells visited twice (tiny Lees-Edwards boxes) repeat partners: sort and drop repeats.
+    const auto found_begin = chunk.partners.begin() + static_cast<std::ptrdiff_t>(begin);
+    std::sort(found_begin, chunk.partners.end());
+    chunk.partners.erase(std::unique(found_begin, chunk.partners.end()), chunk.partners.end());
+    partner_begin_[q] = static_cast<std::uint32_t>(begin);
+    partner_count_[q] = static_cast<std::uint32_t>(chunk.partners.size() - begin);
+    lower_count_[q] = static_cast<std::uint32_t>(
+        std::lower_bound(found_begin, chunk.partners.end(), q) - found_begin);
+  }
+}
+
+std::span<const std::uint32_t> NeighborSearch::partners_of(std::uint32_t q) const {
+  return std::span<const std::uint32_t>(chunks_[q / kChunkSize].partners)
+      .subspan(partner_begin_[q], partner_count_[q]);
+}
+
+void NeighborSearch::assemble_pairs(std::size_t particle_count) {
+  // Candidates q found for a lower p (from a finer level) belong to row p: counting sort them by
+  // p, in increasing q, so each row is the merge of two sorted lists.
+  incoming_begin_.assign(particle_count + 1, 0);
+  for (std::uint32_t q = 0; q < particle_count; ++q) {
+    for (const std::uint32_t p : partners_of(q).first(lower_count_[q])) ++incoming_begin_[p + 1];
+  }
+  for (std::size_t p = 0; p < particle_count; ++p) incoming_begin_[p + 1] += incoming_begin_[p];
+  incoming_.resize(incoming_begin_[particle_count]);
+  for (std::uint32_t q = 0; q < particle_count; ++q) {
+    for (const std::uint32_t p : partners_of(q).first(lower_count_[q])) incoming_[incoming_begin_[p]++] = q;
+  }
+  // The fill advanced each begin to the next row's begin: shift back.
+  for (std::size_t p = particle_count; p > 0; --p) incoming_begin_[p] = incoming_begin_[p - 1];
+  if (particle_count > 0) incoming_begin_[0] = 0;
+
+  row_begin_.assign(particle_count + 1, 0);
+  for (std::uint32_t p = 0; p < particle_count; ++p) {
+    const std::size_t incoming = incoming_begin_[p + 1] - incoming_begin_[p];
+    row_begin_[p + 1] = row_begin_[p] + (partner_count_[p] - lower_count_[p]) + incoming;
+  }
+  pairs_.resize(row_begin_[particle_count]);
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, static_cast<std::uint32_t>(particle_count)),
+                    [&](const tbb::blocked_range<std::uint32_t>& range) {
+                      for (std::uint32_t p = range.begin(); p != range.end(); ++p) {
+                        const auto upper = partners_of(p).subspan(lower_count_[p]);
+                        const std::span<const std::uint32_t> incoming(
+                            incoming_.data() + incoming_begin_[p], incoming_.data() + incoming_begin_[p + 1]);
+                        std::size_t a = 0, b = 0;
+                        NeighborPair* out = pairs_.data() + row_begin_[p];
+                        while (a < upper.size() || b < incoming.size()) {
+                          const bool take_upper = b == incoming.size() || (a < upper.size() && upper[a] < incoming[b]);
+                          *out++ = NeighborPair{p, take_upper ? upper[a++] : incoming[b++]};
+                        }
+                      }
+                    });
+}
+
+bool NeighborSearch::needs_rebuild(const Domain& domain, std::span<const Vec3> positions) const {
+  if (!built_ || positions.size() != reference_positions_.size()) return true;
+  double offset_change = 0.0;
+  if (domain.lees_edwards.enabled) {
+    const double flow_length = domain.length()[domain.lees_edwards.flow_axis];
+    offset_change = domain.lees_edwards.offset - reference_offset_;
+    offset_change -= std::round(offset_change / flow_length) * flow_length;
+  }
+  // The maximum is exact and order-independent, so any split gives the same answer.
+  const double max_displacement = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, positions.size()), 0.0,
+      [&](const tbb::blocked_range<std::size_t>& range, double running) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+          running = std::max(running, domain.separation(reference_positions_[i], positions[i]).norm());
+        }
+        return running;
+      },
+      [](double a, double b) { return std::max(a, b); });
+  return 2.0 * max_displacement + std::abs(offset_change) >= options_.skin;
+}
+
+std::vector<NeighborPair> brute_force_pairs(const Domain& domain, std::span<const Vec3> positions,
+                                            std::span<const double> radii, double skin) {
+  validate_skin(skin);
+  domain.validate();
+  validate_particles(positions, radii);
+  std::vector<NeighborPair> pairs;
+  for (std::uint32_t i = 0; i < positions.size(); ++i) {
+    for (std::uint32_t j = i + 1; j < positions.size(); ++j) {
+      if (within_cutoff(domain, positions[i], radii[i], positions[j], radii[j], skin)) pairs.push_back({i, j});
+    }
+  }
+  return pairs;
+}
+
+}  // namespace millflow::dem

@@ -1,0 +1,101 @@
+#pragma once
+// Candidate contact pairs by multi-level cell lists with a Verlet skin.
+//
+// Particles are binned into size levels whose cell sizes halve from level to level (each level's
+// cells are at least 2 * its largest radius + skin wide). A particle queries the grids of its own
+// level and of the coarser ones only, so the fine particle of a media/powder pair does the
+// cross-level query and scans a few big cells, and a media ball never scans the powder grid.
+// Periodic axes use the minimum image, Lees-Edwards images included (Domain::separation).
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "dem/cell_grid.hpp"
+#include "dem/domain.hpp"
+#include "dem/vec.hpp"
+
+namespace millflow::dem {
+
+struct NeighborPair {
+  std::uint32_t i, j;  // always i < j
+  bool operator==(const NeighborPair&) const = default;
+};
+
+struct NeighborSearchOptions {
+  double skin = 0.0;
+  // false: a single uniform grid sized for the largest particle (benchmark baseline only).
+  bool multilevel = true;
+};
+
+class NeighborSearch {
+ public:
+  struct Stats {
+    std::size_t levels = 0;
+    std::size_t cells_visited = 0;
+    std::size_t candidates_tested = 0;
+  };
+
+  // Throws std::invalid_argument if the skin is negative or not finite.
+  explicit NeighborSearch(NeighborSearchOptions options);
+
+  // Candidate list: every pair with |domain.separation(x_i, x_j)| < r_i + r_j + skin, sorted by
+  // (i, j), i < j. Records the reference positions and Lees-Edwards offset for needs_rebuild.
+  // Throws std::invalid_argument for an invalid domain, mismatched sizes, a non-finite position
+  // or a radius that is not positive and finite.
+  void build(const Domain& domain, std::span<const Vec3> positions, std::span<const double> radii);
+
+  // True if never built, the particle count changed, or a contact could have been missed:
+  // 2 * (max minimum-image displacement since build) + |change of the Lees-Edwards offset since
+  // build, taken modulo L_flow to its smallest magnitude| >= skin.
+  bool needs_rebuild(const Domain& domain, std::span<const Vec3> positions) const;
+
+  const std::vector<NeighborPair>& pairs() const { return pairs_; }
+  std::size_t build_count() const { return build_count_; }
+  const Stats& last_build_stats() const { return stats_; }
+  const NeighborSearchOptions& options() const { return options_; }
+
+ private:
+  // Candidates of a block of consecutive particles, found by one task.
+  struct Chunk {
+    std::vector<std::uint32_t> partners;
+    std::size_t cells_visited = 0;
+    std::size_t candidates_tested = 0;
+  };
+
+  void assign_levels(std::span<const double> radii);
+  void bin_levels(const Domain& domain, std::span<const Vec3> positions, std::span<const double> radii);
+  void search(const Domain& domain, std::span<const Vec3> positions, std::span<const double> radii);
+  void search_chunk(const Domain& domain, std::span<const Vec3> positions, std::span<const double> radii,
+                    std::size_t chunk_index, double reach_padding);
+  void assemble_pairs(std::size_t particle_count);
+  std::span<const std::uint32_t> partners_of(std::uint32_t q) const;
+
+  NeighborSearchOptions options_;
+  std::vector<CellGrid> grids_;            // coarsest first
+  std::vector<double> level_max_radius_;   // per grid
+  std::vector<std::uint8_t> level_of_;     // per particle: index into grids_
+  std::vector<std::uint32_t> level_members_;  // scratch: particles of one level
+  std::vector<Chunk> chunks_;
+  // Per particle q: its candidates (sorted, unique) are chunks_[q / kChunk].partners
+  // [partner_begin_[q], + partner_count_[q]); the first lower_count_[q] of them are < q.
+  std::vector<std::uint32_t> partner_begin_, partner_count_, lower_count_;
+  // Per particle p: the particles q > p that found p from a finer level, in increasing order:
+  // incoming_[incoming_begin_[p], incoming_begin_[p + 1]).
+  std::vector<std::size_t> incoming_begin_;
+  std::vector<std::uint32_t> incoming_;
+  std::vector<std::size_t> row_begin_;  // per particle: where its pairs start in pairs_
+  std::vector<NeighborPair> pairs_;
+
+  std::vector<Vec3> reference_positions_;
+  double reference_offset_ = 0.0;
+  bool built_ = false;
+  std::size_t build_count_ = 0;
+  Stats stats_;
+};
+
+// O(N^2) reference, for tests and tiny systems. Same criterion and order as NeighborSearch.
+std::vector<NeighborPair> brute_force_pairs(const Domain& domain, std::span<const Vec3> positions,
+                                            std::span<const double> radii, double skin);
+
+}  // namespace millflow::dem
