@@ -1,0 +1,45 @@
+#pragma once
+// Checkpoints of a DEM system: the full state, so that a run continued from a checkpoint gives
+// the same bits as a run that never stopped.
+//
+// File: the checksummed container of dem/binary_io.hpp with magic "MFDEMCKP", payload version
+// kCheckpointVersion. Payload (version 1), in order, every Vec3 as three doubles:
+//   materials: count; per material: name, density; per pair a <= b: defined flag (uint8) and, if
+//              defined, restitution, friction, normal stiffness, tangential stiffness ratio,
+//              tangential damping ratio
+//   domain: lo, hi, periodic[3] (uint8), Lees-Edwards enabled (uint8), flow axis, gradient axis
+//           (int32), offset, velocity
+//   gravity, dt, time, step count (uint64), neighbour skin, record-collisions flag (uint8),
+//   prepared flag (uint8: initial forces computed),
+//   random generator state (4 x uint64)
+//   particles: count; then per particle position, velocity, angular velocity, force, torque,
+//              radius, mass, inverse mass, inverse inertia, material (uint32), group (uint32)
+//   groups: count; per group name, velocity, servo axis (int32), servo target, servo mobility,
+//           load (force, torque, power, work)
+//   walls: count; per wall name, material (uint32), shape tag (uint8: 0 plane, 1 mill), then
+//          plane: origin, normal, velocity, servo target, servo mobility; or mill: radius, length,
+//          lifter count (int32), lifter height, base width, face angle, end walls (uint8),
+//          angular velocity, angle; then load (force, torque, power, work)
+//   pair contacts in force: count; per contact i, j (uint32) and its history
+//   wall contacts: per particle count (uint8) and, per contact, wall, feature (int32), history,
+//                  force on the particle, contact point
+//   dissipation of finished contacts per category: count; normal, tangential, friction each
+// A history is: spring, start time, impact speed, impact energy, elastic energy, dissipated
+// (normal, tangential, friction), touching (uint8).
+// Collision events not yet taken are not saved: take them before checkpointing.
+#include <cstdint>
+#include <filesystem>
+
+#include "dem/system.hpp"
+
+namespace millflow::dem {
+
+inline constexpr std::uint32_t kCheckpointVersion = 1;
+
+// Writes atomically (temp file + rename): a crash leaves the previous checkpoint intact.
+void save_checkpoint(const System& system, const std::filesystem::path& path);
+
+// Throws CorruptData for a missing, truncated, altered or newer file.
+System load_checkpoint(const std::filesystem::path& path);
+
+}  // namespace millflow::dem

@@ -1,0 +1,618 @@
+#include "dem/system.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include "dem/contact_law.hpp"
+
+namespace millflow::dem {
+namespace {
+
+constexpr std::size_t kReduceGrain = 1024;
+
+bool finite(const Vec3& v) { return v.allFinite(); }
+
+// Mass of the lightest free particle of each material (infinity where there is none).
+std::vector<double> lightest_mass_per_material(std::size_t material_count, std::span<const double> mass,
+                                               std::span<const MaterialId> material,
+                                               std::span<const GroupId> group) {
+  std::vector<double> lightest(material_count, std::numeric_limits<double>::infinity());
+  for (std::size_t p = 0; p < mass.size(); ++p) {
+    if (group[p] == kFreeParticle) lightest[material[p]] = std::min(lightest[material[p]], mass[p]);
+  }
+  return lightest;
+}
+
+double restitution_of(double damping_ratio) {
+  return std::exp(-damping_ratio * std::numbers::pi / std::sqrt(1.0 - damping_ratio * damping_ratio));
+}
+
+}  // namespace
+
+System::System(MaterialTable materials, Domain domain, Vec3 gravity)
+    : materials_(std::move(materials)), domain_(domain), gravity_(gravity), neighbors_(NeighborSearchOptions{}) {
+  domain_.validate();
+  if (!finite(gravity_)) throw std::invalid_argument("gravity is not finite");
+  finished_dissipation_.resize(category_count());
+}
+
+ParticleId System::add_particle(const ParticleSpec& spec) {
+  const std::size_t id = size();
+  if (!(spec.radius > 0.0) || !std::isfinite(spec.radius)) {
+    throw std::invalid_argument(fmt::format("particle {}: radius = {} m must be > 0", id, spec.radius));
+  }
+  if (!finite(spec.position) || !finite(spec.velocity) || !finite(spec.angular_velocity)) {
+    throw std::invalid_argument(fmt::format("particle {}: position or velocity is not finite", id));
+  }
+  if (spec.material >= materials_.size()) {
+    throw std::invalid_argument(fmt::format("particle {}: material id {} is not defined ({} materials)", id,
+                                            spec.material, materials_.size()));
+  }
+  if (spec.group > groups_.size()) {
+    throw std::invalid_argument(fmt::format("particle {}: group {} is not defined ({} groups)", id, spec.group,
+                                            groups_.size()));
+  }
+  const double volume = 4.0 / 3.0 * std::numbers::pi * spec.radius * spec.radius * spec.radius;
+  const double mass = materials_.material(spec.material).density * volume;
+  const bool free = spec.group == kFreeParticle;
+  Vec3 position = spec.position, velocity = free ? spec.velocity : groups_[spec.group - 1].velocity;
+  domain_.wrap(position, velocity);
+
+  position_.push_back(position);
+  velocity_.push_back(velocity);
+  angular_velocity_.push_back(free ? spec.angular_velocity : Vec3::Zero());
+  force_.push_back(Vec3::Zero());
+  torque_.push_back(Vec3::Zero());
+  predicted_velocity_.push_back(velocity);
+  predicted_angular_velocity_.push_back(angular_velocity_.back());
+  radius_.push_back(spec.radius);
+  mass_.push_back(mass);
+  inv_mass_.push_back(free ? 1.0 / mass : 0.0);
+  inv_inertia_.push_back(free ? 1.0 / (0.4 * mass * spec.radius * spec.radius) : 0.0);
+  material_.push_back(spec.material);
+  group_.push_back(spec.group);
+  wall_contact_.resize(size() * kMaxWallContactsPerParticle);
+  finished_wall_contact_.resize(size() * kMaxWallContactsPerParticle);
+  wall_contact_count_.push_back(0);
+  finished_wall_contact_count_.push_back(0);
+  prepared_ = false;
+  return static_cast<ParticleId>(id);
+}
+
+GroupId System::add_group(const KinematicGroup& group) {
+  if (!finite(group.velocity)) throw std::invalid_argument(fmt::format("group '{}': velocity is not finite", group.name));
+  if (group.servo_axis < 0 || group.servo_axis > 2) {
+    throw std::invalid_argument(fmt::format("group '{}': servo axis = {} must be 0, 1 or 2", group.name, group.servo_axis));
+  }
+  if (!(group.servo_mobility >= 0.0)) {
+    throw std::invalid_argument(fmt::format("group '{}': servo mobility = {} must be >= 0", group.name, group.servo_mobility));
+  }
+  groups_.push_back(group);
+  group_loads_.emplace_back();
+  return static_cast<GroupId>(groups_.size());
+}
+
+std::size_t System::add_wall(const Wall& wall) {
+  validate_wall(wall);
+  if (wall.material >= materials_.size()) {
+    throw std::invalid_argument(fmt::format("wall '{}': material id {} is not defined", wall.name, wall.material));
+  }
+  walls_.push_back(wall);
+  wall_loads_.emplace_back();
+  finished_dissipation_.resize(category_count());
+  prepared_ = false;
+  return walls_.size() - 1;
+}
+
+std::size_t System::category_count() const {
+  const std::size_t m = materials_.size();
+  return m * m + walls_.size() * m;
+}
+
+std::uint32_t System::pair_category(MaterialId a, MaterialId b) const {
+  return static_cast<std::uint32_t>(std::min(a, b) * materials_.size() + std::max(a, b));
+}
+
+std::uint32_t System::wall_category(std::size_t wall, MaterialId m) const {
+  const std::size_t n = materials_.size();
+  return static_cast<std::uint32_t>(n * n + wall * n + m);
+}
+
+std::string System::category_name(std::uint32_t category) const {
+  const std::size_t n = materials_.size();
+  if (category < n * n) {
+    return materials_.pair_name(static_cast<MaterialId>(category / n), static_cast<MaterialId>(category % n));
+  }
+  const std::size_t rest = category - n * n;
+  return fmt::format("{}-wall:{}", materials_.material(static_cast<MaterialId>(rest % n)).name, walls_.at(rest / n).name);
+}
+
+double System::min_collision_duration() const {
+  double shortest = std::numeric_limits<double>::infinity();
+  const auto lightest = lightest_mass_per_material(materials_.size(), mass_, material_, group_);
+  auto consider = [&](MaterialId a, MaterialId b, double m_eff, const std::string& what) {
+    if (!materials_.has_interaction(a, b)) {
+      throw std::invalid_argument(fmt::format("no interaction is defined for {}; add one for that material pair", what));
+    }
+    const PairParams& p = materials_.pair(a, b);
+    shortest = std::min(shortest, collision_duration(p.normal_stiffness, m_eff, p.damping_ratio));
+  };
+  for (MaterialId a = 0; a < materials_.size(); ++a) {
+    if (!std::isfinite(lightest[a])) continue;
+    for (MaterialId b = a; b < materials_.size(); ++b) {
+      if (std::isfinite(lightest[b])) consider(a, b, effective_mass(lightest[a], lightest[b]), materials_.pair_name(a, b));
+    }
+    for (const Wall& wall : walls_) {
+      consider(a, wall.material, lightest[a], fmt::format("{} and wall '{}'", materials_.material(a).name, wall.name));
+    }
+  }
+  // Kinematic particles act as infinitely heavy walls.
+  for (std::size_t p = 0; p < size(); ++p) {
+    if (is_free(p)) continue;
+    for (MaterialId a = 0; a < materials_.size(); ++a) {
+      if (std::isfinite(lightest[a])) consider(a, material_[p], lightest[a], materials_.pair_name(a, material_[p]));
+    }
+  }
+  if (!std::isfinite(shortest)) throw std::invalid_argument("no free particles: cannot derive a time step");
+  return shortest;
+}
+
+double System::stable_time_step() const {
+  // The stability limit scales with the contact duration with the same damping, so the pair with
+  // the shortest contact also has the smallest limit for equal damping; take the minimum over all.
+  double limit = std::numeric_limits<double>::infinity();
+  const auto lightest = lightest_mass_per_material(materials_.size(), mass_, material_, group_);
+  for (MaterialId a = 0; a < materials_.size(); ++a) {
+    if (!std::isfinite(lightest[a])) continue;
+    for (MaterialId b = 0; b < materials_.size(); ++b) {
+      if (!materials_.has_interaction(a, b)) continue;
+      const PairParams& p = materials_.pair(a, b);
+      const double m_eff = std::isfinite(lightest[b]) ? effective_mass(lightest[a], lightest[b]) : lightest[a];
+      limit = std::min(limit, stable_time_step_limit(p.normal_stiffness, m_eff, p.damping_ratio));
+    }
+  }
+  return limit;
+}
+
+void System::set_time_step_from_collisions(int steps_per_collision) {
+  if (steps_per_collision < 1) {
+    throw std::invalid_argument(fmt::format("steps per collision = {} must be >= 1 (20 or more is usual)", steps_per_collision));
+  }
+  const double t_c = min_collision_duration();
+  const auto lightest = lightest_mass_per_material(materials_.size(), mass_, material_, group_);
+  for (MaterialId a = 0; a < materials_.size(); ++a) {
+    for (MaterialId b = a; b < materials_.size(); ++b) {
+      if (!materials_.has_interaction(a, b) || !std::isfinite(lightest[a])) continue;
+      const PairParams& p = materials_.pair(a, b);
+      const double m_eff = std::isfinite(lightest[b]) ? effective_mass(lightest[a], lightest[b]) : lightest[a];
+      spdlog::info("dem: {}: k_n = {:.4g} N/m, k_t = {:.4g} N/m, e = {:.4g} (zeta = {:.4g}), mu = {:.4g}; "
+                   "lightest pair m_eff = {:.4g} kg: C_n = {:.4g} N s/m, t_c = {:.4g} s",
+                   materials_.pair_name(a, b), p.normal_stiffness, p.tangential_stiffness,
+                   restitution_of(p.damping_ratio), p.damping_ratio, p.friction, m_eff,
+                   normal_damping_coefficient(p.normal_stiffness, m_eff, p.damping_ratio),
+                   collision_duration(p.normal_stiffness, m_eff, p.damping_ratio));
+    }
+  }
+  set_time_step(t_c / steps_per_collision);
+  spdlog::info("dem: dt = t_c / {} = {:.4g} s (shortest contact t_c = {:.4g} s, stability limit {:.4g} s)",
+               steps_per_collision, dt_, t_c, stable_time_step());
+}
+
+void System::set_time_step(double dt) {
+  const double limit = stable_time_step();
+  if (!(dt > 0.0) || !std::isfinite(dt)) {
+    throw std::invalid_argument(fmt::format("time step dt = {} s must be > 0", dt));
+  }
+  if (dt > limit) {
+    throw std::invalid_argument(fmt::format(
+        "time step dt = {:.4g} s is above the stability limit {:.4g} s of the stiffest, lightest contact; "
+        "use dt <= {:.4g} s (e.g. t_c / 20 = {:.4g} s)",
+        dt, limit, limit, min_collision_duration() / 20.0));
+  }
+  dt_ = dt;
+}
+
+void System::set_neighbor_skin(double skin) {
+  if (!(skin > 0.0) || !std::isfinite(skin)) {
+    throw std::invalid_argument(fmt::format("neighbour skin = {} m must be > 0", skin));
+  }
+  skin_ = skin;
+  prepared_ = false;
+}
+
+void System::check_overlaps(double tolerance) const {
+  const auto pairs = brute_force_pairs(domain_, position_, radius_, 0.0);
+  for (const auto& [i, j] : pairs) {
+    if (!is_free(i) && !is_free(j)) continue;
+    const double distance = domain_.separation(position_[i], position_[j]).norm();
+    const double overlap = radius_[i] + radius_[j] - distance;
+    const double smaller = std::min(radius_[i], radius_[j]);
+    if (overlap > tolerance * smaller) {
+      throw std::invalid_argument(fmt::format(
+          "particles {} and {} overlap by {:.4g} m ({:.3g}% of the smaller radius; tolerance {:.3g}%); "
+          "move them apart or place them on a coarser lattice",
+          i, j, overlap, 100.0 * overlap / smaller, 100.0 * tolerance));
+    }
+  }
+}
+
+void System::prepare_first_step() {
+  if (dt_ == 0.0) set_time_step_from_collisions(20);
+  if (skin_ == 0.0 && size() > 0) {
+    skin_ = 0.6 * *std::min_element(radius_.begin(), radius_.end());
+  }
+  neighbors_ = NeighborSearch(NeighborSearchOptions{.skin = skin_});
+  pair_history_.clear();
+  update_neighbors();
+  // Forces at the current time (no spring increment, no dissipation: no time passes).
+  compute_pair_forces(0.0);
+  compute_particle_forces(0.0);
+  reduce_loads(0.0);
+  collect_finished_contacts();
+  prepared_ = true;
+}
+
+void System::step(std::size_t count) {
+  if (!prepared_) prepare_first_step();
+  for (std::size_t n = 0; n < count; ++n) {
+    kick(0.5 * dt_);
+    domain_.advance_shear(dt_);  // the image offset at t + dt, where drift() wraps positions
+    drift();
+    time_ += dt_;
+    for (Wall& wall : walls_) advance_wall(wall, dt_);
+    update_neighbors();
+    compute_pair_forces(dt_);
+    compute_particle_forces(dt_);
+    reduce_loads(dt_);
+    collect_finished_contacts();
+    kick(0.5 * dt_);
+    apply_servos();
+    ++step_count_;
+  }
+}
+
+void System::kick(double half_dt) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size()), [&](const auto& range) {
+    for (std::size_t p = range.begin(); p != range.end(); ++p) {
+      velocity_[p] += force_[p] * (inv_mass_[p] * half_dt);
+      angular_velocity_[p] += torque_[p] * (inv_inertia_[p] * half_dt);
+    }
+  });
+}
+
+void System::drift() {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size()), [&](const auto& range) {
+    for (std::size_t p = range.begin(); p != range.end(); ++p) {
+      if (!is_free(p)) velocity_[p] = groups_[group_[p] - 1].velocity;
+      position_[p] += velocity_[p] * dt_;
+      domain_.wrap(position_[p], velocity_[p]);
+      // Dashpots act on the velocity at the end of the step, predicted from the last forces.
+      const double half_dt = 0.5 * dt_;
+      predicted_velocity_[p] = velocity_[p] + force_[p] * (inv_mass_[p] * half_dt);
+      predicted_angular_velocity_[p] = angular_velocity_[p] + torque_[p] * (inv_inertia_[p] * half_dt);
+    }
+  });
+}
+
+void System::update_neighbors() {
+  if (!neighbors_.needs_rebuild(domain_, position_)) return;
+  std::vector<NeighborPair> old_pairs = neighbors_.pairs();
+  rebuild_neighbors(old_pairs, std::move(pair_history_));
+}
+
+void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs, std::vector<ContactHistory> old_history) {
+  neighbors_.build(domain_, position_, radius_);
+  const auto& pairs = neighbors_.pairs();
+
+  // Carry contact history over to the new list; both lists are sorted by (i, j).
+  auto key = [](const NeighborPair& p) { return (std::uint64_t{p.i} << 32) | p.j; };
+  pair_history_.assign(pairs.size(), ContactHistory{});
+  std::size_t o = 0;
+  for (std::size_t k = 0; k < pairs.size() && o < old_pairs.size(); ++k) {
+    while (o < old_pairs.size() && key(old_pairs[o]) < key(pairs[k])) ++o;
+    if (o < old_pairs.size() && key(old_pairs[o]) == key(pairs[k])) pair_history_[k] = old_history[o];
+  }
+  pair_force_.assign(pairs.size(), Vec3::Zero());
+  pair_torque_a_.assign(pairs.size(), Vec3::Zero());
+  pair_torque_b_.assign(pairs.size(), Vec3::Zero());
+  pair_finished_.assign(pairs.size(), 0);
+
+  // Per-particle pair lists in pair order, so force sums run in a fixed order.
+  particle_pair_offset_.assign(size() + 1, 0);
+  for (const auto& pair : pairs) {
+    ++particle_pair_offset_[pair.i + 1];
+    ++particle_pair_offset_[pair.j + 1];
+  }
+  for (std::size_t p = 0; p < size(); ++p) particle_pair_offset_[p + 1] += particle_pair_offset_[p];
+  particle_pair_entry_.resize(particle_pair_offset_[size()]);
+  std::vector<std::uint32_t> fill(particle_pair_offset_.begin(), particle_pair_offset_.end() - 1);
+  for (std::uint32_t k = 0; k < pairs.size(); ++k) {
+    particle_pair_entry_[fill[pairs[k].i]++] = 2 * k;
+    particle_pair_entry_[fill[pairs[k].j]++] = 2 * k + 1;
+  }
+}
+
+void System::compute_pair_forces(double dt) {
+  const auto& pairs = neighbors_.pairs();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.size()), [&](const auto& range) {
+    for (std::size_t k = range.begin(); k != range.end(); ++k) {
+      const auto [i, j] = pairs[k];
+      ContactHistory& history = pair_history_[k];
+      pair_finished_[k] = 0;
+      pair_force_[k].setZero();
+      pair_torque_a_[k].setZero();
+      pair_torque_b_[k].setZero();
+      if (!is_free(i) && !is_free(j)) continue;  // two wall balls never interact
+
+      Vec3 image_velocity_shift;
+      const Vec3 d = domain_.separation(position_[i], position_[j], &image_velocity_shift);
+      const double reach = radius_[i] + radius_[j];
+      const double distance_sq = d.squaredNorm();
+      if (distance_sq >= reach * reach) {
+        // Separated: collect_finished_contacts() records the event and clears the history.
+        if (history.touching) pair_finished_[k] = 1;
+        continue;
+      }
+      const double distance = std::sqrt(distance_sq);
+      const Vec3 normal = -d / distance;  // from j towards i
+      const double overlap = reach - distance;
+      const Vec3 arm_i = -(radius_[i] - 0.5 * overlap) * normal;
+      const Vec3 arm_j = (radius_[j] - 0.5 * overlap) * normal;
+      const Vec3 contact_velocity_i = predicted_velocity_[i] + predicted_angular_velocity_[i].cross(arm_i);
+      const Vec3 contact_velocity_j =
+          predicted_velocity_[j] + image_velocity_shift + predicted_angular_velocity_[j].cross(arm_j);
+      const double m_eff = is_free(i) && is_free(j) ? effective_mass(mass_[i], mass_[j])
+                                                    : (is_free(i) ? mass_[i] : mass_[j]);
+      const ContactGeometry geometry{normal, overlap, contact_velocity_i - contact_velocity_j};
+      const ContactResponse response =
+          linear_spring_dashpot(materials_.pair(material_[i], material_[j]), m_eff, geometry, history.spring, dt);
+
+      if (!history.touching) {
+        history.touching = true;
+        history.start_time = time_;
+        const double v_n = geometry.relative_velocity.dot(normal);
+        history.impact_speed = std::max(-v_n, 0.0);
+        history.impact_energy = 0.5 * m_eff * v_n * v_n;
+      }
+      history.spring = response.spring;
+      history.elastic_energy = response.elastic_energy;
+      history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
+                                        response.dissipated_friction};
+      pair_force_[k] = response.force_on_a;
+      pair_torque_a_[k] = arm_i.cross(response.force_on_a);
+      pair_torque_b_[k] = arm_j.cross(-response.force_on_a);
+    }
+  });
+}
+
+void System::compute_particle_forces(double dt) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size()), [&](const auto& range) {
+    std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
+    for (std::size_t p = range.begin(); p != range.end(); ++p) {
+      Vec3 force = is_free(p) ? Vec3(mass_[p] * gravity_) : Vec3::Zero();
+      Vec3 torque = Vec3::Zero();
+      for (std::uint32_t e = particle_pair_offset_[p]; e < particle_pair_offset_[p + 1]; ++e) {
+        const std::uint32_t entry = particle_pair_entry_[e];
+        const std::uint32_t k = entry >> 1;
+        if (!pair_history_[k].touching || pair_finished_[k]) continue;
+        if ((entry & 1) == 0) {
+          force += pair_force_[k];
+          torque += pair_torque_a_[k];
+        } else {
+          force -= pair_force_[k];
+          torque += pair_torque_b_[k];
+        }
+      }
+
+      WallContactHistory* slots = &wall_contact_[p * kMaxWallContactsPerParticle];
+      WallContactHistory* finished = &finished_wall_contact_[p * kMaxWallContactsPerParticle];
+      const int old_count = wall_contact_count_[p];
+      std::array<WallContactHistory, kMaxWallContactsPerParticle> old_slots;
+      std::copy(slots, slots + old_count, old_slots.begin());
+      std::array<bool, kMaxWallContactsPerParticle> matched{};
+      int count = 0;
+      if (is_free(p)) {
+        for (std::size_t w = 0; w < walls_.size(); ++w) {
+          surface.clear();
+          wall_contacts(walls_[w], position_[p], radius_[p], surface);
+          for (const SurfaceContact& contact : surface) {
+            if (count == kMaxWallContactsPerParticle) {
+              throw std::runtime_error(fmt::format("particle {} touches more than {} wall features at once at t = {} s",
+                                                   p, kMaxWallContactsPerParticle, time_));
+            }
+            WallContactHistory& slot = slots[count++];
+            slot = WallContactHistory{};
+            slot.wall = static_cast<std::int32_t>(w);
+            slot.feature = contact.feature;
+            for (int o = 0; o < old_count; ++o) {
+              if (!matched[o] && old_slots[o].wall == slot.wall && old_slots[o].feature == slot.feature) {
+                slot.history = old_slots[o].history;
+                matched[o] = true;
+                break;
+              }
+            }
+            const Vec3 arm = -(radius_[p] - 0.5 * contact.overlap) * contact.normal;
+            const Vec3 relative_velocity = predicted_velocity_[p] + predicted_angular_velocity_[p].cross(arm) -
+                                           wall_surface_velocity(walls_[w], contact.point);
+            const ContactGeometry geometry{contact.normal, contact.overlap, relative_velocity};
+            const ContactResponse response = linear_spring_dashpot(
+                materials_.pair(material_[p], walls_[w].material), mass_[p], geometry, slot.history.spring, dt);
+            ContactHistory& history = slot.history;
+            if (!history.touching) {
+              history.touching = true;
+              history.start_time = time_;
+              const double v_n = relative_velocity.dot(contact.normal);
+              history.impact_speed = std::max(-v_n, 0.0);
+              history.impact_energy = 0.5 * mass_[p] * v_n * v_n;
+            }
+            history.spring = response.spring;
+            history.elastic_energy = response.elastic_energy;
+            history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
+                                              response.dissipated_friction};
+            slot.force_on_particle = response.force_on_a;
+            slot.point = contact.point;
+            force += response.force_on_a;
+            torque += arm.cross(response.force_on_a);
+          }
+        }
+      }
+      wall_contact_count_[p] = static_cast<std::uint8_t>(count);
+      int finished_count = 0;
+      for (int o = 0; o < old_count; ++o) {
+        if (!matched[o]) finished[finished_count++] = old_slots[o];
+      }
+      finished_wall_contact_count_[p] = static_cast<std::uint8_t>(finished_count);
+      force_[p] = force;
+      torque_[p] = torque;
+    }
+  });
+}
+
+void System::reduce_loads(double dt) {
+  const std::size_t wall_n = walls_.size(), load_n = wall_n + groups_.size();
+  if (load_n == 0) return;
+  using Loads = std::vector<WallLoad>;
+  const Loads totals = tbb::parallel_deterministic_reduce(
+      tbb::blocked_range<std::size_t>(0, size(), kReduceGrain), Loads(load_n),
+      [&](const tbb::blocked_range<std::size_t>& range, Loads loads) {
+        for (std::size_t p = range.begin(); p != range.end(); ++p) {
+          if (!is_free(p)) {
+            // force_[p] is what the free particles do to this wall ball.
+            WallLoad& load = loads[wall_n + group_[p] - 1];
+            load.force += force_[p];
+            load.torque += position_[p].cross(force_[p]);
+            load.power -= force_[p].dot(velocity_[p]);
+            continue;
+          }
+          const WallContactHistory* slots = &wall_contact_[p * kMaxWallContactsPerParticle];
+          for (int s = 0; s < wall_contact_count_[p]; ++s) {
+            const WallContactHistory& slot = slots[s];
+            const Wall& wall = walls_[slot.wall];
+            WallLoad& load = loads[slot.wall];
+            load.force -= slot.force_on_particle;
+            load.torque += slot.point.cross(-slot.force_on_particle);
+            load.power += slot.force_on_particle.dot(wall_surface_velocity(wall, slot.point));
+          }
+        }
+        return loads;
+      },
+      [](Loads a, const Loads& b) {
+        for (std::size_t l = 0; l < a.size(); ++l) {
+          a[l].force += b[l].force;
+          a[l].torque += b[l].torque;
+          a[l].power += b[l].power;
+        }
+        return a;
+      });
+  // Work by the trapezoidal rule over the step.
+  auto store = [dt](WallLoad& load, const WallLoad& now) {
+    load.work += 0.5 * (load.power + now.power) * dt;
+    load.force = now.force;
+    load.torque = now.torque;
+    load.power = now.power;
+  };
+  for (std::size_t w = 0; w < wall_n; ++w) store(wall_loads_[w], totals[w]);
+  for (std::size_t g = 0; g < groups_.size(); ++g) store(group_loads_[g], totals[wall_n + g]);
+}
+
+void System::collect_finished_contacts() {
+  auto finish = [&](ContactHistory& history, std::uint32_t category, ParticleId a, std::uint32_t b, bool with_wall) {
+    finished_dissipation_[category] += history.dissipated;
+    if (record_collisions_) {
+      events_.push_back(CollisionEvent{.category = category,
+                                       .a = a,
+                                       .b = b,
+                                       .with_wall = with_wall,
+                                       .start_time = history.start_time,
+                                       .duration = time_ - history.start_time,
+                                       .impact_speed = history.impact_speed,
+                                       .impact_energy = history.impact_energy,
+                                       .dissipated = history.dissipated.total()});
+    }
+    history = ContactHistory{};
+  };
+  const auto& pairs = neighbors_.pairs();
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    if (!pair_finished_[k]) continue;
+    const auto [i, j] = pairs[k];
+    finish(pair_history_[k], pair_category(material_[i], material_[j]), i, j, false);
+    pair_finished_[k] = 0;
+  }
+  for (std::size_t p = 0; p < size(); ++p) {
+    WallContactHistory* finished = &finished_wall_contact_[p * kMaxWallContactsPerParticle];
+    for (int s = 0; s < finished_wall_contact_count_[p]; ++s) {
+      finish(finished[s].history, wall_category(finished[s].wall, material_[p]), static_cast<ParticleId>(p),
+             static_cast<std::uint32_t>(finished[s].wall), true);
+    }
+    finished_wall_contact_count_[p] = 0;
+  }
+}
+
+void System::apply_servos() {
+  for (std::size_t w = 0; w < walls_.size(); ++w) control_wall(walls_[w], wall_loads_[w]);
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    KinematicGroup& group = groups_[g];
+    if (group.servo_mobility <= 0.0) continue;
+    // The group pushes the free particles with minus the force they exert on it.
+    const double pushing = -group_loads_[g].force[group.servo_axis];
+    group.velocity[group.servo_axis] = group.servo_mobility * (group.servo_target_force - pushing);
+  }
+}
+
+std::size_t System::active_contact_count() const {
+  std::size_t count = 0;
+  for (const auto& history : pair_history_) count += history.touching ? 1 : 0;
+  for (std::size_t p = 0; p < size(); ++p) count += wall_contact_count_[p];
+  return count;
+}
+
+std::vector<Dissipation> System::dissipation_by_category() const {
+  std::vector<Dissipation> total = finished_dissipation_;
+  const auto& pairs = neighbors_.pairs();
+  for (std::size_t k = 0; k < pair_history_.size() && k < pairs.size(); ++k) {
+    if (pair_history_[k].touching) {
+      total[pair_category(material_[pairs[k].i], material_[pairs[k].j])] += pair_history_[k].dissipated;
+    }
+  }
+  for (std::size_t p = 0; p < size(); ++p) {
+    const WallContactHistory* slots = &wall_contact_[p * kMaxWallContactsPerParticle];
+    for (int s = 0; s < wall_contact_count_[p]; ++s) {
+      total[wall_category(slots[s].wall, material_[p])] += slots[s].history.dissipated;
+    }
+  }
+  return total;
+}
+
+EnergyBudget System::energy() const {
+  EnergyBudget budget;
+  for (std::size_t p = 0; p < size(); ++p) {
+    if (!is_free(p)) continue;
+    const double inertia = 0.4 * mass_[p] * radius_[p] * radius_[p];
+    budget.kinetic += 0.5 * mass_[p] * velocity_[p].squaredNorm() + 0.5 * inertia * angular_velocity_[p].squaredNorm();
+    budget.potential -= mass_[p] * gravity_.dot(position_[p]);
+  }
+  for (const auto& history : pair_history_) {
+    if (history.touching) budget.elastic += history.elastic_energy;
+  }
+  for (std::size_t p = 0; p < size(); ++p) {
+    const WallContactHistory* slots = &wall_contact_[p * kMaxWallContactsPerParticle];
+    for (int s = 0; s < wall_contact_count_[p]; ++s) budget.elastic += slots[s].history.elastic_energy;
+  }
+  for (const Dissipation& d : dissipation_by_category()) budget.dissipated += d.total();
+  for (const WallLoad& load : wall_loads_) budget.wall_work += load.work;
+  for (const WallLoad& load : group_loads_) budget.wall_work += load.work;
+  return budget;
+}
+
+std::vector<CollisionEvent> System::take_collision_events() { return std::exchange(events_, {}); }
+
+}  // namespace millflow::dem

@@ -1,0 +1,243 @@
+#pragma once
+// A DEM system of spheres: particles, walls, kinematic groups, contact history, and the time
+// integrator (velocity Verlet: half kick, drift, forces, half kick).
+//
+// Determinism: every parallel loop writes only its own element, and every sum runs in a fixed
+// order (per-particle sums in contact order; totals with tbb::parallel_deterministic_reduce), so
+// a run gives the same bits at any thread count. The caller picks the thread count by running
+// step() inside a tbb::task_arena.
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "dem/domain.hpp"
+#include "dem/material.hpp"
+#include "dem/neighbor_search.hpp"
+#include "dem/rng.hpp"
+#include "dem/vec.hpp"
+#include "dem/walls.hpp"
+
+namespace millflow::dem {
+
+using ParticleId = std::uint32_t;
+using GroupId = std::uint32_t;
+inline constexpr GroupId kFreeParticle = 0;
+
+struct ParticleSpec {
+  Vec3 position = Vec3::Zero();
+  Vec3 velocity = Vec3::Zero();
+  Vec3 angular_velocity = Vec3::Zero();
+  double radius = 0.0;
+  MaterialId material = 0;
+  GroupId group = kFreeParticle;  // > 0: member of a kinematic group (e.g. a rough wall)
+};
+
+// Particles of a kinematic group move rigidly with the group's velocity and do not rotate (the
+// balls glued to a shear cell's rough wall). With `servo_mobility` > 0 the velocity component
+// along `servo_axis` is set every step so the force the group exerts on the free particles along
+// +servo_axis approaches `servo_target_force`:
+//   v_axis = servo_mobility * (servo_target_force - measured force)      [m/(N s)]
+struct KinematicGroup {
+  std::string name;
+  Vec3 velocity = Vec3::Zero();
+  int servo_axis = 1;
+  double servo_target_force = 0.0;
+  double servo_mobility = 0.0;
+};
+
+// Energy dissipated in contacts, J.
+struct Dissipation {
+  double normal = 0.0;      // normal dashpot
+  double tangential = 0.0;  // tangential dashpot
+  double friction = 0.0;    // Coulomb sliding
+  double total() const { return normal + tangential + friction; }
+  Dissipation& operator+=(const Dissipation& o) {
+    normal += o.normal;
+    tangential += o.tangential;
+    friction += o.friction;
+    return *this;
+  }
+};
+
+// One finished contact (collision): from first touch to separation.
+struct CollisionEvent {
+  std::uint32_t category = 0;  // see System::category_name
+  ParticleId a = 0;
+  std::uint32_t b = 0;  // the other particle, or the wall index for a wall contact
+  bool with_wall = false;
+  double start_time = 0.0;
+  double duration = 0.0;
+  double impact_speed = 0.0;   // normal approach speed at first touch, m/s
+  double impact_energy = 0.0;  // 1/2 m_eff v_n^2 at first touch, J
+  double dissipated = 0.0;     // energy this contact dissipated, J
+};
+
+// The energy budget. For a closed system:
+//   wall_work = (kinetic + potential + elastic) - (same at start) + dissipated.
+struct EnergyBudget {
+  double kinetic = 0.0;    // translational + rotational of free particles
+  double potential = 0.0;  // gravitational, -m g.x of free particles
+  double elastic = 0.0;    // stored in active contact springs
+  double dissipated = 0.0;
+  double wall_work = 0.0;  // work done on the particles by walls and kinematic groups
+  double mechanical() const { return kinetic + potential + elastic; }
+};
+
+// The contact history of one particle pair (or particle-wall contact), kept while touching.
+struct ContactHistory {
+  Vec3 spring = Vec3::Zero();
+  double start_time = 0.0;
+  double impact_speed = 0.0;
+  double impact_energy = 0.0;
+  double elastic_energy = 0.0;
+  Dissipation dissipated;
+  bool touching = false;
+};
+
+struct WallContactHistory {
+  ContactHistory history;
+  std::int32_t wall = -1;
+  std::int32_t feature = 0;
+  Vec3 force_on_particle = Vec3::Zero();  // this step
+  Vec3 point = Vec3::Zero();              // this step
+};
+
+inline constexpr int kMaxWallContactsPerParticle = 4;
+
+class System {
+ public:
+  System(MaterialTable materials, Domain domain, Vec3 gravity);
+
+  // Adding things. Each throws std::invalid_argument naming the bad value.
+  ParticleId add_particle(const ParticleSpec& spec);
+  GroupId add_group(const KinematicGroup& group);
+  std::size_t add_wall(const Wall& wall);
+
+  // Time step. The smallest contact duration over the material pairs present (lightest particles
+  // of each material, walls as infinitely heavy) sets dt = t_c / steps_per_collision; the derived
+  // values are logged. set_time_step refuses a dt above the stability limit.
+  double min_collision_duration() const;
+  double stable_time_step() const;
+  void set_time_step_from_collisions(int steps_per_collision = 20);
+  void set_time_step(double dt);
+  double time_step() const { return dt_; }
+
+  // Neighbour-list skin, m (default: 0.3 x smallest diameter, set on the first step).
+  void set_neighbor_skin(double skin);
+
+  // Throws if two particles overlap by more than `tolerance` x the smaller radius, naming them.
+  void check_overlaps(double tolerance) const;
+
+  void step(std::size_t count = 1);
+
+  // State.
+  std::size_t size() const { return position_.size(); }
+  double time() const { return time_; }
+  std::uint64_t step_count() const { return step_count_; }
+  const MaterialTable& materials() const { return materials_; }
+  const Domain& domain() const { return domain_; }
+  Domain& domain() { return domain_; }
+  const Vec3& gravity() const { return gravity_; }
+  std::span<const Vec3> positions() const { return position_; }
+  std::span<const Vec3> velocities() const { return velocity_; }
+  std::span<const Vec3> angular_velocities() const { return angular_velocity_; }
+  std::span<const Vec3> forces() const { return force_; }
+  std::span<const double> radii() const { return radius_; }
+  std::span<const double> masses() const { return mass_; }
+  std::span<const MaterialId> particle_materials() const { return material_; }
+  std::span<const GroupId> particle_groups() const { return group_; }
+  void set_velocity(ParticleId id, const Vec3& v) { velocity_.at(id) = v; }
+  void set_angular_velocity(ParticleId id, const Vec3& w) { angular_velocity_.at(id) = w; }
+
+  std::size_t wall_count() const { return walls_.size(); }
+  const Wall& wall(std::size_t i) const { return walls_.at(i); }
+  Wall& wall(std::size_t i) { return walls_.at(i); }
+  const WallLoad& wall_load(std::size_t i) const { return wall_loads_.at(i); }
+  std::size_t group_count() const { return groups_.size(); }
+  const KinematicGroup& group(GroupId g) const { return groups_.at(g - 1); }
+  KinematicGroup& group(GroupId g) { return groups_.at(g - 1); }
+  const WallLoad& group_load(GroupId g) const { return group_loads_.at(g - 1); }
+
+  // Contacts now in force: pairs from the neighbour list with their history.
+  std::span<const NeighborPair> candidate_pairs() const { return neighbors_.pairs(); }
+  std::span<const ContactHistory> pair_histories() const { return pair_history_; }
+  std::span<const Vec3> pair_forces() const { return pair_force_; }  // on the first particle
+  std::size_t active_contact_count() const;
+
+  // Contact categories: one per unordered material pair, and one per (wall, material).
+  std::size_t category_count() const;
+  std::uint32_t pair_category(MaterialId a, MaterialId b) const;
+  std::uint32_t wall_category(std::size_t wall, MaterialId m) const;
+  std::string category_name(std::uint32_t category) const;
+
+  // Dissipation per category, finished contacts plus the ones still touching.
+  std::vector<Dissipation> dissipation_by_category() const;
+  EnergyBudget energy() const;
+
+  // Collision events finished since the last call, in a deterministic order.
+  std::vector<CollisionEvent> take_collision_events();
+  void set_record_collisions(bool on) { record_collisions_ = on; }
+
+  Rng& rng() { return rng_; }
+
+ private:
+  friend class CheckpointAccess;
+
+  bool is_free(ParticleId p) const { return group_[p] == kFreeParticle; }
+  void prepare_first_step();
+  void kick(double half_dt);
+  void drift();
+  void update_neighbors();
+  // Builds a new neighbour list and carries the histories of `old_pairs` (sorted) over to it.
+  void rebuild_neighbors(std::span<const NeighborPair> old_pairs, std::vector<ContactHistory> old_history);
+  void compute_pair_forces(double dt);
+  void compute_particle_forces(double dt);
+  void reduce_loads(double dt);
+  void collect_finished_contacts();
+  void apply_servos();
+
+  MaterialTable materials_;
+  Domain domain_;
+  Vec3 gravity_;
+  double dt_ = 0.0;
+  double time_ = 0.0;
+  std::uint64_t step_count_ = 0;
+  double skin_ = 0.0;
+  bool prepared_ = false;
+  bool record_collisions_ = false;
+  Rng rng_;
+
+  // Particles (structure of arrays).
+  std::vector<Vec3> position_, velocity_, angular_velocity_, force_, torque_;
+  std::vector<Vec3> predicted_velocity_, predicted_angular_velocity_;  // at t + dt, for dashpots
+  std::vector<double> radius_, mass_, inv_mass_, inv_inertia_;
+  std::vector<MaterialId> material_;
+  std::vector<GroupId> group_;
+
+  std::vector<KinematicGroup> groups_;
+  std::vector<WallLoad> group_loads_;
+  std::vector<Wall> walls_;
+  std::vector<WallLoad> wall_loads_;
+
+  // Pair contacts, aligned with neighbors_.pairs().
+  NeighborSearch neighbors_;
+  std::vector<ContactHistory> pair_history_;
+  std::vector<Vec3> pair_force_, pair_torque_a_, pair_torque_b_;
+  std::vector<std::uint8_t> pair_finished_;  // the pair separated this step
+  std::vector<ContactHistory> finished_pair_history_;
+  // Per particle, the pairs it belongs to (CSR): entry = pair index * 2 + (0: first, 1: second).
+  std::vector<std::uint32_t> particle_pair_offset_, particle_pair_entry_;
+
+  // Wall contacts, kMaxWallContactsPerParticle slots per particle.
+  std::vector<WallContactHistory> wall_contact_;
+  std::vector<std::uint8_t> wall_contact_count_;
+  std::vector<WallContactHistory> finished_wall_contact_;
+  std::vector<std::uint8_t> finished_wall_contact_count_;
+
+  std::vector<Dissipation> finished_dissipation_;  // per category
+  std::vector<CollisionEvent> events_;
+};
+
+}  // namespace millflow::dem

@@ -1,0 +1,63 @@
+#pragma once
+// Walls: analytic surfaces that particles touch. Geometry is in dem/wall_geometry.hpp (pure
+// functions); this file holds the walls' motion and what is measured on them.
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "dem/material.hpp"
+#include "dem/vec.hpp"
+#include "dem/wall_geometry.hpp"
+
+namespace millflow::dem {
+
+// An infinite plane. It translates with `velocity` (any direction: a tangential component
+// shears the particles). With `servo_mobility` > 0 its normal velocity is instead set every step
+// so that the force it exerts on the particles along its normal approaches `servo_target_force`:
+//   v_normal = servo_mobility * (servo_target_force - measured normal force)    [m/(N s)]
+struct PlaneWall {
+  Vec3 origin = Vec3::Zero();
+  Vec3 normal = Vec3::UnitZ();  // unit, points towards the particles
+  Vec3 velocity = Vec3::Zero();
+  double servo_target_force = 0.0;  // N
+  double servo_mobility = 0.0;      // m/(N s); 0 = velocity-driven
+};
+
+// A rotating cylindrical mill shell with lifters (and optional end walls), axis +z through the
+// origin, turning counter-clockwise seen from +z at `angular_velocity` rad/s.
+struct MillWall {
+  MillShell shell;
+  double angular_velocity = 0.0;  // rad/s
+  double angle = 0.0;             // current rotation, rad
+};
+
+struct Wall {
+  std::string name;
+  MaterialId material = 0;
+  std::variant<PlaneWall, MillWall> shape;
+};
+
+// What the particles do to a wall, measured every step.
+struct WallLoad {
+  Vec3 force = Vec3::Zero();   // total contact force on the wall, N
+  Vec3 torque = Vec3::Zero();  // about the origin, N m
+  double power = 0.0;          // rate of work done BY the wall on the particles, W
+  double work = 0.0;           // cumulative work done by the wall on the particles, J
+};
+
+// Throws std::invalid_argument naming the wall and the bad value.
+void validate_wall(const Wall& wall);
+
+// Appends the contacts of a sphere with the wall.
+void wall_contacts(const Wall& wall, const Vec3& centre, double radius, std::vector<SurfaceContact>& out);
+
+// Velocity of the wall's surface at a point on it.
+Vec3 wall_surface_velocity(const Wall& wall, const Vec3& point);
+
+// Moves the wall by one time step.
+void advance_wall(Wall& wall, double dt);
+
+// Applies the servo control (if any) from the load measured this step.
+void control_wall(Wall& wall, const WallLoad& load);
+
+}  // namespace millflow::dem

@@ -1,0 +1,115 @@
+// The contact law as pure functions: derived coefficients and single-step responses.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "dem/contact_law.hpp"
+
+namespace millflow::dem {
+namespace {
+
+TEST(DerivedCoefficients, DampingRatioReproducesRestitution) {
+  for (double e : {0.1, 0.3, 0.5, 0.9, 1.0}) {
+    const double zeta = damping_ratio_for_restitution(e);
+    // Analytic restitution of a damped linear oscillator released at zero overlap.
+    const double back = std::exp(-zeta * std::numbers::pi / std::sqrt(1.0 - zeta * zeta));
+    EXPECT_NEAR(back, e, 1e-12) << "e = " << e;
+  }
+  EXPECT_EQ(damping_ratio_for_restitution(1.0), 0.0);
+}
+
+TEST(DerivedCoefficients, StiffnessAndDurationAreInverse) {
+  const double zeta = damping_ratio_for_restitution(0.4);
+  const double k = stiffness_for_collision_duration(1e-4, 0.25, zeta);
+  EXPECT_NEAR(collision_duration(k, 0.25, zeta), 1e-4, 1e-16);
+  // Undamped: t_c = pi sqrt(m / k).
+  EXPECT_NEAR(collision_duration(1e6, 1.0, 0.0), std::numbers::pi * 1e-3, 1e-15);
+}
+
+TEST(DerivedCoefficients, StabilityLimitOfUndampedSpringIsTwoOverOmega) {
+  EXPECT_NEAR(stable_time_step_limit(1e6, 1.0, 0.0), 2e-3, 1e-15);
+  EXPECT_LT(stable_time_step_limit(1e6, 1.0, 0.5), 2e-3);
+}
+
+TEST(DerivedCoefficients, EffectiveMassTreatsWallAsInfinitelyHeavy) {
+  EXPECT_DOUBLE_EQ(effective_mass(2.0, 2.0), 1.0);
+  EXPECT_DOUBLE_EQ(effective_mass(3.0, 0.0), 3.0);
+}
+
+PairParams params(double e, double mu) {
+  return derive_pair_params(InteractionSpec{.restitution = e, .friction = mu, .normal_stiffness = 1000.0}, "a-b");
+}
+
+TEST(LinearSpringDashpot, NormalForceIsSpringMinusDashpot) {
+  const PairParams p = params(0.5, 0.3);
+  const ContactGeometry g{Vec3::UnitZ(), 1e-3, Vec3(0, 0, -0.2)};  // approaching at 0.2 m/s
+  const ContactResponse r = linear_spring_dashpot(p, 0.1, g, Vec3::Zero(), 1e-4);
+  const double c_n = normal_damping_coefficient(1000.0, 0.1, p.damping_ratio);
+  EXPECT_NEAR(r.normal_force, 1000.0 * 1e-3 + c_n * 0.2, 1e-12);
+  EXPECT_NEAR(r.force_on_a.z(), r.normal_force, 1e-12);
+  EXPECT_NEAR(r.dissipated_normal, c_n * 0.04 * 1e-4, 1e-15);
+  EXPECT_NEAR(r.elastic_energy, 0.5 * 1000.0 * 1e-6, 1e-15);
+  EXPECT_FALSE(r.sliding);
+}
+
+TEST(LinearSpringDashpot, SpringGrowsWithTangentialMotionWhileSticking) {
+  const PairParams p = params(0.5, 1.0);
+  const ContactGeometry g{Vec3::UnitZ(), 1e-3, Vec3(0.01, 0, 0)};
+  const ContactResponse r = linear_spring_dashpot(p, 0.1, g, Vec3(2e-6, 0, 0), 1e-4);
+  EXPECT_NEAR(r.spring.x(), 2e-6 + 0.01 * 1e-4, 1e-18);
+  const double c_t = p.tangential_damping_ratio * normal_damping_coefficient(1000.0, 0.1, p.damping_ratio);
+  EXPECT_NEAR(r.force_on_a.x(), -p.tangential_stiffness * r.spring.x() - c_t * 0.01, 1e-12);
+  EXPECT_FALSE(r.sliding);
+}
+
+TEST(LinearSpringDashpot, SlidingCapsForceAtCoulombLimitAndTruncatesSpring) {
+  const PairParams p = params(0.5, 0.2);
+  const ContactGeometry g{Vec3::UnitZ(), 1e-3, Vec3(1.0, 0, 0)};
+  const ContactResponse r = linear_spring_dashpot(p, 0.1, g, Vec3(5e-3, 0, 0), 1e-4);
+  ASSERT_TRUE(r.sliding);
+  const Vec3 tangential = r.force_on_a - r.normal_force * Vec3::UnitZ();
+  EXPECT_NEAR(tangential.norm(), 0.2 * r.normal_force, 1e-12);
+  EXPECT_LT(tangential.x(), 0.0);  // opposes the sliding
+  EXPECT_NEAR(r.spring.norm() * p.tangential_stiffness, 0.2 * r.normal_force, 1e-12);
+  EXPECT_GT(r.dissipated_friction, 0.0);
+}
+
+TEST(LinearSpringDashpot, FrictionlessContactStoresAndDissipatesNothingTangential) {
+  const PairParams p = params(1.0, 0.0);
+  const ContactGeometry g{Vec3::UnitZ(), 1e-3, Vec3(1.0, 0.5, 0)};
+  const ContactResponse r = linear_spring_dashpot(p, 0.1, g, Vec3::Zero(), 1e-4);
+  EXPECT_EQ(r.spring.norm(), 0.0);
+  EXPECT_EQ(r.dissipated_friction, 0.0);
+  EXPECT_EQ(r.dissipated_normal, 0.0);
+}
+
+TEST(LinearSpringDashpot, RotatedSpringKeepsLengthAndLiesInTangentPlane) {
+  const Vec3 spring(1e-3, 0, 1e-4);
+  const Vec3 normal = Vec3(0.1, 0, 1).normalized();
+  const Vec3 rotated = rotate_spring_into_tangent_plane(spring, normal);
+  EXPECT_NEAR(rotated.norm(), spring.norm(), 1e-18);
+  EXPECT_NEAR(rotated.dot(normal), 0.0, 1e-18);
+}
+
+TEST(DerivePairParams, RejectsOutOfRangeValuesNamingThem) {
+  auto message = [](InteractionSpec spec) {
+    try {
+      derive_pair_params(spec, "steel-steel");
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message({.restitution = 0.0, .friction = 0.5, .normal_stiffness = 1e6}),
+            "interaction steel-steel: restitution = 0 is outside (0, 1]; give the ratio of rebound to impact normal speed");
+  EXPECT_EQ(message({.restitution = 1.2, .friction = 0.5, .normal_stiffness = 1e6}),
+            "interaction steel-steel: restitution = 1.2 is outside (0, 1]; give the ratio of rebound to impact normal speed");
+  EXPECT_EQ(message({.restitution = 0.5, .friction = -0.1, .normal_stiffness = 1e6}),
+            "interaction steel-steel: friction = -0.1 must be a finite number >= 0");
+  EXPECT_EQ(message({.restitution = 0.5, .friction = 0.5, .normal_stiffness = -1.0}),
+            "interaction steel-steel: normal stiffness = -1 N/m must be > 0");
+}
+
+}  // namespace
+}  // namespace millflow::dem

@@ -1,0 +1,138 @@
+// Binary collisions and sliding against analytic results (restitution, contact duration,
+// Coulomb sliding and the 5/7 rolling transition) and energy conservation of elastic spheres.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numeric>
+
+#include "dem/system.hpp"
+#include "tests/dem/scenes.hpp"
+
+namespace millflow::dem {
+namespace {
+
+using testing::open_box;
+using testing::sphere_mass;
+using testing::steel_table;
+
+constexpr double kRadius = 0.005;
+constexpr double kStiffness = 1e6;
+// 200 steps per contact: the measured contact time is quantised to dt, 0.5% of t_c.
+constexpr int kStepsPerCollision = 200;
+
+class BinaryCollision : public ::testing::TestWithParam<double> {};
+
+TEST_P(BinaryCollision, SphereSphereRestitutionAndDurationMatchAnalytic) {
+  const double e = GetParam();
+  System system(steel_table(e, 0.5, kStiffness), open_box(0.1), Vec3::Zero());
+  system.set_record_collisions(true);
+  const double speed = 0.5;
+  system.add_particle({.position = Vec3(-kRadius - 1e-4, 0, 0), .velocity = Vec3(speed, 0, 0), .radius = kRadius});
+  system.add_particle({.position = Vec3(kRadius + 1e-4, 0, 0), .velocity = Vec3(-speed, 0, 0), .radius = kRadius});
+  system.set_time_step_from_collisions(kStepsPerCollision);
+  const double m_eff = sphere_mass(kRadius) / 2.0;
+  const double t_c = collision_duration(kStiffness, m_eff, damping_ratio_for_restitution(e));
+  EXPECT_NEAR(system.min_collision_duration(), t_c, 1e-12 * t_c);
+
+  std::vector<CollisionEvent> events;
+  for (int i = 0; i < 20 * kStepsPerCollision && events.empty(); ++i) {
+    system.step();
+    auto finished = system.take_collision_events();
+    events.insert(events.end(), finished.begin(), finished.end());
+  }
+  ASSERT_EQ(events.size(), 1u);
+  const double separation_speed = system.velocities()[1].x() - system.velocities()[0].x();
+  EXPECT_NEAR(separation_speed / (2 * speed), e, 0.01 * e) << "measured restitution";
+  EXPECT_NEAR(events[0].duration, t_c, 0.01 * t_c) << "contact duration";
+  EXPECT_NEAR(events[0].impact_speed, 2 * speed, 1e-3);
+  // Momentum is conserved exactly by equal and opposite forces.
+  EXPECT_NEAR(system.velocities()[0].x() + system.velocities()[1].x(), 0.0, 1e-12);
+}
+
+TEST_P(BinaryCollision, SphereWallRestitutionAndDurationMatchAnalytic) {
+  const double e = GetParam();
+  MaterialTable table = steel_table(e, 0.5, kStiffness);
+  System system(std::move(table), open_box(0.1), Vec3::Zero());
+  system.set_record_collisions(true);
+  system.add_wall({.name = "floor", .material = 0, .shape = PlaneWall{.origin = Vec3::Zero(), .normal = Vec3::UnitZ()}});
+  const double speed = 0.5;
+  system.add_particle({.position = Vec3(0, 0, kRadius + 1e-4), .velocity = Vec3(0, 0, -speed), .radius = kRadius});
+  system.set_time_step_from_collisions(kStepsPerCollision);
+  const double t_c = collision_duration(kStiffness, sphere_mass(kRadius), damping_ratio_for_restitution(e));
+
+  std::vector<CollisionEvent> events;
+  for (int i = 0; i < 20 * kStepsPerCollision && events.empty(); ++i) {
+    system.step();
+    auto finished = system.take_collision_events();
+    events.insert(events.end(), finished.begin(), finished.end());
+  }
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_TRUE(events[0].with_wall);
+  EXPECT_NEAR(system.velocities()[0].z() / speed, e, 0.01 * e) << "measured restitution";
+  EXPECT_NEAR(events[0].duration, t_c, 0.01 * t_c) << "contact duration";
+  // The wall absorbed the kinetic energy lost, and nothing else.
+  const EnergyBudget budget = system.energy();
+  EXPECT_NEAR(budget.dissipated, 0.5 * sphere_mass(kRadius) * speed * speed * (1 - e * e),
+              0.01 * 0.5 * sphere_mass(kRadius) * speed * speed);
+}
+
+INSTANTIATE_TEST_SUITE_P(Restitution, BinaryCollision, ::testing::Values(0.1, 0.3, 0.5, 0.9));
+
+TEST(Sliding, DeceleratesAtMuGThenRollsAtFiveSeventhsOfInitialSpeed) {
+  const double mu = 0.3, g = 9.81, v0 = 1.0;
+  System system(steel_table(0.5, mu, kStiffness), open_box(1.0), Vec3(0, 0, -g));
+  system.add_wall({.name = "floor", .material = 0, .shape = PlaneWall{.origin = Vec3::Zero(), .normal = Vec3::UnitZ()}});
+  const double m = sphere_mass(kRadius);
+  // Start at the static overlap so the sphere does not bounce.
+  system.add_particle({.position = Vec3(-0.5, 0, kRadius - m * g / kStiffness), .velocity = Vec3(v0, 0, 0), .radius = kRadius});
+  system.set_time_step_from_collisions(50);
+  const double sliding_time = 2.0 * v0 / (7.0 * mu * g);
+
+  const auto half = static_cast<std::size_t>(0.5 * sliding_time / system.time_step());
+  system.step(half);
+  EXPECT_NEAR(system.velocities()[0].x(), v0 - mu * g * system.time(), 0.01 * v0) << "Coulomb deceleration";
+
+  system.step(2 * half);  // well past the end of sliding
+  const double v = system.velocities()[0].x();
+  EXPECT_NEAR(v, 5.0 / 7.0 * v0, 0.01 * 5.0 / 7.0 * v0) << "rolling speed";
+  EXPECT_NEAR(system.angular_velocities()[0].y() * kRadius, v, 0.01 * v) << "rolls without slip";
+}
+
+TEST(ElasticGas, EnergyIsConservedOverHundredThousandSteps) {
+  Domain box;
+  box.lo = Vec3::Zero();
+  box.hi = Vec3::Constant(0.06);
+  box.periodic = {true, true, true};
+  System system(steel_table(1.0, 0.0, kStiffness), box, Vec3::Zero());
+  Rng rng(7);
+  // 4 x 4 x 4 lattice, spacing 15 mm: solid fraction ~ 0.16.
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 4; ++j) {
+      for (int k = 0; k < 4; ++k) {
+        const Vec3 position = Vec3(i, j, k) * 0.015 + Vec3::Constant(0.0075);
+        const Vec3 velocity(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+        system.add_particle({.position = position, .velocity = velocity, .radius = kRadius});
+      }
+    }
+  }
+  system.set_time_step_from_collisions(50);
+  system.step();
+  const double initial = system.energy().mechanical();
+  // Drift: the mean energy of the last thousand samples against the first thousand. Within a
+  // contact the discrete energy also oscillates by O((omega dt)^2), bounded separately.
+  std::vector<double> samples;
+  for (int block = 0; block < 10000; ++block) {
+    system.step(10);
+    samples.push_back(system.energy().mechanical());
+  }
+  auto mean = [](auto begin, auto end) { return std::accumulate(begin, end, 0.0) / double(end - begin); };
+  const double drift = std::abs(mean(samples.end() - 1000, samples.end()) - mean(samples.begin(), samples.begin() + 1000)) / initial;
+  double worst = 0.0;
+  for (double e : samples) worst = std::max(worst, std::abs(e - initial) / initial);
+  EXPECT_LT(drift, 1e-4) << "relative energy drift over 1e5 steps";
+  EXPECT_LT(worst, 1e-3) << "largest relative excursion within contacts";
+  EXPECT_GT(system.step_count(), 100000u);
+}
+
+}  // namespace
+}  // namespace millflow::dem

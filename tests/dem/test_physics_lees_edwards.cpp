@@ -1,0 +1,77 @@
+// Lees-Edwards boundaries: crossing particles get the image shift in position and velocity, and
+// contacts across the sheared boundary see the image's velocity.
+#include <gtest/gtest.h>
+
+#include "dem/system.hpp"
+#include "tests/dem/scenes.hpp"
+
+namespace millflow::dem {
+namespace {
+
+using testing::steel_table;
+
+Domain sheared_box(double shear_velocity) {
+  Domain box;
+  box.lo = Vec3::Zero();
+  box.hi = Vec3(0.1, 0.08, 0.06);
+  box.periodic = {true, true, true};
+  box.lees_edwards = LeesEdwards{.enabled = true, .flow_axis = 0, .gradient_axis = 1, .offset = 0.0, .velocity = shear_velocity};
+  return box;
+}
+
+TEST(LeesEdwards, ParticleCrossingUpperFaceReentersShiftedInPositionAndVelocity) {
+  const double shear_velocity = 0.8;  // relative velocity of the upper image, m/s
+  System system(steel_table(0.5, 0.5), sheared_box(shear_velocity), Vec3::Zero());
+  const Vec3 v0(0.1, 2.0, 0.0);
+  system.add_particle({.position = Vec3(0.05, 0.0795, 0.03), .velocity = v0, .radius = 0.004});
+  system.set_time_step(1e-5);
+  std::size_t steps = 0;
+  while (system.positions()[0].y() > 0.04 && steps < 1000) {
+    system.step();
+    ++steps;
+  }
+  ASSERT_LT(steps, 1000u) << "the particle never crossed";
+  const double t = system.time();
+  const double offset = system.domain().lees_edwards.offset;
+  EXPECT_NEAR(offset, shear_velocity * t, 1e-12);
+  // Straight-line motion, then the image shift: x - offset, vx - shear velocity.
+  EXPECT_NEAR(system.positions()[0].y(), 0.0795 + v0.y() * t - 0.08, 1e-12);
+  EXPECT_NEAR(system.positions()[0].x(), 0.05 + v0.x() * t - offset, 1e-12);
+  EXPECT_NEAR(system.velocities()[0].x(), v0.x() - shear_velocity, 1e-12);
+  EXPECT_NEAR(system.velocities()[0].y(), v0.y(), 1e-12);
+}
+
+TEST(LeesEdwards, ParticleCrossingLowerFaceReentersWithOppositeShift) {
+  const double shear_velocity = 0.8;
+  System system(steel_table(0.5, 0.5), sheared_box(shear_velocity), Vec3::Zero());
+  system.domain().lees_edwards.offset = 0.03;
+  system.add_particle({.position = Vec3(0.09, 0.0005, 0.03), .velocity = Vec3(0, -2.0, 0), .radius = 0.004});
+  system.set_time_step(1e-5);
+  system.step(50);
+  const double offset = system.domain().lees_edwards.offset;
+  EXPECT_NEAR(system.positions()[0].x(), std::fmod(0.09 + offset, 0.1), 1e-12);
+  EXPECT_NEAR(system.velocities()[0].x(), shear_velocity, 1e-12);
+}
+
+TEST(LeesEdwards, ContactAcrossTheBoundaryFeelsTheImageVelocity) {
+  // Two frictional spheres touching across the sheared boundary, at rest in their own boxes:
+  // the image of the lower sphere above the box moves along +x at the shear velocity, so
+  // friction drags the upper sphere along +x and the lower one along -x.
+  const double shear_velocity = 0.5;
+  System system(steel_table(0.5, 0.5), sheared_box(shear_velocity), Vec3::Zero());
+  const double r = 0.004;
+  system.add_particle({.position = Vec3(0.05, 0.0795, 0.03), .radius = r});  // top of the box
+  system.add_particle({.position = Vec3(0.05, 0.0075 - 0.0001, 0.03), .radius = r});  // image above touches it
+  system.set_time_step(1e-6);
+  system.step();
+  ASSERT_EQ(system.active_contact_count(), 1u);
+  EXPECT_GT(system.forces()[0].x(), 0.0);
+  EXPECT_LT(system.forces()[1].x(), 0.0);
+  EXPECT_NEAR(system.forces()[0].x(), -system.forces()[1].x(), 1e-12);
+  // Normal pushes them apart: the top one down, the image of the bottom one up.
+  EXPECT_LT(system.forces()[0].y(), 0.0);
+  EXPECT_GT(system.forces()[1].y(), 0.0);
+}
+
+}  // namespace
+}  // namespace millflow::dem

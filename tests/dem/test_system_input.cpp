@@ -1,0 +1,84 @@
+// Bad input to the DEM library gets a clear error naming the value, never a silent NaN.
+#include <gtest/gtest.h>
+
+#include "dem/system.hpp"
+#include "tests/dem/scenes.hpp"
+
+namespace millflow::dem {
+namespace {
+
+using testing::open_box;
+using testing::steel_table;
+
+template <class F>
+std::string error_of(F&& action) {
+  try {
+    action();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(SystemInput, NegativeRadiusIsRefused) {
+  System system(steel_table(0.5, 0.5), open_box(1.0), Vec3::Zero());
+  EXPECT_EQ(error_of([&] { system.add_particle({.position = Vec3::Zero(), .radius = -0.01}); }),
+            "particle 0: radius = -0.01 m must be > 0");
+}
+
+TEST(SystemInput, NanPositionIsRefused) {
+  System system(steel_table(0.5, 0.5), open_box(1.0), Vec3::Zero());
+  EXPECT_EQ(error_of([&] { system.add_particle({.position = Vec3(0, std::nan(""), 0), .radius = 0.01}); }),
+            "particle 0: position or velocity is not finite");
+}
+
+TEST(SystemInput, UnknownMaterialIsRefused) {
+  System system(steel_table(0.5, 0.5), open_box(1.0), Vec3::Zero());
+  EXPECT_EQ(error_of([&] { system.add_particle({.radius = 0.01, .material = 3}); }),
+            "particle 0: material id 3 is not defined (1 materials)");
+}
+
+TEST(SystemInput, RestitutionOutsideRangeAndNegativeFrictionAreRefused) {
+  MaterialTable table;
+  const MaterialId steel = table.add({"steel", 7800.0});
+  EXPECT_EQ(error_of([&] { table.set_interaction(steel, steel, {.restitution = 1.5, .friction = 0.5, .normal_stiffness = 1e6}); }),
+            "interaction steel-steel: restitution = 1.5 is outside (0, 1]; give the ratio of rebound to impact normal speed");
+  EXPECT_EQ(error_of([&] { table.set_interaction(steel, steel, {.restitution = 0.5, .friction = -0.2, .normal_stiffness = 1e6}); }),
+            "interaction steel-steel: friction = -0.2 must be a finite number >= 0");
+}
+
+TEST(SystemInput, OverlappingInitialParticlesAreNamed) {
+  System system(steel_table(0.5, 0.5), open_box(1.0), Vec3::Zero());
+  system.add_particle({.position = Vec3(0, 0, 0), .radius = 0.01});
+  system.add_particle({.position = Vec3(0.015, 0, 0), .radius = 0.01});
+  EXPECT_EQ(error_of([&] { system.check_overlaps(0.01); }),
+            "particles 0 and 1 overlap by 0.005 m (50% of the smaller radius; tolerance 1%); "
+            "move them apart or place them on a coarser lattice");
+  EXPECT_EQ(error_of([&] { system.check_overlaps(0.6); }), "no error");
+}
+
+TEST(SystemInput, TimeStepAboveStabilityLimitIsRefused) {
+  System system(steel_table(1.0, 0.5, 1e6), open_box(1.0), Vec3::Zero());
+  system.add_particle({.position = Vec3::Zero(), .radius = 0.005});
+  // Undamped: limit 2 sqrt(m_eff / k) with m_eff the mass of the lightest particle pair.
+  const double limit = system.stable_time_step();
+  EXPECT_NEAR(limit, 2.0 * std::sqrt(testing::sphere_mass(0.005) / 2.0 / 1e6), 1e-12);
+  const std::string message = error_of([&] { system.set_time_step(2.0 * limit); });
+  EXPECT_NE(message.find("is above the stability limit"), std::string::npos) << message;
+  EXPECT_EQ(error_of([&] { system.set_time_step(0.5 * limit); }), "no error");
+}
+
+TEST(SystemInput, MissingInteractionIsNamedWhenDerivingTheTimeStep) {
+  MaterialTable table;
+  const MaterialId steel = table.add({"steel", 7800.0});
+  const MaterialId powder = table.add({"powder", 3100.0});
+  table.set_interaction(steel, steel, {.restitution = 0.5, .friction = 0.5, .normal_stiffness = 1e6});
+  System system(std::move(table), open_box(1.0), Vec3::Zero());
+  system.add_particle({.position = Vec3::Zero(), .radius = 0.005, .material = steel});
+  system.add_particle({.position = Vec3(0.1, 0, 0), .radius = 0.001, .material = powder});
+  EXPECT_EQ(error_of([&] { system.min_collision_duration(); }),
+            "no interaction is defined for steel-powder; add one for that material pair");
+}
+
+}  // namespace
+}  // namespace millflow::dem
