@@ -34,3 +34,33 @@ void with_threads(int threads, F&& body) {
 }
 
 }  // namespace millflow::dem::testing
+
+#include "dem/mill_setup.hpp"
+
+namespace millflow::dem::testing {
+
+// A 0.2 m mill slice with four lifters and 10 mm steel balls: a few hundred balls, so a physics
+// test of a fraction of a revolution runs in seconds. Contacts are soft (t_c = 1 ms), which is
+// fine for the invariants tested and keeps dt at 50 us.
+inline MillSetup small_mill(double fill, double speed_fraction) {
+  MillSetup setup;
+  setup.shell = MillShell{.radius = 0.1,
+                          .length = 0.04,
+                          .lifter_count = 4,
+                          .lifter = LifterProfile{.height = 0.01, .base_width = 0.012, .face_angle_deg = 10.0},
+                          .end_walls = false};
+  setup.ball_diameter = 0.01;
+  const double ball_mass = sphere_mass(0.005);
+  const double zeta_ball = damping_ratio_for_restitution(0.5);
+  setup.ball_ball = InteractionSpec{.restitution = 0.5,
+                                    .friction = 0.5,
+                                    .normal_stiffness = stiffness_for_collision_duration(1e-3, ball_mass / 2, zeta_ball)};
+  setup.ball_liner = InteractionSpec{.restitution = 0.5,
+                                     .friction = 0.5,
+                                     .normal_stiffness = stiffness_for_collision_duration(1e-3, ball_mass, zeta_ball)};
+  setup.fill = fill;
+  setup.speed_fraction = speed_fraction;
+  return setup;
+}
+
+}  // namespace millflow::dem::testing
