@@ -146,10 +146,10 @@ bool visit_mill_contacts(const MillShell& mill, double theta, const Vec3& centre
   }
   if (mill.lifter_count == 0) return true;
 
-  // Extending the sides by height + radius puts the buried base more than `radius` beyond the
-  // shell, and farther from any centre inside the bar than its top face.
   // An accumulated rotation angle reduced to one turn keeps the slot numbers small.
   theta -= 2.0 * kPi * std::round(theta / (2.0 * kPi));
+  // Extending the sides by height + radius puts the buried base more than `radius` beyond the
+  // shell, and farther from any centre inside the bar than its top face.
   const LifterPolygon poly = lifter_polygon(mill, mill.lifter.height + radius);
   const SlotRange slots = reachable_lifter_slots(mill, poly, theta, centre, rho, radius);
   const long n = mill.lifter_count;

@@ -1,5 +1,6 @@
 #include "dem/wall_geometry.hpp"
 
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -209,13 +210,16 @@ TEST(LifterContact, MatchesBruteForceDistanceForSpheresClearOfTheShell) {
     const MillShell mill = test_mill(face_angle, false);
     const double r = 0.03;
     int checked = 0;
+    std::size_t sample = 0;
     for (double x = 0.36; x < 0.5; x += 0.0037) {
       for (double y = -0.08; y < 0.08; y += 0.0041) {
         const Vec3 centre(x, y, 0.0);
         if (centre.norm() + r >= mill.radius) continue;  // keep to spheres not touching the shell
         const double depth_sign = inside_lifter(mill, centre) ? -1.0 : 1.0;
         const double expected = r - depth_sign * distance_to_exposed_lifter(mill, centre);
-        const auto contacts = contacts_of(mill, 0.0, centre, r);
+        // Lifter 0 turned to the branch cut of atan2 (pi) and elsewhere must give the same.
+        const double theta = std::array{0.0, kPi, -2.5}[sample++ % 3];
+        const auto contacts = contacts_of(mill, theta, rotate_z(centre, theta), r);
         if (expected > 1e-5) {
           ASSERT_EQ(contacts.size(), 1u) << "face angle " << face_angle << " at " << x << ", " << y;
           EXPECT_EQ(contacts[0].feature, lifter_feature(0));
