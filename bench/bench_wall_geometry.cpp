@@ -50,7 +50,9 @@ void run(benchmark::State& state, const std::vector<Vec3>& centres) {
       static_cast<double>(contacts.size()) / static_cast<double>(centres.size());
 }
 
-void BM_WholeCrossSection(benchmark::State& state) { run(state, centres_in_ring(0.0, 10000)); }
+void BM_WholeCrossSection(benchmark::State& state) {
+  run(state, centres_in_ring(0.0, 10000));
+}
 void BM_NearShellRing(benchmark::State& state) {
   run(state, centres_in_ring(kMill.radius - kMill.lifter.height - kBallRadius, 10000));
 }

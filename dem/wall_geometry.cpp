@@ -17,7 +17,9 @@ namespace {
 using Vec2 = Eigen::Vector2d;
 constexpr double kPi = std::numbers::pi;
 
-double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+double cross2(const Vec2& a, const Vec2& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
 
 // A lifter's cross-section in its own frame: x radial (outwards along the lifter's centreline),
 // y tangential (towards increasing angle). Vertices counter-clockwise, edge i runs from vertex i
@@ -36,10 +38,9 @@ LifterPolygon lifter_polygon(const MillShell& mill, double buried_depth) {
   const double half_base = 0.5 * p.base_width + buried_depth * (s / c);
   const double half_top = 0.5 * p.base_width - p.height * (s / c);
   const double base_x = mill.radius + buried_depth, top_x = mill.radius - p.height;
-  return LifterPolygon{
-      {Vec2(base_x, -half_base), Vec2(base_x, half_base), Vec2(top_x, half_top),
-       Vec2(top_x, -half_top)},
-      {Vec2(1.0, 0.0), Vec2(-s, c), Vec2(-1.0, 0.0), Vec2(-s, -c)}};
+  return LifterPolygon{{Vec2(base_x, -half_base), Vec2(base_x, half_base), Vec2(top_x, half_top),
+                        Vec2(top_x, -half_top)},
+                       {Vec2(1.0, 0.0), Vec2(-s, c), Vec2(-1.0, 0.0), Vec2(-s, -c)}};
 }
 
 struct PlanarContact {
@@ -217,8 +218,7 @@ void validate(const MillShell& mill) {
           fmt::format("length = {} m must be positive and finite (the axial length, or the "
                       "periodic length without end walls)",
                       mill.length));
-  require(mill.lifter_count >= 0,
-          fmt::format("lifter_count = {} must be >= 0", mill.lifter_count));
+  require(mill.lifter_count >= 0, fmt::format("lifter_count = {} must be >= 0", mill.lifter_count));
   if (mill.lifter_count == 0) return;
   const LifterProfile& p = mill.lifter;
   require(p.height > 0.0, fmt::format("lifter height = {} m must be positive (or set "
