@@ -50,9 +50,9 @@ std::string_view as_chars(const Digest& digest) {
 
 void require_magic8(std::string_view magic8) {
   if (magic8.size() != kMagicSize) {
-    throw std::invalid_argument(fmt::format(
-        "binary file magic '{}' has {} bytes; it must be exactly {}", magic8, magic8.size(),
-        kMagicSize));
+    throw std::invalid_argument(
+        fmt::format("binary file magic '{}' has {} bytes; it must be exactly {}", magic8,
+                    magic8.size(), kMagicSize));
   }
 }
 
@@ -96,7 +96,8 @@ void write_all(int fd, std::string_view bytes, const std::filesystem::path& path
 // Makes a rename inside `directory` durable.
 void sync_directory(const std::filesystem::path& directory) {
   FileDescriptor dir(::open(directory.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
-  if (dir.get() < 0 || ::fsync(dir.get()) != 0) throw_system_error("cannot sync directory", directory);
+  if (dir.get() < 0 || ::fsync(dir.get()) != 0)
+    throw_system_error("cannot sync directory", directory);
 }
 
 // Writes `bytes` to a new temporary file next to `path` and returns its name.
@@ -140,9 +141,10 @@ T load(std::string_view bytes, std::size_t offset) {
 const char* BinaryReader::take(std::size_t size, const char* what) {
   const std::size_t remaining = bytes_.size() - position_;
   if (size > remaining) {
-    throw CorruptData(fmt::format("binary data truncated at byte {}: reading {} needs {} bytes, "
-                                  "only {} remain",
-                                  position_, what, size, remaining));
+    throw CorruptData(
+        fmt::format("binary data truncated at byte {}: reading {} needs {} bytes, "
+                    "only {} remain",
+                    position_, what, size, remaining));
   }
   const char* start = bytes_.data() + position_;
   position_ += size;
@@ -154,14 +156,17 @@ std::size_t BinaryReader::take_count(std::size_t element_size) {
   const auto count = get<std::uint64_t>();
   const std::size_t remaining = bytes_.size() - position_;
   if (count > remaining / element_size) {
-    throw CorruptData(fmt::format("binary data truncated at byte {}: {} elements of {} bytes "
-                                  "announced at byte {}, only {} bytes remain",
-                                  position_, count, element_size, count_at, remaining));
+    throw CorruptData(
+        fmt::format("binary data truncated at byte {}: {} elements of {} bytes "
+                    "announced at byte {}, only {} bytes remain",
+                    position_, count, element_size, count_at, remaining));
   }
   return static_cast<std::size_t>(count);
 }
 
-std::string sha256_hex(std::string_view bytes) { return to_hex(as_chars(sha256(bytes))); }
+std::string sha256_hex(std::string_view bytes) {
+  return to_hex(as_chars(sha256(bytes)));
+}
 
 void write_checksummed_file(const std::filesystem::path& path, std::string_view magic8,
                             std::uint32_t version, std::string_view payload) {
@@ -207,13 +212,14 @@ std::string read_checksummed_file(const std::filesystem::path& path, std::string
   const std::string_view checked = std::string_view(bytes).substr(0, kHeaderSize + room);
   const std::string_view stored = std::string_view(bytes).substr(kHeaderSize + room);
   if (as_chars(sha256(checked)) != stored) {
-    throw CorruptData(fmt::format("'{}' is corrupt: checksum mismatch (stored sha256 {}, computed {})",
-                                  name, to_hex(stored), sha256_hex(checked)));
+    throw CorruptData(
+        fmt::format("'{}' is corrupt: checksum mismatch (stored sha256 {}, computed {})", name,
+                    to_hex(stored), sha256_hex(checked)));
   }
   if (version > max_version) {
-    throw CorruptData(fmt::format(
-        "'{}' was written by a newer millflow: version {}, this build reads up to {}", name,
-        version, max_version));
+    throw CorruptData(
+        fmt::format("'{}' was written by a newer millflow: version {}, this build reads up to {}",
+                    name, version, max_version));
   }
   if (version_out) *version_out = version;
   return bytes.substr(kHeaderSize, room);

@@ -88,7 +88,8 @@ class BinaryReader {
   std::vector<T> get_vector() {
     const std::size_t count = take_count(sizeof(T));
     std::vector<T> values(count);
-    if (count > 0) std::memcpy(values.data(), take(count * sizeof(T), "an array"), count * sizeof(T));
+    if (count > 0)
+      std::memcpy(values.data(), take(count * sizeof(T), "an array"), count * sizeof(T));
     return values;
   }
 

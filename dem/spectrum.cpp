@@ -28,7 +28,9 @@ double power_of_ten(int k) {
   return k < 0 ? 1.0 / p : p;
 }
 
-int floor_div(int a, int b) { return a / b - ((a % b != 0) && ((a < 0) != (b < 0))); }
+int floor_div(int a, int b) {
+  return a / b - ((a % b != 0) && ((a < 0) != (b < 0)));
+}
 
 // Edge i of the grid with b bins per decade: 10^(i / b), exact at decades.
 double grid_edge(int i, int b) {
@@ -54,7 +56,7 @@ void require_histogram(bool ok, const std::string& message) {
 }  // namespace
 
 LogHistogram::Grid LogHistogram::grid_covering(double min_value, double max_value,
-                                                int bins_per_decade) {
+                                               int bins_per_decade) {
   require_histogram(min_value >= kMinValue,
                     fmt::format("min_value = {} must be at least {} (log bins cannot reach 0; "
                                 "values below min_value count as underflow)",
@@ -62,9 +64,9 @@ LogHistogram::Grid LogHistogram::grid_covering(double min_value, double max_valu
   require_histogram(max_value > min_value && max_value <= kMaxValue,
                     fmt::format("max_value = {} must be greater than min_value = {} and at most {}",
                                 max_value, min_value, kMaxValue));
-  require_histogram(bins_per_decade >= 1 && bins_per_decade <= kMaxBinsPerDecade,
-                    fmt::format("bins_per_decade = {} must be in [1, {}]", bins_per_decade,
-                                kMaxBinsPerDecade));
+  require_histogram(
+      bins_per_decade >= 1 && bins_per_decade <= kMaxBinsPerDecade,
+      fmt::format("bins_per_decade = {} must be in [1, {}]", bins_per_decade, kMaxBinsPerDecade));
   const int first = grid_index_at_or_below(min_value, bins_per_decade);
   int last = grid_index_at_or_below(max_value, bins_per_decade);
   if (grid_edge(last, bins_per_decade) < max_value) ++last;
@@ -80,7 +82,9 @@ LogHistogram::LogHistogram(double min_value, double max_value, int bins_per_deca
     : LogHistogram(grid_covering(min_value, max_value, bins_per_decade)) {}
 
 LogHistogram::LogHistogram(const Grid& grid)
-    : bins_per_decade_(grid.bins_per_decade), first_edge_(grid.first_edge), counts_(grid.bins, 0.0) {
+    : bins_per_decade_(grid.bins_per_decade),
+      first_edge_(grid.first_edge),
+      counts_(grid.bins, 0.0) {
   edges_.reserve(grid.bins + 1);
   for (std::size_t k = 0; k <= grid.bins; ++k) {
     edges_.push_back(grid_edge(first_edge_ + static_cast<int>(k), bins_per_decade_));
@@ -151,18 +155,20 @@ LogHistogram LogHistogram::read(BinaryReader& in) {
   if (bins_per_decade < 1 || bins_per_decade > kMaxBinsPerDecade || counts.empty() ||
       counts.size() > kMaxBins || !valid_weight(underflow) || !valid_weight(overflow) ||
       !std::all_of(counts.begin(), counts.end(), valid_weight)) {
-    throw CorruptData(fmt::format("LogHistogram: stored histogram is invalid ({} bins per decade, "
-                                  "{} bins, or a negative or non-finite count)",
-                                  bins_per_decade, counts.size()));
+    throw CorruptData(
+        fmt::format("LogHistogram: stored histogram is invalid ({} bins per decade, "
+                    "{} bins, or a negative or non-finite count)",
+                    bins_per_decade, counts.size()));
   }
   // The edges must stay within the range the constructor allows (one bin beyond, as it rounds
   // outwards).
   const long first = first_edge, last = first + static_cast<long>(counts.size());
   if (first < -static_cast<long>(kMaxDecade + 1) * bins_per_decade ||
       last > static_cast<long>(kMaxDecade + 1) * bins_per_decade) {
-    throw CorruptData(fmt::format("LogHistogram: stored grid edges {} .. {} at {} bins per decade "
-                                  "are out of range",
-                                  first, last, bins_per_decade));
+    throw CorruptData(
+        fmt::format("LogHistogram: stored grid edges {} .. {} at {} bins per decade "
+                    "are out of range",
+                    first, last, bins_per_decade));
   }
   LogHistogram histogram(Grid{bins_per_decade, first_edge, counts.size()});
   histogram.counts_ = counts;

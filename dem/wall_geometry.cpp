@@ -17,7 +17,9 @@ namespace {
 using Vec2 = Eigen::Vector2d;
 constexpr double kPi = std::numbers::pi;
 
-double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+double cross2(const Vec2& a, const Vec2& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
 
 // A lifter's cross-section in its own frame: x radial (outwards along the lifter's centreline),
 // y tangential (towards increasing angle). Vertices counter-clockwise, edge i runs from vertex i
@@ -36,10 +38,9 @@ LifterPolygon lifter_polygon(const MillShell& mill, double buried_depth) {
   const double half_base = 0.5 * p.base_width + buried_depth * (s / c);
   const double half_top = 0.5 * p.base_width - p.height * (s / c);
   const double base_x = mill.radius + buried_depth, top_x = mill.radius - p.height;
-  return LifterPolygon{
-      {Vec2(base_x, -half_base), Vec2(base_x, half_base), Vec2(top_x, half_top),
-       Vec2(top_x, -half_top)},
-      {Vec2(1.0, 0.0), Vec2(-s, c), Vec2(-1.0, 0.0), Vec2(-s, -c)}};
+  return LifterPolygon{{Vec2(base_x, -half_base), Vec2(base_x, half_base), Vec2(top_x, half_top),
+                        Vec2(top_x, -half_top)},
+                       {Vec2(1.0, 0.0), Vec2(-s, c), Vec2(-1.0, 0.0), Vec2(-s, -c)}};
 }
 
 struct PlanarContact {
@@ -95,8 +96,10 @@ std::optional<SurfaceContact> shell_contact(const MillShell& mill, const Vec3& c
 
 // Range of lifter slots m (lifter index m mod n, centreline at theta + m * 2 pi / n) that the
 // sphere can reach, judged by angles around the axis: every point of the lifter polygon lies
-// within `lifter_half_angle` of its centreline, every point of the sphere within asin(r / rho) of
-// the centre's direction.
+// within atan(half width / (R - height)) of its centreline, every point of the sphere within
+// asin(r / rho) of the centre's direction. Both angles are bounded from above by their tangents,
+// which cost no transcendental call; a wider range only adds candidates that the exact test
+// rejects.
 struct SlotRange {
   long first;
   long last;
@@ -105,13 +108,14 @@ struct SlotRange {
 SlotRange reachable_lifter_slots(const MillShell& mill, const LifterPolygon& poly, double theta,
                                  const Vec3& centre, double rho, double radius) {
   const long n = mill.lifter_count;
-  const double lifter_half_angle = std::atan2(poly.vertex[1].y(), mill.radius - mill.lifter.height);
-  const double sphere_half_angle = radius < rho ? std::asin(radius / rho) : kPi;
+  const double lifter_half_angle = poly.vertex[1].y() / (mill.radius - mill.lifter.height);
+  const double sphere_half_angle =
+      radius < rho ? radius / std::sqrt(rho * rho - radius * radius) : kPi;
   // The margin keeps a lifter touched by a rounding-level overlap from being skipped.
   const double reach = lifter_half_angle + sphere_half_angle + 1e-9;
   if (reach >= kPi) return {0, n - 1};
   const double spacing = 2.0 * kPi / static_cast<double>(n);
-  const double alpha = std::atan2(centre.y(), centre.x()) - std::remainder(theta, 2.0 * kPi);
+  const double alpha = std::atan2(centre.y(), centre.x()) - theta;
   const long first = static_cast<long>(std::ceil((alpha - reach) / spacing));
   const long last = static_cast<long>(std::floor((alpha + reach) / spacing));
   return {first, std::min(last, first + n - 1)};
@@ -143,6 +147,8 @@ bool visit_mill_contacts(const MillShell& mill, double theta, const Vec3& centre
   }
   if (mill.lifter_count == 0) return true;
 
+  // An accumulated rotation angle reduced to one turn keeps the slot numbers small.
+  theta -= 2.0 * kPi * std::round(theta / (2.0 * kPi));
   // Extending the sides by height + radius puts the buried base more than `radius` beyond the
   // shell, and farther from any centre inside the bar than its top face.
   const LifterPolygon poly = lifter_polygon(mill, mill.lifter.height + radius);
@@ -212,8 +218,7 @@ void validate(const MillShell& mill) {
           fmt::format("length = {} m must be positive and finite (the axial length, or the "
                       "periodic length without end walls)",
                       mill.length));
-  require(mill.lifter_count >= 0,
-          fmt::format("lifter_count = {} must be >= 0", mill.lifter_count));
+  require(mill.lifter_count >= 0, fmt::format("lifter_count = {} must be >= 0", mill.lifter_count));
   if (mill.lifter_count == 0) return;
   const LifterProfile& p = mill.lifter;
   require(p.height > 0.0, fmt::format("lifter height = {} m must be positive (or set "

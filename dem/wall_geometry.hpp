@@ -62,8 +62,12 @@ void validate(const MillShell& mill);
 
 // Contact features of a mill: shell 0, lifter k 1 + k, end wall z = 0 at 1 + n and end wall
 // z = length at 2 + n (n = lifter_count).
-inline int shell_feature() { return 0; }
-inline int lifter_feature(int lifter) { return 1 + lifter; }
+inline int shell_feature() {
+  return 0;
+}
+inline int lifter_feature(int lifter) {
+  return 1 + lifter;
+}
 inline int end_wall_feature(const MillShell& mill, int end /*0: z = 0, 1: z = length*/) {
   return 1 + mill.lifter_count + end;
 }

@@ -81,7 +81,11 @@ TEST(BinaryWriterReader, EncodingIsLittleEndianWithCountPrefixes) {
   BinaryWriter w;
   w.put<std::uint32_t>(0x01020304u);
   w.put_string("ab");
-  const std::string expected("\x04\x03\x02\x01" "\x02\0\0\0\0\0\0\0" "ab", 14);
+  const std::string expected(
+      "\x04\x03\x02\x01"
+      "\x02\0\0\0\0\0\0\0"
+      "ab",
+      14);
   EXPECT_EQ(w.bytes(), expected);
 }
 
@@ -94,8 +98,9 @@ TEST(BinaryWriterReader, OverrunThrowsWithThePosition) {
     r.get<double>();
     FAIL() << "no exception";
   } catch (const CorruptData& e) {
-    EXPECT_STREQ(e.what(), "binary data truncated at byte 4: reading a value needs 8 bytes, only "
-                           "0 remain");
+    EXPECT_STREQ(e.what(),
+                 "binary data truncated at byte 4: reading a value needs 8 bytes, only "
+                 "0 remain");
   }
 }
 

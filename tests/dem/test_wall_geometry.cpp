@@ -1,5 +1,6 @@
 #include "dem/wall_geometry.hpp"
 
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -26,13 +27,13 @@ std::vector<SurfaceContact> contacts_of(const MillShell& mill, double theta, con
 }
 
 void expect_vec_near(const Vec3& actual, const Vec3& expected, double tol = kTol) {
-  EXPECT_NEAR((actual - expected).norm(), 0.0, tol) << "actual " << actual.transpose()
-                                                    << " expected " << expected.transpose();
+  EXPECT_NEAR((actual - expected).norm(), 0.0, tol)
+      << "actual " << actual.transpose() << " expected " << expected.transpose();
 }
 
 // The one contact expected: with `feature`, `overlap`, `normal` and `point`.
-void expect_single_contact(const std::vector<SurfaceContact>& contacts, int feature,
-                           double overlap, const Vec3& normal, const Vec3& point) {
+void expect_single_contact(const std::vector<SurfaceContact>& contacts, int feature, double overlap,
+                           const Vec3& normal, const Vec3& point) {
   ASSERT_EQ(contacts.size(), 1u);
   EXPECT_EQ(contacts[0].feature, feature);
   EXPECT_NEAR(contacts[0].overlap, overlap, kTol);
@@ -81,8 +82,8 @@ TEST(MillShellContact, OverlapNormalAndPointAtSeveralAngles) {
   for (double angle : {0.0, 1.0, 2.5, -2.0, kPi}) {
     const Vec3 outward(std::cos(angle), std::sin(angle), 0.0);
     const Vec3 centre = (0.5 - 0.02 + 0.003) * outward + Vec3(0, 0, 0.1);
-    expect_single_contact(contacts_of(plain, 0.3, centre, 0.02), shell_feature(), 0.003,
-                          -outward, 0.5 * outward + Vec3(0, 0, 0.1));
+    expect_single_contact(contacts_of(plain, 0.3, centre, 0.02), shell_feature(), 0.003, -outward,
+                          0.5 * outward + Vec3(0, 0, 0.1));
   }
 }
 
@@ -156,7 +157,8 @@ TEST(TrapezoidalLifter, EachSideFace) {
   expect_single_contact(contacts_of(test_mill(20.0), 0.0, on_face + 0.015 * t.side_normal, 0.02),
                         lifter_feature(0), 0.005, t.side_normal, on_face);
   const Vec3 mirror(1, -1, 1);
-  const Vec3 on_other = on_face.cwiseProduct(mirror), other_normal = t.side_normal.cwiseProduct(mirror);
+  const Vec3 on_other = on_face.cwiseProduct(mirror),
+             other_normal = t.side_normal.cwiseProduct(mirror);
   expect_single_contact(contacts_of(test_mill(20.0), 0.0, on_other + 0.012 * other_normal, 0.02),
                         lifter_feature(0), 0.008, other_normal, on_other);
 }
@@ -189,7 +191,8 @@ double distance_to_exposed_lifter(const MillShell& mill, const Vec3& centre) {
     const double s = static_cast<double>(i) / kSamples;
     best = std::min(best, (p - Eigen::Vector2d(top_x, (2 * s - 1) * half_top)).norm());
     for (double side : {-1.0, 1.0}) {  // side faces from the top corner to 1.2 h down
-      const Eigen::Vector2d q(top_x + 1.2 * h * s, side * (half_top + 1.2 * h * s * std::tan(angle)));
+      const Eigen::Vector2d q(top_x + 1.2 * h * s,
+                              side * (half_top + 1.2 * h * s * std::tan(angle)));
       if (q.norm() <= mill.radius) best = std::min(best, (p - q).norm());
     }
   }
@@ -198,7 +201,8 @@ double distance_to_exposed_lifter(const MillShell& mill, const Vec3& centre) {
 
 bool inside_lifter(const MillShell& mill, const Vec3& centre) {
   const double top_x = mill.radius - mill.lifter.height;
-  const double half_width = 0.5 * mill.lifter.base_width -
+  const double half_width =
+      0.5 * mill.lifter.base_width -
       (mill.radius - centre.x()) * std::tan(mill.lifter.face_angle_deg * kPi / 180.0);
   return centre.x() >= top_x && std::abs(centre.y()) <= half_width;
 }
@@ -209,13 +213,16 @@ TEST(LifterContact, MatchesBruteForceDistanceForSpheresClearOfTheShell) {
     const MillShell mill = test_mill(face_angle, false);
     const double r = 0.03;
     int checked = 0;
+    std::size_t sample = 0;
     for (double x = 0.36; x < 0.5; x += 0.0037) {
       for (double y = -0.08; y < 0.08; y += 0.0041) {
         const Vec3 centre(x, y, 0.0);
         if (centre.norm() + r >= mill.radius) continue;  // keep to spheres not touching the shell
         const double depth_sign = inside_lifter(mill, centre) ? -1.0 : 1.0;
         const double expected = r - depth_sign * distance_to_exposed_lifter(mill, centre);
-        const auto contacts = contacts_of(mill, 0.0, centre, r);
+        // Lifter 0 turned to the branch cut of atan2 (pi) and elsewhere must give the same.
+        const double theta = std::array{0.0, kPi, -2.5}[sample++ % 3];
+        const auto contacts = contacts_of(mill, theta, rotate_z(centre, theta), r);
         if (expected > 1e-5) {
           ASSERT_EQ(contacts.size(), 1u) << "face angle " << face_angle << " at " << x << ", " << y;
           EXPECT_EQ(contacts[0].feature, lifter_feature(0));
@@ -316,7 +323,7 @@ TEST(EndWalls, CornerOfShellAndEndWallGivesTwoContacts) {
 
 TEST(ClearOfMill, FalseForEveryKindOfTouch) {
   const MillShell mill = test_mill();
-  EXPECT_FALSE(sphere_clear_of_mill(mill, 0.0, Vec3(0.435, 0.0, 0.1), 0.02));   // lifter
+  EXPECT_FALSE(sphere_clear_of_mill(mill, 0.0, Vec3(0.435, 0.0, 0.1), 0.02));  // lifter
   const Vec3 between_lifters = Vec3(1, -1, 0).normalized();
   EXPECT_FALSE(sphere_clear_of_mill(mill, 0.0, 0.49 * between_lifters, 0.02));  // shell
   EXPECT_FALSE(sphere_clear_of_mill(mill, 0.0, Vec3(0.0, 0.0, 0.41), 0.02));    // beyond an end
