@@ -163,6 +163,7 @@ void put_wall(BinaryWriter& out, const Wall& wall) {
     put(out, plane->velocity);
     out.put(plane->servo_target_force);
     out.put(plane->servo_mobility);
+    out.put(plane->servo_max_speed);
   } else {
     const auto& mill = std::get<MillWall>(wall.shape);
     out.put<std::uint8_t>(1);
@@ -190,6 +191,7 @@ Wall get_wall(BinaryReader& in) {
     plane.velocity = get_vec3(in);
     plane.servo_target_force = in.get<double>();
     plane.servo_mobility = in.get<double>();
+    plane.servo_max_speed = in.get<double>();
     wall.shape = plane;
   } else if (tag == 1) {
     MillWall mill;
@@ -243,6 +245,7 @@ class CheckpointAccess {
       out.put<std::int32_t>(group.servo_axis);
       out.put(group.servo_target_force);
       out.put(group.servo_mobility);
+      out.put(group.servo_max_speed);
       put(out, s.group_loads_[g]);
     }
     out.put<std::uint64_t>(s.walls_.size());
@@ -313,6 +316,7 @@ class CheckpointAccess {
       group.servo_axis = in.get<std::int32_t>();
       group.servo_target_force = in.get<double>();
       group.servo_mobility = in.get<double>();
+      group.servo_max_speed = in.get<double>();
       s.groups_.push_back(group);
       s.group_loads_.push_back(get_load(in));
     }

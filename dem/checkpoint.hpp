@@ -14,10 +14,10 @@
 //   random generator state (4 x uint64)
 //   particles: count; then per particle position, velocity, angular velocity, force, torque,
 //              radius, mass, inverse mass, inverse inertia, material (uint32), group (uint32)
-//   groups: count; per group name, velocity, servo axis (int32), servo target, servo mobility,
+//   groups: count; per group name, velocity, servo axis (int32), servo target, servo mobility, servo max speed,
 //           load (force, torque, power, work)
 //   walls: count; per wall name, material (uint32), shape tag (uint8: 0 plane, 1 mill), then
-//          plane: origin, normal, velocity, servo target, servo mobility; or mill: radius, length,
+//          plane: origin, normal, velocity, servo target, servo mobility, servo max speed; or mill: radius, length,
 //          lifter count (int32), lifter height, base width, face angle, end walls (uint8),
 //          angular velocity, angle; then load (force, torque, power, work)
 //   pair contacts in force: count; per contact i, j (uint32) and its history

@@ -96,6 +96,10 @@ GroupId System::add_group(const KinematicGroup& group) {
   if (!(group.servo_mobility >= 0.0)) {
     throw std::invalid_argument(fmt::format("group '{}': servo mobility = {} must be >= 0", group.name, group.servo_mobility));
   }
+  if (group.servo_mobility > 0.0 && !(group.servo_max_speed > 0.0)) {
+    throw std::invalid_argument(fmt::format("group '{}': servo max speed = {} m/s must be > 0 for a stress-controlled group",
+                                            group.name, group.servo_max_speed));
+  }
   groups_.push_back(group);
   group_loads_.emplace_back();
   return static_cast<GroupId>(groups_.size());
@@ -490,17 +494,14 @@ void System::reduce_loads(double dt) {
             WallLoad& load = loads[wall_n + group_[p] - 1];
             load.force += force_[p];
             load.torque += position_[p].cross(force_[p]);
-            load.power -= force_[p].dot(velocity_[p]);
             continue;
           }
           const WallContactHistory* slots = &wall_contact_[p * kMaxWallContactsPerParticle];
           for (int s = 0; s < wall_contact_count_[p]; ++s) {
             const WallContactHistory& slot = slots[s];
-            const Wall& wall = walls_[slot.wall];
             WallLoad& load = loads[slot.wall];
             load.force -= slot.force_on_particle;
             load.torque += slot.point.cross(-slot.force_on_particle);
-            load.power += slot.force_on_particle.dot(wall_surface_velocity(wall, slot.point));
           }
         }
         return loads;
@@ -509,19 +510,25 @@ void System::reduce_loads(double dt) {
         for (std::size_t l = 0; l < a.size(); ++l) {
           a[l].force += b[l].force;
           a[l].torque += b[l].torque;
-          a[l].power += b[l].power;
         }
         return a;
       });
-  // Work by the trapezoidal rule over the step.
-  auto store = [dt](WallLoad& load, const WallLoad& now) {
-    load.work += 0.5 * (load.power + now.power) * dt;
+  // Work by the trapezoidal rule over the step, both ends at the velocity the wall moved with
+  // during this step (a servo may have changed it since the last step).
+  auto store = [dt](WallLoad& load, const WallLoad& now, auto power_of) {
+    const double power = power_of(now);
+    load.work += 0.5 * (power_of(load) + power) * dt;
     load.force = now.force;
     load.torque = now.torque;
-    load.power = now.power;
+    load.power = power;
   };
-  for (std::size_t w = 0; w < wall_n; ++w) store(wall_loads_[w], totals[w]);
-  for (std::size_t g = 0; g < groups_.size(); ++g) store(group_loads_[g], totals[wall_n + g]);
+  for (std::size_t w = 0; w < wall_n; ++w) {
+    store(wall_loads_[w], totals[w], [&](const WallLoad& load) { return wall_power(walls_[w], load); });
+  }
+  for (std::size_t g = 0; g < groups_.size(); ++g) {
+    const Vec3& velocity = groups_[g].velocity;
+    store(group_loads_[g], totals[wall_n + g], [&](const WallLoad& load) { return -load.force.dot(velocity); });
+  }
 }
 
 void System::collect_finished_contacts() {
@@ -564,7 +571,8 @@ void System::apply_servos() {
     if (group.servo_mobility <= 0.0) continue;
     // The group pushes the free particles with minus the force they exert on it.
     const double pushing = -group_loads_[g].force[group.servo_axis];
-    group.velocity[group.servo_axis] = group.servo_mobility * (group.servo_target_force - pushing);
+    group.velocity[group.servo_axis] = std::clamp(group.servo_mobility * (group.servo_target_force - pushing),
+                                                  -group.servo_max_speed, group.servo_max_speed);
   }
 }
 

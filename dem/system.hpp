@@ -38,13 +38,14 @@ struct ParticleSpec {
 // balls glued to a shear cell's rough wall). With `servo_mobility` > 0 the velocity component
 // along `servo_axis` is set every step so the force the group exerts on the free particles along
 // +servo_axis approaches `servo_target_force`:
-//   v_axis = servo_mobility * (servo_target_force - measured force)      [m/(N s)]
+//   v_axis = clamp(servo_mobility * (servo_target_force - measured force), +-servo_max_speed)
 struct KinematicGroup {
   std::string name;
   Vec3 velocity = Vec3::Zero();
   int servo_axis = 1;
   double servo_target_force = 0.0;
-  double servo_mobility = 0.0;
+  double servo_mobility = 0.0;   // m/(N s)
+  double servo_max_speed = 0.0;  // m/s, > 0 when servo_mobility > 0
 };
 
 // Energy dissipated in contacts, J.

@@ -1,5 +1,6 @@
 #include "dem/walls.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -25,6 +26,11 @@ void validate_wall(const Wall& wall) {
                    if (!(plane.servo_mobility >= 0.0)) {
                      throw std::invalid_argument(fmt::format(
                          "wall '{}': servo mobility = {} must be >= 0", wall.name, plane.servo_mobility));
+                   }
+                   if (plane.servo_mobility > 0.0 && !(plane.servo_max_speed > 0.0)) {
+                     throw std::invalid_argument(fmt::format(
+                         "wall '{}': servo max speed = {} m/s must be > 0 for a stress-controlled wall",
+                         wall.name, plane.servo_max_speed));
                    }
                  },
                  [&](const MillWall& mill) {
@@ -58,6 +64,12 @@ Vec3 wall_surface_velocity(const Wall& wall, const Vec3& point) {
                     wall.shape);
 }
 
+double wall_power(const Wall& wall, const WallLoad& load) {
+  return std::visit(Overloaded{[&](const PlaneWall& plane) { return -load.force.dot(plane.velocity); },
+                               [&](const MillWall& mill) { return -load.torque.z() * mill.angular_velocity; }},
+                    wall.shape);
+}
+
 void advance_wall(Wall& wall, double dt) {
   std::visit(Overloaded{[&](PlaneWall& plane) { plane.origin += plane.velocity * dt; },
                         [&](MillWall& mill) { mill.angle += mill.angular_velocity * dt; }},
@@ -69,7 +81,8 @@ void control_wall(Wall& wall, const WallLoad& load) {
     // The wall pushes the particles with -load.force; its component along the normal is the
     // measured force the servo compares with its target.
     const double pushing = -load.force.dot(plane->normal);
-    const double normal_speed = plane->servo_mobility * (plane->servo_target_force - pushing);
+    const double normal_speed = std::clamp(plane->servo_mobility * (plane->servo_target_force - pushing),
+                                           -plane->servo_max_speed, plane->servo_max_speed);
     plane->velocity += (normal_speed - plane->velocity.dot(plane->normal)) * plane->normal;
   }
 }

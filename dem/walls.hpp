@@ -14,13 +14,15 @@ namespace millflow::dem {
 // An infinite plane. It translates with `velocity` (any direction: a tangential component
 // shears the particles). With `servo_mobility` > 0 its normal velocity is instead set every step
 // so that the force it exerts on the particles along its normal approaches `servo_target_force`:
-//   v_normal = servo_mobility * (servo_target_force - measured normal force)    [m/(N s)]
+//   v_normal = clamp(servo_mobility * (servo_target - measured normal force), +-servo_max_speed)
+// The clamp keeps a wall that meets a stiff bed from being thrown back at a huge speed.
 struct PlaneWall {
   Vec3 origin = Vec3::Zero();
   Vec3 normal = Vec3::UnitZ();  // unit, points towards the particles
   Vec3 velocity = Vec3::Zero();
   double servo_target_force = 0.0;  // N
   double servo_mobility = 0.0;      // m/(N s); 0 = velocity-driven
+  double servo_max_speed = 0.0;     // m/s, > 0 when servo_mobility > 0
 };
 
 // A rotating cylindrical mill shell with lifters (and optional end walls), axis +z through the
@@ -53,6 +55,10 @@ void wall_contacts(const Wall& wall, const Vec3& centre, double radius, std::vec
 
 // Velocity of the wall's surface at a point on it.
 Vec3 wall_surface_velocity(const Wall& wall, const Vec3& point);
+
+// Rate of work the wall does on the particles when it exerts minus `load` on them while moving
+// with its current velocity, W.
+double wall_power(const Wall& wall, const WallLoad& load);
 
 // Moves the wall by one time step.
 void advance_wall(Wall& wall, double dt);
