@@ -23,7 +23,7 @@ void CellGrid::configure(const Domain& domain, double min_cell_size, std::size_t
                       : std::array<int, 3>{0, 1, 2};
   image_shift_ = le.enabled ? le.offset : 0.0;
   periodic_ = domain.periodic;
-  lo_ = domain.lo;
+  for (int a = 0; a < 3; ++a) lo_[a] = domain.lo[a];
 
   double cell_size = min_cell_size;
   auto cells = cells_per_axis(length, cell_size);
@@ -41,6 +41,7 @@ void CellGrid::configure(const Domain& domain, double min_cell_size, std::size_t
 
 std::pair<int, double> CellGrid::wrap_cell(int axis, double u) const {
   const double n = cells_[axis];
+  if (u >= 0.0 && u < n) return {static_cast<int>(u), 0.0};  // inside the box: the common case
   if (!periodic_[axis]) return {static_cast<int>(std::clamp(u, 0.0, n - 1.0)), 0.0};
   const double images = std::floor(u / n);
   return {static_cast<int>(u - images * n), images};

@@ -30,28 +30,6 @@ void Domain::validate() const {
   }
 }
 
-Vec3 Domain::separation(const Vec3& a, const Vec3& b, Vec3* velocity_shift) const {
-  Vec3 d = b - a;
-  const Vec3 len = length();
-  if (velocity_shift) velocity_shift->setZero();
-  if (lees_edwards.enabled) {
-    // The gradient axis first: crossing it moves the image along the flow axis.
-    const int g = lees_edwards.gradient_axis, f = lees_edwards.flow_axis;
-    const double n = std::round(d[g] / len[g]);
-    if (n != 0.0) {
-      d[g] -= n * len[g];
-      d[f] -= n * lees_edwards.offset;
-      if (velocity_shift) (*velocity_shift)[f] = -n * lees_edwards.velocity;
-    }
-  }
-  for (int axis = 0; axis < 3; ++axis) {
-    if (!periodic[axis]) continue;
-    if (lees_edwards.enabled && axis == lees_edwards.gradient_axis) continue;
-    d[axis] -= std::round(d[axis] / len[axis]) * len[axis];
-  }
-  return d;
-}
-
 bool Domain::wrap(Vec3& position, Vec3& velocity) const {
   bool changed = false;
   const Vec3 len = length();

@@ -13,8 +13,40 @@
 
 namespace millflow::dem {
 
+// A lower bound of |domain.separation(a, b)|^2 for a cheap first test of each candidate. Per axis
+// it is the minimum image of |b - a| when that is at most one box length (evaluated exactly as
+// separation does), and 0 where it cannot tell: the Lees-Edwards flow axis, or positions more
+// than a box apart.
+class SeparationBound {
+ public:
+  explicit SeparationBound(const Domain& domain) {
+    for (int a = 0; a < 3; ++a) {
+      // An infinite length makes the periodic formula return |b - a| on open axes.
+      period_[a] = domain.periodic[a] ? domain.length()[a] : std::numeric_limits<double>::infinity();
+      weight_[a] = domain.lees_edwards.enabled && a == domain.lees_edwards.flow_axis ? 0.0 : 1.0;
+    }
+  }
+
+  double squared(const Vec3& a, const Vec3& b) const {
+    double sum = 0.0;
+    for (int axis = 0; axis < 3; ++axis) {
+      double d = std::abs(b[axis] - a[axis]);
+      d = d <= period_[axis] ? std::min(d, period_[axis] - d) : 0.0;
+      sum += weight_[axis] * d * d;
+    }
+    return sum;
+  }
+
+ private:
+  std::array<double, 3> period_{};
+  std::array<double, 3> weight_{};
+};
+
 namespace {
 
+// Candidates whose bound exceeds the cutoff by this relative margin are rejected unchecked; the
+// margin covers the summation order of the squares, the only rounding difference.
+constexpr double kBoundMargin = 1.0 + 1e-9;
 // Levels halve the cell size: 8 levels cover size ratios up to ~128 with cells within 2x of the
 // particles; smaller particles all share the finest level.
 constexpr int kMaxLevels = 8;
@@ -144,10 +176,11 @@ void NeighborSearch::search(const Domain& domain, std::span<const Vec3> position
   const double largest_reach =
       level_max_radius_.empty() ? 0.0 : 2.0 * level_max_radius_.front() + options_.skin;
   const double padding = reach_padding(domain, largest_reach);
+  const SeparationBound bound(domain);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks_.size()),
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       for (std::size_t c = range.begin(); c != range.end(); ++c) {
-                        search_chunk(domain, positions, radii, c, padding);
+                        search_chunk(domain, bound, positions, radii, c, padding);
                       }
                     });
   stats_ = Stats{grids_.size(), 0, 0};
@@ -157,7 +190,7 @@ void NeighborSearch::search(const Domain& domain, std::span<const Vec3> position
   }
 }
 
-void NeighborSearch::search_chunk(const Domain& domain, std::span<const Vec3> positions,
+void NeighborSearch::search_chunk(const Domain& domain, const SeparationBound& bound, std::span<const Vec3> positions,
                                   std::span<const double> radii, std::size_t chunk_index,
                                   double reach_padding) {
   Chunk& chunk = chunks_[chunk_index];
@@ -178,6 +211,8 @@ void NeighborSearch::search_chunk(const Domain& domain, std::span<const Vec3> po
       chunk.cells_visited += grids_[level].visit_near(xq, reach, [&](const CellGrid::Member& m) {
         if (same_level && m.index <= q) return;
         ++chunk.candidates_tested;
+        const double cutoff = rq + m.radius + options_.skin;
+        if (bound.squared(xq, m.position) > kBoundMargin * cutoff * cutoff) return;
         const bool found = m.index > q ? within_cutoff(domain, xq, rq, m.position, m.radius, options_.skin)
                                        : within_cutoff(domain, m.position, m.radius, xq, rq, options_.skin);
         if (found) chunk.partners.push_back(m.index);
