@@ -21,8 +21,8 @@ using millflow::dem::NeighborSearch;
 using millflow::dem::Vec3;
 
 constexpr double kMediaDiameter = 0.010;
-constexpr double kMediaFraction = 0.35;   // media solid fraction
-constexpr double kPowderFraction = 0.15;  // powder solid fraction: 0.5 in all
+constexpr double kMediaFraction = 0.35;                   // media solid fraction
+constexpr double kPowderFraction = 0.15;                  // powder solid fraction: 0.5 in all
 constexpr double kSphereFactor = std::numbers::pi / 6.0;  // sphere volume / d^3
 
 struct Bed {
@@ -35,15 +35,16 @@ struct Bed {
 // each site is kept with probability `keep` (site_to_ball gets its ball index, or -1) and moved
 // by up to 45% of the gap between
 // neighbouring balls along every axis, so balls never overlap and many nearly touch.
-std::vector<Vec3> lattice(int per_axis, double spacing, double diameter, double keep, std::mt19937_64& rng,
-                          std::vector<int>* site_to_ball = nullptr) {
+std::vector<Vec3> lattice(int per_axis, double spacing, double diameter, double keep,
+                          std::mt19937_64& rng, std::vector<int>* site_to_ball = nullptr) {
   const double jitter = 0.45 * (spacing - diameter);
   std::uniform_real_distribution<double> shift(-jitter, jitter), unit(0.0, 1.0);
   std::vector<Vec3> balls;
   for (int i = 0; i < per_axis; ++i) {
     for (int j = 0; j < per_axis; ++j) {
       for (int k = 0; k < per_axis; ++k) {
-        const Vec3 site = spacing * Vec3(i + 0.5, j + 0.5, k + 0.5) + Vec3(shift(rng), shift(rng), shift(rng));
+        const Vec3 site =
+            spacing * Vec3(i + 0.5, j + 0.5, k + 0.5) + Vec3(shift(rng), shift(rng), shift(rng));
         const bool kept = unit(rng) < keep;
         if (site_to_ball) site_to_ball->push_back(kept ? static_cast<int>(balls.size()) : -1);
         if (kept) balls.push_back(site);
@@ -62,7 +63,8 @@ Domain periodic_cube(double side) {
 
 // Same-size balls at solid fraction 0.5 on a full jittered lattice, per_axis^3 of them.
 Bed monodisperse_bed(int per_axis, std::mt19937_64& rng) {
-  const double spacing = kMediaDiameter * std::cbrt(kSphereFactor / (kMediaFraction + kPowderFraction));
+  const double spacing =
+      kMediaDiameter * std::cbrt(kSphereFactor / (kMediaFraction + kPowderFraction));
   Bed bed{periodic_cube(per_axis * spacing), {}, {}};
   bed.positions = lattice(per_axis, spacing, kMediaDiameter, 1.0, rng);
   bed.radii.assign(bed.positions.size(), 0.5 * kMediaDiameter);
@@ -79,7 +81,8 @@ Bed bidisperse_bed(double ratio, int per_axis, std::mt19937_64& rng) {
   const double side = per_axis * media_spacing;
   Bed bed{periodic_cube(side), {}, {}};
   std::vector<int> site_to_media;
-  bed.positions = lattice(per_axis, media_spacing, kMediaDiameter, kMediaFraction / full_fraction, rng, &site_to_media);
+  bed.positions = lattice(per_axis, media_spacing, kMediaDiameter, kMediaFraction / full_fraction,
+                          rng, &site_to_media);
   bed.radii.assign(bed.positions.size(), 0.5 * kMediaDiameter);
 
   const double d_powder = kMediaDiameter / ratio;
@@ -93,9 +96,11 @@ Bed bidisperse_bed(double ratio, int per_axis, std::mt19937_64& rng) {
             const int c = static_cast<int>(site[axis] / media_spacing) + delta;
             return (c % per_axis + per_axis) % per_axis;
           };
-          const int m = site_to_media[static_cast<std::size_t>((cell(0, di) * per_axis + cell(1, dj)) * per_axis + cell(2, dk))];
-          if (m >= 0 && bed.domain.separation(bed.positions[static_cast<std::size_t>(m)], site).norm() <
-                            0.5 * (kMediaDiameter + d_powder)) {
+          const int m = site_to_media[static_cast<std::size_t>(
+              (cell(0, di) * per_axis + cell(1, dj)) * per_axis + cell(2, dk))];
+          if (m >= 0 &&
+              bed.domain.separation(bed.positions[static_cast<std::size_t>(m)], site).norm() <
+                  0.5 * (kMediaDiameter + d_powder)) {
             return false;
           }
         }
@@ -121,10 +126,14 @@ Bed bidisperse_bed(double ratio, int per_axis, std::mt19937_64& rng) {
 Bed packed_bed(int ratio) {
   std::mt19937_64 rng(2024);
   switch (ratio) {
-    case 1: return monodisperse_bed(37, rng);
-    case 5: return bidisperse_bed(5.0, 11, rng);
-    case 10: return bidisperse_bed(10.0, 6, rng);
-    default: return bidisperse_bed(static_cast<double>(ratio), 2, rng);
+    case 1:
+      return monodisperse_bed(37, rng);
+    case 5:
+      return bidisperse_bed(5.0, 11, rng);
+    case 10:
+      return bidisperse_bed(10.0, 6, rng);
+    default:
+      return bidisperse_bed(static_cast<double>(ratio), 2, rng);
   }
 }
 
@@ -151,8 +160,8 @@ void BM_NeighborBuild(benchmark::State& state) {
   state.counters["cells_visited"] = static_cast<double>(stats.cells_visited);
   state.counters["candidates"] = static_cast<double>(stats.candidates_tested);
   // Seconds per particle per build (printed with an SI prefix: "n" is ns per particle).
-  state.counters["s_per_particle"] =
-      benchmark::Counter(n, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["s_per_particle"] = benchmark::Counter(
+      n, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
 BENCHMARK(BM_NeighborBuild)

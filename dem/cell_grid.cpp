@@ -75,7 +75,8 @@ CellGrid::AxisRuns CellGrid::axis_runs(int axis, double x, double reach) const {
 
 void CellGrid::bin(std::span<const Vec3> positions, std::span<const double> radii,
                    std::span<const std::uint32_t> indices) {
-  const std::size_t n_cells = static_cast<std::size_t>(cells_[0]) * static_cast<std::size_t>(cells_[1]) *
+  const std::size_t n_cells = static_cast<std::size_t>(cells_[0]) *
+                              static_cast<std::size_t>(cells_[1]) *
                               static_cast<std::size_t>(cells_[2]);
   // Counting sort by cell; stable, so members of a cell stay in index order.
   cell_start_.assign(n_cells + 1, 0);

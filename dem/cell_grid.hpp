@@ -60,7 +60,8 @@ class CellGrid {
   std::pair<int, double> wrap_cell(int axis, double u) const;
   std::size_t cell_id(int c0, int c1, int c2) const {
     return (static_cast<std::size_t>(c0) * static_cast<std::size_t>(cells_[order_[1]]) +
-            static_cast<std::size_t>(c1)) * static_cast<std::size_t>(cells_[order_[2]]) +
+            static_cast<std::size_t>(c1)) *
+               static_cast<std::size_t>(cells_[order_[2]]) +
            static_cast<std::size_t>(c2);
   }
   std::size_t cell_of(const Vec3& x) const;
@@ -79,7 +80,8 @@ class CellGrid {
   // Flow-axis displacement of the image one box length up the order_[0] axis (0 without
   // Lees-Edwards); the flow axis is then order_[1].
   double image_shift_ = 0.0;
-  std::vector<std::uint32_t> cell_start_;  // members_ of cell c: [cell_start_[c], cell_start_[c + 1])
+  std::vector<std::uint32_t>
+      cell_start_;  // members_ of cell c: [cell_start_[c], cell_start_[c + 1])
   std::vector<Member> members_;
   std::vector<std::size_t> member_cell_;  // scratch of bin(), kept to avoid reallocation
 };
@@ -114,7 +116,8 @@ std::size_t CellGrid::visit_near(const Vec3& x, double reach, Visit&& visit) con
 }
 
 template <class Visit>
-std::size_t CellGrid::visit_row(int c0, const AxisRuns& runs1, const AxisRuns& runs2, Visit& visit) const {
+std::size_t CellGrid::visit_row(int c0, const AxisRuns& runs1, const AxisRuns& runs2,
+                                Visit& visit) const {
   std::size_t visited = 0;
   for (int r1 = 0; r1 < runs1.count; ++r1) {
     for (int c1 = runs1.runs[r1].first; c1 < runs1.runs[r1].second; ++c1) {

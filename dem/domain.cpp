@@ -10,15 +10,16 @@ namespace millflow::dem {
 void Domain::validate() const {
   for (int a = 0; a < 3; ++a) {
     if (!(hi[a] > lo[a])) {
-      throw std::invalid_argument(fmt::format(
-          "domain: hi[{}] = {} must be greater than lo[{}] = {}", a, hi[a], a, lo[a]));
+      throw std::invalid_argument(
+          fmt::format("domain: hi[{}] = {} must be greater than lo[{}] = {}", a, hi[a], a, lo[a]));
     }
   }
   if (lees_edwards.enabled) {
     const int f = lees_edwards.flow_axis, g = lees_edwards.gradient_axis;
     if (f < 0 || f > 2 || g < 0 || g > 2 || f == g) {
       throw std::invalid_argument(fmt::format(
-          "domain: Lees-Edwards flow_axis = {} and gradient_axis = {} must be distinct axes 0..2", f, g));
+          "domain: Lees-Edwards flow_axis = {} and gradient_axis = {} must be distinct axes 0..2",
+          f, g));
     }
     if (!periodic[f] || !periodic[g]) {
       throw std::invalid_argument(
