@@ -23,7 +23,7 @@ void CellGrid::configure(const Domain& domain, double min_cell_size, std::size_t
                       : std::array<int, 3>{0, 1, 2};
   image_shift_ = le.enabled ? le.offset : 0.0;
   periodic_ = domain.periodic;
-  lo_ = domain.lo;
+  for (int a = 0; a < 3; ++a) lo_[a] = domain.lo[a];
 
   double cell_size = min_cell_size;
   auto cells = cells_per_axis(length, cell_size);
@@ -41,6 +41,7 @@ void CellGrid::configure(const Domain& domain, double min_cell_size, std::size_t
 
 std::pair<int, double> CellGrid::wrap_cell(int axis, double u) const {
   const double n = cells_[axis];
+  if (u >= 0.0 && u < n) return {static_cast<int>(u), 0.0};  // inside the box: the common case
   if (!periodic_[axis]) return {static_cast<int>(std::clamp(u, 0.0, n - 1.0)), 0.0};
   const double images = std::floor(u / n);
   return {static_cast<int>(u - images * n), images};
@@ -74,7 +75,8 @@ CellGrid::AxisRuns CellGrid::axis_runs(int axis, double x, double reach) const {
 
 void CellGrid::bin(std::span<const Vec3> positions, std::span<const double> radii,
                    std::span<const std::uint32_t> indices) {
-  const std::size_t n_cells = static_cast<std::size_t>(cells_[0]) * static_cast<std::size_t>(cells_[1]) *
+  const std::size_t n_cells = static_cast<std::size_t>(cells_[0]) *
+                              static_cast<std::size_t>(cells_[1]) *
                               static_cast<std::size_t>(cells_[2]);
   // Counting sort by cell; stable, so members of a cell stay in index order.
   cell_start_.assign(n_cells + 1, 0);

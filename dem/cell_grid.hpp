@@ -60,26 +60,28 @@ class CellGrid {
   std::pair<int, double> wrap_cell(int axis, double u) const;
   std::size_t cell_id(int c0, int c1, int c2) const {
     return (static_cast<std::size_t>(c0) * static_cast<std::size_t>(cells_[order_[1]]) +
-            static_cast<std::size_t>(c1)) * static_cast<std::size_t>(cells_[order_[2]]) +
+            static_cast<std::size_t>(c1)) *
+               static_cast<std::size_t>(cells_[order_[2]]) +
            static_cast<std::size_t>(c2);
   }
   std::size_t cell_of(const Vec3& x) const;
   AxisRuns axis_runs(int axis, double x, double reach) const;
   template <class Visit>
-  std::size_t visit_row(int c0, const Vec3& x, double image_count, double reach,
-                        const AxisRuns& runs2, Visit& visit) const;
+  std::size_t visit_row(int c0, const AxisRuns& runs1, const AxisRuns& runs2, Visit& visit) const;
 
   // Cell ids vary slowest along order_[0] (the Lees-Edwards gradient axis, when enabled) and
   // fastest along order_[2], so a run of cells along order_[2] is contiguous in members_.
   std::array<int, 3> order_{0, 1, 2};
   std::array<int, 3> cells_{1, 1, 1};
   std::array<bool, 3> periodic_{false, false, false};
-  Vec3 lo_ = Vec3::Zero();
-  Vec3 inv_cell_size_ = Vec3::Ones();
+  // Plain arrays rather than Vec3: these are read per axis in the query's inner loops.
+  std::array<double, 3> lo_{0.0, 0.0, 0.0};
+  std::array<double, 3> inv_cell_size_{1.0, 1.0, 1.0};
   // Flow-axis displacement of the image one box length up the order_[0] axis (0 without
   // Lees-Edwards); the flow axis is then order_[1].
   double image_shift_ = 0.0;
-  std::vector<std::uint32_t> cell_start_;  // members_ of cell c: [cell_start_[c], cell_start_[c + 1])
+  std::vector<std::uint32_t>
+      cell_start_;  // members_ of cell c: [cell_start_[c], cell_start_[c + 1])
   std::vector<Member> members_;
   std::vector<std::size_t> member_cell_;  // scratch of bin(), kept to avoid reallocation
 };
@@ -89,33 +91,33 @@ std::size_t CellGrid::visit_near(const Vec3& x, double reach, Visit&& visit) con
   const AxisRuns runs2 = axis_runs(order_[2], x[order_[2]], reach);
   std::size_t visited = 0;
   const int a0 = order_[0];
+  const int a1 = order_[1];
   if (image_shift_ == 0.0 || !periodic_[a0]) {
     const AxisRuns runs0 = axis_runs(a0, x[a0], reach);
+    const AxisRuns runs1 = axis_runs(a1, x[a1], reach);
     for (int r = 0; r < runs0.count; ++r) {
       for (int c0 = runs0.runs[r].first; c0 < runs0.runs[r].second; ++c0) {
-        visited += visit_row(c0, x, 0.0, reach, runs2, visit);
+        visited += visit_row(c0, runs1, runs2, visit);
       }
     }
     return visited;
   }
   // Lees-Edwards gradient axis: each unwrapped row lies in its own image, whose flow coordinates
-  // are shifted, so rows are walked unwrapped (not deduplicated) with their image count.
+  // are shifted, so rows are walked unwrapped (not deduplicated) with their image count. Members
+  // of the image `images` boxes up are displaced by images * image_shift_ along the flow axis:
+  // look for them at the query's flow coordinate minus that shift.
   const double first = unwrapped_cell(a0, x[a0] - reach);
   const double last = unwrapped_cell(a0, x[a0] + reach);
   for (double u = first; u <= last; u += 1.0) {
     const auto [c0, images] = wrap_cell(a0, u);
-    visited += visit_row(c0, x, images, reach, runs2, visit);
+    visited += visit_row(c0, axis_runs(a1, x[a1] - images * image_shift_, reach), runs2, visit);
   }
   return visited;
 }
 
 template <class Visit>
-std::size_t CellGrid::visit_row(int c0, const Vec3& x, double image_count, double reach,
-                                const AxisRuns& runs2, Visit& visit) const {
-  // Members of the image `image_count` boxes up are displaced by image_count * image_shift_
-  // along the flow axis: look for them at the query's flow coordinate minus that shift.
-  const int a1 = order_[1];
-  const AxisRuns runs1 = axis_runs(a1, x[a1] - image_count * image_shift_, reach);
+std::size_t CellGrid::visit_row(int c0, const AxisRuns& runs1, const AxisRuns& runs2,
+                                Visit& visit) const {
   std::size_t visited = 0;
   for (int r1 = 0; r1 < runs1.count; ++r1) {
     for (int c1 = runs1.runs[r1].first; c1 < runs1.runs[r1].second; ++c1) {

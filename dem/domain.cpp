@@ -10,15 +10,16 @@ namespace millflow::dem {
 void Domain::validate() const {
   for (int a = 0; a < 3; ++a) {
     if (!(hi[a] > lo[a])) {
-      throw std::invalid_argument(fmt::format(
-          "domain: hi[{}] = {} must be greater than lo[{}] = {}", a, hi[a], a, lo[a]));
+      throw std::invalid_argument(
+          fmt::format("domain: hi[{}] = {} must be greater than lo[{}] = {}", a, hi[a], a, lo[a]));
     }
   }
   if (lees_edwards.enabled) {
     const int f = lees_edwards.flow_axis, g = lees_edwards.gradient_axis;
     if (f < 0 || f > 2 || g < 0 || g > 2 || f == g) {
       throw std::invalid_argument(fmt::format(
-          "domain: Lees-Edwards flow_axis = {} and gradient_axis = {} must be distinct axes 0..2", f, g));
+          "domain: Lees-Edwards flow_axis = {} and gradient_axis = {} must be distinct axes 0..2",
+          f, g));
     }
     if (!periodic[f] || !periodic[g]) {
       throw std::invalid_argument(
@@ -28,28 +29,6 @@ void Domain::validate() const {
       throw std::invalid_argument("domain: Lees-Edwards velocity is not finite");
     }
   }
-}
-
-Vec3 Domain::separation(const Vec3& a, const Vec3& b, Vec3* velocity_shift) const {
-  Vec3 d = b - a;
-  const Vec3 len = length();
-  if (velocity_shift) velocity_shift->setZero();
-  if (lees_edwards.enabled) {
-    // The gradient axis first: crossing it moves the image along the flow axis.
-    const int g = lees_edwards.gradient_axis, f = lees_edwards.flow_axis;
-    const double n = std::round(d[g] / len[g]);
-    if (n != 0.0) {
-      d[g] -= n * len[g];
-      d[f] -= n * lees_edwards.offset;
-      if (velocity_shift) (*velocity_shift)[f] = -n * lees_edwards.velocity;
-    }
-  }
-  for (int axis = 0; axis < 3; ++axis) {
-    if (!periodic[axis]) continue;
-    if (lees_edwards.enabled && axis == lees_edwards.gradient_axis) continue;
-    d[axis] -= std::round(d[axis] / len[axis]) * len[axis];
-  }
-  return d;
 }
 
 bool Domain::wrap(Vec3& position, Vec3& velocity) const {

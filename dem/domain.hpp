@@ -6,6 +6,7 @@
 // A particle leaving through the upper face re-enters through the lower face with its flow
 // coordinate shifted by -offset and its flow velocity by -velocity (and the reverse).
 #include <array>
+#include <cmath>
 #include <string>
 
 #include "dem/vec.hpp"
@@ -34,7 +35,7 @@ struct Domain {
 
   // Minimum-image vector from a to b. With Lees-Edwards, the image of b across the gradient
   // boundary is shifted along the flow axis; `velocity_shift` (if given) receives the velocity to
-  // add to b's velocity for that image.
+  // add to b's velocity for that image. Inline: it is the inner loop of the neighbour search.
   Vec3 separation(const Vec3& a, const Vec3& b, Vec3* velocity_shift = nullptr) const;
 
   // Maps a position back into [lo, hi) on periodic axes; adjusts the velocity for Lees-Edwards
@@ -44,5 +45,27 @@ struct Domain {
   // Advances the Lees-Edwards offset by velocity * dt, kept in [0, L_flow).
   void advance_shear(double dt);
 };
+
+inline Vec3 Domain::separation(const Vec3& a, const Vec3& b, Vec3* velocity_shift) const {
+  Vec3 d = b - a;
+  const Vec3 len = length();
+  if (velocity_shift) velocity_shift->setZero();
+  if (lees_edwards.enabled) {
+    // The gradient axis first: crossing it moves the image along the flow axis.
+    const int g = lees_edwards.gradient_axis, f = lees_edwards.flow_axis;
+    const double n = std::round(d[g] / len[g]);
+    if (n != 0.0) {
+      d[g] -= n * len[g];
+      d[f] -= n * lees_edwards.offset;
+      if (velocity_shift) (*velocity_shift)[f] = -n * lees_edwards.velocity;
+    }
+  }
+  for (int axis = 0; axis < 3; ++axis) {
+    if (!periodic[axis]) continue;
+    if (lees_edwards.enabled && axis == lees_edwards.gradient_axis) continue;
+    d[axis] -= std::round(d[axis] / len[axis]) * len[axis];
+  }
+  return d;
+}
 
 }  // namespace millflow::dem

@@ -13,8 +13,41 @@
 
 namespace millflow::dem {
 
+// A lower bound of |domain.separation(a, b)|^2 for a cheap first test of each candidate. Per axis
+// it is the minimum image of |b - a| when that is at most one box length (evaluated exactly as
+// separation does), and 0 where it cannot tell: the Lees-Edwards flow axis, or positions more
+// than a box apart.
+class SeparationBound {
+ public:
+  explicit SeparationBound(const Domain& domain) {
+    for (int a = 0; a < 3; ++a) {
+      // An infinite length makes the periodic formula return |b - a| on open axes.
+      period_[a] =
+          domain.periodic[a] ? domain.length()[a] : std::numeric_limits<double>::infinity();
+      weight_[a] = domain.lees_edwards.enabled && a == domain.lees_edwards.flow_axis ? 0.0 : 1.0;
+    }
+  }
+
+  double squared(const Vec3& a, const Vec3& b) const {
+    double sum = 0.0;
+    for (int axis = 0; axis < 3; ++axis) {
+      double d = std::abs(b[axis] - a[axis]);
+      d = d <= period_[axis] ? std::min(d, period_[axis] - d) : 0.0;
+      sum += weight_[axis] * d * d;
+    }
+    return sum;
+  }
+
+ private:
+  std::array<double, 3> period_{};
+  std::array<double, 3> weight_{};
+};
+
 namespace {
 
+// Candidates whose bound exceeds the cutoff by this relative margin are rejected unchecked; the
+// margin covers the summation order of the squares, the only rounding difference.
+constexpr double kBoundMargin = 1.0 + 1e-9;
 // Levels halve the cell size: 8 levels cover size ratios up to ~128 with cells within 2x of the
 // particles; smaller particles all share the finest level.
 constexpr int kMaxLevels = 8;
@@ -23,16 +56,17 @@ constexpr std::size_t kChunkSize = 256;
 
 // The pair criterion shared by the search and the reference; a has the smaller index, so both
 // evaluate exactly the same floating-point expression.
-bool within_cutoff(const Domain& domain, const Vec3& xa, double ra, const Vec3& xb, double rb, double skin) {
+bool within_cutoff(const Domain& domain, const Vec3& xa, double ra, const Vec3& xb, double rb,
+                   double skin) {
   const double cutoff = ra + rb + skin;
   return domain.separation(xa, xb).squaredNorm() < cutoff * cutoff;
 }
 
 void validate_particles(std::span<const Vec3> positions, std::span<const double> radii) {
   if (positions.size() != radii.size()) {
-    throw std::invalid_argument(fmt::format(
-        "neighbour search: {} positions but {} radii; pass one radius per particle",
-        positions.size(), radii.size()));
+    throw std::invalid_argument(
+        fmt::format("neighbour search: {} positions but {} radii; pass one radius per particle",
+                    positions.size(), radii.size()));
   }
   if (positions.size() > std::numeric_limits<std::uint32_t>::max()) {
     throw std::invalid_argument(fmt::format(
@@ -40,9 +74,9 @@ void validate_particles(std::span<const Vec3> positions, std::span<const double>
   }
   for (std::size_t i = 0; i < positions.size(); ++i) {
     if (!positions[i].allFinite()) {
-      throw std::invalid_argument(fmt::format(
-          "neighbour search: position of particle {} = ({}, {}, {}) is not finite", i,
-          positions[i].x(), positions[i].y(), positions[i].z()));
+      throw std::invalid_argument(
+          fmt::format("neighbour search: position of particle {} = ({}, {}, {}) is not finite", i,
+                      positions[i].x(), positions[i].y(), positions[i].z()));
     }
     if (!(radii[i] > 0.0) || !std::isfinite(radii[i])) {
       throw std::invalid_argument(fmt::format(
@@ -53,7 +87,8 @@ void validate_particles(std::span<const Vec3> positions, std::span<const double>
 
 void validate_skin(double skin) {
   if (!(skin >= 0.0) || !std::isfinite(skin)) {
-    throw std::invalid_argument(fmt::format("neighbour search: skin = {} must be finite and >= 0", skin));
+    throw std::invalid_argument(
+        fmt::format("neighbour search: skin = {} must be finite and >= 0", skin));
   }
 }
 
@@ -67,7 +102,9 @@ double reach_padding(const Domain& domain, double largest_reach) {
 
 // Most cells a level's grid may have: enough for dense packings, bounded for sparse fine levels
 // in big boxes.
-std::size_t max_cells_for(std::size_t member_count) { return std::max<std::size_t>(4096, 8 * member_count); }
+std::size_t max_cells_for(std::size_t member_count) {
+  return std::max<std::size_t>(4096, 8 * member_count);
+}
 
 }  // namespace
 
@@ -97,8 +134,8 @@ void NeighborSearch::assign_levels(std::span<const double> radii) {
   // Nominal level: how many times the top cell size can be halved and still hold the particle.
   const auto nominal_level = [&](double r) {
     int level = 0;
-    for (double cell = 0.5 * top_cell; options_.multilevel && level + 1 < kMaxLevels && cell >= 2.0 * r + skin;
-         cell *= 0.5) {
+    for (double cell = 0.5 * top_cell;
+         options_.multilevel && level + 1 < kMaxLevels && cell >= 2.0 * r + skin; cell *= 0.5) {
       ++level;
     }
     return level;
@@ -144,10 +181,11 @@ void NeighborSearch::search(const Domain& domain, std::span<const Vec3> position
   const double largest_reach =
       level_max_radius_.empty() ? 0.0 : 2.0 * level_max_radius_.front() + options_.skin;
   const double padding = reach_padding(domain, largest_reach);
+  const SeparationBound bound(domain);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks_.size()),
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       for (std::size_t c = range.begin(); c != range.end(); ++c) {
-                        search_chunk(domain, positions, radii, c, padding);
+                        search_chunk(domain, bound, positions, radii, c, padding);
                       }
                     });
   stats_ = Stats{grids_.size(), 0, 0};
@@ -157,15 +195,16 @@ void NeighborSearch::search(const Domain& domain, std::span<const Vec3> position
   }
 }
 
-void NeighborSearch::search_chunk(const Domain& domain, std::span<const Vec3> positions,
-                                  std::span<const double> radii, std::size_t chunk_index,
-                                  double reach_padding) {
+void NeighborSearch::search_chunk(const Domain& domain, const SeparationBound& bound,
+                                  std::span<const Vec3> positions, std::span<const double> radii,
+                                  std::size_t chunk_index, double reach_padding) {
   Chunk& chunk = chunks_[chunk_index];
   chunk.partners.clear();
   chunk.cells_visited = 0;
   chunk.candidates_tested = 0;
   const auto first = static_cast<std::uint32_t>(chunk_index * kChunkSize);
-  const auto last = static_cast<std::uint32_t>(std::min(positions.size(), (chunk_index + 1) * kChunkSize));
+  const auto last =
+      static_cast<std::uint32_t>(std::min(positions.size(), (chunk_index + 1) * kChunkSize));
   for (std::uint32_t q = first; q < last; ++q) {
     const std::size_t begin = chunk.partners.size();
     const std::size_t own_level = level_of_[q];
@@ -178,8 +217,11 @@ void NeighborSearch::search_chunk(const Domain& domain, std::span<const Vec3> po
       chunk.cells_visited += grids_[level].visit_near(xq, reach, [&](const CellGrid::Member& m) {
         if (same_level && m.index <= q) return;
         ++chunk.candidates_tested;
-        const bool found = m.index > q ? within_cutoff(domain, xq, rq, m.position, m.radius, options_.skin)
-                                       : within_cutoff(domain, m.position, m.radius, xq, rq, options_.skin);
+        const double cutoff = rq + m.radius + options_.skin;
+        if (bound.squared(xq, m.position) > kBoundMargin * cutoff * cutoff) return;
+        const bool found = m.index > q
+                               ? within_cutoff(domain, xq, rq, m.position, m.radius, options_.skin)
+                               : within_cutoff(domain, m.position, m.radius, xq, rq, options_.skin);
         if (found) chunk.partners.push_back(m.index);
       });
     }
@@ -209,7 +251,8 @@ void NeighborSearch::assemble_pairs(std::size_t particle_count) {
   for (std::size_t p = 0; p < particle_count; ++p) incoming_begin_[p + 1] += incoming_begin_[p];
   incoming_.resize(incoming_begin_[particle_count]);
   for (std::uint32_t q = 0; q < particle_count; ++q) {
-    for (const std::uint32_t p : partners_of(q).first(lower_count_[q])) incoming_[incoming_begin_[p]++] = q;
+    for (const std::uint32_t p : partners_of(q).first(lower_count_[q]))
+      incoming_[incoming_begin_[p]++] = q;
   }
   // The fill advanced each begin to the next row's begin: shift back.
   for (std::size_t p = particle_count; p > 0; --p) incoming_begin_[p] = incoming_begin_[p - 1];
@@ -221,20 +264,22 @@ void NeighborSearch::assemble_pairs(std::size_t particle_count) {
     row_begin_[p + 1] = row_begin_[p] + (partner_count_[p] - lower_count_[p]) + incoming;
   }
   pairs_.resize(row_begin_[particle_count]);
-  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, static_cast<std::uint32_t>(particle_count)),
-                    [&](const tbb::blocked_range<std::uint32_t>& range) {
-                      for (std::uint32_t p = range.begin(); p != range.end(); ++p) {
-                        const auto upper = partners_of(p).subspan(lower_count_[p]);
-                        const std::span<const std::uint32_t> incoming(
-                            incoming_.data() + incoming_begin_[p], incoming_.data() + incoming_begin_[p + 1]);
-                        std::size_t a = 0, b = 0;
-                        NeighborPair* out = pairs_.data() + row_begin_[p];
-                        while (a < upper.size() || b < incoming.size()) {
-                          const bool take_upper = b == incoming.size() || (a < upper.size() && upper[a] < incoming[b]);
-                          *out++ = NeighborPair{p, take_upper ? upper[a++] : incoming[b++]};
-                        }
-                      }
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::uint32_t>(0, static_cast<std::uint32_t>(particle_count)),
+      [&](const tbb::blocked_range<std::uint32_t>& range) {
+        for (std::uint32_t p = range.begin(); p != range.end(); ++p) {
+          const auto upper = partners_of(p).subspan(lower_count_[p]);
+          const std::span<const std::uint32_t> incoming(incoming_.data() + incoming_begin_[p],
+                                                        incoming_.data() + incoming_begin_[p + 1]);
+          std::size_t a = 0, b = 0;
+          NeighborPair* out = pairs_.data() + row_begin_[p];
+          while (a < upper.size() || b < incoming.size()) {
+            const bool take_upper =
+                b == incoming.size() || (a < upper.size() && upper[a] < incoming[b]);
+            *out++ = NeighborPair{p, take_upper ? upper[a++] : incoming[b++]};
+          }
+        }
+      });
 }
 
 bool NeighborSearch::needs_rebuild(const Domain& domain, std::span<const Vec3> positions) const {
@@ -250,7 +295,8 @@ bool NeighborSearch::needs_rebuild(const Domain& domain, std::span<const Vec3> p
       tbb::blocked_range<std::size_t>(0, positions.size()), 0.0,
       [&](const tbb::blocked_range<std::size_t>& range, double running) {
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
-          running = std::max(running, domain.separation(reference_positions_[i], positions[i]).norm());
+          running =
+              std::max(running, domain.separation(reference_positions_[i], positions[i]).norm());
         }
         return running;
       },
@@ -266,7 +312,8 @@ std::vector<NeighborPair> brute_force_pairs(const Domain& domain, std::span<cons
   std::vector<NeighborPair> pairs;
   for (std::uint32_t i = 0; i < positions.size(); ++i) {
     for (std::uint32_t j = i + 1; j < positions.size(); ++j) {
-      if (within_cutoff(domain, positions[i], radii[i], positions[j], radii[j], skin)) pairs.push_back({i, j});
+      if (within_cutoff(domain, positions[i], radii[i], positions[j], radii[j], skin))
+        pairs.push_back({i, j});
     }
   }
   return pairs;

@@ -28,6 +28,8 @@ struct NeighborSearchOptions {
   bool multilevel = true;
 };
 
+class SeparationBound;  // cheap candidate pre-test, internal to neighbor_search.cpp
+
 class NeighborSearch {
  public:
   struct Stats {
@@ -64,17 +66,19 @@ class NeighborSearch {
   };
 
   void assign_levels(std::span<const double> radii);
-  void bin_levels(const Domain& domain, std::span<const Vec3> positions, std::span<const double> radii);
+  void bin_levels(const Domain& domain, std::span<const Vec3> positions,
+                  std::span<const double> radii);
   void search(const Domain& domain, std::span<const Vec3> positions, std::span<const double> radii);
-  void search_chunk(const Domain& domain, std::span<const Vec3> positions, std::span<const double> radii,
+  void search_chunk(const Domain& domain, const SeparationBound& bound,
+                    std::span<const Vec3> positions, std::span<const double> radii,
                     std::size_t chunk_index, double reach_padding);
   void assemble_pairs(std::size_t particle_count);
   std::span<const std::uint32_t> partners_of(std::uint32_t q) const;
 
   NeighborSearchOptions options_;
-  std::vector<CellGrid> grids_;            // coarsest first
-  std::vector<double> level_max_radius_;   // per grid
-  std::vector<std::uint8_t> level_of_;     // per particle: index into grids_
+  std::vector<CellGrid> grids_;               // coarsest first
+  std::vector<double> level_max_radius_;      // per grid
+  std::vector<std::uint8_t> level_of_;        // per particle: index into grids_
   std::vector<std::uint32_t> level_members_;  // scratch: particles of one level
   std::vector<Chunk> chunks_;
   // Per particle q: its candidates (sorted, unique) are chunks_[q / kChunk].partners

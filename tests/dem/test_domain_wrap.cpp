@@ -49,7 +49,8 @@ TEST(DomainWrap, RandomPositionsAroundALeesEdwardsBoxStayTheSamePoint) {
   std::uniform_real_distribution<double> u(-0.6, 1.6);
   for (int k = 0; k < 1000; ++k) {
     const Vec3 len = d.length();
-    const Vec3 x0(d.lo.x() + u(rng) * len.x(), d.lo.y() + u(rng) * len.y(), d.lo.z() + u(rng) * len.z());
+    const Vec3 x0(d.lo.x() + u(rng) * len.x(), d.lo.y() + u(rng) * len.y(),
+                  d.lo.z() + u(rng) * len.z());
     const Vec3 v0(1.0, 2.0, 3.0);
     Vec3 x = x0, v = v0;
     d.wrap(x, v);

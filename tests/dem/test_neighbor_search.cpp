@@ -59,7 +59,9 @@ System make_system(const Domain& domain, std::size_t count, double r_big, double
   System s;
   for (std::size_t k = 0; k < count; ++k) {
     const double pick = unit(rng);
-    const double r = pick < 0.1 ? r_big : pick < 0.15 ? r_big / (1.0 + (ratio - 1.0) * unit(rng)) : r_big / ratio;
+    const double r = pick < 0.1    ? r_big
+                     : pick < 0.15 ? r_big / (1.0 + (ratio - 1.0) * unit(rng))
+                                   : r_big / ratio;
     Vec3 x;
     if (k > 0 && unit(rng) < 0.5) {
       const auto other = static_cast<std::size_t>(unit(rng) * static_cast<double>(k));
@@ -79,7 +81,8 @@ System make_system(const Domain& domain, std::size_t count, double r_big, double
   return s;
 }
 
-std::vector<NeighborPair> search_pairs(const Domain& domain, const System& s, double skin, bool multilevel) {
+std::vector<NeighborPair> search_pairs(const Domain& domain, const System& s, double skin,
+                                       bool multilevel) {
   NeighborSearch search({skin, multilevel});
   search.build(domain, s.positions, s.radii);
   return search.pairs();
@@ -98,11 +101,11 @@ TEST(BruteForcePairs, HandMadeCaseAcrossPeriodicAndLeesEdwardsBoundaries) {
   d.lo = Vec3::Zero();
   d.hi = Vec3::Ones();
   const std::vector<Vec3> x = {
-      {0.02, 0.5, 0.5},   // 0: 0.05 from 1 across the x faces
-      {0.97, 0.5, 0.5},   // 1
-      {0.2, 0.98, 0.5},   // 2: its image one box down is at (0.9, -0.02): 0.04 from 3
-      {0.9, 0.02, 0.5},   // 3
-      {0.2, 0.02, 0.5},   // 4: 0.04 from 2 in y, but the Lees-Edwards shift puts it 0.3 away in x
+      {0.02, 0.5, 0.5},  // 0: 0.05 from 1 across the x faces
+      {0.97, 0.5, 0.5},  // 1
+      {0.2, 0.98, 0.5},  // 2: its image one box down is at (0.9, -0.02): 0.04 from 3
+      {0.9, 0.02, 0.5},  // 3
+      {0.2, 0.02, 0.5},  // 4: 0.04 from 2 in y, but the Lees-Edwards shift puts it 0.3 away in x
   };
   const std::vector<double> r(x.size(), 0.01);
   const double skin = 0.05;  // cutoff 0.07
@@ -120,7 +123,8 @@ TEST(BruteForcePairs, HandMadeCaseAcrossPeriodicAndLeesEdwardsBoundaries) {
 
 TEST(NeighborSearch, MonodisperseOpenAndPeriodic) {
   const double skin = 0.01;
-  expect_same_as_brute_force(open_box(1.0), make_system(open_box(1.0), 800, 0.03, 1.0, skin, 1), skin);
+  expect_same_as_brute_force(open_box(1.0), make_system(open_box(1.0), 800, 0.03, 1.0, skin, 1),
+                             skin);
   const Domain p = periodic_box(Vec3(1.0, 0.8, 0.6));
   expect_same_as_brute_force(p, make_system(p, 800, 0.03, 1.0, skin, 2), skin);
 }
@@ -180,11 +184,15 @@ TEST(NeighborSearch, OneCellPeriodicBoxVisitsItsCellOncePerQuery) {
 TEST(NeighborSearch, LeesEdwardsOffsetsAndAxes) {
   const double skin = 0.003;
   const Vec3 length(0.5, 0.4, 0.45);
-  struct Axes { int flow, gradient; };
+  struct Axes {
+    int flow, gradient;
+  };
   for (const Axes axes : {Axes{0, 1}, Axes{2, 0}, Axes{1, 2}}) {
     const double l_flow = length[axes.flow];
-    for (const double offset : {0.0, 1e-13, 0.013, 0.31 * l_flow, 0.5 * l_flow, l_flow - 1e-9, std::nextafter(l_flow, 0.0)}) {
-      SCOPED_TRACE(::testing::Message() << "flow " << axes.flow << " gradient " << axes.gradient << " offset " << offset);
+    for (const double offset : {0.0, 1e-13, 0.013, 0.31 * l_flow, 0.5 * l_flow, l_flow - 1e-9,
+                                std::nextafter(l_flow, 0.0)}) {
+      SCOPED_TRACE(::testing::Message() << "flow " << axes.flow << " gradient " << axes.gradient
+                                        << " offset " << offset);
       const Domain d = lees_edwards_box(length, axes.flow, axes.gradient, offset);
       expect_same_as_brute_force(d, make_system(d, 700, 0.05, 10.0, skin, 7), skin);
     }
@@ -235,7 +243,8 @@ TEST(NeighborSearch, MultilevelBinsBySizeAndTestsFarFewerCandidates) {
   EXPECT_EQ(multi.pairs(), single.pairs());
   EXPECT_EQ(multi.last_build_stats().levels, 2u);
   EXPECT_EQ(single.last_build_stats().levels, 1u);
-  EXPECT_LT(5 * multi.last_build_stats().candidates_tested, single.last_build_stats().candidates_tested);
+  EXPECT_LT(5 * multi.last_build_stats().candidates_tested,
+            single.last_build_stats().candidates_tested);
 }
 
 TEST(NeighborSearch, IdenticalAtOneAndTwoThreads) {
@@ -307,7 +316,8 @@ TEST(NeighborSearchRebuild, AfterTheLeesEdwardsOffsetChangesBySkin) {
   const std::vector<double> r(2, 0.0625);
   NeighborSearch search({skin, true});
   search.build(d, x, r);
-  d.lees_edwards.offset = 0.9375 + 0.109375;  // skin * 7/8, beyond L_flow: as the box sees it, wrapped
+  d.lees_edwards.offset =
+      0.9375 + 0.109375;  // skin * 7/8, beyond L_flow: as the box sees it, wrapped
   d.lees_edwards.offset -= 1.0;
   EXPECT_FALSE(search.needs_rebuild(d, x));
   d.lees_edwards.offset = 0.0625;  // skin across the wrap at L_flow
