@@ -50,7 +50,7 @@ std::shared_ptr<spdlog::logger> campaign_logger(const fs::path& db, const std::s
   const fs::path file = logs_dir(db) / (file_safe(campaign) + ".log");
   auto logger = std::make_shared<spdlog::logger>(
       "campaign", std::make_shared<spdlog::sinks::basic_file_sink_mt>(file.string()));
-  logger->flush_on(spdlog::level::info);
+  logger->flush_on(spdlog::level::warn);  // info lines are buffered; the store holds the state
   return logger;
 }
 

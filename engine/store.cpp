@@ -208,17 +208,18 @@ Store::Store(const fs::path& db, const std::vector<ViewDefinition>& views, const
 std::int64_t Store::register_campaign(const std::string& name, const std::string& format,
                                       const nlohmann::json& document, const std::vector<TaskSpec>& tasks) {
   sql::Transaction transaction(db_);
-  db_.prepare(
+  statement(
          "INSERT INTO campaigns (name, format, document, submitted_at) VALUES (?, ?, ?, ?) "
          "ON CONFLICT(name) DO UPDATE SET format = excluded.format, document = excluded.document, "
          "submitted_at = excluded.submitted_at, finished_at = NULL, outcome = 'running'")
       .bind_all(name, format, canonical_json(document), clock_.now())
       .run();
-  auto id_row = db_.prepare("SELECT id FROM campaigns WHERE name = ?");
+  auto& id_row = statement("SELECT id FROM campaigns WHERE name = ?");
   id_row.bind_all(name);
   id_row.step();
   const std::int64_t campaign = id_row.integer(0);
-  db_.prepare("DELETE FROM campaign_tasks WHERE campaign_id = ?").bind_all(campaign).run();
+  id_row.reset();
+  statement("DELETE FROM campaign_tasks WHERE campaign_id = ?").bind_all(campaign).run();
   insert_tasks(campaign, tasks, std::nullopt);
   transaction.commit();
   return campaign;
@@ -226,11 +227,11 @@ std::int64_t Store::register_campaign(const std::string& name, const std::string
 
 void Store::insert_tasks(std::int64_t campaign, const std::vector<TaskSpec>& tasks,
                          const std::optional<std::string>& parent) {
-  auto task = db_.prepare(
+  auto& task = statement(
       "INSERT OR IGNORE INTO tasks (key, kind, kind_version, params, key_text, parent_key, created_at) "
       "VALUES (?, ?, ?, ?, ?, ?, ?)");
-  auto edge = db_.prepare("INSERT OR IGNORE INTO edges (downstream, position, upstream) VALUES (?, ?, ?)");
-  auto member = db_.prepare("INSERT OR IGNORE INTO campaign_tasks (campaign_id, task_key) VALUES (?, ?)");
+  auto& edge = statement("INSERT OR IGNORE INTO edges (downstream, position, upstream) VALUES (?, ?, ?)");
+  auto& member = statement("INSERT OR IGNORE INTO campaign_tasks (campaign_id, task_key) VALUES (?, ?)");
   const double now = clock_.now();
   for (const auto& spec : tasks) {
     task.bind_all(spec.key, spec.kind, spec.version, canonical_json(spec.params), spec.key_text, parent, now);
@@ -246,7 +247,7 @@ void Store::insert_tasks(std::int64_t campaign, const std::vector<TaskSpec>& tas
 
 void Store::add_members(std::int64_t campaign, const std::vector<std::string>& keys) {
   sql::Transaction transaction(db_);
-  auto member = db_.prepare("INSERT OR IGNORE INTO campaign_tasks (campaign_id, task_key) VALUES (?, ?)");
+  auto& member = statement("INSERT OR IGNORE INTO campaign_tasks (campaign_id, task_key) VALUES (?, ?)");
   for (const auto& key : keys) {
     member.bind_all(campaign, key);
     member.run();
@@ -256,22 +257,23 @@ void Store::add_members(std::int64_t campaign, const std::vector<std::string>& k
 
 void Store::record_history(const std::string& key, const std::string& status, int attempt,
                            const std::string& message) {
-  db_.prepare("INSERT INTO status_history (task_key, status, attempt, at, message) VALUES (?, ?, ?, ?, ?)")
+  statement("INSERT INTO status_history (task_key, status, attempt, at, message) VALUES (?, ?, ?, ?, ?)")
       .bind_all(key, status, attempt, clock_.now(), message)
       .run();
 }
 
 int Store::mark_running(const std::string& key) {
   sql::Transaction transaction(db_);
-  db_.prepare(
+  statement(
          "UPDATE tasks SET status = 'running', attempts = attempts + 1, started_at = ?, finished_at = NULL, "
          "duration_s = NULL, host = ?, code_version = ?, error = NULL WHERE key = ?")
       .bind_all(clock_.now(), host_name(), code_version(), key)
       .run();
-  auto row = db_.prepare("SELECT attempts FROM tasks WHERE key = ?");
+  auto& row = statement("SELECT attempts FROM tasks WHERE key = ?");
   row.bind_all(key);
   row.step();
   const int attempt = static_cast<int>(row.integer(0));
+  row.reset();
   record_history(key, "running", attempt, "");
   transaction.commit();
   return attempt;
@@ -282,11 +284,11 @@ void Store::commit_done(std::int64_t campaign, const std::string& key, const nlo
                         double duration_s) {
   sql::Transaction transaction(db_);
   const double now = clock_.now();
-  db_.prepare("INSERT OR REPLACE INTO results (task_key, result, committed_at) VALUES (?, ?, ?)")
+  statement("INSERT OR REPLACE INTO results (task_key, result, committed_at) VALUES (?, ?, ?)")
       .bind_all(key, canonical_json(result), now)
       .run();
-  db_.prepare("DELETE FROM artifacts WHERE task_key = ?").bind_all(key).run();
-  auto artifact = db_.prepare("INSERT INTO artifacts (task_key, name, sha256, size, path) VALUES (?, ?, ?, ?, ?)");
+  statement("DELETE FROM artifacts WHERE task_key = ?").bind_all(key).run();
+  auto& artifact = statement("INSERT INTO artifacts (task_key, name, sha256, size, path) VALUES (?, ?, ?, ?, ?)");
   const std::string artifact_root = artifacts_dir(path_).filename().string();
   for (const auto& stored : artifacts) {
     artifact.bind_all(key, stored.name, stored.sha256, stored.size,
@@ -294,7 +296,7 @@ void Store::commit_done(std::int64_t campaign, const std::string& key, const nlo
     artifact.run();
   }
   insert_tasks(campaign, children, key);
-  auto update = db_.prepare(
+  auto& update = statement(
       "UPDATE tasks SET status = 'done', finished_at = ?, duration_s = ?, error = NULL WHERE key = ? "
       "RETURNING attempts");
   update.bind_all(now, duration_s, key);
@@ -308,7 +310,7 @@ void Store::commit_done(std::int64_t campaign, const std::string& key, const nlo
 void Store::mark_finished(const std::string& key, const std::string& status, int attempt,
                           const std::string& message, double duration_s) {
   sql::Transaction transaction(db_);
-  db_.prepare("UPDATE tasks SET status = ?, finished_at = ?, duration_s = ?, error = ? WHERE key = ?")
+  statement("UPDATE tasks SET status = ?, finished_at = ?, duration_s = ?, error = ? WHERE key = ?")
       .bind_all(status, clock_.now(), duration_s, message, key)
       .run();
   record_history(key, status, attempt, message);
@@ -318,7 +320,7 @@ void Store::mark_finished(const std::string& key, const std::string& status, int
 void Store::mark_skipped(const std::vector<std::string>& keys, const std::string& reason) {
   if (keys.empty()) return;
   sql::Transaction transaction(db_);
-  auto update = db_.prepare("UPDATE tasks SET status = 'skipped', error = ? WHERE key = ? RETURNING attempts");
+  auto& update = statement("UPDATE tasks SET status = 'skipped', error = ? WHERE key = ? RETURNING attempts");
   for (const auto& key : keys) {
     update.bind_all(reason, key);
     update.step();
@@ -331,7 +333,7 @@ void Store::mark_skipped(const std::vector<std::string>& keys, const std::string
 
 void Store::mark_pending(const std::string& key, const std::string& reason) {
   sql::Transaction transaction(db_);
-  auto update = db_.prepare("UPDATE tasks SET status = 'pending', error = ? WHERE key = ? RETURNING attempts");
+  auto& update = statement("UPDATE tasks SET status = 'pending', error = ? WHERE key = ? RETURNING attempts");
   update.bind_all(reason, key);
   update.step();
   const int attempt = static_cast<int>(update.integer(0));
@@ -341,23 +343,29 @@ void Store::mark_pending(const std::string& key, const std::string& reason) {
 }
 
 void Store::append_log(const std::optional<std::string>& key, const std::string& level, const std::string& message) {
-  db_.prepare("INSERT INTO log_lines (task_key, at, level, message) VALUES (?, ?, ?, ?)")
+  statement("INSERT INTO log_lines (task_key, at, level, message) VALUES (?, ?, ?, ?)")
       .bind_all(key, clock_.now(), level, message)
       .run();
 }
 
 void Store::finish_campaign(std::int64_t campaign, const std::string& outcome) {
-  db_.prepare("UPDATE campaigns SET finished_at = ?, outcome = ? WHERE id = ?")
+  statement("UPDATE campaigns SET finished_at = ?, outcome = ? WHERE id = ?")
       .bind_all(clock_.now(), outcome, campaign)
       .run();
 }
 
 void Store::set_coordinator(int pid, const std::string& host, const std::string& campaign) {
-  db_.prepare("INSERT OR REPLACE INTO coordinator (id, pid, host, started_at, campaign) VALUES (1, ?, ?, ?, ?)")
+  statement("INSERT OR REPLACE INTO coordinator (id, pid, host, started_at, campaign) VALUES (1, ?, ?, ?, ?)")
       .bind_all(pid, host, clock_.now(), campaign)
       .run();
 }
 
 void Store::clear_coordinator() { db_.exec("DELETE FROM coordinator"); }
+
+sql::Statement& Store::statement(const std::string& sql) {
+  auto found = statements_.find(sql);
+  if (found == statements_.end()) found = statements_.emplace(sql, db_.prepare(sql)).first;
+  return found->second;
+}
 
 }  // namespace millflow::engine
