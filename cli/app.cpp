@@ -2,13 +2,19 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli/commands.hpp"
 #include "cli/demo.hpp"
+#include "engine/testing_tasks.hpp"
 
 namespace millflow::cli {
 
 int run(int argc, char** argv) {
   CLI::App app{"millflow: multiscale DEM campaigns of grinding mills"};
   app.require_subcommand(1);
+  engine::Registry registry;
+  engine::add_testing(registry);
+  std::optional<int> engine_exit_code;
+  add_engine_commands(app, registry, engine_exit_code);
   add_demo_command(app);
   try {
     app.parse(argc, argv);
@@ -16,7 +22,7 @@ int run(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;
   }
-  return exit_code();
+  return engine_exit_code.value_or(exit_code());
 }
 
 }  // namespace millflow::cli

@@ -1,0 +1,239 @@
+#include "cli/commands.hpp"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <iostream>
+
+#include "engine/coordinator_lock.hpp"
+#include "engine/inspect.hpp"
+#include "engine/interrupt.hpp"
+#include "engine/validation.hpp"
+
+namespace millflow::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using engine::TableFormat;
+
+constexpr int kBadInput = 2;
+constexpr int kBusy = 3;
+
+struct RunFlags {
+  std::string db = "millflow.db";
+  int jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  int threads_per_task = 1;
+  int retries = 0;
+};
+
+// Runs a command body, turning errors into messages and exit codes.
+int guarded(const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const engine::InvalidInput& error) {
+    std::cerr << "millflow: invalid input:\n" << error.what() << '\n';
+    return kBadInput;
+  } catch (const engine::SchemaTooNew& error) {
+    std::cerr << "millflow: " << error.what() << '\n';
+    return kBadInput;
+  } catch (const engine::CoordinatorBusy& error) {
+    std::cerr << "millflow: " << error.what() << '\n';
+    return kBusy;
+  } catch (const std::exception& error) {
+    std::cerr << "millflow: " << error.what() << '\n';
+    return 1;
+  }
+}
+
+void add_db_option(CLI::App* command, std::string& db) {
+  command->add_option("--db", db, "Database file (default ./millflow.db)");
+}
+
+void add_run_options(CLI::App* command, RunFlags& flags) {
+  add_db_option(command, flags.db);
+  command->add_option("--jobs", flags.jobs, "Tasks running at once")->check(CLI::PositiveNumber);
+  command->add_option("--threads-per-task", flags.threads_per_task, "Threads of each task's own arena")
+      ->check(CLI::PositiveNumber);
+  command->add_option("--retries", flags.retries, "Extra attempts of a failing task")->check(CLI::NonNegativeNumber);
+}
+
+TableFormat parse_format(const std::string& name) {
+  if (name == "table") return TableFormat::table;
+  if (name == "csv") return TableFormat::csv;
+  return TableFormat::json;
+}
+
+int run_campaign(const engine::Registry& registry, const engine::Campaign& campaign, const RunFlags& flags) {
+  engine::install_interrupt_handlers();
+  engine::LiveProgress live(stderr);
+  engine::PlainProgress plain(stderr);
+  engine::SubmitOptions options;
+  options.run.jobs = flags.jobs;
+  options.run.threads_per_task = flags.threads_per_task;
+  options.run.retries = flags.retries;
+  options.run.stop_requested = engine::interrupt_requested;
+  options.progress = ::isatty(STDERR_FILENO) ? static_cast<engine::ProgressView*>(&live) : &plain;
+  const auto summary = engine::submit_campaign(registry, campaign, flags.db, options);
+  std::cout << "campaign " << campaign.name << ": " << summary.describe() << '\n';
+  return summary.exit_code();
+}
+
+void add_validate(CLI::App& app, const engine::Registry& registry, std::optional<int>& code) {
+  auto* command = app.add_subcommand("validate", "Check a campaign file; print every error");
+  auto file = std::make_shared<std::string>();
+  command->add_option("FILE", *file, "Campaign JSON file")->required();
+  command->callback([&registry, &code, file] {
+    code = guarded([&] {
+      const auto campaign = engine::load_campaign_file(registry, *file);
+      const auto tasks = engine::plan_campaign(registry, campaign);
+      std::cout << fmt::format("{}: valid {} campaign \"{}\", {} planned tasks\n", *file, campaign.format, campaign.name,
+                               tasks.size());
+      return 0;
+    });
+  });
+}
+
+void add_submit(CLI::App& app, const engine::Registry& registry, std::optional<int>& code) {
+  auto* command = app.add_subcommand("submit", "Run a campaign file (only what is not cached)");
+  auto file = std::make_shared<std::string>();
+  auto flags = std::make_shared<RunFlags>();
+  auto dry = std::make_shared<bool>(false);
+  command->add_option("FILE", *file, "Campaign JSON file")->required();
+  add_run_options(command, *flags);
+  command->add_flag("--dry-run", *dry, "Print the DAG size, what is cached and what would run; write nothing");
+  command->callback([&registry, &code, file, flags, dry] {
+    code = guarded([&] {
+      const auto campaign = engine::load_campaign_file(registry, *file);
+      if (*dry) {
+        std::cout << engine::dry_run(registry, campaign, flags->db).describe() << '\n';
+        return 0;
+      }
+      return run_campaign(registry, campaign, *flags);
+    });
+  });
+}
+
+void add_resume(CLI::App& app, const engine::Registry& registry, std::optional<int>& code) {
+  auto* command = app.add_subcommand("resume", "Continue a stored campaign (default: the latest)");
+  auto name = std::make_shared<std::string>();
+  auto flags = std::make_shared<RunFlags>();
+  command->add_option("CAMPAIGN", *name, "Campaign name");
+  add_run_options(command, *flags);
+  command->callback([&registry, &code, name, flags] {
+    code = guarded([&] { return run_campaign(registry, engine::stored_campaign(flags->db, *name), *flags); });
+  });
+}
+
+void add_status(CLI::App& app, std::optional<int>& code) {
+  auto* command = app.add_subcommand("status", "Campaigns, or one campaign's tasks by kind and status");
+  auto name = std::make_shared<std::string>();
+  auto db = std::make_shared<std::string>("millflow.db");
+  command->add_option("CAMPAIGN", *name, "Campaign name");
+  add_db_option(command, *db);
+  command->callback([&code, name, db] {
+    code = guarded([&] {
+      engine::print_status(*db, *name, std::cout);
+      return 0;
+    });
+  });
+}
+
+void add_query(CLI::App& app, std::optional<int>& code) {
+  auto* command = app.add_subcommand("query", "Run one read-only SQL statement");
+  auto sql = std::make_shared<std::string>();
+  auto db = std::make_shared<std::string>("millflow.db");
+  auto format = std::make_shared<std::string>("table");
+  command->add_option("SQL", *sql, "SQL statement, e.g. \"SELECT * FROM task_results\"")->required();
+  add_db_option(command, *db);
+  command->add_option("--format", *format, "table, csv or json")->check(CLI::IsMember({"table", "csv", "json"}));
+  command->callback([&code, sql, db, format] {
+    code = guarded([&] {
+      engine::run_query(*db, *sql, parse_format(*format), std::cout);
+      return 0;
+    });
+  });
+}
+
+void add_export(CLI::App& app, std::optional<int>& code) {
+  auto* command = app.add_subcommand("export", "Write a campaign's parameters and results as CSV or JSON");
+  auto name = std::make_shared<std::string>();
+  auto db = std::make_shared<std::string>("millflow.db");
+  auto format = std::make_shared<std::string>();
+  auto out = std::make_shared<std::string>();
+  command->add_option("CAMPAIGN", *name, "Campaign name")->required();
+  add_db_option(command, *db);
+  command->add_option("--format", *format, "csv or json")->required()->check(CLI::IsMember({"csv", "json"}));
+  command->add_option("--out", *out, "Output directory")->required();
+  command->callback([&code, name, db, format, out] {
+    code = guarded([&] {
+      for (const auto& file : engine::export_campaign(*db, *name, parse_format(*format), *out)) {
+        std::cout << file.string() << '\n';
+      }
+      return 0;
+    });
+  });
+}
+
+void add_task_command(CLI::App& app, std::optional<int>& code, const std::string& name, const std::string& help,
+                      void (*print)(const fs::path&, const std::string&, std::ostream&)) {
+  auto* command = app.add_subcommand(name, help);
+  auto task = std::make_shared<std::string>();
+  auto db = std::make_shared<std::string>("millflow.db");
+  command->add_option("TASK", *task, "Task key or a unique prefix of it")->required();
+  add_db_option(command, *db);
+  command->callback([&code, task, db, print] {
+    code = guarded([&] {
+      print(*db, *task, std::cout);
+      return 0;
+    });
+  });
+}
+
+void add_dag(CLI::App& app, std::optional<int>& code) {
+  auto* command = app.add_subcommand("dag", "Print a campaign's DAG");
+  auto name = std::make_shared<std::string>();
+  auto db = std::make_shared<std::string>("millflow.db");
+  command->add_option("CAMPAIGN", *name, "Campaign name")->required();
+  auto dot = std::make_shared<bool>(true);
+  command->add_flag("--dot", *dot, "Graphviz dot output (the only format, also without the flag)");
+  add_db_option(command, *db);
+  command->callback([&code, name, db] {
+    code = guarded([&] {
+      engine::print_dag_dot(*db, *name, std::cout);
+      return 0;
+    });
+  });
+}
+
+void add_gc(CLI::App& app, std::optional<int>& code) {
+  auto* command = app.add_subcommand("gc", "Remove artifact files that no task references");
+  auto db = std::make_shared<std::string>("millflow.db");
+  auto dry = std::make_shared<bool>(false);
+  add_db_option(command, *db);
+  command->add_flag("--dry-run", *dry, "List them only");
+  command->callback([&code, db, dry] {
+    code = guarded([&] {
+      const auto removed = engine::collect_garbage(*db, *dry);
+      for (const auto& digest : removed) std::cout << (*dry ? "would remove " : "removed ") << digest << '\n';
+      std::cout << removed.size() << " unreferenced artifact file(s)\n";
+      return 0;
+    });
+  });
+}
+
+}  // namespace
+
+void add_engine_commands(CLI::App& app, const engine::Registry& registry, std::optional<int>& exit_code) {
+  add_validate(app, registry, exit_code);
+  add_submit(app, registry, exit_code);
+  add_resume(app, registry, exit_code);
+  add_status(app, exit_code);
+  add_query(app, exit_code);
+  add_export(app, exit_code);
+  add_task_command(app, exit_code, "show", "A task's parameters, result, artifacts and lineage", engine::print_show);
+  add_task_command(app, exit_code, "explain", "The hashed text of a task and why it would run", engine::print_explain);
+  add_dag(app, exit_code);
+  add_gc(app, exit_code);
+}
+
+}  // namespace millflow::cli

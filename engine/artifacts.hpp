@@ -1,0 +1,37 @@
+#pragma once
+// Content-addressed artifact files beside the database: <db>.artifacts/<sha[0:2]>/<sha>.
+// Files are copied in under a temporary name and renamed into place, so a crash never leaves a
+// partial file under a content name; they are verified (size and SHA-256) whenever they are read.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace millflow::engine {
+
+struct StoredArtifact {
+  std::string name;
+  std::string sha256;
+  std::int64_t size = 0;
+};
+
+class ArtifactStore {
+ public:
+  explicit ArtifactStore(std::filesystem::path root) : root_(std::move(root)) {}
+
+  // Copies `file` into the store (a no-op when identical content is already there).
+  StoredArtifact put(const std::string& name, const std::filesystem::path& file) const;
+
+  std::filesystem::path path_of(const std::string& sha256) const;
+  // True when the stored file exists with exactly this size and digest.
+  bool verify(const StoredArtifact& artifact) const;
+  // Every content file present (for garbage collection), by digest.
+  std::vector<std::string> stored_digests() const;
+  void remove(const std::string& sha256) const;
+  const std::filesystem::path& root() const { return root_; }
+
+ private:
+  std::filesystem::path root_;
+};
+
+}  // namespace millflow::engine

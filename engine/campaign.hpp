@@ -1,0 +1,74 @@
+#pragma once
+// Campaign files, their formats, and the submit / resume / dry-run entry points.
+//
+// A campaign file is JSON; its format is detected from the top-level keys:
+//   "format": "<name>"        that format (the engine itself handles "millflow-test");
+//   "millflow_campaign": 1    the multiscale method's campaigns (format "millflow_campaign"),
+//                             whose loader and planner tasks/ registers.
+// A format has a loader (file -> validated document; throws InvalidInput listing every error)
+// and a planner (document -> initial DAG). Documents are stored, so `resume` replans from the
+// stored document without the file.
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "engine/progress.hpp"
+#include "engine/runtime.hpp"
+#include "engine/store.hpp"
+#include "engine/task.hpp"
+
+namespace millflow::engine {
+
+struct CampaignFormat {
+  std::string name;
+  std::function<nlohmann::json(const std::filesystem::path&)> load;
+  std::function<void(const nlohmann::json& document, Plan& plan)> plan;
+};
+
+// Everything a domain plugs into the engine.
+struct Registry {
+  KindRegistry kinds;
+  std::map<std::string, CampaignFormat> formats;
+  std::vector<ViewDefinition> views;
+
+  void add_format(CampaignFormat format);
+  const CampaignFormat& format(const std::string& name) const;  // throws InvalidInput if unknown
+};
+
+struct Campaign {
+  std::string name;
+  std::string format;
+  nlohmann::json document;
+};
+
+// Reads, detects and validates a campaign file. Throws InvalidInput.
+Campaign load_campaign_file(const Registry& registry, const std::filesystem::path& file);
+std::vector<TaskSpec> plan_campaign(const Registry& registry, const Campaign& campaign);
+
+struct DryRun {
+  int total = 0;
+  int cached = 0;
+  int would_run = 0;
+  int may_expand = 0;          // would-run tasks whose results may add tasks below them
+  int known_expansions = 0;    // children already declared by cached tasks (counted in total)
+  std::string describe() const;
+};
+DryRun dry_run(const Registry& registry, const Campaign& campaign, const std::filesystem::path& db);
+
+struct SubmitOptions {
+  RunOptions run;
+  ProgressView* progress = nullptr;  // default: quiet
+  const Clock* clock = nullptr;      // default: the system clock
+  Launcher* launcher = nullptr;      // default: TbbLauncher(jobs, threads_per_task)
+};
+
+// Takes the coordinator lock (CoordinatorBusy), registers the campaign and runs it.
+RunSummary submit_campaign(const Registry& registry, const Campaign& campaign, const std::filesystem::path& db,
+                           const SubmitOptions& options);
+// The stored campaign by name, or the most recently submitted one when name is empty.
+Campaign stored_campaign(const std::filesystem::path& db, const std::string& name);
+
+}  // namespace millflow::engine

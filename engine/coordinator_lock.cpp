@@ -1,0 +1,47 @@
+#include "engine/coordinator_lock.hpp"
+
+#include <fcntl.h>
+#include <fmt/chrono.h>
+#include <fmt/format.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+
+#include "engine/store.hpp"
+
+namespace millflow::engine {
+
+std::optional<std::string> describe_coordinator(const std::filesystem::path& db) {
+  if (!std::filesystem::exists(db)) return std::nullopt;
+  auto connection = open_read_only(db);
+  if (connection.user_version() == 0) return std::nullopt;  // created, schema not yet written
+  auto row = connection.prepare("SELECT pid, host, started_at, coalesce(campaign, '') FROM coordinator");
+  if (!row.step()) return std::nullopt;
+  const auto started = std::chrono::system_clock::time_point(
+      std::chrono::duration_cast<std::chrono::system_clock::duration>(std::chrono::duration<double>(row.real(2))));
+  return fmt::format("pid {} on {} since {:%Y-%m-%d %H:%M:%S} UTC (campaign \"{}\")", row.integer(0), row.text(1),
+                     fmt::gmtime(std::chrono::system_clock::to_time_t(started)), row.text(3));
+}
+
+CoordinatorLock::CoordinatorLock(const std::filesystem::path& db) {
+  const auto file = lock_file(db);
+  fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0) throw std::runtime_error("cannot open lock file " + file.string() + ": " + std::strerror(errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    ::close(fd_);
+    fd_ = -1;
+    const auto holder = describe_coordinator(db);
+    throw CoordinatorBusy("database " + db.string() + " is in use by another millflow coordinator: " +
+                          holder.value_or("(starting up)") + "; wait for it, or interrupt it with Ctrl-C");
+  }
+  stale_holder_ = describe_coordinator(db);
+}
+
+CoordinatorLock::~CoordinatorLock() {
+  if (fd_ >= 0) ::close(fd_);  // closing the descriptor releases the flock
+}
+
+}  // namespace millflow::engine

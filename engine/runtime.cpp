@@ -1,0 +1,464 @@
+#include "engine/runtime.hpp"
+
+#include <fmt/format.h>
+#include <tbb/task_arena.h>
+
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <optional>
+#include <stop_token>
+#include <unordered_map>
+
+namespace millflow::engine {
+namespace fs = std::filesystem;
+namespace {
+
+enum class State { pending, running, done, cached, failed, skipped, interrupted };
+
+struct Node {
+  TaskSpec spec;
+  State state = State::pending;
+  int waiting_on = 0;  // upstream tasks not done yet
+  std::vector<std::string> downstream;
+  int attempts_this_run = 0;
+  std::optional<nlohmann::json> result;  // loaded when a downstream task needs it
+};
+
+// What a worker reports back to the coordinating thread.
+struct Event {
+  enum class Type { finished, log } type = Type::finished;
+  std::string key;
+  int attempt = 0;
+  std::optional<std::string> error;  // set when the attempt threw
+  TaskOutcome outcome;
+  std::vector<StoredArtifact> stored;
+  std::vector<TaskSpec> children;
+  double duration_s = 0.0;
+  std::string message;  // log line
+
+  static Event log_line(const std::string& key, std::string_view message) {
+    Event event;
+    event.type = Type::log;
+    event.key = key;
+    event.message = message;
+    return event;
+  }
+  static Event finished(const std::string& key, int attempt) {
+    Event event;
+    event.key = key;
+    event.attempt = attempt;
+    return event;
+  }
+};
+
+class EventQueue {
+ public:
+  void push(Event event) {
+    std::lock_guard lock(mutex_);
+    events_.push_back(std::move(event));
+    ready_.notify_one();  // under the lock: the coordinator may return as soon as it sees the event
+  }
+  std::optional<Event> pop_for(double seconds) {
+    std::unique_lock lock(mutex_);
+    if (!ready_.wait_for(lock, std::chrono::duration<double>(seconds), [&] { return !events_.empty(); })) {
+      return std::nullopt;
+    }
+    Event event = std::move(events_.front());
+    events_.pop_front();
+    return event;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable ready_;
+  std::deque<Event> events_;
+};
+
+// Progress reported by running tasks, read by the coordinator for the status line.
+class ProgressBoard {
+ public:
+  void start(const std::string& key, const std::string& kind) {
+    std::lock_guard lock(mutex_);
+    running_[key] = RunningTask{key, kind, 0.0, {}};
+  }
+  void update(const std::string& key, double fraction, std::string_view message) {
+    std::lock_guard lock(mutex_);
+    auto found = running_.find(key);
+    if (found == running_.end()) return;
+    found->second.fraction = fraction;
+    found->second.message = message;
+  }
+  void finish(const std::string& key) {
+    std::lock_guard lock(mutex_);
+    running_.erase(key);
+  }
+  std::vector<RunningTask> running() const {
+    std::lock_guard lock(mutex_);
+    std::vector<RunningTask> tasks;
+    for (const auto& [key, task] : running_) tasks.push_back(task);
+    return tasks;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<std::string, RunningTask> running_;
+};
+
+// Status and artifacts of every task of the campaign, read in bulk before the run.
+struct StoredState {
+  std::unordered_map<std::string, std::string> status;
+  std::unordered_map<std::string, std::vector<StoredArtifact>> artifacts;
+  std::unordered_map<std::string, std::vector<std::string>> children;
+};
+
+StoredState load_stored_state(sql::Connection& db, std::int64_t campaign) {
+  StoredState state;
+  auto status = db.prepare(
+      "SELECT t.key, t.status FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key WHERE ct.campaign_id = ?");
+  status.bind_all(campaign);
+  while (status.step()) state.status.emplace(status.text(0), status.text(1));
+  auto artifacts = db.prepare(
+      "SELECT a.task_key, a.name, a.sha256, a.size FROM campaign_tasks ct JOIN artifacts a ON a.task_key = ct.task_key "
+      "WHERE ct.campaign_id = ?");
+  artifacts.bind_all(campaign);
+  while (artifacts.step()) {
+    state.artifacts[artifacts.text(0)].push_back({artifacts.text(1), artifacts.text(2), artifacts.integer(3)});
+  }
+  auto children = db.prepare(
+      "SELECT t.parent_key, t.key FROM campaign_tasks ct JOIN tasks t ON t.parent_key = ct.task_key "
+      "WHERE ct.campaign_id = ? ORDER BY t.rowid");
+  children.bind_all(campaign);
+  while (children.step()) state.children[children.text(0)].push_back(children.text(1));
+  return state;
+}
+
+class Coordinator {
+ public:
+  Coordinator(RunEnvironment environment, std::int64_t campaign, const RunOptions& options)
+      : env_(std::move(environment)),
+        campaign_(campaign),
+        options_(options),
+        artifacts_(artifacts_dir(env_.store.path())),
+        started_(env_.clock.now()) {}
+
+  RunSummary run(const std::vector<TaskSpec>& planned) {
+    stored_ = load_stored_state(env_.store.connection(), campaign_);
+    for (const auto& spec : planned) admit(spec);
+    env_.store.add_members(campaign_, adopted_);
+    adopted_.clear();
+    stored_ = {};
+    loop();
+    env_.launcher.wait_idle();
+    return summarize();
+  }
+
+ private:
+  // --- building the graph -------------------------------------------------------------------
+  void admit(const TaskSpec& spec) {
+    if (nodes_.count(spec.key) > 0) return;
+    for (const auto& upstream : spec.upstream) admit_stored(upstream);
+    Node& node = nodes_[spec.key];
+    node.spec = spec;
+    bool upstream_failed = false;
+    for (const auto& upstream : spec.upstream) {
+      Node& parent = nodes_.at(upstream);
+      parent.downstream.push_back(spec.key);
+      if (parent.state == State::failed || parent.state == State::skipped) upstream_failed = true;
+      if (parent.state != State::done && parent.state != State::cached) ++node.waiting_on;
+    }
+    if (status_of(spec.key) == "done") adopt_cached(node);
+    if (node.state == State::pending && upstream_failed) {
+      node.state = State::skipped;
+      env_.store.mark_skipped({spec.key}, "an upstream task failed");
+    } else if (node.state == State::pending && node.waiting_on == 0) {
+      ready_.push_back(spec.key);
+    }
+  }
+
+  void admit_stored(const std::string& key) {
+    if (nodes_.count(key) > 0) return;
+    auto record = find_task(env_.store.connection(), key);
+    if (!record) throw std::logic_error("task " + key + " is referenced but not in the store");
+    adopted_.push_back(key);
+    admit(record->spec);
+  }
+
+  // A task done before this run is reused when its artifacts are intact; its stored children
+  // (declared by its result) join the graph.
+  void adopt_cached(Node& node) {
+    const std::string key = node.spec.key;
+    for (const auto& artifact : artifacts_of(key)) {
+      if (!artifacts_.verify(artifact)) {
+        const std::string reason = fmt::format("artifact {} ({}) is missing or corrupt", artifact.name, artifact.sha256);
+        env_.store.mark_pending(key, reason);
+        log(key, "warn", reason + "; the task runs again");
+        return;
+      }
+    }
+    node.state = State::cached;
+    for (const auto& child : children_of(key)) admit_stored(child);
+  }
+
+  std::string status_of(const std::string& key) {
+    if (auto found = stored_.status.find(key); found != stored_.status.end()) return found->second;
+    auto record = find_task(env_.store.connection(), key);
+    return record ? record->status : "pending";
+  }
+  std::vector<StoredArtifact> artifacts_of(const std::string& key) {
+    if (stored_.status.count(key) > 0) {
+      auto found = stored_.artifacts.find(key);
+      return found == stored_.artifacts.end() ? std::vector<StoredArtifact>{} : found->second;
+    }
+    return find_artifacts(env_.store.connection(), key);
+  }
+  std::vector<std::string> children_of(const std::string& key) {
+    if (stored_.status.count(key) > 0) {
+      auto found = stored_.children.find(key);
+      return found == stored_.children.end() ? std::vector<std::string>{} : found->second;
+    }
+    return child_keys(env_.store.connection(), key);
+  }
+
+  // --- the loop --------------------------------------------------------------------------
+  void loop() {
+    double last_refresh = 0.0;
+    while (true) {
+      if (!stopping_ && options_.stop_requested()) {
+        stopping_ = true;
+        stop_.request_stop();
+        log(std::nullopt, "warn", "stop requested: no new tasks; running tasks stop at their next checkpoint");
+      }
+      while (!stopping_ && running_ < options_.jobs && !ready_.empty()) {
+        const std::string key = ready_.front();
+        ready_.pop_front();
+        launch(key);
+      }
+      if (running_ == 0 && (ready_.empty() || stopping_)) break;
+      if (auto event = events_.pop_for(options_.refresh_s)) handle(std::move(*event));
+      if (env_.clock.now() - last_refresh >= options_.refresh_s) {
+        env_.progress.refresh(snapshot());
+        last_refresh = env_.clock.now();
+      }
+    }
+    env_.progress.refresh(snapshot());
+    env_.progress.finish();
+  }
+
+  std::vector<TaskInput> inputs_of(const TaskSpec& spec) {
+    std::vector<TaskInput> inputs;
+    for (const auto& key : spec.upstream) {
+      Node& upstream = nodes_.at(key);
+      if (!upstream.result) upstream.result = find_result(env_.store.connection(), key).value_or(nlohmann::json::object());
+      TaskInput input{key, upstream.spec.kind, *upstream.result, {}};
+      for (const auto& artifact : find_artifacts(env_.store.connection(), key)) {
+        input.artifacts[artifact.name] = artifacts_.path_of(artifact.sha256);
+      }
+      inputs.push_back(std::move(input));
+    }
+    return inputs;
+  }
+
+  void launch(const std::string& key) {
+    Node& node = nodes_.at(key);
+    node.state = State::running;
+    ++node.attempts_this_run;
+    ++running_;
+    const int attempt = env_.store.mark_running(key);
+    board_.start(key, node.spec.kind);
+    env_.progress.task_event(node.spec.kind, key, fmt::format("started (attempt {})", attempt));
+    auto inputs = std::make_shared<std::vector<TaskInput>>(inputs_of(node.spec));
+    const fs::path work = work_dir(env_.store.path()) / key;
+    fs::create_directories(work);
+    env_.launcher.launch([this, spec = &node.spec, inputs, work, attempt] { attempt_task(*spec, *inputs, work, attempt); });
+  }
+
+  // Runs on a worker thread: everything it touches is either its own or thread-safe.
+  void attempt_task(const TaskSpec& spec, const std::vector<TaskInput>& inputs, const fs::path& work, int attempt) {
+    const double started = env_.clock.now();
+    Event event = Event::finished(spec.key, attempt);
+    try {
+      const TaskKind& kind = env_.kinds.get(spec.kind);
+      TaskContext context{.key = spec.key, .params = spec.params, .inputs = inputs, .work_dir = work,
+                          .threads = options_.threads_per_task, .attempt = attempt, .stop = stop_.get_token(),
+                          .progress = [this, key = spec.key](double fraction, std::string_view message) {
+                            board_.update(key, fraction, message);
+                          },
+                          .log = [this, key = spec.key](std::string_view message) {
+                            events_.push(Event::log_line(key, message));
+                          }};
+      tbb::task_arena arena(options_.threads_per_task);
+      arena.execute([&] { event.outcome = kind.run(context); });
+      if (!event.outcome.interrupted) store_outputs(spec.key, event);
+    } catch (const std::exception& error) {
+      event.error = error.what();
+    }
+    event.duration_s = env_.clock.now() - started;
+    events_.push(std::move(event));
+  }
+
+  void store_outputs(const std::string& key, Event& event) const {
+    for (const auto& artifact : event.outcome.artifacts) event.stored.push_back(artifacts_.put(artifact.name, artifact.file));
+    for (auto& child : event.outcome.children) {
+      std::vector<std::string> upstream{key};
+      upstream.insert(upstream.end(), child.extra_upstream.begin(), child.extra_upstream.end());
+      event.children.push_back(
+          make_task_spec(child.kind, env_.kinds.get(child.kind).version, std::move(child.params), std::move(upstream)));
+    }
+  }
+
+  // --- outcomes ----------------------------------------------------------------------------
+  void handle(Event event) {
+    if (event.type == Event::Type::log) {
+      log(event.key, "info", event.message);
+      return;
+    }
+    --running_;
+    board_.finish(event.key);
+    ++finished_this_run_;
+    if (event.error) {
+      handle_failure(event);
+    } else if (event.outcome.interrupted) {
+      nodes_.at(event.key).state = State::interrupted;
+      env_.store.mark_finished(event.key, "interrupted", event.attempt, "stopped on request", event.duration_s);
+      report(event.key, "interrupted");
+    } else {
+      handle_success(event);
+    }
+  }
+
+  void handle_success(Event& event) {
+    Node& node = nodes_.at(event.key);
+    env_.store.commit_done(campaign_, event.key, event.outcome.result, event.stored, event.children, event.duration_s);
+    node.state = State::done;
+    node.result = std::move(event.outcome.result);
+    ++done_;
+    report(event.key, fmt::format("done in {:.3f} s", event.duration_s));
+    std::error_code ignored;
+    fs::remove_all(work_dir(env_.store.path()) / event.key, ignored);
+    for (const auto& downstream : node.downstream) {
+      Node& below = nodes_.at(downstream);
+      if (--below.waiting_on == 0 && below.state == State::pending) ready_.push_back(downstream);
+    }
+    for (const auto& child : event.children) admit(child);
+  }
+
+  void handle_failure(const Event& event) {
+    Node& node = nodes_.at(event.key);
+    env_.store.mark_finished(event.key, "failed", event.attempt, *event.error, event.duration_s);
+    log(event.key, "error", fmt::format("attempt {} failed: {}", event.attempt, *event.error));
+    if (node.attempts_this_run <= options_.retries && !stopping_) {
+      node.state = State::pending;
+      ready_.push_back(event.key);
+      report(event.key, fmt::format("failed (attempt {}), retrying: {}", event.attempt, *event.error));
+      return;
+    }
+    node.state = State::failed;
+    ++failed_;
+    report(event.key, "failed: " + *event.error);
+    skip_descendants(node);
+  }
+
+  void skip_descendants(const Node& failed) {
+    std::vector<std::string> skipped;
+    std::vector<std::string> frontier = failed.downstream;
+    while (!frontier.empty()) {
+      const std::string key = frontier.back();
+      frontier.pop_back();
+      Node& node = nodes_.at(key);
+      if (node.state != State::pending) continue;
+      node.state = State::skipped;
+      skipped.push_back(key);
+      frontier.insert(frontier.end(), node.downstream.begin(), node.downstream.end());
+    }
+    env_.store.mark_skipped(skipped, fmt::format("upstream task {} ({}) failed", failed.spec.key, failed.spec.kind));
+  }
+
+  // --- reporting ---------------------------------------------------------------------------
+  void log(const std::optional<std::string>& key, const std::string& level, const std::string& message) {
+    env_.store.append_log(key, level, message);
+    if (!env_.log) return;
+    const std::string who = key ? nodes_.at(*key).spec.kind + " " + key->substr(0, 12) + ": " : std::string();
+    if (level == "error") env_.log->error("{}{}", who, message);
+    else if (level == "warn") env_.log->warn("{}{}", who, message);
+    else env_.log->info("{}{}", who, message);
+  }
+
+  void report(const std::string& key, const std::string& what) {
+    const Node& node = nodes_.at(key);
+    env_.progress.task_event(node.spec.kind, key, what);
+    if (env_.log) env_.log->info("{} {}: {}", node.spec.kind, key.substr(0, 12), what);
+  }
+
+  ProgressSnapshot snapshot() const {
+    ProgressSnapshot snapshot;
+    int remaining = 0;
+    for (const auto& [key, node] : nodes_) {
+      auto& counts = snapshot.done_total_by_kind[node.spec.kind];
+      ++counts.second;
+      if (node.state == State::done || node.state == State::cached) ++counts.first;
+      if (node.state == State::pending || node.state == State::running) ++remaining;
+    }
+    snapshot.running = board_.running();
+    snapshot.elapsed_s = env_.clock.now() - started_;
+    snapshot.finished_this_run = finished_this_run_;
+    snapshot.remaining = remaining;
+    return snapshot;
+  }
+
+  RunSummary summarize() const {
+    RunSummary summary;
+    summary.total = static_cast<int>(nodes_.size());
+    summary.done = done_;
+    summary.failed = failed_;
+    summary.stopped = stopping_;
+    for (const auto& [key, node] : nodes_) {
+      if (node.state == State::cached) ++summary.cached;
+      if (node.state == State::skipped) ++summary.skipped;
+      if (node.state == State::interrupted) ++summary.interrupted;
+      if (node.state == State::pending) ++summary.not_started;
+    }
+    return summary;
+  }
+
+  RunEnvironment env_;
+  std::int64_t campaign_;
+  RunOptions options_;
+  ArtifactStore artifacts_;
+  double started_;
+  StoredState stored_;
+  std::unordered_map<std::string, Node> nodes_;
+  std::vector<std::string> adopted_;  // stored tasks that joined this campaign's graph
+  std::deque<std::string> ready_;
+  EventQueue events_;
+  ProgressBoard board_;
+  std::stop_source stop_;
+  bool stopping_ = false;
+  int running_ = 0;
+  int done_ = 0;
+  int failed_ = 0;
+  int finished_this_run_ = 0;
+};
+
+}  // namespace
+
+int RunSummary::exit_code() const {
+  if (stopped) return 130;
+  return failed > 0 ? 1 : 0;
+}
+
+std::string RunSummary::describe() const {
+  std::string text = fmt::format("{} tasks: {} done, {} cached, {} failed, {} skipped", total, done, cached, failed, skipped);
+  if (interrupted > 0 || not_started > 0) {
+    text += fmt::format(", {} interrupted, {} not started", interrupted, not_started);
+  }
+  return text;
+}
+
+RunSummary run_campaign(RunEnvironment environment, std::int64_t campaign, const std::vector<TaskSpec>& planned,
+                        const RunOptions& options) {
+  Coordinator coordinator(std::move(environment), campaign, options);
+  return coordinator.run(planned);
+}
+
+}  // namespace millflow::engine

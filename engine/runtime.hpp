@@ -1,0 +1,57 @@
+#pragma once
+// The DAG runtime: the coordinating thread owns the store (the one writing connection), launches
+// ready tasks up to --jobs at once, and commits each outcome in its own transaction as it arrives
+// from the workers through an event queue.
+#include <functional>
+#include <memory>
+#include <spdlog/logger.h>
+#include <string>
+#include <vector>
+
+#include "engine/artifacts.hpp"
+#include "engine/clock.hpp"
+#include "engine/launcher.hpp"
+#include "engine/progress.hpp"
+#include "engine/store.hpp"
+#include "engine/task.hpp"
+
+namespace millflow::engine {
+
+struct RunOptions {
+  int jobs = 1;              // tasks running at once
+  int threads_per_task = 1;  // size of each task's own arena
+  int retries = 0;           // extra attempts of a failing task within one run
+  double refresh_s = 0.25;   // progress line period
+  std::function<bool()> stop_requested = [] { return false; };  // polled: Ctrl-C, tests
+};
+
+struct RunSummary {
+  int total = 0;
+  int done = 0;     // ran to completion in this run
+  int cached = 0;   // already done before this run
+  int failed = 0;
+  int skipped = 0;  // below a failed task
+  int interrupted = 0;
+  int not_started = 0;  // left pending by an interruption
+  bool stopped = false;
+
+  // 0 done, 1 some tasks failed, 130 interrupted.
+  int exit_code() const;
+  std::string describe() const;
+};
+
+struct RunEnvironment {
+  Store& store;
+  const KindRegistry& kinds;
+  Launcher& launcher;
+  ProgressView& progress;
+  const Clock& clock;
+  std::shared_ptr<spdlog::logger> log;  // the campaign's log file (may be null)
+};
+
+// Runs the campaign's tasks (already registered in the store) until all are done, failed or
+// skipped, or a stop is requested.
+RunSummary run_campaign(RunEnvironment environment, std::int64_t campaign, const std::vector<TaskSpec>& planned,
+                        const RunOptions& options);
+
+}  // namespace millflow::engine

@@ -1,0 +1,371 @@
+#include "engine/store.hpp"
+
+#include <fmt/format.h>
+
+#include "engine/canonical_json.hpp"
+#include "engine/version.hpp"
+
+namespace millflow::engine {
+namespace fs = std::filesystem;
+namespace {
+
+// Migration i takes the schema from version i to i + 1. Append only; never edit a released one.
+const std::vector<std::string>& migrations() {
+  static const std::vector<std::string> steps = {
+      R"sql(
+CREATE TABLE campaigns (
+  id INTEGER PRIMARY KEY,
+  name TEXT NOT NULL UNIQUE,
+  format TEXT NOT NULL,
+  document TEXT NOT NULL,
+  submitted_at REAL NOT NULL,
+  finished_at REAL,
+  outcome TEXT NOT NULL DEFAULT 'running'
+);
+CREATE TABLE tasks (
+  key TEXT PRIMARY KEY,
+  kind TEXT NOT NULL,
+  kind_version TEXT NOT NULL,
+  params TEXT NOT NULL,
+  key_text TEXT NOT NULL,
+  parent_key TEXT REFERENCES tasks(key),
+  status TEXT NOT NULL DEFAULT 'pending'
+    CHECK (status IN ('pending', 'running', 'done', 'failed', 'interrupted', 'skipped')),
+  attempts INTEGER NOT NULL DEFAULT 0,
+  created_at REAL NOT NULL,
+  started_at REAL,
+  finished_at REAL,
+  duration_s REAL,
+  host TEXT,
+  code_version TEXT,
+  error TEXT
+);
+CREATE INDEX tasks_by_kind ON tasks(kind, status);
+CREATE INDEX tasks_by_parent ON tasks(parent_key);
+CREATE TABLE campaign_tasks (
+  campaign_id INTEGER NOT NULL REFERENCES campaigns(id) ON DELETE CASCADE,
+  task_key TEXT NOT NULL REFERENCES tasks(key),
+  PRIMARY KEY (campaign_id, task_key)
+) WITHOUT ROWID;
+CREATE INDEX campaign_tasks_by_task ON campaign_tasks(task_key);
+CREATE TABLE edges (
+  downstream TEXT NOT NULL REFERENCES tasks(key),
+  position INTEGER NOT NULL,
+  upstream TEXT NOT NULL REFERENCES tasks(key),
+  PRIMARY KEY (downstream, position)
+) WITHOUT ROWID;
+CREATE INDEX edges_by_upstream ON edges(upstream);
+CREATE TABLE results (
+  task_key TEXT PRIMARY KEY REFERENCES tasks(key),
+  result TEXT NOT NULL,
+  committed_at REAL NOT NULL
+);
+CREATE TABLE artifacts (
+  task_key TEXT NOT NULL REFERENCES tasks(key),
+  name TEXT NOT NULL,
+  sha256 TEXT NOT NULL,
+  size INTEGER NOT NULL,
+  path TEXT NOT NULL,
+  PRIMARY KEY (task_key, name)
+);
+CREATE INDEX artifacts_by_digest ON artifacts(sha256);
+CREATE TABLE status_history (
+  id INTEGER PRIMARY KEY,
+  task_key TEXT NOT NULL REFERENCES tasks(key),
+  status TEXT NOT NULL,
+  attempt INTEGER NOT NULL,
+  at REAL NOT NULL,
+  message TEXT
+);
+CREATE INDEX status_history_by_task ON status_history(task_key);
+CREATE TABLE log_lines (
+  id INTEGER PRIMARY KEY,
+  task_key TEXT REFERENCES tasks(key),
+  at REAL NOT NULL,
+  level TEXT NOT NULL,
+  message TEXT NOT NULL
+);
+CREATE TABLE coordinator (
+  id INTEGER PRIMARY KEY CHECK (id = 1),
+  pid INTEGER NOT NULL,
+  host TEXT NOT NULL,
+  started_at REAL NOT NULL,
+  campaign TEXT
+);
+CREATE VIEW task_results AS
+  SELECT c.name AS campaign, t.key AS task_key, t.kind, t.status, t.params, r.result
+  FROM campaign_tasks ct
+  JOIN campaigns c ON c.id = ct.campaign_id
+  JOIN tasks t ON t.key = ct.task_key
+  LEFT JOIN results r ON r.task_key = t.key;
+)sql",
+  };
+  return steps;
+}
+
+void refuse_newer_schema(const fs::path& db, int version) {
+  if (version > kSchemaVersion) {
+    throw SchemaTooNew(fmt::format(
+        "database {} has schema version {}, but this millflow ({}) understands versions up to {}: "
+        "use a newer millflow, or another --db",
+        db.string(), version, code_version(), kSchemaVersion));
+  }
+}
+
+void migrate(sql::Connection& db, const fs::path& path) {
+  const int current = db.user_version();
+  refuse_newer_schema(path, current);
+  for (int version = current; version < kSchemaVersion; ++version) {
+    sql::Transaction transaction(db);
+    db.exec(migrations()[static_cast<size_t>(version)]);
+    db.exec(fmt::format("PRAGMA user_version = {}", version + 1));
+    transaction.commit();
+  }
+}
+
+void install_views(sql::Connection& db, const std::vector<ViewDefinition>& views) {
+  if (views.empty()) return;
+  sql::Transaction transaction(db);
+  for (const auto& view : views) {
+    db.exec("DROP VIEW IF EXISTS \"" + view.name + "\"");
+    db.exec("CREATE VIEW \"" + view.name + "\" AS " + view.select_sql);
+  }
+  transaction.commit();
+}
+
+fs::path beside(const fs::path& db, const std::string& suffix) {
+  return db.parent_path() / (db.filename().string() + suffix);
+}
+
+}  // namespace
+
+fs::path artifacts_dir(const fs::path& db) { return beside(db, ".artifacts"); }
+fs::path work_dir(const fs::path& db) { return beside(db, ".work"); }
+fs::path lock_file(const fs::path& db) { return beside(db, ".lock"); }
+fs::path logs_dir(const fs::path& db) { return beside(db, ".logs"); }
+
+sql::Connection open_read_only(const fs::path& db) {
+  if (!fs::exists(db)) {
+    throw std::runtime_error("no database at " + db.string() + ": submit a campaign first, or pass --db");
+  }
+  sql::Connection connection(db, sql::Access::read_only);
+  refuse_newer_schema(db, connection.user_version());
+  return connection;
+}
+
+std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key) {
+  auto row = db.prepare(
+      "SELECT kind, kind_version, params, key_text, parent_key, status, attempts, coalesce(error, '') "
+      "FROM tasks WHERE key = ?");
+  row.bind_all(key);
+  if (!row.step()) return std::nullopt;
+  TaskRecord record;
+  record.spec = TaskSpec{.key = key, .kind = row.text(0), .version = row.text(1),
+                         .params = nlohmann::json::parse(row.text(2)), .upstream = {}, .key_text = row.text(3)};
+  if (!row.is_null(4)) record.parent_key = row.text(4);
+  record.status = row.text(5);
+  record.attempts = static_cast<int>(row.integer(6));
+  record.error = row.text(7);
+  auto edges = db.prepare("SELECT upstream FROM edges WHERE downstream = ? ORDER BY position");
+  edges.bind_all(key);
+  while (edges.step()) record.spec.upstream.push_back(edges.text(0));
+  return record;
+}
+
+std::optional<nlohmann::json> find_result(sql::Connection& db, const std::string& key) {
+  auto row = db.prepare("SELECT result FROM results WHERE task_key = ?");
+  row.bind_all(key);
+  if (!row.step()) return std::nullopt;
+  return nlohmann::json::parse(row.text(0));
+}
+
+std::vector<StoredArtifact> find_artifacts(sql::Connection& db, const std::string& key) {
+  auto rows = db.prepare("SELECT name, sha256, size FROM artifacts WHERE task_key = ? ORDER BY name");
+  rows.bind_all(key);
+  std::vector<StoredArtifact> artifacts;
+  while (rows.step()) artifacts.push_back({rows.text(0), rows.text(1), rows.integer(2)});
+  return artifacts;
+}
+
+std::vector<std::string> child_keys(sql::Connection& db, const std::string& parent_key) {
+  auto rows = db.prepare("SELECT key FROM tasks WHERE parent_key = ? ORDER BY rowid");
+  rows.bind_all(parent_key);
+  std::vector<std::string> keys;
+  while (rows.step()) keys.push_back(rows.text(0));
+  return keys;
+}
+
+Store::Store(const fs::path& db, const std::vector<ViewDefinition>& views, const Clock& clock)
+    : path_(db), clock_(clock), db_(db, sql::Access::read_write) {
+  // Check the version before anything can write (journal_mode changes the file header).
+  refuse_newer_schema(db, db_.user_version());
+  db_.exec("PRAGMA journal_mode = WAL");
+  db_.exec("PRAGMA synchronous = NORMAL");
+  migrate(db_, db);
+  install_views(db_, views);
+}
+
+std::int64_t Store::register_campaign(const std::string& name, const std::string& format,
+                                      const nlohmann::json& document, const std::vector<TaskSpec>& tasks) {
+  sql::Transaction transaction(db_);
+  statement(
+         "INSERT INTO campaigns (name, format, document, submitted_at) VALUES (?, ?, ?, ?) "
+         "ON CONFLICT(name) DO UPDATE SET format = excluded.format, document = excluded.document, "
+         "submitted_at = excluded.submitted_at, finished_at = NULL, outcome = 'running'")
+      .bind_all(name, format, canonical_json(document), clock_.now())
+      .run();
+  auto& id_row = statement("SELECT id FROM campaigns WHERE name = ?");
+  id_row.bind_all(name);
+  id_row.step();
+  const std::int64_t campaign = id_row.integer(0);
+  id_row.reset();
+  statement("DELETE FROM campaign_tasks WHERE campaign_id = ?").bind_all(campaign).run();
+  insert_tasks(campaign, tasks, std::nullopt);
+  transaction.commit();
+  return campaign;
+}
+
+void Store::insert_tasks(std::int64_t campaign, const std::vector<TaskSpec>& tasks,
+                         const std::optional<std::string>& parent) {
+  auto& task = statement(
+      "INSERT OR IGNORE INTO tasks (key, kind, kind_version, params, key_text, parent_key, created_at) "
+      "VALUES (?, ?, ?, ?, ?, ?, ?)");
+  auto& edge = statement("INSERT OR IGNORE INTO edges (downstream, position, upstream) VALUES (?, ?, ?)");
+  auto& member = statement("INSERT OR IGNORE INTO campaign_tasks (campaign_id, task_key) VALUES (?, ?)");
+  const double now = clock_.now();
+  for (const auto& spec : tasks) {
+    task.bind_all(spec.key, spec.kind, spec.version, canonical_json(spec.params), spec.key_text, parent, now);
+    task.run();
+    for (size_t position = 0; position < spec.upstream.size(); ++position) {
+      edge.bind_all(spec.key, static_cast<std::int64_t>(position), spec.upstream[position]);
+      edge.run();
+    }
+    member.bind_all(campaign, spec.key);
+    member.run();
+  }
+}
+
+void Store::add_members(std::int64_t campaign, const std::vector<std::string>& keys) {
+  sql::Transaction transaction(db_);
+  auto& member = statement("INSERT OR IGNORE INTO campaign_tasks (campaign_id, task_key) VALUES (?, ?)");
+  for (const auto& key : keys) {
+    member.bind_all(campaign, key);
+    member.run();
+  }
+  transaction.commit();
+}
+
+void Store::record_history(const std::string& key, const std::string& status, int attempt,
+                           const std::string& message) {
+  statement("INSERT INTO status_history (task_key, status, attempt, at, message) VALUES (?, ?, ?, ?, ?)")
+      .bind_all(key, status, attempt, clock_.now(), message)
+      .run();
+}
+
+int Store::mark_running(const std::string& key) {
+  sql::Transaction transaction(db_);
+  statement(
+         "UPDATE tasks SET status = 'running', attempts = attempts + 1, started_at = ?, finished_at = NULL, "
+         "duration_s = NULL, host = ?, code_version = ?, error = NULL WHERE key = ?")
+      .bind_all(clock_.now(), host_name(), code_version(), key)
+      .run();
+  auto& row = statement("SELECT attempts FROM tasks WHERE key = ?");
+  row.bind_all(key);
+  row.step();
+  const int attempt = static_cast<int>(row.integer(0));
+  row.reset();
+  record_history(key, "running", attempt, "");
+  transaction.commit();
+  return attempt;
+}
+
+void Store::commit_done(std::int64_t campaign, const std::string& key, const nlohmann::json& result,
+                        const std::vector<StoredArtifact>& artifacts, const std::vector<TaskSpec>& children,
+                        double duration_s) {
+  sql::Transaction transaction(db_);
+  const double now = clock_.now();
+  statement("INSERT OR REPLACE INTO results (task_key, result, committed_at) VALUES (?, ?, ?)")
+      .bind_all(key, canonical_json(result), now)
+      .run();
+  statement("DELETE FROM artifacts WHERE task_key = ?").bind_all(key).run();
+  auto& artifact = statement("INSERT INTO artifacts (task_key, name, sha256, size, path) VALUES (?, ?, ?, ?, ?)");
+  const std::string artifact_root = artifacts_dir(path_).filename().string();
+  for (const auto& stored : artifacts) {
+    artifact.bind_all(key, stored.name, stored.sha256, stored.size,
+                      artifact_root + "/" + stored.sha256.substr(0, 2) + "/" + stored.sha256);
+    artifact.run();
+  }
+  insert_tasks(campaign, children, key);
+  auto& update = statement(
+      "UPDATE tasks SET status = 'done', finished_at = ?, duration_s = ?, error = NULL WHERE key = ? "
+      "RETURNING attempts");
+  update.bind_all(now, duration_s, key);
+  update.step();
+  const int attempt = static_cast<int>(update.integer(0));
+  update.reset();
+  record_history(key, "done", attempt, "");
+  transaction.commit();
+}
+
+void Store::mark_finished(const std::string& key, const std::string& status, int attempt,
+                          const std::string& message, double duration_s) {
+  sql::Transaction transaction(db_);
+  statement("UPDATE tasks SET status = ?, finished_at = ?, duration_s = ?, error = ? WHERE key = ?")
+      .bind_all(status, clock_.now(), duration_s, message, key)
+      .run();
+  record_history(key, status, attempt, message);
+  transaction.commit();
+}
+
+void Store::mark_skipped(const std::vector<std::string>& keys, const std::string& reason) {
+  if (keys.empty()) return;
+  sql::Transaction transaction(db_);
+  auto& update = statement("UPDATE tasks SET status = 'skipped', error = ? WHERE key = ? RETURNING attempts");
+  for (const auto& key : keys) {
+    update.bind_all(reason, key);
+    update.step();
+    const int attempt = static_cast<int>(update.integer(0));
+    update.reset();
+    record_history(key, "skipped", attempt, reason);
+  }
+  transaction.commit();
+}
+
+void Store::mark_pending(const std::string& key, const std::string& reason) {
+  sql::Transaction transaction(db_);
+  auto& update = statement("UPDATE tasks SET status = 'pending', error = ? WHERE key = ? RETURNING attempts");
+  update.bind_all(reason, key);
+  update.step();
+  const int attempt = static_cast<int>(update.integer(0));
+  update.reset();
+  record_history(key, "pending", attempt, reason);
+  transaction.commit();
+}
+
+void Store::append_log(const std::optional<std::string>& key, const std::string& level, const std::string& message) {
+  statement("INSERT INTO log_lines (task_key, at, level, message) VALUES (?, ?, ?, ?)")
+      .bind_all(key, clock_.now(), level, message)
+      .run();
+}
+
+void Store::finish_campaign(std::int64_t campaign, const std::string& outcome) {
+  statement("UPDATE campaigns SET finished_at = ?, outcome = ? WHERE id = ?")
+      .bind_all(clock_.now(), outcome, campaign)
+      .run();
+}
+
+void Store::set_coordinator(int pid, const std::string& host, const std::string& campaign) {
+  statement("INSERT OR REPLACE INTO coordinator (id, pid, host, started_at, campaign) VALUES (1, ?, ?, ?, ?)")
+      .bind_all(pid, host, clock_.now(), campaign)
+      .run();
+}
+
+void Store::clear_coordinator() { db_.exec("DELETE FROM coordinator"); }
+
+sql::Statement& Store::statement(const std::string& sql) {
+  auto found = statements_.find(sql);
+  if (found == statements_.end()) found = statements_.emplace(sql, db_.prepare(sql)).first;
+  return found->second;
+}
+
+}  // namespace millflow::engine

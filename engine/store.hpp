@@ -1,0 +1,118 @@
+#pragma once
+// The provenance store: one SQLite file, written by exactly one connection (this class), owned by
+// the coordinating thread. Readers open their own read-only connections (open_read_only).
+//
+// Schema version 1 (PRAGMA user_version = 1); times are Unix seconds (REAL), JSON is canonical text.
+//   campaigns      id PK, name UNIQUE, format, document (the loaded campaign JSON), submitted_at,
+//                  finished_at, outcome ('running'|'done'|'failed'|'interrupted')
+//   tasks          key PK (SHA-256 hex), kind, kind_version, params, key_text (exactly what was
+//                  hashed), parent_key (the task whose result declared it; NULL for planned tasks),
+//                  status ('pending'|'running'|'done'|'failed'|'interrupted'|'skipped'),
+//                  attempts (launches ever), created_at, started_at, finished_at, duration_s,
+//                  host, code_version, error
+//   campaign_tasks campaign_id, task_key: which tasks belong to which campaign (tasks are shared)
+//   edges          downstream, position, upstream: the DAG (position = input order)
+//   results        task_key PK, result (JSON), committed_at
+//   artifacts      task_key, name, sha256, size, path (relative to the database's directory);
+//                  files live in <db>.artifacts/<sha[0:2]>/<sha>
+//   status_history id, task_key, status, attempt, at, message: every status change
+//   log_lines      id, task_key (NULL for campaign-level lines), at, level, message
+//   coordinator    the one row (id = 1) of the coordinator holding the database: pid, host,
+//                  started_at, campaign
+// Views: task_results (campaign, task_key, kind, status, params, result), plus the views that
+// tasks/ registers (ViewDefinition), recreated each time a writer opens the database.
+// Migrations are forward only: migration i takes user_version i to i + 1; a database with a newer
+// version than this build knows is refused (SchemaTooNew) and never touched.
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "engine/artifacts.hpp"
+#include "engine/clock.hpp"
+#include "engine/sqlite.hpp"
+#include "engine/task.hpp"
+
+namespace millflow::engine {
+
+inline constexpr int kSchemaVersion = 1;
+
+class SchemaTooNew : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// A read-only SQL view added by a domain (tasks/): CREATE VIEW <name> AS <select_sql>.
+struct ViewDefinition {
+  std::string name;
+  std::string select_sql;
+};
+
+struct TaskRecord {
+  TaskSpec spec;
+  std::string status;
+  int attempts = 0;
+  std::optional<std::string> parent_key;
+  std::string error;
+};
+
+// Paths beside a database file: <dir>/<name>.artifacts, <name>.work, <name>.lock, <name>.logs.
+std::filesystem::path artifacts_dir(const std::filesystem::path& db);
+std::filesystem::path work_dir(const std::filesystem::path& db);
+std::filesystem::path lock_file(const std::filesystem::path& db);
+std::filesystem::path logs_dir(const std::filesystem::path& db);
+
+// Read-only connection to an existing database whose schema this build understands.
+sql::Connection open_read_only(const std::filesystem::path& db);
+
+// Reads shared by the writer and the read-only tools.
+std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key);
+std::optional<nlohmann::json> find_result(sql::Connection& db, const std::string& key);
+std::vector<StoredArtifact> find_artifacts(sql::Connection& db, const std::string& key);
+std::vector<std::string> child_keys(sql::Connection& db, const std::string& parent_key);
+
+class Store {
+ public:
+  Store(const std::filesystem::path& db, const std::vector<ViewDefinition>& views, const Clock& clock);
+
+  const std::filesystem::path& path() const { return path_; }
+  sql::Connection& connection() { return db_; }
+
+  // Creates or updates the campaign (its document and membership start afresh) and adds the
+  // planned tasks, all in one transaction. Returns the campaign id.
+  std::int64_t register_campaign(const std::string& name, const std::string& format,
+                                 const nlohmann::json& document, const std::vector<TaskSpec>& tasks);
+  // Adds existing tasks (e.g. children of a cached task) to a campaign.
+  void add_members(std::int64_t campaign, const std::vector<std::string>& keys);
+
+  // Marks the task running and returns its attempt number (1 for the first attempt ever).
+  int mark_running(const std::string& key);
+  // One transaction: result, artifacts, declared children (tasks, edges, membership), status done.
+  void commit_done(std::int64_t campaign, const std::string& key, const nlohmann::json& result,
+                   const std::vector<StoredArtifact>& artifacts, const std::vector<TaskSpec>& children,
+                   double duration_s);
+  void mark_finished(const std::string& key, const std::string& status, int attempt,
+                     const std::string& message, double duration_s);
+  void mark_skipped(const std::vector<std::string>& keys, const std::string& reason);
+  void mark_pending(const std::string& key, const std::string& reason);
+  void append_log(const std::optional<std::string>& key, const std::string& level, const std::string& message);
+  void finish_campaign(std::int64_t campaign, const std::string& outcome);
+  void set_coordinator(int pid, const std::string& host, const std::string& campaign);
+  void clear_coordinator();
+
+ private:
+  void insert_tasks(std::int64_t campaign, const std::vector<TaskSpec>& tasks,
+                    const std::optional<std::string>& parent);
+  // Prepared once per connection: a task's commit reuses the same handful of statements.
+  sql::Statement& statement(const std::string& sql);
+  void record_history(const std::string& key, const std::string& status, int attempt, const std::string& message);
+
+  std::filesystem::path path_;
+  const Clock& clock_;
+  sql::Connection db_;
+  std::unordered_map<std::string, sql::Statement> statements_;
+};
+
+}  // namespace millflow::engine

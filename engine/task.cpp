@@ -1,0 +1,64 @@
+#include "engine/task.hpp"
+
+#include <stdexcept>
+
+#include "engine/canonical_json.hpp"
+#include "engine/hash.hpp"
+#include "engine/validation.hpp"
+
+namespace millflow::engine {
+namespace {
+
+std::string join_keys(const std::vector<std::string>& keys) {
+  std::string text;
+  for (const auto& key : keys) {
+    if (!text.empty()) text += ',';
+    text += key;
+  }
+  return text;
+}
+
+}  // namespace
+
+TaskSpec make_task_spec(std::string kind, std::string version, nlohmann::json params,
+                        std::vector<std::string> upstream) {
+  TaskSpec spec{.key = {}, .kind = std::move(kind), .version = std::move(version),
+                .params = std::move(params), .upstream = std::move(upstream), .key_text = {}};
+  spec.key_text = "millflow-task 1\nkind:" + spec.kind + "\nversion:" + spec.version +
+                  "\nparams:" + canonical_json(spec.params) +
+                  "\nupstream:" + join_keys(spec.upstream) + "\n";
+  spec.key = sha256_hex(spec.key_text);
+  return spec;
+}
+
+void KindRegistry::add(TaskKind kind) {
+  const std::string name = kind.name;
+  if (!kinds_.emplace(name, std::move(kind)).second) {
+    throw std::logic_error("task kind registered twice: " + name);
+  }
+}
+
+const TaskKind& KindRegistry::get(const std::string& name) const {
+  const auto found = kinds_.find(name);
+  if (found == kinds_.end()) {
+    std::string known;
+    for (const auto& [kind_name, kind] : kinds_) known += (known.empty() ? "" : ", ") + kind_name;
+    throw InvalidInput({{"", "unknown task kind \"" + name + "\"", "use one of: " + known}});
+  }
+  return found->second;
+}
+
+const std::string& Plan::add(const std::string& kind, nlohmann::json params,
+                             std::vector<std::string> upstream) {
+  for (const auto& key : upstream) {
+    if (index_.count(key) == 0) {
+      throw std::logic_error("plan: upstream task " + key + " of a " + kind + " task is not in the plan");
+    }
+  }
+  TaskSpec spec = make_task_spec(kind, kinds_->get(kind).version, std::move(params), std::move(upstream));
+  const auto [where, inserted] = index_.emplace(spec.key, tasks_.size());
+  if (inserted) tasks_.push_back(std::move(spec));
+  return tasks_[where->second].key;
+}
+
+}  // namespace millflow::engine

@@ -1,0 +1,53 @@
+#include "support_engine.hpp"
+
+#include <unistd.h>
+
+#include <atomic>
+
+#include "engine/store.hpp"
+
+namespace millflow::engine::testing {
+
+ScratchDir::ScratchDir() {
+  static std::atomic<int> counter{0};
+  path_ = std::filesystem::temp_directory_path() /
+          ("millflow-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
+  std::filesystem::remove_all(path_);
+  std::filesystem::create_directories(path_);
+}
+
+ScratchDir::~ScratchDir() {
+  std::error_code ignored;
+  std::filesystem::remove_all(path_, ignored);
+}
+
+Registry testing_registry() {
+  Registry registry;
+  add_testing(registry);
+  return registry;
+}
+
+Campaign test_campaign(const std::string& name, nlohmann::json tasks) {
+  return Campaign{name, "millflow-test", {{"format", "millflow-test"}, {"name", name}, {"tasks", std::move(tasks)}}};
+}
+
+RunSummary submit(const Campaign& campaign, const std::filesystem::path& db, int jobs, int retries) {
+  SubmitOptions options;
+  options.run.jobs = jobs;
+  options.run.retries = retries;
+  return submit_campaign(testing_registry(), campaign, db, options);
+}
+
+std::int64_t count(const std::filesystem::path& db, const std::string& sql) {
+  auto connection = open_read_only(db);
+  auto row = connection.prepare(sql);
+  row.step();
+  return row.integer(0);
+}
+
+nlohmann::json result_of(const std::filesystem::path& db, const std::string& key) {
+  auto connection = open_read_only(db);
+  return find_result(connection, key).value_or(nlohmann::json());
+}
+
+}  // namespace millflow::engine::testing

@@ -1,0 +1,36 @@
+#pragma once
+// Helpers shared by the engine tests: scratch directories, test campaigns, store reads.
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "engine/campaign.hpp"
+#include "engine/testing_tasks.hpp"
+
+namespace millflow::engine::testing {
+
+// A fresh directory under the system temp dir, removed when the object goes away.
+class ScratchDir {
+ public:
+  ScratchDir();
+  ~ScratchDir();
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path db() const { return path_ / "test.db"; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+Registry testing_registry();
+
+// {"format": "millflow-test", "name": name, "tasks": tasks}
+Campaign test_campaign(const std::string& name, nlohmann::json tasks);
+
+RunSummary submit(const Campaign& campaign, const std::filesystem::path& db, int jobs = 2, int retries = 0);
+
+// One integer from a read-only SQL query.
+std::int64_t count(const std::filesystem::path& db, const std::string& sql);
+// The "sum" result of the campaign's task with these params (canonical JSON) and kind.
+nlohmann::json result_of(const std::filesystem::path& db, const std::string& key);
+
+}  // namespace millflow::engine::testing

@@ -1,0 +1,184 @@
+// The DAG runtime end to end on test kinds: order, concurrency, failures, retries, caching,
+// re-keying, shared tasks, dynamic expansion, artifact corruption, interruption.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "engine/store.hpp"
+#include "support_engine.hpp"
+
+namespace millflow::engine::testing {
+namespace {
+
+using nlohmann::json;
+
+// a(1) -> b(2) -> d(4); a -> c(3) -> d: sums are 1, 3, 4, 1+3+4+4 = 12.
+json diamond(int a_value = 1) {
+  return json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", a_value}}}},
+                      {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"a"}}},
+                      {{"id", "c"}, {"kind", "sum"}, {"params", {{"value", 3}}}, {"after", {"a"}}},
+                      {{"id", "d"}, {"kind", "sum"}, {"params", {{"value", 4}}}, {"after", {"b", "c"}}}});
+}
+
+std::int64_t sum_of(const std::filesystem::path& db, std::int64_t value) {
+  return count(db, "SELECT json_extract(r.result, '$.sum') FROM tasks t JOIN results r ON r.task_key = t.key "
+                   "WHERE json_extract(t.params, '$.value') = " + std::to_string(value));
+}
+
+std::int64_t launches(const std::filesystem::path& db) {
+  return count(db, "SELECT count(*) FROM status_history WHERE status = 'running'");
+}
+
+TEST(Runtime, RunsTheDagInDependencyOrderWithCorrectInputs) {
+  ScratchDir dir;
+  const auto summary = submit(test_campaign("diamond", diamond()), dir.db(), 3);
+  EXPECT_EQ(summary.done, 4);
+  EXPECT_EQ(summary.exit_code(), 0);
+  EXPECT_EQ(sum_of(dir.db(), 2), 1 + 2);
+  EXPECT_EQ(sum_of(dir.db(), 3), 1 + 3);
+  EXPECT_EQ(sum_of(dir.db(), 4), 4 + (1 + 2) + (1 + 3));
+  // Every downstream launch comes after its upstream task was committed done.
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM edges e "
+                            "JOIN status_history up ON up.task_key = e.upstream AND up.status = 'done' "
+                            "JOIN status_history down ON down.task_key = e.downstream AND down.status = 'running' "
+                            "WHERE down.id < up.id"),
+            0);
+}
+
+TEST(Runtime, NeverRunsMoreThanJobsTasksAtOnce) {
+  ScratchDir dir;
+  json tasks = json::array();
+  for (int i = 0; i < 9; ++i) tasks.push_back({{"id", std::to_string(i)}, {"kind", "sleep"}, {"params", {{"ms", 60 + i}}}});
+  take_max_concurrent_sleeps();
+  EXPECT_EQ(submit(test_campaign("sleepers", tasks), dir.db(), 3).done, 9);
+  EXPECT_EQ(take_max_concurrent_sleeps(), 3);
+}
+
+TEST(Runtime, FailureSkipsDescendantsButNotSiblings) {
+  ScratchDir dir;
+  const json tasks = json::array({{{"id", "bad"}, {"kind", "fail"}, {"params", {{"failures", 5}}}},
+                                  {{"id", "child"}, {"kind", "sum"}, {"params", {{"value", 1}}}, {"after", {"bad"}}},
+                                  {{"id", "grandchild"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"child"}}},
+                                  {{"id", "sibling"}, {"kind", "sum"}, {"params", {{"value", 3}}}}});
+  const auto summary = submit(test_campaign("failing", tasks), dir.db());
+  EXPECT_EQ(summary.failed, 1);
+  EXPECT_EQ(summary.skipped, 2);
+  EXPECT_EQ(summary.done, 1);
+  EXPECT_EQ(summary.exit_code(), 1);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM tasks WHERE status = 'skipped'"), 2);
+  EXPECT_EQ(sum_of(dir.db(), 3), 3);
+}
+
+TEST(Runtime, RetriesWithinARunAndCountsAttemptsAcrossRuns) {
+  ScratchDir dir;
+  const auto campaign = test_campaign("flaky", json::array({{{"id", "f"}, {"kind", "fail"}, {"params", {{"failures", 2}}}}}));
+  EXPECT_EQ(submit(campaign, dir.db(), 1, 1).failed, 1);  // attempts 1 and 2 fail
+  EXPECT_EQ(count(dir.db(), "SELECT attempts FROM tasks"), 2);
+  EXPECT_EQ(submit(campaign, dir.db(), 1, 0).done, 1);  // attempt 3 succeeds
+  ScratchDir fresh;
+  EXPECT_EQ(submit(campaign, fresh.db(), 1, 2).done, 1);  // two retries are enough in one run
+  EXPECT_EQ(count(fresh.db(), "SELECT attempts FROM tasks"), 3);
+}
+
+TEST(Runtime, ResubmissionIsFullyCached) {
+  ScratchDir dir;
+  const auto campaign = test_campaign("diamond", diamond());
+  submit(campaign, dir.db());
+  const auto before = launches(dir.db());
+  const auto again = submit(campaign, dir.db());
+  EXPECT_EQ(again.cached, 4);
+  EXPECT_EQ(again.done, 0);
+  EXPECT_EQ(launches(dir.db()), before);
+}
+
+TEST(Runtime, ChangedParameterRerunsExactlyItsDownstream) {
+  ScratchDir dir;
+  submit(test_campaign("diamond", diamond(1)), dir.db());
+  // Changing c re-keys c and d only.
+  json changed = diamond(1);
+  changed[2]["params"]["value"] = 30;
+  const auto summary = submit(test_campaign("diamond", changed), dir.db());
+  EXPECT_EQ(summary.done, 2);
+  EXPECT_EQ(summary.cached, 2);
+  EXPECT_EQ(sum_of(dir.db(), 30), 31);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM task_results WHERE campaign = 'diamond'"), 4);
+  // Changing the root re-keys everything.
+  EXPECT_EQ(submit(test_campaign("diamond", diamond(5)), dir.db()).done, 4);
+}
+
+TEST(Runtime, OverlappingCampaignsShareTasks) {
+  ScratchDir dir;
+  submit(test_campaign("first", diamond()), dir.db());
+  json second = diamond();
+  second.push_back({{"id", "e"}, {"kind", "sum"}, {"params", {{"value", 100}}}, {"after", {"d"}}});
+  const auto summary = submit(test_campaign("second", second), dir.db());
+  EXPECT_EQ(summary.cached, 4);
+  EXPECT_EQ(summary.done, 1);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM tasks"), 5);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM campaign_tasks"), 9);
+}
+
+TEST(Runtime, ResultsCanGrowTheDagWithStableChildKeys) {
+  ScratchDir dir;
+  const json tasks = json::array({{{"id", "root"}, {"kind", "sum"}, {"params", {{"value", 5}}}},
+                                  {{"id", "fan"}, {"kind", "fanout"}, {"params", {{"children", 4}, {"value", 10}}}, {"after", {"root"}}}});
+  const auto first = submit(test_campaign("grow", tasks), dir.db());
+  EXPECT_EQ(first.total, 6);
+  EXPECT_EQ(first.done, 6);
+  // Children see the fanout's sum (10) as input: 10 + i.
+  EXPECT_EQ(count(dir.db(), "SELECT sum(json_extract(r.result, '$.sum')) FROM tasks t JOIN results r ON r.task_key = t.key "
+                            "WHERE t.parent_key IS NOT NULL"),
+            4 * 10 + (0 + 1 + 2 + 3));
+  // A second campaign with the same tasks finds the expanded children cached.
+  const auto second = submit(test_campaign("grow-again", tasks), dir.db());
+  EXPECT_EQ(second.total, 6);
+  EXPECT_EQ(second.cached, 6);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM task_results WHERE campaign = 'grow-again'"), 6);
+}
+
+TEST(Runtime, CorruptOrMissingArtifactMakesItsTaskRunAgain) {
+  ScratchDir dir;
+  const auto campaign = test_campaign("files", json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 7}, {"artifact", true}}}},
+                                                           {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 1}}}, {"after", {"a"}}}}));
+  submit(campaign, dir.db());
+  auto connection = open_read_only(dir.db());
+  const auto key = [&] {
+    auto row = connection.prepare("SELECT task_key FROM artifacts");
+    row.step();
+    return row.text(0);
+  }();
+  const auto artifact = find_artifacts(connection, key).at(0);
+  const auto file = artifacts_dir(dir.db()) / artifact.sha256.substr(0, 2) / artifact.sha256;
+  std::ofstream(file) << "8\n";  // same size, different content
+  auto rerun = submit(campaign, dir.db());
+  EXPECT_EQ(rerun.done, 1);
+  EXPECT_EQ(rerun.cached, 1);
+  std::filesystem::resize_file(file, 0);  // truncated
+  EXPECT_EQ(submit(campaign, dir.db()).done, 1);
+  std::filesystem::remove(file);  // missing
+  EXPECT_EQ(submit(campaign, dir.db()).done, 1);
+  std::ifstream in(file);
+  std::int64_t restored = 0;
+  in >> restored;
+  EXPECT_EQ(restored, 7);
+}
+
+TEST(Runtime, StopRequestInterruptsRunningTasksAndResumeFinishes) {
+  ScratchDir dir;
+  json tasks = json::array();
+  for (int i = 0; i < 4; ++i) tasks.push_back({{"id", std::to_string(i)}, {"kind", "sleep"}, {"params", {{"ms", 3000 + i}}}});
+  const auto campaign = test_campaign("long", tasks);
+  SubmitOptions options;
+  options.run.jobs = 2;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
+  options.run.stop_requested = [&] { return std::chrono::steady_clock::now() > deadline; };
+  const auto stopped = submit_campaign(testing_registry(), campaign, dir.db(), options);
+  EXPECT_EQ(stopped.exit_code(), 130);
+  EXPECT_EQ(stopped.interrupted, 2);
+  EXPECT_EQ(stopped.not_started, 2);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM tasks WHERE status = 'interrupted'"), 2);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM campaigns WHERE outcome = 'interrupted'"), 1);
+}
+
+}  // namespace
+}  // namespace millflow::engine::testing
