@@ -243,17 +243,19 @@ class Checker {
     const bool too_few = rule.min_items && count < *rule.min_items;
     const bool too_many = rule.max_items && count > *rule.max_items;
     if (!too_few && !too_many) return;
-    const std::string noun = rule.type == FieldType::object ? "entries" : "items";
+    const auto counted = [&](std::size_t n) {
+      const bool entries = rule.type == FieldType::object;
+      return fmt::format("{} {}", n, n == 1 ? (entries ? "entry" : "item") : (entries ? "entries" : "items"));
+    };
     std::string wanted;
     if (rule.min_items && rule.max_items) {
       wanted = *rule.min_items == *rule.max_items
-                   ? fmt::format("exactly {}", *rule.min_items)
-                   : fmt::format("between {} and {}", *rule.min_items, *rule.max_items);
+                   ? "exactly " + counted(*rule.min_items)
+                   : fmt::format("between {} and {}", *rule.min_items, counted(*rule.max_items));
     } else {
-      wanted = rule.min_items ? fmt::format("at least {}", *rule.min_items)
-                              : fmt::format("at most {}", *rule.max_items);
+      wanted = rule.min_items ? "at least " + counted(*rule.min_items) : "at most " + counted(*rule.max_items);
     }
-    report(path, fmt::format("has {} {}", count, noun), fmt::format("give {} {}", wanted, noun), rule);
+    report(path, "has " + counted(count), "give " + wanted, rule);
   }
 
   json check_object(const json& value, const FieldRule& rule, const std::string& path) {

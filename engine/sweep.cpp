@@ -345,8 +345,9 @@ double round_significant(double value, int digits) {
 
 std::vector<double> linspace(double start, double stop, long long num) {
   std::vector<double> values;
+  if (num == 1) return {round_significant(start)};
   for (long long i = 0; i < num; ++i) {
-    const double value = i + 1 == num && num > 1 ? stop : start + (stop - start) * double(i) / double(num - 1);
+    const double value = i + 1 == num ? stop : start + (stop - start) * double(i) / double(num - 1);
     values.push_back(round_significant(value));
   }
   return values;
