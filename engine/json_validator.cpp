@@ -174,8 +174,12 @@ class Checker {
   std::vector<ValidationError> take_errors() { return std::move(errors_); }
 
  private:
+  void report(const std::string& path, std::string problem, std::string fix) {
+    errors_.push_back({path, std::move(problem), std::move(fix)});
+  }
+
   void report(const std::string& path, std::string problem, std::string fix, const FieldRule& rule) {
-    errors_.push_back({path, std::move(problem), add_hint(std::move(fix), rule)});
+    report(path, std::move(problem), add_hint(std::move(fix), rule));
   }
 
   json wrong_type(const json& value, const FieldRule& rule, const std::string& path) {
@@ -292,8 +296,7 @@ class Checker {
       if (std::find(names.begin(), names.end(), key) != names.end()) continue;
       const auto suggestion = closest_match(key, names);
       report(path + "/" + escape_path_segment(key), "unknown field \"" + key + "\"",
-             suggestion ? "did you mean \"" + *suggestion + "\"?" : "allowed fields here: " + quoted_list(names),
-             FieldRule{});
+             suggestion ? "did you mean \"" + *suggestion + "\"?" : "allowed fields here: " + quoted_list(names));
     }
     for (std::size_t i = 0; i < fields.size(); ++i) {
       const auto field_path = path + "/" + escape_path_segment(names[i]);

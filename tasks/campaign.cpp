@@ -6,6 +6,7 @@
 #include <set>
 #include <sstream>
 
+#include "engine/json_text.hpp"
 #include "tasks/campaign_checks.hpp"
 
 namespace millflow::tasks {
@@ -230,20 +231,20 @@ void check_sweep_points(const json& campaign, std::vector<ValidationError>& erro
   }
 }
 
-// "at line 3, column 1" plus the parser's reason, from a parse error and the text it was parsing.
-ValidationError syntax_error(const json::parse_error& error, std::string_view text) {
-  const auto index = std::min<std::size_t>(error.byte == 0 ? 0 : error.byte - 1, text.size());
-  const auto before = text.substr(0, index);
-  const auto line = 1 + std::count(before.begin(), before.end(), '\n');
-  const auto line_start = before.rfind('\n');
-  const auto column = line_start == std::string_view::npos ? index + 1 : index - line_start;
-  std::string reason = error.what();
-  const auto column_text = reason.find("column ");
-  const auto colon = column_text == std::string::npos ? std::string::npos : reason.find(": ", column_text);
-  if (colon != std::string::npos) reason = reason.substr(colon + 2);
-  if (reason.starts_with("syntax error ")) reason.erase(0, std::string_view("syntax error ").size());
-  return {"", "JSON syntax error at line " + std::to_string(line) + ", column " + std::to_string(column) + ": " + reason,
-          "correct the JSON there (a missing comma or quote, or a comma before } or ], is the usual cause)"};
+// The normalized campaign and every error of it (none when it is valid).
+engine::ValidationResult check_campaign(const json& document) {
+  if (!document.is_object()) {
+    return {document, {{"", "expected an object, got " + engine::describe_value(document),
+                        "write the campaign as a JSON object {\"millflow_campaign\": 1, ...}"}}};
+  }
+  refuse_other_versions(document);
+  auto [campaign, errors] = engine::validate(document, campaign_table());
+  const auto sweep_errors = engine::check_sweep(campaign, campaign_table());
+  errors.insert(errors.end(), sweep_errors.begin(), sweep_errors.end());
+  const auto consistency_errors = check_campaign_consistency(campaign, errors);
+  errors.insert(errors.end(), consistency_errors.begin(), consistency_errors.end());
+  if (errors.empty() && campaign.contains("sweep")) check_sweep_points(campaign, errors);
+  return {campaign, errors};
 }
 
 }  // namespace
@@ -264,29 +265,17 @@ nlohmann::json campaign_json_schema() {
 }
 
 nlohmann::json validate_campaign(const nlohmann::json& document) {
-  if (!document.is_object()) {
-    throw engine::InvalidInput({{"", "expected an object, got " + engine::describe_value(document),
-                                 "write the campaign as a JSON object {\"millflow_campaign\": 1, ...}"}});
-  }
-  refuse_other_versions(document);
-  auto [campaign, errors] = engine::validate(document, campaign_table());
-  const auto sweep_errors = engine::check_sweep(campaign, campaign_table());
-  errors.insert(errors.end(), sweep_errors.begin(), sweep_errors.end());
-  const auto consistency_errors = check_campaign_consistency(campaign, errors);
-  errors.insert(errors.end(), consistency_errors.begin(), consistency_errors.end());
-  if (errors.empty() && campaign.contains("sweep")) check_sweep_points(campaign, errors);
+  auto [campaign, errors] = check_campaign(document);
   if (!errors.empty()) throw engine::InvalidInput(std::move(errors));
   return campaign;
 }
 
 nlohmann::json parse_campaign(std::string_view text) {
-  json document;
-  try {
-    document = json::parse(text);
-  } catch (const json::parse_error& error) {
-    throw engine::InvalidInput({syntax_error(error, text)});
-  }
-  return validate_campaign(document);
+  auto [document, errors] = engine::parse_json_text(text);
+  auto [campaign, campaign_errors] = check_campaign(document);
+  errors.insert(errors.end(), campaign_errors.begin(), campaign_errors.end());
+  if (!errors.empty()) throw engine::InvalidInput(std::move(errors));
+  return campaign;
 }
 
 nlohmann::json load_campaign(const std::filesystem::path& file) {

@@ -223,12 +223,13 @@ class ConsistencyChecker {
     if (!count || *count == 0) return;
     const auto height = campaign_.number("/mill/lifters/height");
     const auto base = campaign_.number("/mill/lifters/base_width");
-    for (const auto* field : {"height", "base_width"}) {
+    const std::pair<const char*, const char*> dimensions[] = {{"height", "radial height"},
+                                                               {"base_width", "width at the shell"}};
+    for (const auto& [field, meaning] : dimensions) {
       const auto path = std::string("/mill/lifters/") + field;
       if (campaign_.node(path) == nullptr && campaign_.node("/mill/lifters") != nullptr) {
         error(path, "required field is missing when /mill/lifters/count > 0",
-              std::string("add the lifter bar's ") + (field == std::string("height") ? "radial height" : "width at the shell") +
-                  ", a number > 0 m");
+              std::string("add the lifter bar's ") + meaning + ", a number > 0 m");
       }
     }
     const auto diameter = campaign_.number("/mill/diameter");
