@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 #include <regex>
-#include <set>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -103,19 +102,6 @@ std::string type_with_range(const FieldRule& rule) {
   if (range.empty()) return type_name(rule) + (rule.unit.empty() ? "" : " in " + rule.unit);
   return type_name(rule) + " " + range;
 }
-
-}  // namespace
-
-std::string describe_value(const nlohmann::json& value) {
-  if (value.is_string()) return "the string " + quote_value(value);
-  if (value.is_number()) return "the number " + quote_value(value);
-  if (value.is_boolean()) return std::string("the boolean ") + (value.get<bool>() ? "true" : "false");
-  if (value.is_object()) return "an object";
-  if (value.is_array()) return "a list";
-  return "null";
-}
-
-namespace {
 
 std::string add_hint(std::string fix, const FieldRule& rule) {
   if (!rule.hint.empty()) fix += "; " + rule.hint;
@@ -582,6 +568,15 @@ std::string escape_path_segment(std::string_view segment) {
 std::string quote_value(const nlohmann::json& value) {
   if (value.is_number_float()) return format_number(value.get<double>());
   return value.dump();
+}
+
+std::string describe_value(const nlohmann::json& value) {
+  if (value.is_string()) return "the string " + quote_value(value);
+  if (value.is_number()) return "the number " + quote_value(value);
+  if (value.is_boolean()) return std::string("the boolean ") + (value.get<bool>() ? "true" : "false");
+  if (value.is_object()) return "an object";
+  if (value.is_array()) return "a list";
+  return "null";
 }
 
 }  // namespace millflow::engine

@@ -41,7 +41,9 @@ std::vector<std::string> messages_of(const fs::path& file) {
 std::vector<fs::path> corpus_files() {
   std::vector<fs::path> files;
   for (const auto& entry : fs::directory_iterator(corpus_dir)) {
-    if (entry.path().filename() != "expected.json") files.push_back(entry.path());
+    if (entry.path().extension() == ".json" && entry.path().filename() != "expected.json") {
+      files.push_back(entry.path());
+    }
   }
   std::sort(files.begin(), files.end());
   return files;
