@@ -1,0 +1,101 @@
+#include "engine/json_text.hpp"
+
+#include <algorithm>
+#include <set>
+#include <string>
+
+#include "engine/json_validator.hpp"
+
+namespace millflow::engine {
+namespace {
+
+using nlohmann::json;
+
+// Follows the parser's events to know the path of every key, and remembers the keys seen in each
+// open object.
+class DuplicateKeyFinder {
+ public:
+  bool operator()(int /*depth*/, json::parse_event_t event, json& parsed) {
+    switch (event) {
+      case json::parse_event_t::object_start:
+        enter_element();
+        frames_.push_back({true, {}, {}, 0});
+        break;
+      case json::parse_event_t::array_start:
+        enter_element();
+        frames_.push_back({false, {}, {}, 0});
+        break;
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end: frames_.pop_back(); break;
+      case json::parse_event_t::key: on_key(parsed.get<std::string>()); break;
+      case json::parse_event_t::value: enter_element(); break;
+    }
+    return true;
+  }
+
+  std::vector<ValidationError> take_errors() { return std::move(errors_); }
+
+ private:
+  struct Frame {
+    bool object;
+    std::set<std::string> keys;
+    std::string key;         // objects: the key being read
+    std::size_t items = 0;   // lists: items started so far
+  };
+
+  void enter_element() {
+    if (!frames_.empty() && !frames_.back().object) ++frames_.back().items;
+  }
+
+  void on_key(std::string key) {
+    auto& frame = frames_.back();
+    frame.key = std::move(key);
+    if (frame.keys.insert(frame.key).second) return;
+    errors_.push_back({path(), "key \"" + frame.key + "\" appears twice in the same object",
+                       "keep one of them (only the last one would count)"});
+  }
+
+  std::string path() const {
+    std::string text;
+    for (const auto& frame : frames_) {
+      text += '/';
+      text += frame.object ? escape_path_segment(frame.key) : std::to_string(frame.items - 1);
+    }
+    return text;
+  }
+
+  std::vector<Frame> frames_;
+  std::vector<ValidationError> errors_;
+};
+
+// Line and column from the parser's byte offset, plus the parser's reason.
+ValidationError syntax_error(const json::parse_error& error, std::string_view text) {
+  const auto index = std::min<std::size_t>(error.byte == 0 ? 0 : error.byte - 1, text.size());
+  const auto before = text.substr(0, index);
+  const auto line = 1 + std::count(before.begin(), before.end(), '\n');
+  const auto line_start = before.rfind('\n');
+  const auto column = line_start == std::string_view::npos ? index + 1 : index - line_start;
+  std::string reason = error.what();
+  const auto column_text = reason.find("column ");
+  const auto colon = column_text == std::string::npos ? std::string::npos : reason.find(": ", column_text);
+  if (colon != std::string::npos) reason = reason.substr(colon + 2);
+  if (reason.starts_with("syntax error ")) reason.erase(0, std::string_view("syntax error ").size());
+  return {"", "JSON syntax error at line " + std::to_string(line) + ", column " + std::to_string(column) + ": " + reason,
+          "correct the JSON there (a missing comma or quote, or a comma before } or ], is the usual cause)"};
+}
+
+}  // namespace
+
+ParsedJson parse_json_text(std::string_view text) {
+  DuplicateKeyFinder finder;
+  ParsedJson parsed;
+  try {
+    parsed.document = json::parse(text, std::ref(finder));
+  } catch (const json::parse_error& error) {
+    throw InvalidInput({syntax_error(error, text)});
+  }
+  parsed.duplicate_keys = finder.take_errors();
+  return parsed;
+}
+
+}  // namespace millflow::engine

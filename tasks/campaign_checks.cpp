@@ -1,0 +1,350 @@
+#include "tasks/campaign_checks.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <optional>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "engine/json_validator.hpp"
+
+namespace millflow::tasks {
+namespace {
+
+using engine::ValidationError;
+using nlohmann::json;
+
+std::string quantity(double value) { return fmt::format("{:.4g}", value); }
+
+bool related_paths(const std::string& a, const std::string& b) {
+  const auto& shorter = a.size() <= b.size() ? a : b;
+  const auto& longer = a.size() <= b.size() ? b : a;
+  return longer.compare(0, shorter.size(), shorter) == 0 &&
+         (longer.size() == shorter.size() || longer[shorter.size()] == '/');
+}
+
+struct BallClass {
+  double diameter;
+  double mass_fraction;
+  std::string path;  // where the diameter is written
+};
+
+// Read access to the fields that passed their own rules.
+class Campaign {
+ public:
+  Campaign(const json& document, const std::vector<ValidationError>& field_errors)
+      : document_(document), field_errors_(field_errors) {}
+
+  const json* node(const std::string& path) const {
+    for (const auto& error : field_errors_) {
+      if (related_paths(error.path, path)) return nullptr;
+    }
+    const json::json_pointer pointer(path);
+    return document_.contains(pointer) ? &document_.at(pointer) : nullptr;
+  }
+
+  std::optional<double> number(const std::string& path) const {
+    const auto* value = node(path);
+    return value && value->is_number() ? std::optional(value->get<double>()) : std::nullopt;
+  }
+
+  std::optional<std::string> text(const std::string& path) const {
+    const auto* value = node(path);
+    return value && value->is_string() ? std::optional(value->get<std::string>()) : std::nullopt;
+  }
+
+  std::vector<std::string> materials() const {
+    std::vector<std::string> names;
+    if (const auto* defined = node("/materials"); defined && defined->is_object()) {
+      for (const auto& [name, material] : defined->items()) names.push_back(name);
+    }
+    return names;
+  }
+
+  // The ball size classes, or nothing when the media are not usable.
+  std::optional<std::vector<BallClass>> balls() const {
+    if (const auto diameter = number("/media/diameter")) {
+      return std::vector<BallClass>{{*diameter, 1.0, "/media/diameter"}};
+    }
+    const auto* classes = node("/media/size_distribution");
+    if (node("/media") == nullptr || classes == nullptr || !classes->is_array()) return std::nullopt;
+    std::vector<BallClass> balls;
+    for (std::size_t i = 0; i < classes->size(); ++i) {
+      const auto path = "/media/size_distribution/" + std::to_string(i);
+      balls.push_back({(*classes)[i].at("diameter").get<double>(), (*classes)[i].at("mass_fraction").get<double>(),
+                       path + "/diameter"});
+    }
+    return balls;
+  }
+
+ private:
+  const json& document_;
+  const std::vector<ValidationError>& field_errors_;
+};
+
+double mean_diameter(const std::vector<BallClass>& balls) {
+  double weighted = 0.0;
+  double total = 0.0;
+  for (const auto& ball : balls) {
+    weighted += ball.mass_fraction * ball.diameter;
+    total += ball.mass_fraction;
+  }
+  return weighted / total;
+}
+
+double largest_diameter(const std::vector<BallClass>& balls) {
+  double largest = 0.0;
+  for (const auto& ball : balls) largest = std::max(largest, ball.diameter);
+  return largest;
+}
+
+double sphere_volume(double diameter) { return std::numbers::pi / 6.0 * diameter * diameter * diameter; }
+
+class ConsistencyChecker {
+ public:
+  explicit ConsistencyChecker(const Campaign& campaign) : campaign_(campaign) {}
+
+  std::vector<ValidationError> run() {
+    check_material_names();
+    check_powder_material();
+    check_interaction_pairs();
+    check_lifters();
+    if (const auto balls = campaign_.balls()) {
+      check_mass_fractions(*balls);
+      check_balls_fit_mill(*balls);
+      check_ball_count(*balls);
+      check_sample_interval(*balls);
+      check_powder_count();
+    }
+    return std::move(errors_);
+  }
+
+ private:
+  void error(std::string path, std::string problem, std::string fix) {
+    errors_.push_back({std::move(path), std::move(problem), std::move(fix)});
+  }
+
+  bool defined(const std::string& name) const {
+    const auto names = campaign_.materials();
+    return std::find(names.begin(), names.end(), name) != names.end();
+  }
+
+  void check_material_reference(const std::string& path) {
+    const auto name = campaign_.text(path);
+    if (!name || defined(*name) || campaign_.node("/materials") == nullptr) return;
+    const auto names = campaign_.materials();
+    const auto suggestion = engine::closest_match(*name, names);
+    std::string known;
+    for (const auto& n : names) known += (known.empty() ? "\"" : ", \"") + n + "\"";
+    error(path, "unknown material \"" + *name + "\"",
+          suggestion ? "did you mean \"" + *suggestion + "\"? (defined in /materials: " + known + ")"
+                     : "define it in /materials or use one of " + known);
+  }
+
+  void check_material_names() {
+    for (const auto* path : {"/media/material", "/mill/liner_material", "/shear_cell/powder/material"}) {
+      check_material_reference(path);
+    }
+    const auto* interactions = campaign_.node("/interactions");
+    if (interactions == nullptr) return;
+    for (std::size_t i = 0; i < interactions->size(); ++i) {
+      for (const auto* side : {"/0", "/1"}) {
+        check_material_reference("/interactions/" + std::to_string(i) + "/materials" + side);
+      }
+    }
+  }
+
+  void check_powder_material() {
+    const auto powder = campaign_.text("/shear_cell/powder/material");
+    if (powder && powder == campaign_.text("/media/material")) {
+      error("/shear_cell/powder/material", "the powder and the balls are both \"" + *powder + "\"",
+            "give the powder its own material in /materials");
+    }
+  }
+
+  static std::pair<std::string, std::string> pair_of(const std::string& a, const std::string& b) {
+    return a <= b ? std::pair(a, b) : std::pair(b, a);
+  }
+
+  void check_interaction_pairs() {
+    const auto* interactions = campaign_.node("/interactions");
+    if (interactions == nullptr) return;
+    std::vector<std::pair<std::string, std::string>> pairs;
+    for (std::size_t i = 0; i < interactions->size(); ++i) {
+      const auto path = "/interactions/" + std::to_string(i) + "/materials";
+      const auto a = campaign_.text(path + "/0");
+      const auto b = campaign_.text(path + "/1");
+      if (!a || !b) continue;
+      const auto pair = pair_of(*a, *b);
+      const auto earlier = std::find(pairs.begin(), pairs.end(), pair);
+      if (earlier != pairs.end()) {
+        error(path, "the pair \"" + pair.first + "\", \"" + pair.second + "\" is already defined by /interactions/" +
+                        std::to_string(earlier - pairs.begin()),
+              "keep one entry per material pair");
+      }
+      pairs.push_back(pair);
+    }
+    check_meeting_pairs(pairs);
+  }
+
+  // Balls meet balls and the liner in the mill, and powder in the shear cell (whose rough walls
+  // are balls too); powder meets powder.
+  void check_meeting_pairs(const std::vector<std::pair<std::string, std::string>>& pairs) {
+    const auto media = campaign_.text("/media/material");
+    const auto liner = campaign_.text("/mill/liner_material");
+    const auto powder = campaign_.text("/shear_cell/powder/material");
+    struct Meeting {
+      std::optional<std::string> a, b;
+      const char* where;
+    };
+    const Meeting meetings[] = {{media, media, "balls meet balls"},
+                                {media, liner, "balls meet the liner"},
+                                {media, powder, "balls meet powder in the shear cell"},
+                                {powder, powder, "powder meets powder in the shear cell"}};
+    std::vector<std::pair<std::string, std::string>> reported;
+    for (const auto& meeting : meetings) {
+      if (!meeting.a || !meeting.b || !defined(*meeting.a) || !defined(*meeting.b)) continue;
+      const auto pair = pair_of(*meeting.a, *meeting.b);
+      if (std::find(pairs.begin(), pairs.end(), pair) != pairs.end() ||
+          std::find(reported.begin(), reported.end(), pair) != reported.end()) {
+        continue;
+      }
+      reported.push_back(pair);
+      error("/interactions",
+            "no contact parameters for \"" + pair.first + "\" with \"" + pair.second + "\" (" + meeting.where + ")",
+            "add an entry with \"materials\": [\"" + pair.first + "\", \"" + pair.second + "\"]");
+    }
+  }
+
+  void check_lifters() {
+    const auto count = campaign_.number("/mill/lifters/count");
+    if (!count || *count == 0) return;
+    const auto height = campaign_.number("/mill/lifters/height");
+    const auto base = campaign_.number("/mill/lifters/base_width");
+    const std::pair<const char*, const char*> dimensions[] = {{"height", "radial height"},
+                                                               {"base_width", "width at the shell"}};
+    for (const auto& [field, meaning] : dimensions) {
+      const auto path = std::string("/mill/lifters/") + field;
+      if (campaign_.node(path) == nullptr && campaign_.node("/mill/lifters") != nullptr) {
+        error(path, "required field is missing when /mill/lifters/count > 0",
+              std::string("add the lifter bar's ") + meaning + ", a number > 0 m");
+      }
+    }
+    const auto diameter = campaign_.number("/mill/diameter");
+    if (!diameter || !height || !base) return;
+    if (*height >= *diameter / 4) {
+      error("/mill/lifters/height",
+            quantity(*height) + " m is not below half the mill radius (" + quantity(*diameter / 4) + " m)",
+            "use lifters lower than " + quantity(*diameter / 4) + " m");
+    }
+    if (*count * *base >= std::numbers::pi * *diameter) {
+      error("/mill/lifters/base_width",
+            quantity(*count) + " lifters " + quantity(*base) + " m wide do not fit on the " +
+                quantity(std::numbers::pi * *diameter) + " m shell circumference",
+            "use fewer or narrower lifters");
+    }
+    check_lifter_faces(*height, *base);
+  }
+
+  // Inclined faces narrow the bar towards its top; the top must keep a positive width.
+  void check_lifter_faces(double height, double base) {
+    const auto angle = campaign_.number("/mill/lifters/face_angle_deg");
+    if (!angle) return;
+    const double top = base - 2.0 * height * std::tan(*angle * std::numbers::pi / 180.0);
+    if (top > 0.0) return;
+    const double widest = std::atan(base / (2.0 * height)) * 180.0 / std::numbers::pi;
+    error("/mill/lifters/face_angle_deg",
+          "faces at " + quantity(*angle) + " deg meet below the top of a " + quantity(height) + " m high, " +
+              quantity(base) + " m wide lifter",
+          "use a face angle below " + quantity(widest) + " deg, a wider base or a lower bar");
+  }
+
+  void check_mass_fractions(const std::vector<BallClass>& balls) {
+    if (campaign_.node("/media/size_distribution") == nullptr) return;
+    double sum = 0.0;
+    for (const auto& ball : balls) sum += ball.mass_fraction;
+    if (std::abs(sum - 1.0) > 1e-6) {
+      error("/media/size_distribution", "the mass fractions sum to " + engine::quote_value(sum),
+            "make them sum to 1 (within 1e-6)");
+    }
+  }
+
+  void check_balls_fit_mill(const std::vector<BallClass>& balls) {
+    const auto diameter = campaign_.number("/mill/diameter");
+    if (diameter) {
+      for (const auto& ball : balls) {
+        if (ball.diameter <= *diameter / 10) continue;
+        error(ball.path, quantity(ball.diameter) + " m balls are too big for a " + quantity(*diameter) + " m mill",
+              "use balls of at most " + quantity(*diameter / 10) + " m (a tenth of the mill diameter)");
+      }
+    }
+    const auto length = campaign_.number("/mill/length");
+    const double largest = largest_diameter(balls);
+    if (length && *length < 3 * largest * (1 - 1e-9)) {  // 0.15 m is 3 x 0.05 m, rounding aside
+      error("/mill/length",
+            "a " + quantity(*length) + " m slice is shorter than 3 diameters of the " + quantity(largest) + " m balls",
+            "use a slice of at least " + quantity(3 * largest) + " m");
+    }
+  }
+
+  void check_ball_count(const std::vector<BallClass>& balls) {
+    const auto fill = campaign_.number("/macro/fill");
+    const auto diameter = campaign_.number("/mill/diameter");
+    const auto length = campaign_.number("/mill/length");
+    if (!fill || !diameter || !length) return;
+    const double solid = *fill * std::numbers::pi / 4 * *diameter * *diameter * *length * (1 - bed_void_fraction);
+    double count = 0.0;
+    for (const auto& ball : balls) count += ball.mass_fraction * solid / sphere_volume(ball.diameter);
+    if (count >= min_balls_in_charge) return;
+    error("/macro/fill",
+          "fill " + quantity(*fill) + " holds only about " + fmt::format("{:.0f}", count) + " balls in this mill slice",
+          fmt::format("raise the fill, lengthen the slice or use smaller balls (a charge needs at least {} balls)",
+                      min_balls_in_charge));
+  }
+
+  void check_sample_interval(const std::vector<BallClass>& balls) {
+    const auto interval = campaign_.number("/macro/sample_interval");
+    const auto diameter = campaign_.number("/mill/diameter");
+    const auto speed = campaign_.number("/macro/speed_fraction");
+    const auto revolutions = campaign_.number("/macro/measure_revolutions");
+    if (!interval || !diameter || !speed || !revolutions || *diameter <= mean_diameter(balls)) return;
+    const double critical_rpm = 42.3 / std::sqrt(*diameter - mean_diameter(balls));
+    const double measured = *revolutions * 60.0 / (*speed * critical_rpm);
+    if (measured / *interval >= min_flow_samples) return;
+    error("/macro/sample_interval",
+          quantity(*interval) + " s gives fewer than " + quantity(min_flow_samples) + " flow samples over the " +
+              quantity(measured) + " s measurement",
+          "use a sample interval of at most " + quantity(measured / min_flow_samples) + " s");
+  }
+
+  void check_powder_count() {
+    const auto ratio = campaign_.number("/shear_cell/powder/diameter_ratio");
+    const auto load = campaign_.number("/shear_cell/powder/load");
+    const auto* size = campaign_.node("/shear_cell/size_diameters");
+    if (!ratio || !load || size == nullptr || *load == 0.0) return;
+    double cell = 1.0;  // in ball diameters cubed
+    for (const auto& side : *size) cell *= side.get<double>();
+    const double count = *load * bed_void_fraction * cell / sphere_volume(*ratio);
+    if (count <= max_powder_particles) return;
+    const double smallest = std::cbrt(*load * bed_void_fraction * cell / max_powder_particles * 6 / std::numbers::pi);
+    error("/shear_cell/powder/diameter_ratio",
+          "powder " + quantity(*ratio) + " times the ball diameter at load " + quantity(*load) + " puts about " +
+              fmt::format("{:.0f}", count) + " particles in the shear cell",
+          "use a diameter ratio of at least " + quantity(smallest) + ", a smaller cell or a lower load (at most " +
+              fmt::format("{:.0f}", max_powder_particles) + " particles)");
+  }
+
+  const Campaign& campaign_;
+  std::vector<ValidationError> errors_;
+};
+
+}  // namespace
+
+std::vector<engine::ValidationError> check_campaign_consistency(const nlohmann::json& campaign,
+                                                                const std::vector<ValidationError>& field_errors) {
+  return ConsistencyChecker(Campaign(campaign, field_errors)).run();
+}
+
+}  // namespace millflow::tasks

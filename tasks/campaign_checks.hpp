@@ -1,0 +1,27 @@
+#pragma once
+// Cross-field checks of a campaign: what no single field's rule can see (materials named by one
+// field and defined by another, lifters that fit the mill, balls that fit the slice...).
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "engine/validation.hpp"
+
+namespace millflow::tasks {
+
+// Assumed voids of a ball bed, for estimates of ball and powder counts.
+inline constexpr double bed_void_fraction = 0.4;
+// Below this many balls there is no bed to average over or to split into flow regions.
+inline constexpr double min_balls_in_charge = 50;
+// A shear cell with more powder particles than this is beyond a workstation's reach.
+inline constexpr double max_powder_particles = 2.0e6;
+// The averaging needs at least this many flow samples over the measured revolutions.
+inline constexpr double min_flow_samples = 10;
+
+// The errors of `campaign` (the validator's normalized document) that involve several fields.
+// Fields that already have an error in `field_errors` (or sit above or below one) are skipped, so
+// one mistake is reported once.
+std::vector<engine::ValidationError> check_campaign_consistency(
+    const nlohmann::json& campaign, const std::vector<engine::ValidationError>& field_errors);
+
+}  // namespace millflow::tasks
