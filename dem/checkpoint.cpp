@@ -45,6 +45,7 @@ void put(BinaryWriter& out, const ContactHistory& h) {
   out.put(h.dissipated.normal);
   out.put(h.dissipated.tangential);
   out.put(h.dissipated.friction);
+  put(out, h.point);
   out.put<std::uint8_t>(h.touching);
 }
 
@@ -58,6 +59,7 @@ ContactHistory get_history(BinaryReader& in) {
   h.dissipated.normal = in.get<double>();
   h.dissipated.tangential = in.get<double>();
   h.dissipated.friction = in.get<double>();
+  h.point = get_vec3(in);
   h.touching = in.get<std::uint8_t>() != 0;
   return h;
 }

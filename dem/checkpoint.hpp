@@ -25,7 +25,7 @@
 //                  force on the particle, contact point
 //   dissipation of finished contacts per category: count; normal, tangential, friction each
 // A history is: spring, start time, impact speed, impact energy, elastic energy, dissipated
-// (normal, tangential, friction), touching (uint8).
+// (normal, tangential, friction), contact point, touching (uint8).
 // Collision events not yet taken are not saved: take them before checkpointing.
 #include <cstdint>
 #include <filesystem>

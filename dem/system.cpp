@@ -391,6 +391,7 @@ void System::compute_pair_forces(double dt) {
       history.elastic_energy = response.elastic_energy;
       history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
                                         response.dissipated_friction};
+      history.point = position_[i] + arm_i;
       pair_force_[k] = response.force_on_a;
       pair_torque_a_[k] = arm_i.cross(response.force_on_a);
       pair_torque_b_[k] = arm_j.cross(-response.force_on_a);
@@ -462,6 +463,7 @@ void System::compute_particle_forces(double dt) {
             history.elastic_energy = response.elastic_energy;
             history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
                                               response.dissipated_friction};
+            history.point = contact.point;
             slot.force_on_particle = response.force_on_a;
             slot.point = contact.point;
             force += response.force_on_a;
@@ -543,7 +545,8 @@ void System::collect_finished_contacts() {
                                        .duration = time_ - history.start_time,
                                        .impact_speed = history.impact_speed,
                                        .impact_energy = history.impact_energy,
-                                       .dissipated = history.dissipated.total()});
+                                       .dissipated = history.dissipated.total(),
+                                       .point = history.point});
     }
     history = ContactHistory{};
   };
@@ -581,6 +584,33 @@ std::size_t System::active_contact_count() const {
   for (const auto& history : pair_history_) count += history.touching ? 1 : 0;
   for (std::size_t p = 0; p < size(); ++p) count += wall_contact_count_[p];
   return count;
+}
+
+std::vector<ActiveContact> System::active_contacts() const {
+  std::vector<ActiveContact> contacts;
+  const auto& pairs = neighbors_.pairs();
+  for (std::size_t k = 0; k < pair_history_.size(); ++k) {
+    if (!pair_history_[k].touching || pair_finished_[k]) continue;
+    const auto [i, j] = pairs[k];
+    contacts.push_back(ActiveContact{.a = i,
+                                     .b = j,
+                                     .with_wall = false,
+                                     .point = pair_history_[k].point,
+                                     .force_on_a = pair_force_[k],
+                                     .branch = domain_.separation(position_[i], position_[j])});
+  }
+  for (std::size_t p = 0; p < size(); ++p) {
+    const WallContactHistory* slots = &wall_contact_[p * kMaxWallContactsPerParticle];
+    for (int s = 0; s < wall_contact_count_[p]; ++s) {
+      contacts.push_back(ActiveContact{.a = static_cast<ParticleId>(p),
+                                       .b = static_cast<std::uint32_t>(slots[s].wall),
+                                       .with_wall = true,
+                                       .point = slots[s].point,
+                                       .force_on_a = slots[s].force_on_particle,
+                                       .branch = slots[s].point - position_[p]});
+    }
+  }
+  return contacts;
 }
 
 std::vector<Dissipation> System::dissipation_by_category() const {

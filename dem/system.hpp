@@ -73,6 +73,18 @@ struct CollisionEvent {
   double impact_speed = 0.0;   // normal approach speed at first touch, m/s
   double impact_energy = 0.0;  // 1/2 m_eff v_n^2 at first touch, J
   double dissipated = 0.0;     // energy this contact dissipated, J
+  Vec3 point = Vec3::Zero();   // where the contact was last touching
+};
+
+// A contact in force now, for coarse-graining the stress.
+struct ActiveContact {
+  ParticleId a = 0;
+  std::uint32_t b = 0;  // the other particle, or the wall index
+  bool with_wall = false;
+  Vec3 point = Vec3::Zero();       // contact point
+  Vec3 force_on_a = Vec3::Zero();  // b (or the wall) pushes a with this force
+  Vec3 branch = Vec3::Zero();      // from a's centre to b's centre (minimum image); for a wall,
+                                   // from a's centre to the contact point
 };
 
 // The energy budget. For a closed system:
@@ -94,6 +106,7 @@ struct ContactHistory {
   double impact_energy = 0.0;
   double elastic_energy = 0.0;
   Dissipation dissipated;
+  Vec3 point = Vec3::Zero();  // contact point at the last step in force
   bool touching = false;
 };
 
@@ -166,6 +179,8 @@ class System {
   std::span<const ContactHistory> pair_histories() const { return pair_history_; }
   std::span<const Vec3> pair_forces() const { return pair_force_; }  // on the first particle
   std::size_t active_contact_count() const;
+  // Every contact in force, pairs first (in (i, j) order), then wall contacts by particle.
+  std::vector<ActiveContact> active_contacts() const;
 
   // Contact categories: one per unordered material pair, and one per (wall, material).
   std::size_t category_count() const;
