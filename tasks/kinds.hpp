@@ -1,0 +1,26 @@
+#pragma once
+// The task kinds of the multiscale method (DESIGN.md section 1), each in its own file, and the
+// slices of a campaign point that each kind's parameters are made of.
+//
+// A kind's parameters hold exactly what its result depends on, so that changing a micro-scale
+// setting re-keys the shear cells but reuses the macro runs (the keys form a Merkle chain).
+#include <nlohmann/json.hpp>
+
+#include "engine/campaign.hpp"
+
+namespace millflow::tasks {
+
+// macro: one DEM run of the balls in the mill per (fill, speed, ...). Upstream: none.
+void register_macro(engine::Registry& registry);
+// average: coarse-grained fields of one macro run. Upstream: the macro task.
+void register_average(engine::Registry& registry);
+// sites: flow regions and representative sites of one average. Upstream: the average task.
+void register_sites(engine::Registry& registry);
+
+// Parameter slices of a campaign point (a validated document with the sweep applied).
+nlohmann::json macro_params(const nlohmann::json& point);    // materials and interactions of media
+                                                             // and liner, dem, mill, media, macro
+nlohmann::json average_params(const nlohmann::json& point);  // average
+nlohmann::json sites_params(const nlohmann::json& point);    // sites
+
+}  // namespace millflow::tasks

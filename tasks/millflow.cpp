@@ -1,0 +1,57 @@
+#include "tasks/millflow.hpp"
+
+#include <set>
+
+#include "tasks/campaign.hpp"
+#include "tasks/kinds.hpp"
+
+namespace millflow::tasks {
+namespace {
+
+// The interactions whose two materials are both in `names`.
+nlohmann::json interactions_among(const nlohmann::json& interactions, const std::set<std::string>& names) {
+  nlohmann::json kept = nlohmann::json::array();
+  for (const auto& interaction : interactions) {
+    const auto& pair = interaction.at("materials");
+    if (names.count(pair.at(0).get<std::string>()) && names.count(pair.at(1).get<std::string>())) {
+      kept.push_back(interaction);
+    }
+  }
+  return kept;
+}
+
+}  // namespace
+
+nlohmann::json macro_params(const nlohmann::json& point) {
+  const std::set<std::string> names{point.at("media").at("material").get<std::string>(),
+                                    point.at("mill").at("liner_material").get<std::string>()};
+  nlohmann::json materials = nlohmann::json::object();
+  for (const auto& name : names) materials[name] = point.at("materials").at(name);
+  return {{"materials", materials},
+          {"interactions", interactions_among(point.at("interactions"), names)},
+          {"dem", point.at("dem")},
+          {"mill", point.at("mill")},
+          {"media", point.at("media")},
+          {"macro", point.at("macro")}};
+}
+
+nlohmann::json average_params(const nlohmann::json& point) { return {{"average", point.at("average")}}; }
+
+nlohmann::json sites_params(const nlohmann::json& point) { return {{"sites", point.at("sites")}}; }
+
+void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
+  for (const CampaignPoint& point : expand(campaign)) {
+    const std::string macro = plan.add("macro", macro_params(point.document));
+    const std::string average = plan.add("average", average_params(point.document), {macro});
+    plan.add("sites", sites_params(point.document), {average});
+  }
+}
+
+void register_millflow(engine::Registry& registry) {
+  registry.add_format(engine::CampaignFormat{.name = "millflow_campaign", .load = load_campaign, .plan = plan_millflow});
+  register_macro(registry);
+  register_average(registry);
+  register_sites(registry);
+}
+
+}  // namespace millflow::tasks
