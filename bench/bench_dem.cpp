@@ -181,7 +181,7 @@ Scene make_mill(const MillCase& c) {
   });
 
   Scene scene{.name = c.name,
-              .description = fmt::format("{} m mill, {} m slice, {} lifters, {} balls of {} mm, J = 0.3, 75% N_c",
+              .description = fmt::format("{} m mill, {:.3f} m slice, {} lifters, {} balls of {} mm, J = 0.3, 75% N_c",
                                          c.mill_diameter, c.slice_length, c.lifter_count, system.size(),
                                          1000 * c.ball_diameter),
               .system = std::move(system),
