@@ -54,6 +54,7 @@ bool Domain::wrap(Vec3& position, Vec3& velocity) const {
   for (int axis = 0; axis < 3; ++axis) {
     if (!periodic[axis]) continue;
     if (lees_edwards.enabled && axis == lees_edwards.gradient_axis) continue;
+    if (position[axis] >= lo[axis] && position[axis] < hi[axis]) continue;  // the common case
     const double n = std::floor((position[axis] - lo[axis]) / len[axis]);
     if (n != 0.0) {
       position[axis] -= n * len[axis];

@@ -46,6 +46,12 @@ struct Domain {
   void advance_shear(double dt);
 };
 
+// Number of box lengths to take off a separation along one periodic axis. Most pairs are well
+// inside half a box, where the division and rounding are skipped.
+inline double image_count(double d, double length) {
+  return std::abs(d) < 0.5 * length ? 0.0 : std::round(d / length);
+}
+
 inline Vec3 Domain::separation(const Vec3& a, const Vec3& b, Vec3* velocity_shift) const {
   Vec3 d = b - a;
   const Vec3 len = length();
@@ -53,7 +59,7 @@ inline Vec3 Domain::separation(const Vec3& a, const Vec3& b, Vec3* velocity_shif
   if (lees_edwards.enabled) {
     // The gradient axis first: crossing it moves the image along the flow axis.
     const int g = lees_edwards.gradient_axis, f = lees_edwards.flow_axis;
-    const double n = std::round(d[g] / len[g]);
+    const double n = image_count(d[g], len[g]);
     if (n != 0.0) {
       d[g] -= n * len[g];
       d[f] -= n * lees_edwards.offset;
@@ -63,7 +69,7 @@ inline Vec3 Domain::separation(const Vec3& a, const Vec3& b, Vec3* velocity_shif
   for (int axis = 0; axis < 3; ++axis) {
     if (!periodic[axis]) continue;
     if (lees_edwards.enabled && axis == lees_edwards.gradient_axis) continue;
-    d[axis] -= std::round(d[axis] / len[axis]) * len[axis];
+    d[axis] -= image_count(d[axis], len[axis]) * len[axis];
   }
   return d;
 }

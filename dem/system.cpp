@@ -328,6 +328,7 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs, std::vec
   pair_force_.assign(pairs.size(), Vec3::Zero());
   pair_torque_a_.assign(pairs.size(), Vec3::Zero());
   pair_torque_b_.assign(pairs.size(), Vec3::Zero());
+  pair_active_.assign(pairs.size(), 0);
   pair_finished_.assign(pairs.size(), 0);
 
   // Per-particle pair lists in pair order, so force sums run in a fixed order.
@@ -351,10 +352,7 @@ void System::compute_pair_forces(double dt) {
     for (std::size_t k = range.begin(); k != range.end(); ++k) {
       const auto [i, j] = pairs[k];
       ContactHistory& history = pair_history_[k];
-      pair_finished_[k] = 0;
-      pair_force_[k].setZero();
-      pair_torque_a_[k].setZero();
-      pair_torque_b_[k].setZero();
+      pair_active_[k] = 0;
       if (!is_free(i) && !is_free(j)) continue;  // two wall balls never interact
 
       Vec3 image_velocity_shift;
@@ -392,6 +390,7 @@ void System::compute_pair_forces(double dt) {
       history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
                                         response.dissipated_friction};
       history.point = position_[i] + arm_i;
+      pair_active_[k] = 1;
       pair_force_[k] = response.force_on_a;
       pair_torque_a_[k] = arm_i.cross(response.force_on_a);
       pair_torque_b_[k] = arm_j.cross(-response.force_on_a);
@@ -408,7 +407,7 @@ void System::compute_particle_forces(double dt) {
       for (std::uint32_t e = particle_pair_offset_[p]; e < particle_pair_offset_[p + 1]; ++e) {
         const std::uint32_t entry = particle_pair_entry_[e];
         const std::uint32_t k = entry >> 1;
-        if (!pair_history_[k].touching || pair_finished_[k]) continue;
+        if (!pair_active_[k]) continue;
         if ((entry & 1) == 0) {
           force += pair_force_[k];
           torque += pair_torque_a_[k];
@@ -418,9 +417,14 @@ void System::compute_particle_forces(double dt) {
         }
       }
 
+      const int old_count = wall_contact_count_[p];
+      if (walls_.empty() || (!is_free(p) && old_count == 0)) {
+        force_[p] = force;
+        torque_[p] = torque;
+        continue;
+      }
       WallContactHistory* slots = &wall_contact_[p * kMaxWallContactsPerParticle];
       WallContactHistory* finished = &finished_wall_contact_[p * kMaxWallContactsPerParticle];
-      const int old_count = wall_contact_count_[p];
       std::array<WallContactHistory, kMaxWallContactsPerParticle> old_slots;
       std::copy(slots, slots + old_count, old_slots.begin());
       std::array<bool, kMaxWallContactsPerParticle> matched{};
@@ -590,7 +594,7 @@ std::vector<ActiveContact> System::active_contacts() const {
   std::vector<ActiveContact> contacts;
   const auto& pairs = neighbors_.pairs();
   for (std::size_t k = 0; k < pair_history_.size(); ++k) {
-    if (!pair_history_[k].touching || pair_finished_[k]) continue;
+    if (!pair_active_[k]) continue;
     const auto [i, j] = pairs[k];
     contacts.push_back(ActiveContact{.a = i,
                                      .b = j,

@@ -241,6 +241,7 @@ class System {
   NeighborSearch neighbors_;
   std::vector<ContactHistory> pair_history_;
   std::vector<Vec3> pair_force_, pair_torque_a_, pair_torque_b_;
+  std::vector<std::uint8_t> pair_active_;    // the pair touches this step: its force is valid
   std::vector<std::uint8_t> pair_finished_;  // the pair separated this step
   std::vector<ContactHistory> finished_pair_history_;
   // Per particle, the pairs it belongs to (CSR): entry = pair index * 2 + (0: first, 1: second).
