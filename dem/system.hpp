@@ -204,7 +204,7 @@ class System {
   bool is_free(ParticleId p) const { return group_[p] == kFreeParticle; }
   void prepare_first_step();
   void kick(double half_dt);
-  void drift();
+  void kick_and_drift();  // the first half kick and the drift in one pass
   void update_neighbors();
   // Builds a new neighbour list and carries the histories of `old_pairs` (sorted) over to it.
   void rebuild_neighbors(std::span<const NeighborPair> old_pairs, std::vector<ContactHistory> old_history);
