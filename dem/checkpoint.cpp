@@ -267,9 +267,10 @@ class CheckpointAccess {
       put(out, s.pair_history_[k]);
     }
     for (std::size_t p = 0; p < s.size(); ++p) {
-      out.put(s.wall_contact_count_[p]);
-      for (int c = 0; c < s.wall_contact_count_[p]; ++c) {
-        const WallContactHistory& slot = s.wall_contact_[p * kMaxWallContactsPerParticle + c];
+      const System::WallSlots& current = s.current_wall_slots();
+      out.put(current.count[p]);
+      for (int c = 0; c < current.count[p]; ++c) {
+        const WallContactHistory& slot = current.of(p)[c];
         out.put(slot.wall);
         out.put(slot.feature);
         put(out, slot.history);
@@ -337,15 +338,15 @@ class CheckpointAccess {
       pairs.push_back({i, j});
       histories.push_back(get_history(in));
     }
-    s.wall_contact_.assign(n * kMaxWallContactsPerParticle, WallContactHistory{});
-    s.finished_wall_contact_.assign(n * kMaxWallContactsPerParticle, WallContactHistory{});
-    s.wall_contact_count_.assign(n, 0);
-    s.finished_wall_contact_count_.assign(n, 0);
+    for (System::WallSlots& buffer : s.wall_slots_) buffer.resize(n);
+    s.wall_current_ = 0;
+    s.finished_wall_mask_.assign(n, 0);
+    System::WallSlots& current = s.wall_slots_[0];
     for (std::size_t p = 0; p < n; ++p) {
-      s.wall_contact_count_[p] = in.get<std::uint8_t>();
-      if (s.wall_contact_count_[p] > kMaxWallContactsPerParticle) throw CorruptData("checkpoint: too many wall contacts");
-      for (int c = 0; c < s.wall_contact_count_[p]; ++c) {
-        WallContactHistory& slot = s.wall_contact_[p * kMaxWallContactsPerParticle + c];
+      current.count[p] = in.get<std::uint8_t>();
+      if (current.count[p] > kMaxWallContactsPerParticle) throw CorruptData("checkpoint: too many wall contacts");
+      for (int c = 0; c < current.count[p]; ++c) {
+        WallContactHistory& slot = current.of(p)[c];
         slot.wall = in.get<std::int32_t>();
         slot.feature = in.get<std::int32_t>();
         slot.history = get_history(in);

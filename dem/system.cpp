@@ -84,10 +84,8 @@ ParticleId System::add_particle(const ParticleSpec& spec) {
   inv_inertia_.push_back(free ? 1.0 / (0.4 * mass * spec.radius * spec.radius) : 0.0);
   material_.push_back(spec.material);
   group_.push_back(spec.group);
-  wall_contact_.resize(size() * kMaxWallContactsPerParticle);
-  finished_wall_contact_.resize(size() * kMaxWallContactsPerParticle);
-  wall_contact_count_.push_back(0);
-  finished_wall_contact_count_.push_back(0);
+  for (WallSlots& buffer : wall_slots_) buffer.resize(size());
+  finished_wall_mask_.push_back(0);
   prepared_ = false;
   return static_cast<ParticleId>(id);
 }
@@ -404,6 +402,8 @@ void System::compute_pair_forces(double dt) {
 }
 
 void System::compute_particle_forces(double dt) {
+  const WallSlots& before = wall_slots_[wall_current_];
+  WallSlots& after = wall_slots_[1 - wall_current_];
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), [&](const auto& range) {
     std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
     for (std::size_t p = range.begin(); p != range.end(); ++p) {
@@ -422,80 +422,74 @@ void System::compute_particle_forces(double dt) {
         }
       }
 
-      const int old_count = wall_contact_count_[p];
-      if (walls_.empty() || (!is_free(p) && old_count == 0)) {
+      if (walls_.empty() || !is_free(p)) {  // no wall slots in use, in either buffer
         force_[p] = force;
         torque_[p] = torque;
         continue;
       }
-      WallContactHistory* slots = &wall_contact_[p * kMaxWallContactsPerParticle];
-      WallContactHistory* finished = &finished_wall_contact_[p * kMaxWallContactsPerParticle];
-      std::array<WallContactHistory, kMaxWallContactsPerParticle> old_slots;
-      std::copy(slots, slots + old_count, old_slots.begin());
-      std::array<bool, kMaxWallContactsPerParticle> matched{};
+      const int old_count = before.count[p];
+      const WallContactHistory* old_slots = before.of(p);
+      WallContactHistory* slots = after.of(p);
+      std::uint8_t matched = 0;
       int count = 0;
-      if (is_free(p)) {
-        for (std::size_t w = 0; w < walls_.size(); ++w) {
-          surface.clear();
-          wall_contacts(walls_[w], position_[p], radius_[p], surface);
-          for (const SurfaceContact& contact : surface) {
-            if (count == kMaxWallContactsPerParticle) {
-              throw std::runtime_error(fmt::format("particle {} touches more than {} wall features at once at t = {} s",
-                                                   p, kMaxWallContactsPerParticle, time_));
-            }
-            WallContactHistory& slot = slots[count++];
-            slot = WallContactHistory{};
-            slot.wall = static_cast<std::int32_t>(w);
-            slot.feature = contact.feature;
-            for (int o = 0; o < old_count; ++o) {
-              if (!matched[o] && old_slots[o].wall == slot.wall && old_slots[o].feature == slot.feature) {
-                slot.history = old_slots[o].history;
-                matched[o] = true;
-                break;
-              }
-            }
-            const Vec3 arm = -(radius_[p] - 0.5 * contact.overlap) * contact.normal;
-            const Vec3 relative_velocity = predicted_velocity_[p] + predicted_angular_velocity_[p].cross(arm) -
-                                           wall_surface_velocity(walls_[w], contact.point);
-            const ContactGeometry geometry{contact.normal, contact.overlap, relative_velocity};
-            const ContactResponse response = linear_spring_dashpot(
-                materials_.pair(material_[p], walls_[w].material), mass_[p], geometry, slot.history.spring, dt);
-            ContactHistory& history = slot.history;
-            if (!history.touching) {
-              history.touching = true;
-              history.start_time = time_;
-              const double v_n = relative_velocity.dot(contact.normal);
-              history.impact_speed = std::max(-v_n, 0.0);
-              history.impact_energy = 0.5 * mass_[p] * v_n * v_n;
-            }
-            history.spring = response.spring;
-            history.elastic_energy = response.elastic_energy;
-            history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
-                                              response.dissipated_friction};
-            history.point = contact.point;
-            slot.force_on_particle = response.force_on_a;
-            slot.point = contact.point;
-            force += response.force_on_a;
-            torque += arm.cross(response.force_on_a);
+      for (std::size_t w = 0; w < walls_.size(); ++w) {
+        surface.clear();
+        wall_contacts(walls_[w], position_[p], radius_[p], surface);
+        for (const SurfaceContact& contact : surface) {
+          if (count == kMaxWallContactsPerParticle) {
+            throw std::runtime_error(fmt::format("particle {} touches more than {} wall features at once at t = {} s",
+                                                 p, kMaxWallContactsPerParticle, time_));
           }
+          WallContactHistory& slot = slots[count++];
+          slot.wall = static_cast<std::int32_t>(w);
+          slot.feature = contact.feature;
+          slot.history = ContactHistory{};
+          for (int o = 0; o < old_count; ++o) {
+            if (!(matched & (1u << o)) && old_slots[o].wall == slot.wall && old_slots[o].feature == slot.feature) {
+              slot.history = old_slots[o].history;
+              matched |= static_cast<std::uint8_t>(1u << o);
+              break;
+            }
+          }
+          const Vec3 arm = -(radius_[p] - 0.5 * contact.overlap) * contact.normal;
+          const Vec3 relative_velocity = predicted_velocity_[p] + predicted_angular_velocity_[p].cross(arm) -
+                                         wall_surface_velocity(walls_[w], contact.point);
+          const ContactGeometry geometry{contact.normal, contact.overlap, relative_velocity};
+          const ContactResponse response = linear_spring_dashpot(
+              materials_.pair(material_[p], walls_[w].material), mass_[p], geometry, slot.history.spring, dt);
+          ContactHistory& history = slot.history;
+          if (!history.touching) {
+            history.touching = true;
+            history.start_time = time_;
+            const double v_n = relative_velocity.dot(contact.normal);
+            history.impact_speed = std::max(-v_n, 0.0);
+            history.impact_energy = 0.5 * mass_[p] * v_n * v_n;
+          }
+          history.spring = response.spring;
+          history.elastic_energy = response.elastic_energy;
+          history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
+                                            response.dissipated_friction};
+          history.point = contact.point;
+          slot.force_on_particle = response.force_on_a;
+          slot.point = contact.point;
+          force += response.force_on_a;
+          torque += arm.cross(response.force_on_a);
         }
       }
-      wall_contact_count_[p] = static_cast<std::uint8_t>(count);
-      int finished_count = 0;
-      for (int o = 0; o < old_count; ++o) {
-        if (!matched[o]) finished[finished_count++] = old_slots[o];
-      }
-      finished_wall_contact_count_[p] = static_cast<std::uint8_t>(finished_count);
+      after.count[p] = static_cast<std::uint8_t>(count);
+      finished_wall_mask_[p] = static_cast<std::uint8_t>(~matched & ((1u << old_count) - 1u));
       force_[p] = force;
       torque_[p] = torque;
     }
   });
+  wall_current_ = 1 - wall_current_;
 }
 
 void System::reduce_loads(double dt) {
   const std::size_t wall_n = walls_.size(), load_n = wall_n + groups_.size();
   if (load_n == 0) return;
   using Loads = std::vector<WallLoad>;
+  const WallSlots& current = current_wall_slots();
   const Loads totals = tbb::parallel_deterministic_reduce(
       tbb::blocked_range<std::size_t>(0, size(), kReduceGrain), Loads(load_n),
       [&](const tbb::blocked_range<std::size_t>& range, Loads loads) {
@@ -507,8 +501,8 @@ void System::reduce_loads(double dt) {
             load.torque += position_[p].cross(force_[p]);
             continue;
           }
-          const WallContactHistory* slots = &wall_contact_[p * kMaxWallContactsPerParticle];
-          for (int s = 0; s < wall_contact_count_[p]; ++s) {
+          const WallContactHistory* slots = current.of(p);
+          for (int s = 0; s < current.count[p]; ++s) {
             const WallContactHistory& slot = slots[s];
             WallLoad& load = loads[slot.wall];
             load.force -= slot.force_on_particle;
@@ -566,13 +560,17 @@ void System::collect_finished_contacts() {
     finish(pair_history_[k], pair_category(material_[i], material_[j]), i, j, false);
     pair_finished_[k] = 0;
   }
+  if (walls_.empty()) return;
+  WallSlots& previous = wall_slots_[1 - wall_current_];
   for (std::size_t p = 0; p < size(); ++p) {
-    WallContactHistory* finished = &finished_wall_contact_[p * kMaxWallContactsPerParticle];
-    for (int s = 0; s < finished_wall_contact_count_[p]; ++s) {
-      finish(finished[s].history, wall_category(finished[s].wall, material_[p]), static_cast<ParticleId>(p),
-             static_cast<std::uint32_t>(finished[s].wall), true);
+    if (finished_wall_mask_[p] == 0) continue;
+    WallContactHistory* slots = previous.of(p);
+    for (int s = 0; s < kMaxWallContactsPerParticle; ++s) {
+      if (!(finished_wall_mask_[p] & (1u << s))) continue;
+      finish(slots[s].history, wall_category(slots[s].wall, material_[p]), static_cast<ParticleId>(p),
+             static_cast<std::uint32_t>(slots[s].wall), true);
     }
-    finished_wall_contact_count_[p] = 0;
+    finished_wall_mask_[p] = 0;
   }
 }
 
@@ -591,7 +589,7 @@ void System::apply_servos() {
 std::size_t System::active_contact_count() const {
   std::size_t count = 0;
   for (const auto& history : pair_history_) count += history.touching ? 1 : 0;
-  for (std::size_t p = 0; p < size(); ++p) count += wall_contact_count_[p];
+  for (std::size_t p = 0; p < size(); ++p) count += current_wall_slots().count[p];
   return count;
 }
 
@@ -609,8 +607,8 @@ std::vector<ActiveContact> System::active_contacts() const {
                                      .branch = domain_.separation(position_[i], position_[j])});
   }
   for (std::size_t p = 0; p < size(); ++p) {
-    const WallContactHistory* slots = &wall_contact_[p * kMaxWallContactsPerParticle];
-    for (int s = 0; s < wall_contact_count_[p]; ++s) {
+    const WallContactHistory* slots = current_wall_slots().of(p);
+    for (int s = 0; s < current_wall_slots().count[p]; ++s) {
       contacts.push_back(ActiveContact{.a = static_cast<ParticleId>(p),
                                        .b = static_cast<std::uint32_t>(slots[s].wall),
                                        .with_wall = true,
@@ -631,8 +629,8 @@ std::vector<Dissipation> System::dissipation_by_category() const {
     }
   }
   for (std::size_t p = 0; p < size(); ++p) {
-    const WallContactHistory* slots = &wall_contact_[p * kMaxWallContactsPerParticle];
-    for (int s = 0; s < wall_contact_count_[p]; ++s) {
+    const WallContactHistory* slots = current_wall_slots().of(p);
+    for (int s = 0; s < current_wall_slots().count[p]; ++s) {
       total[wall_category(slots[s].wall, material_[p])] += slots[s].history.dissipated;
     }
   }
@@ -651,8 +649,8 @@ EnergyBudget System::energy() const {
     if (history.touching) budget.elastic += history.elastic_energy;
   }
   for (std::size_t p = 0; p < size(); ++p) {
-    const WallContactHistory* slots = &wall_contact_[p * kMaxWallContactsPerParticle];
-    for (int s = 0; s < wall_contact_count_[p]; ++s) budget.elastic += slots[s].history.elastic_energy;
+    const WallContactHistory* slots = current_wall_slots().of(p);
+    for (int s = 0; s < current_wall_slots().count[p]; ++s) budget.elastic += slots[s].history.elastic_energy;
   }
   for (const Dissipation& d : dissipation_by_category()) budget.dissipated += d.total();
   for (const WallLoad& load : wall_loads_) budget.wall_work += load.work;

@@ -247,11 +247,22 @@ class System {
   // Per particle, the pairs it belongs to (CSR): entry = pair index * 2 + (0: first, 1: second).
   std::vector<std::uint32_t> particle_pair_offset_, particle_pair_entry_;
 
-  // Wall contacts, kMaxWallContactsPerParticle slots per particle.
-  std::vector<WallContactHistory> wall_contact_;
-  std::vector<std::uint8_t> wall_contact_count_;
-  std::vector<WallContactHistory> finished_wall_contact_;
-  std::vector<std::uint8_t> finished_wall_contact_count_;
+  // Wall contacts, kMaxWallContactsPerParticle slots per particle, double-buffered: each step
+  // fills one buffer from the other, so no slot is copied or cleared for particles off the walls.
+  struct WallSlots {
+    std::vector<WallContactHistory> slot;
+    std::vector<std::uint8_t> count;
+    WallContactHistory* of(std::size_t p) { return &slot[p * kMaxWallContactsPerParticle]; }
+    const WallContactHistory* of(std::size_t p) const { return &slot[p * kMaxWallContactsPerParticle]; }
+    void resize(std::size_t n) {
+      slot.resize(n * kMaxWallContactsPerParticle);
+      count.resize(n, 0);
+    }
+  };
+  const WallSlots& current_wall_slots() const { return wall_slots_[wall_current_]; }
+  std::array<WallSlots, 2> wall_slots_;
+  int wall_current_ = 0;
+  std::vector<std::uint8_t> finished_wall_mask_;  // bit s: slot s of the other buffer separated
 
   std::vector<Dissipation> finished_dissipation_;  // per category
   std::vector<CollisionEvent> events_;
