@@ -1,0 +1,159 @@
+#include "tasks/average.hpp"
+
+#include <fmt/format.h>
+
+#include <atomic>
+#include <cmath>
+#include <fstream>
+#include <numbers>
+
+#include "engine/campaign.hpp"
+#include "engine/validation.hpp"
+#include "tasks/kinds.hpp"
+#include "tasks/vtk_image.hpp"
+
+namespace millflow::tasks {
+namespace {
+
+using nlohmann::json;
+
+std::vector<std::filesystem::path> flow_segments(const engine::TaskInput& macro) {
+  std::vector<std::filesystem::path> segments;
+  for (const auto& [name, path] : macro.artifacts) {  // a map: sorted by name
+    if (name.starts_with("flow/segment_")) segments.push_back(path);
+  }
+  if (segments.empty()) {
+    throw engine::InvalidInput({{"/inputs/0/artifacts", "the macro task left no flow/segment_*.mfs artifacts",
+                                 "re-run the macro task with flow sampling"}});
+  }
+  return segments;
+}
+
+// The balls' density from their total mass and their volume in the first frame.
+double media_density(const json& macro, const std::filesystem::path& first_segment) {
+  const auto frames = dem::read_flow_segment(first_segment);
+  if (frames.empty()) throw std::invalid_argument("the first flow segment holds no frames");
+  double volume = 0.0;
+  for (float r : frames.front().radius) volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+  return macro.at("ball_mass_kg").get<double>() / volume;
+}
+
+CoarseGrainSettings settings_for(const json& params, const json& macro, double density) {
+  const json& average = params.at("average");
+  const double diameter = macro.at("media_diameter_m").get<double>();
+  CoarseGrainSettings s;
+  s.grid = CrossSectionGrid{.nx = average.at("grid_cells").at(0).get<int>(),
+                            .ny = average.at("grid_cells").at(1).get<int>(),
+                            .half_width = macro.at("mill").at("radius_m").get<double>()};
+  s.slice_length = macro.at("mill").at("length_m").get<double>();
+  s.kernel_width = average.at("kernel_width_diameters").get<double>() * diameter;
+  s.media_density = density;
+  s.event_window = macro.at("frame_count").get<double>() * macro.at("sample_interval_s").get<double>();
+  s.categories = macro.at("categories").get<std::vector<std::string>>();
+  return s;
+}
+
+// Maximum, and mean over the cells holding charge (solid fraction at or above `charge`).
+json scalar_summaries(const CoarseFields& fields, double charge) {
+  json out = json::object();
+  for (const CellArray& array : cell_arrays(fields)) {
+    if (array.components != 1) continue;
+    double max = 0.0, sum = 0.0;
+    int count = 0;
+    for (std::size_t c = 0; c < array.values.size(); ++c) {
+      max = std::max(max, array.values[c]);
+      if (fields.solid_fraction[c] >= charge) {
+        sum += array.values[c];
+        ++count;
+      }
+    }
+    out[array.name] = {{"max", max}, {"mean_over_charge", count > 0 ? sum / count : 0.0}};
+  }
+  return out;
+}
+
+json mill_wide_rates(const CoarseFields& fields) {
+  json out = json::object();
+  for (std::size_t k = 0; k < fields.categories.size(); ++k) {
+    out[fields.categories[k]] = {{"collisions_per_s", fields.integral(fields.collision_frequency_by_category[k])},
+                                 {"dissipation_w", fields.integral(fields.dissipation_by_category[k])}};
+  }
+  out["total"] = {{"collisions_per_s", fields.integral(fields.collision_frequency)},
+                  {"dissipation_w", fields.integral(fields.dissipation)}};
+  return out;
+}
+
+void write_json(const std::filesystem::path& file, const json& document) {
+  std::ofstream out(file);
+  out << document.dump();
+  if (!out.flush()) throw std::runtime_error("could not write " + file.string());
+}
+
+}  // namespace
+
+json fields_document(const CoarseFields& fields, const json& mill) {
+  json arrays = json::object();
+  for (CellArray& array : cell_arrays(fields)) {
+    arrays[array.name] = {{"components", array.components}, {"values", std::move(array.values)}};
+  }
+  json document = mill;
+  document["grid"] = {{"nx", fields.grid.nx}, {"ny", fields.grid.ny}, {"half_width_m", fields.grid.half_width}};
+  document["slice_length_m"] = fields.slice_length;
+  document["arrays"] = std::move(arrays);
+  return document;
+}
+
+engine::TaskOutcome run_average(engine::TaskContext& context) {
+  const engine::TaskInput& macro = context.inputs.at(0);
+  const auto segments = flow_segments(macro);
+  const CoarseGrainSettings settings =
+      settings_for(context.params, macro.result, media_density(macro.result, segments.front()));
+
+  std::atomic<std::size_t> loaded{0};
+  const auto load = [&](std::size_t index) {
+    auto frames = dem::read_flow_segment(segments.at(index));
+    const std::size_t done = ++loaded;
+    context.progress(static_cast<double>(done) / (2.0 * static_cast<double>(segments.size())), "averaging flow segments");
+    return frames;
+  };
+  const CoarseFields fields = coarse_grain(settings, segments.size(), load);
+
+  const json mill = {{"mill_radius_m", settings.grid.half_width},
+                     {"media_diameter_m", macro.result.at("media_diameter_m")},
+                     {"angular_velocity_rad_s", macro.result.at("angular_velocity_rad_s")},
+                     {"kernel_width_m", settings.kernel_width}};
+  const auto vti = context.work_dir / "fields.vti";
+  const auto arrays = cell_arrays(fields);
+  write_vtk_image(vti, fields.grid, arrays);
+  const auto fields_json = context.work_dir / "fields.json";
+  write_json(fields_json, fields_document(fields, mill));
+
+  const double integrated = fields.solid_volume();
+  json result = {
+      {"grid", {{"nx", settings.grid.nx}, {"ny", settings.grid.ny}, {"cell_size_m", settings.grid.dx()}}},
+      {"kernel_width_m", settings.kernel_width},
+      {"kernel_width_diameters", context.params.at("average").at("kernel_width_diameters")},
+      {"media_density_kg_m3", settings.media_density},
+      {"frame_count", fields.frame_count},
+      {"segment_count", segments.size()},
+      {"event_window_s", settings.event_window},
+      {"mass_conservation",
+       {{"media_volume_m3", fields.media_volume},
+        {"integrated_volume_m3", integrated},
+        {"relative_error", (integrated - fields.media_volume) / fields.media_volume}}},
+      {"fields", scalar_summaries(fields, settings.min_solid_fraction_for_velocity)},
+      {"mill_wide", mill_wide_rates(fields)},
+  };
+  result.update(mill);
+  engine::TaskOutcome outcome = engine::TaskOutcome::with_result(std::move(result));
+  outcome.artifacts = {{"fields.vti", vti}, {"fields.json", fields_json}};
+  context.log(fmt::format("averaged {} frames onto {} x {} cells; solid volume {:.6g} m^3 vs media {:.6g} m^3",
+                          fields.frame_count, settings.grid.nx, settings.grid.ny, integrated, fields.media_volume));
+  return outcome;
+}
+
+void register_average(engine::Registry& registry) {
+  registry.kinds.add(engine::TaskKind{.name = "average", .version = kAverageVersion, .run = run_average});
+}
+
+}  // namespace millflow::tasks
