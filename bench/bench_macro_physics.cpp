@@ -48,17 +48,24 @@ void run_and_report(benchmark::State& state, const json& params) {
   state.counters["kw_per_t"] = result["power"]["kw_per_t_balls"].get<double>();
   state.counters["bond_kw_per_t"] = result["correlations"]["bond_kw_per_t"].get<double>();
   const json& charge = result["charge"];
-  state.counters["toe"] = charge["toe_angle_deg"].is_number() ? charge["toe_angle_deg"].get<double>() : -999.0;
-  state.counters["shoulder"] = charge["shoulder_angle_deg"].is_number() ? charge["shoulder_angle_deg"].get<double>() : -999.0;
+  state.counters["toe"] =
+      charge["toe_angle_deg"].is_number() ? charge["toe_angle_deg"].get<double>() : -999.0;
+  state.counters["shoulder"] = charge["shoulder_angle_deg"].is_number()
+                                   ? charge["shoulder_angle_deg"].get<double>()
+                                   : -999.0;
 }
 
-void Quick_FirstPoint(benchmark::State& state) { run_and_report(state, first_point_params("quick.json")); }
+void Quick_FirstPoint(benchmark::State& state) {
+  run_and_report(state, first_point_params("quick.json"));
+}
 BENCHMARK(Quick_FirstPoint)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
 // Throughput only: 0.1 s of settling and a sliver of measurement of the 4 m mill.
 void Cement4m_Throughput(benchmark::State& state) {
   json params = first_point_params("cement_ball_mill.json");
-  params["macro"].update({{"settle_time", 0.1}, {"warmup_revolutions", 0.0}, {"measure_revolutions", 0.01},
+  params["macro"].update({{"settle_time", 0.1},
+                          {"warmup_revolutions", 0.0},
+                          {"measure_revolutions", 0.01},
                           {"vtk_interval", 100.0}});
   run_and_report(state, params);
 }
@@ -66,21 +73,38 @@ BENCHMARK(Cement4m_Throughput)->Iterations(1)->Unit(benchmark::kSecond)->UseReal
 
 json tiny_sweep_params(double fill, double speed) {
   json params = testing::tiny_macro_params(fill, speed);
-  params["macro"].update({{"warmup_revolutions", 1.5}, {"measure_revolutions", 2.0}, {"vtk_interval", 100.0}});
+  params["macro"].update(
+      {{"warmup_revolutions", 1.5}, {"measure_revolutions", 2.0}, {"vtk_interval", 100.0}});
   return params;
 }
 
 void Tiny_PowerVsSpeed(benchmark::State& state) {
   run_and_report(state, tiny_sweep_params(0.3, static_cast<double>(state.range(0)) / 100.0));
 }
-BENCHMARK(Tiny_PowerVsSpeed)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime()
-    ->Arg(30)->Arg(50)->Arg(65)->Arg(75)->Arg(85)->Arg(95)->Arg(110)->Arg(150);
+BENCHMARK(Tiny_PowerVsSpeed)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->Arg(30)
+    ->Arg(50)
+    ->Arg(65)
+    ->Arg(75)
+    ->Arg(85)
+    ->Arg(95)
+    ->Arg(110)
+    ->Arg(150);
 
 void Tiny_PowerVsFill(benchmark::State& state) {
   run_and_report(state, tiny_sweep_params(static_cast<double>(state.range(0)) / 100.0, 0.75));
 }
-BENCHMARK(Tiny_PowerVsFill)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime()
-    ->Arg(20)->Arg(30)->Arg(40)->Arg(50);
+BENCHMARK(Tiny_PowerVsFill)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->Arg(20)
+    ->Arg(30)
+    ->Arg(40)
+    ->Arg(50);
 
 }  // namespace
 }  // namespace millflow::tasks

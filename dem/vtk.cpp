@@ -20,25 +20,30 @@ void write_text_atomically(const std::filesystem::path& path, const std::string&
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
     out << text;
     out.flush();
-    if (!out) throw std::runtime_error(fmt::format("cannot write {}: {}", temporary.string(), std::strerror(errno)));
+    if (!out)
+      throw std::runtime_error(
+          fmt::format("cannot write {}: {}", temporary.string(), std::strerror(errno)));
   }
   std::filesystem::rename(temporary, path);
 }
 
-void append_vectors(std::string& text, const char* name, std::span<const Vec3> values, std::span<const GroupId> groups) {
-  text += fmt::format(R"(        <DataArray type="Float32" Name="{}" NumberOfComponents="3" format="ascii">)", name);
+void append_vectors(std::string& text, const char* name, std::span<const Vec3> values,
+                    std::span<const GroupId> groups) {
+  text += fmt::format(
+      R"(        <DataArray type="Float32" Name="{}" NumberOfComponents="3" format="ascii">)",
+      name);
   text += '\n';
   for (std::size_t p = 0; p < values.size(); ++p) {
     if (groups[p] != kFreeParticle) continue;
-    text += fmt::format("{} {} {}\n", static_cast<float>(values[p].x()), static_cast<float>(values[p].y()),
-                        static_cast<float>(values[p].z()));
+    text += fmt::format("{} {} {}\n", static_cast<float>(values[p].x()),
+                        static_cast<float>(values[p].y()), static_cast<float>(values[p].z()));
   }
   text += "        </DataArray>\n";
 }
 
 template <class T>
-void append_scalars(std::string& text, const char* type, const char* name, std::span<const T> values,
-                    std::span<const GroupId> groups) {
+void append_scalars(std::string& text, const char* type, const char* name,
+                    std::span<const T> values, std::span<const GroupId> groups) {
   text += fmt::format(R"(        <DataArray type="{}" Name="{}" format="ascii">)", type, name);
   text += '\n';
   for (std::size_t p = 0; p < values.size(); ++p) {
@@ -66,14 +71,19 @@ void write_particles_vtp(const System& system, const std::filesystem::path& path
     material.push_back(static_cast<std::int32_t>(system.particle_materials()[p]));
   }
   std::string text = kHeader;
-  text += fmt::format(R"(    <Piece NumberOfPoints="{}" NumberOfVerts="{}">)", free, free > 0 ? 1 : 0);
+  text +=
+      fmt::format(R"(    <Piece NumberOfPoints="{}" NumberOfVerts="{}">)", free, free > 0 ? 1 : 0);
   text += "\n      <Points>\n";
   append_vectors(text, "position", system.positions(), groups);
   text += "      </Points>\n";
   if (free > 0) {  // one vertex cell holding every point, so ParaView shows them without a filter
-    text += "      <Verts>\n        <DataArray type=\"Int32\" Name=\"connectivity\" format=\"ascii\">\n";
+    text +=
+        "      <Verts>\n        <DataArray type=\"Int32\" Name=\"connectivity\" "
+        "format=\"ascii\">\n";
     for (std::size_t p = 0; p < free; ++p) text += fmt::format("{}\n", p);
-    text += "        </DataArray>\n        <DataArray type=\"Int32\" Name=\"offsets\" format=\"ascii\">\n";
+    text +=
+        "        </DataArray>\n        <DataArray type=\"Int32\" Name=\"offsets\" "
+        "format=\"ascii\">\n";
     text += fmt::format("{}\n        </DataArray>\n      </Verts>\n", free);
   }
   text += "      <PointData Scalars=\"radius\" Vectors=\"velocity\">\n";
@@ -87,7 +97,8 @@ void write_particles_vtp(const System& system, const std::filesystem::path& path
 }
 
 std::vector<Vec3> mill_outline(const MillShell& shell, double angle, int samples) {
-  if (samples < 3) throw std::invalid_argument(fmt::format("mill outline: {} samples; use at least 3", samples));
+  if (samples < 3)
+    throw std::invalid_argument(fmt::format("mill outline: {} samples; use at least 3", samples));
   validate(shell);
   const double z = 0.5 * shell.length;
   std::vector<Vec3> outline;
@@ -105,32 +116,42 @@ std::vector<Vec3> mill_outline(const MillShell& shell, double angle, int samples
   return outline;
 }
 
-void write_mill_outline_vtp(const MillShell& shell, double angle, const std::filesystem::path& path, int samples) {
+void write_mill_outline_vtp(const MillShell& shell, double angle, const std::filesystem::path& path,
+                            int samples) {
   const auto outline = mill_outline(shell, angle, samples);
   const std::size_t n = outline.size();
   std::string text = kHeader;
   text += fmt::format(R"(    <Piece NumberOfPoints="{}" NumberOfLines="2">)", 2 * n);
-  text += "\n      <Points>\n        <DataArray type=\"Float32\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+  text +=
+      "\n      <Points>\n        <DataArray type=\"Float32\" NumberOfComponents=\"3\" "
+      "format=\"ascii\">\n";
   for (const double z : {0.0, shell.length}) {
-    for (const Vec3& p : outline) text += fmt::format("{} {} {}\n", static_cast<float>(p.x()), static_cast<float>(p.y()), z);
+    for (const Vec3& p : outline)
+      text += fmt::format("{} {} {}\n", static_cast<float>(p.x()), static_cast<float>(p.y()), z);
   }
   text += "        </DataArray>\n      </Points>\n      <Lines>\n";
   text += "        <DataArray type=\"Int32\" Name=\"connectivity\" format=\"ascii\">\n";
   for (std::size_t ring = 0; ring < 2; ++ring) {
-    for (std::size_t k = 0; k <= n; ++k) text += fmt::format("{}\n", ring * n + k % n);  // closed: back to the start
+    for (std::size_t k = 0; k <= n; ++k)
+      text += fmt::format("{}\n", ring * n + k % n);  // closed: back to the start
   }
-  text += "        </DataArray>\n        <DataArray type=\"Int32\" Name=\"offsets\" format=\"ascii\">\n";
-  text += fmt::format("{}\n{}\n        </DataArray>\n      </Lines>\n    </Piece>\n", n + 1, 2 * (n + 1));
+  text +=
+      "        </DataArray>\n        <DataArray type=\"Int32\" Name=\"offsets\" "
+      "format=\"ascii\">\n";
+  text += fmt::format("{}\n{}\n        </DataArray>\n      </Lines>\n    </Piece>\n", n + 1,
+                      2 * (n + 1));
   text += kFooter;
   write_text_atomically(path, text);
 }
 
 void write_pvd(const std::filesystem::path& path, std::span<const PvdEntry> entries) {
   std::string text =
-      "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+      "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" "
+      "byte_order=\"LittleEndian\">\n"
       "  <Collection>\n";
   for (const PvdEntry& entry : entries) {
-    text += fmt::format(R"(    <DataSet timestep="{}" group="" part="0" file="{}"/>)", entry.time, entry.file);
+    text += fmt::format(R"(    <DataSet timestep="{}" group="" part="0" file="{}"/>)", entry.time,
+                        entry.file);
     text += '\n';
   }
   text += "  </Collection>\n</VTKFile>\n";

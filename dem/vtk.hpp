@@ -23,7 +23,8 @@ void write_particles_vtp(const System& system, const std::filesystem::path& path
 std::vector<Vec3> mill_outline(const MillShell& shell, double angle, int samples);
 
 // The outline as two closed polylines, at z = 0 and z = length (atomic write).
-void write_mill_outline_vtp(const MillShell& shell, double angle, const std::filesystem::path& path, int samples = 720);
+void write_mill_outline_vtp(const MillShell& shell, double angle, const std::filesystem::path& path,
+                            int samples = 720);
 
 struct PvdEntry {
   double time = 0.0;

@@ -20,8 +20,9 @@
 //   power {mean_w, std_w (of the block means), mean_kw, std_kw, kw_per_m, kw_per_t_balls,
 //          torque_arm_kw (M g x_com omega), torque_arm_relative_difference, dissipation_kw,
 //          block_s},
-//   correlations {bond_kw_per_t, hogg_fuerstenau_kw_per_t, ratio_to_bond, ratio_to_hogg_fuerstenau},
-//   charge {toe_angle_deg, shoulder_angle_deg (null when undefined), convention,
+//   correlations {bond_kw_per_t, hogg_fuerstenau_kw_per_t, ratio_to_bond,
+//   ratio_to_hogg_fuerstenau}, charge {toe_angle_deg, shoulder_angle_deg (null when undefined),
+//   convention,
 //           contact_angle_bin_deg, contact_angle_counts} (see tasks/macro_measure.hpp),
 //   collisions {ball_ball, ball_liner: count, rate_per_s, mean energies, dissipated_power_w},
 //   spectra {bin_edges_j, ball_ball, ball_liner: impact_energy and dissipated_energy histograms}.
@@ -53,6 +54,7 @@ engine::ViewDefinition macro_results_view();
 //   Hogg-Fuerstenau: P = 17.06 phi_c rho_c D^2.5 L J (1 - 1.065 J) sin(alpha) kW over the charge
 //   mass rho_c J pi D^2 / 4 L t, i.e. 21.72 phi_c D^0.5 (1 - 1.065 J) sin(alpha).
 double bond_kw_per_tonne(double diameter, double fill, double speed_fraction);
-double hogg_fuerstenau_kw_per_tonne(double diameter, double fill, double speed_fraction, double repose_deg = 35.0);
+double hogg_fuerstenau_kw_per_tonne(double diameter, double fill, double speed_fraction,
+                                    double repose_deg = 35.0);
 
 }  // namespace millflow::tasks

@@ -46,7 +46,9 @@ void PowerMeter::close_block(double time, double torque_arm_power) {
   block_steps_done_ = 0;
 }
 
-double PowerMeter::mean() const { return steps_ > 0 ? sum_ / static_cast<double>(steps_) : 0.0; }
+double PowerMeter::mean() const {
+  return steps_ > 0 ? sum_ / static_cast<double>(steps_) : 0.0;
+}
 
 double PowerMeter::standard_deviation() const {
   if (powers_.size() < 2) return 0.0;
@@ -77,7 +79,8 @@ void PowerMeter::write(dem::BinaryWriter& out) const {
 }
 
 void PowerMeter::read(dem::BinaryReader& in) {
-  if (in.get<std::uint64_t>() != block_steps_) throw dem::CorruptData("macro state: the power block length changed");
+  if (in.get<std::uint64_t>() != block_steps_)
+    throw dem::CorruptData("macro state: the power block length changed");
   sum_ = in.get<double>();
   steps_ = in.get<std::uint64_t>();
   block_sum_ = in.get<double>();
@@ -116,7 +119,9 @@ void ChargeShape::add_frame(const dem::FlowFrame& frame, std::uint32_t shell_wal
 std::optional<ChargeShape::Angles> ChargeShape::angles() const {
   const double fullest = *std::max_element(counts_.begin(), counts_.end());
   if (fullest <= 0.0) return std::nullopt;
-  auto in_charge = [&](int bin) { return counts_[static_cast<std::size_t>(bin % kBins)] >= kThreshold * fullest; };
+  auto in_charge = [&](int bin) {
+    return counts_[static_cast<std::size_t>(bin % kBins)] >= kThreshold * fullest;
+  };
   int gap = 0;
   while (gap < kBins && in_charge(gap)) ++gap;
   if (gap == kBins) return std::nullopt;  // contacts all round: centrifuging
@@ -132,21 +137,25 @@ std::optional<ChargeShape::Angles> ChargeShape::angles() const {
     }
   }
   const double width = 360.0 / kBins;
-  return Angles{reported_angle(best_start * width), reported_angle((best_start + best_length) * width)};
+  return Angles{reported_angle(best_start * width),
+                reported_angle((best_start + best_length) * width)};
 }
 
-void ChargeShape::write(dem::BinaryWriter& out) const { put_vector(out, counts_); }
+void ChargeShape::write(dem::BinaryWriter& out) const {
+  put_vector(out, counts_);
+}
 
 void ChargeShape::read(dem::BinaryReader& in) {
   counts_ = in.get_vector<double>();
-  if (counts_.size() != static_cast<std::size_t>(kBins)) throw dem::CorruptData("macro state: bad charge-shape bins");
+  if (counts_.size() != static_cast<std::size_t>(kBins))
+    throw dem::CorruptData("macro state: bad charge-shape bins");
 }
 
 CollisionStats::CollisionStats(std::vector<Tracked> tracked) {
   for (Tracked& t : tracked) {
-    categories_.push_back(Category{std::move(t),
-                                   dem::LogHistogram(kSpectrumMin, kSpectrumMax, kSpectrumBinsPerDecade),
-                                   dem::LogHistogram(kSpectrumMin, kSpectrumMax, kSpectrumBinsPerDecade)});
+    categories_.push_back(Category{
+        std::move(t), dem::LogHistogram(kSpectrumMin, kSpectrumMax, kSpectrumBinsPerDecade),
+        dem::LogHistogram(kSpectrumMin, kSpectrumMax, kSpectrumBinsPerDecade)});
   }
 }
 
@@ -199,9 +208,11 @@ void CollisionStats::write(dem::BinaryWriter& out) const {
 }
 
 void CollisionStats::read(dem::BinaryReader& in) {
-  if (in.get<std::uint64_t>() != categories_.size()) throw dem::CorruptData("macro state: tracked categories changed");
+  if (in.get<std::uint64_t>() != categories_.size())
+    throw dem::CorruptData("macro state: tracked categories changed");
   for (Category& c : categories_) {
-    if (in.get<std::uint32_t>() != c.tracked.category) throw dem::CorruptData("macro state: tracked categories changed");
+    if (in.get<std::uint32_t>() != c.tracked.category)
+      throw dem::CorruptData("macro state: tracked categories changed");
     c.impact = dem::LogHistogram::read(in);
     c.dissipated = dem::LogHistogram::read(in);
     c.count = in.get<std::uint64_t>();
@@ -217,8 +228,8 @@ void write_events(dem::BinaryWriter& out, std::span<const dem::CollisionEvent> e
     out.put(e.a);
     out.put(e.b);
     out.put<std::uint8_t>(e.with_wall ? 1 : 0);
-    for (double v : {e.start_time, e.duration, e.impact_speed, e.impact_energy, e.dissipated, e.point.x(), e.point.y(),
-                     e.point.z()}) {
+    for (double v : {e.start_time, e.duration, e.impact_speed, e.impact_energy, e.dissipated,
+                     e.point.x(), e.point.y(), e.point.z()}) {
       out.put(v);
     }
   }
@@ -231,7 +242,8 @@ std::vector<dem::CollisionEvent> read_events(dem::BinaryReader& in) {
     e.a = in.get<std::uint32_t>();
     e.b = in.get<std::uint32_t>();
     e.with_wall = in.get<std::uint8_t>() != 0;
-    for (double* v : {&e.start_time, &e.duration, &e.impact_speed, &e.impact_energy, &e.dissipated}) *v = in.get<double>();
+    for (double* v : {&e.start_time, &e.duration, &e.impact_speed, &e.impact_energy, &e.dissipated})
+      *v = in.get<double>();
     for (int axis = 0; axis < 3; ++axis) e.point[axis] = in.get<double>();
   }
   return events;

@@ -84,8 +84,8 @@ class ChargeShape {
 class CollisionStats {
  public:
   struct Tracked {
-    std::string label;      // e.g. "ball_ball"
-    std::uint32_t category; // dem::System category
+    std::string label;       // e.g. "ball_ball"
+    std::uint32_t category;  // dem::System category
   };
   explicit CollisionStats(std::vector<Tracked> tracked);
 

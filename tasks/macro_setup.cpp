@@ -15,8 +15,9 @@ using nlohmann::json;
 const json& field(const json& params, const std::string& path) {
   const json::json_pointer pointer(path);
   if (!params.contains(pointer)) {
-    throw engine::InvalidInput({{path, "is missing from the macro task's parameters",
-                                 "plan macro tasks from a validated campaign (tasks::macro_params)"}});
+    throw engine::InvalidInput(
+        {{path, "is missing from the macro task's parameters",
+          "plan macro tasks from a validated campaign (tasks::macro_params)"}});
   }
   return params.at(pointer);
 }
@@ -36,8 +37,9 @@ const json& find_interaction(const json& params, const std::string& a, const std
     const auto second = interaction.at("materials").at(1).get<std::string>();
     if ((first == a && second == b) || (first == b && second == a)) return interaction;
   }
-  throw engine::InvalidInput({{"/interactions", fmt::format("no interaction is given for \"{}\" and \"{}\"", a, b),
-                               "add {\"materials\": [\"" + a + "\", \"" + b + "\"], ...} to /interactions"}});
+  throw engine::InvalidInput(
+      {{"/interactions", fmt::format("no interaction is given for \"{}\" and \"{}\"", a, b),
+        "add {\"materials\": [\"" + a + "\", \"" + b + "\"], ...} to /interactions"}});
 }
 
 dem::Material material(const json& params, const std::string& name) {
@@ -45,15 +47,17 @@ dem::Material material(const json& params, const std::string& name) {
 }
 
 dem::MillShell shell(const json& params) {
-  dem::MillShell shell{.radius = 0.5 * number(params, "/mill/diameter"),
-                       .length = number(params, "/mill/length"),
-                       .lifter_count = field(params, "/mill/lifters/count").get<int>(),
-                       .lifter = {},
-                       .end_walls = field(params, "/mill/axial_ends").get<std::string>() == "walls"};
+  dem::MillShell shell{
+      .radius = 0.5 * number(params, "/mill/diameter"),
+      .length = number(params, "/mill/length"),
+      .lifter_count = field(params, "/mill/lifters/count").get<int>(),
+      .lifter = {},
+      .end_walls = field(params, "/mill/axial_ends").get<std::string>() == "walls"};
   if (shell.lifter_count > 0) {
-    shell.lifter = dem::LifterProfile{.height = number(params, "/mill/lifters/height"),
-                                      .base_width = number(params, "/mill/lifters/base_width"),
-                                      .face_angle_deg = number(params, "/mill/lifters/face_angle_deg")};
+    shell.lifter =
+        dem::LifterProfile{.height = number(params, "/mill/lifters/height"),
+                           .base_width = number(params, "/mill/lifters/base_width"),
+                           .face_angle_deg = number(params, "/mill/lifters/face_angle_deg")};
   }
   return shell;
 }
@@ -67,7 +71,8 @@ void set_media_sizes(const json& params, dem::MillSetup& mill) {
   const json& classes = field(params, "/media/size_distribution");
   for (std::size_t i = 0; i < classes.size(); ++i) {
     const std::string path = "/media/size_distribution/" + std::to_string(i);
-    mill.size_distribution.push_back({number(params, path + "/diameter"), number(params, path + "/mass_fraction")});
+    mill.size_distribution.push_back(
+        {number(params, path + "/diameter"), number(params, path + "/mass_fraction")});
   }
 }
 
@@ -85,10 +90,11 @@ double reference_ball_mass(const dem::MillSetup& mill) {
 }
 
 dem::InteractionSpec interaction_spec(const json& interaction, double reference_mass) {
-  dem::InteractionSpec spec{.restitution = interaction.at("restitution").get<double>(),
-                            .friction = interaction.at("friction").get<double>(),
-                            .tangential_stiffness_ratio = interaction.value("tangential_stiffness_ratio", 2.0 / 7.0),
-                            .tangential_damping_ratio = interaction.value("tangential_damping_ratio", 0.5)};
+  dem::InteractionSpec spec{
+      .restitution = interaction.at("restitution").get<double>(),
+      .friction = interaction.at("friction").get<double>(),
+      .tangential_stiffness_ratio = interaction.value("tangential_stiffness_ratio", 2.0 / 7.0),
+      .tangential_damping_ratio = interaction.value("tangential_damping_ratio", 0.5)};
   const json& stiffness = interaction.at("stiffness");
   if (stiffness.contains("normal")) {
     spec.normal_stiffness = stiffness.at("normal").get<double>();
@@ -110,8 +116,10 @@ MacroSettings macro_settings(const json& params, const std::string& task_key) {
   mill.liner = material(params, liner);
   set_media_sizes(params, mill);
   const double ball_mass = reference_ball_mass(mill);
-  mill.ball_ball = interaction_spec(find_interaction(params, media, media), dem::effective_mass(ball_mass, ball_mass));
-  mill.ball_liner = interaction_spec(find_interaction(params, media, liner), dem::effective_mass(ball_mass, 0.0));
+  mill.ball_ball = interaction_spec(find_interaction(params, media, media),
+                                    dem::effective_mass(ball_mass, ball_mass));
+  mill.ball_liner =
+      interaction_spec(find_interaction(params, media, liner), dem::effective_mass(ball_mass, 0.0));
   mill.fill = number(params, "/macro/fill");
   mill.speed_fraction = number(params, "/macro/speed_fraction");
   mill.seed = macro_seed(field(params, "/dem/seed").get<std::uint64_t>(), task_key);

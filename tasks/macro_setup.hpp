@@ -20,8 +20,8 @@ namespace millflow::tasks {
 struct MacroSettings {
   dem::MillSetup mill;
   int steps_per_collision = 20;
-  double skin_fraction = 0.3;           // neighbour skin / smallest ball diameter
-  double settle_time = 0.5;             // s, shell at rest
+  double skin_fraction = 0.3;  // neighbour skin / smallest ball diameter
+  double settle_time = 0.5;    // s, shell at rest
   double warmup_revolutions = 2.0;
   double measure_revolutions = 3.0;
   double sample_interval = 0.01;        // s between flow frames

@@ -14,7 +14,8 @@ namespace {
 
 MillSetup two_size_mill() {
   MillSetup setup = testing::small_mill(0.3, 0.75);
-  setup.size_distribution = {{.diameter = 0.012, .mass_fraction = 2.0}, {.diameter = 0.008, .mass_fraction = 1.0}};
+  setup.size_distribution = {{.diameter = 0.012, .mass_fraction = 2.0},
+                             {.diameter = 0.008, .mass_fraction = 1.0}};
   return setup;
 }
 
@@ -41,7 +42,8 @@ TEST(MillSizes, EachClassTakesItsMassFractionOfTheCharge) {
   EXPECT_NEAR(mass_by_radius[0.004] / total, 1.0 / 3.0, 0.02);
   // The bed's solid volume: J x free volume x packing.
   const double solid = total / setup.media.density;
-  const double expected = setup.fill * mill_free_cross_section_area(setup.shell) * setup.shell.length * setup.packing;
+  const double expected =
+      setup.fill * mill_free_cross_section_area(setup.shell) * setup.shell.length * setup.packing;
   EXPECT_NEAR(solid, expected, 0.02 * expected);
   EXPECT_NO_THROW(system.check_overlaps(0.0));
   // Mixed: the small balls are spread over the bed's height, not all on top.

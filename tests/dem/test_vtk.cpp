@@ -31,7 +31,8 @@ std::vector<double> data_array(const std::string& text, const std::string& name)
 TEST(Vtk, ParticlesCarryTheirStateAsPointData) {
   System system(testing::steel_table(0.5, 0.5), testing::open_box(1.0), Vec3(0, -9.81, 0));
   system.add_particle({.position = Vec3(0.1, 0.2, 0.3), .velocity = Vec3(1, 2, 3), .radius = 0.01});
-  system.add_particle({.position = Vec3(-0.1, 0, 0), .angular_velocity = Vec3(0, 0, 5), .radius = 0.02});
+  system.add_particle(
+      {.position = Vec3(-0.1, 0, 0), .angular_velocity = Vec3(0, 0, 5), .radius = 0.02});
   const auto path = std::filesystem::temp_directory_path() / "millflow_test_particles.vtp";
   write_particles_vtp(system, path);
   const std::string text = read_file(path);
@@ -47,22 +48,28 @@ TEST(Vtk, ParticlesCarryTheirStateAsPointData) {
 }
 
 TEST(Vtk, MillOutlineFollowsTheLinerAndTheLifters) {
-  const MillShell shell{.radius = 0.5, .length = 0.1, .lifter_count = 4,
-                        .lifter = {.height = 0.05, .base_width = 0.08, .face_angle_deg = 0.0}, .end_walls = false};
+  const MillShell shell{.radius = 0.5,
+                        .length = 0.1,
+                        .lifter_count = 4,
+                        .lifter = {.height = 0.05, .base_width = 0.08, .face_angle_deg = 0.0},
+                        .end_walls = false};
   const double angle = 0.3;
   const auto outline = mill_outline(shell, angle, 720);
   ASSERT_EQ(outline.size(), 720u);
   // The sample nearest `phi`: its radius and its angle from phi.
   auto sample_near = [&](double phi) {
     const auto k = std::lround(phi / (2 * std::numbers::pi) * 720);
-    return std::pair(outline[static_cast<std::size_t>(k % 720)].norm(), 2 * std::numbers::pi * k / 720 - phi);
+    return std::pair(outline[static_cast<std::size_t>(k % 720)].norm(),
+                     2 * std::numbers::pi * k / 720 - phi);
   };
-  // A lifter's flat top R - h, seen from the axis at angle delta off its centreline: (R - h) / cos(delta).
+  // A lifter's flat top R - h, seen from the axis at angle delta off its centreline: (R - h) /
+  // cos(delta).
   for (const double centreline : {angle, angle + std::numbers::pi / 2}) {
     const auto [r, delta] = sample_near(centreline);
     EXPECT_NEAR(r, 0.45 / std::cos(delta), 1e-8);
   }
-  EXPECT_NEAR(sample_near(angle + std::numbers::pi / 4).first, 0.5, 1e-8);  // between lifters: the liner
+  EXPECT_NEAR(sample_near(angle + std::numbers::pi / 4).first, 0.5,
+              1e-8);  // between lifters: the liner
 }
 
 TEST(Vtk, CollectionListsEveryFileWithItsTime) {

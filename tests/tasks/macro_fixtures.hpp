@@ -29,8 +29,9 @@ inline nlohmann::json tiny_macro_params(double fill = 0.3, double speed_fraction
               "measure_revolutions": 1.0, "sample_interval": 0.02, "vtk_interval": 0.25,
               "checkpoint_interval_s": 60}
   })")
-      .patch(nlohmann::json::array({{{"op", "replace"}, {"path", "/macro/fill"}, {"value", fill}},
-                                    {{"op", "replace"}, {"path", "/macro/speed_fraction"}, {"value", speed_fraction}}}));
+      .patch(nlohmann::json::array(
+          {{{"op", "replace"}, {"path", "/macro/fill"}, {"value", fill}},
+           {{"op", "replace"}, {"path", "/macro/speed_fraction"}, {"value", speed_fraction}}}));
 }
 
 // Runs the macro task function directly, as the engine would, on `threads` threads.
@@ -50,9 +51,10 @@ struct DirectRun {
                                 .work_dir = work_dir,
                                 .threads = threads,
                                 .stop = stop,
-                                .progress = [&](double fraction, std::string_view message) {
-                                  if (on_progress) on_progress(fraction, message);
-                                },
+                                .progress =
+                                    [&](double fraction, std::string_view message) {
+                                      if (on_progress) on_progress(fraction, message);
+                                    },
                                 .log = [](std::string_view) {}};
     std::filesystem::create_directories(work_dir);
     engine::TaskOutcome outcome;
@@ -66,7 +68,8 @@ struct DirectRun {
 class ScratchDir {
  public:
   explicit ScratchDir(const std::string& name)
-      : path_(std::filesystem::temp_directory_path() / ("millflow_" + name + "_" + std::to_string(::getpid()))) {
+      : path_(std::filesystem::temp_directory_path() /
+              ("millflow_" + name + "_" + std::to_string(::getpid()))) {
     std::filesystem::remove_all(path_);
     std::filesystem::create_directories(path_);
   }

@@ -4,8 +4,8 @@
 
 #include <cmath>
 #include <fstream>
-#include <numbers>
 #include <map>
+#include <numbers>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -32,17 +32,23 @@ std::string read_file(const std::filesystem::path& path) {
   return text.str();
 }
 
-double ball_mass(double diameter) { return 7800.0 * std::numbers::pi * std::pow(diameter, 3) / 6.0; }
+double ball_mass(double diameter) {
+  return 7800.0 * std::numbers::pi * std::pow(diameter, 3) / 6.0;
+}
 
 TEST(MacroParams, CollisionTimeGivesThatContactDurationForTheReferencePairs) {
   const MacroSettings settings = macro_settings(tiny_macro_params(), "key");
   const double m = ball_mass(0.012);
   const double zeta = dem::damping_ratio_for_restitution(0.5);
   // Two balls: m_eff = m / 2; a ball on the liner (a wall): m_eff = m.
-  EXPECT_NEAR(dem::collision_duration(settings.mill.ball_ball.normal_stiffness, m / 2, zeta), 1e-3, 1e-12);
-  EXPECT_NEAR(dem::collision_duration(settings.mill.ball_liner.normal_stiffness, m, zeta), 1e-3, 1e-12);
-  // Independently: t_c = pi / (omega_0 sqrt(1 - zeta^2)) => k = m_eff (pi / (t_c sqrt(1 - zeta^2)))^2.
-  const double expected = (m / 2) * std::pow(std::numbers::pi / (1e-3 * std::sqrt(1 - zeta * zeta)), 2);
+  EXPECT_NEAR(dem::collision_duration(settings.mill.ball_ball.normal_stiffness, m / 2, zeta), 1e-3,
+              1e-12);
+  EXPECT_NEAR(dem::collision_duration(settings.mill.ball_liner.normal_stiffness, m, zeta), 1e-3,
+              1e-12);
+  // Independently: t_c = pi / (omega_0 sqrt(1 - zeta^2)) => k = m_eff (pi / (t_c sqrt(1 -
+  // zeta^2)))^2.
+  const double expected =
+      (m / 2) * std::pow(std::numbers::pi / (1e-3 * std::sqrt(1 - zeta * zeta)), 2);
   EXPECT_NEAR(settings.mill.ball_ball.normal_stiffness, expected, 1e-9 * expected);
   EXPECT_DOUBLE_EQ(settings.mill.ball_ball.tangential_stiffness_ratio, 0.2857142857);
   EXPECT_EQ(settings.mill.shell.lifter_count, 4);
@@ -52,8 +58,10 @@ TEST(MacroParams, CollisionTimeGivesThatContactDurationForTheReferencePairs) {
 TEST(MacroParams, NormalStiffnessAndSizeDistributionAndEndWalls) {
   json params = tiny_macro_params();
   params["interactions"][0]["stiffness"] = {{"normal", 2.5e5}};
-  params["media"] = {{"material", "steel"},
-                     {"size_distribution", {{{"diameter", 0.016}, {"mass_fraction", 3}}, {{"diameter", 0.008}, {"mass_fraction", 1}}}}};
+  params["media"] = {
+      {"material", "steel"},
+      {"size_distribution",
+       {{{"diameter", 0.016}, {"mass_fraction", 3}}, {{"diameter", 0.008}, {"mass_fraction", 1}}}}};
   params["mill"]["axial_ends"] = "walls";
   const MacroSettings settings = macro_settings(params, "key");
   EXPECT_EQ(settings.mill.ball_ball.normal_stiffness, 2.5e5);
@@ -84,7 +92,8 @@ TEST(MacroParams, MissingValuesAndPairsAreNamed) {
     macro_settings(params, "key");
     FAIL() << "no error";
   } catch (const engine::InvalidInput& e) {
-    EXPECT_NE(e.errors().at(0).problem.find("\"steel\" and \"rubber\""), std::string::npos) << e.what();
+    EXPECT_NE(e.errors().at(0).problem.find("\"steel\" and \"rubber\""), std::string::npos)
+        << e.what();
   }
 }
 
@@ -100,7 +109,8 @@ class MacroRunTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     scratch_ = new ScratchDir("macro_run");
-    outcome_ = new engine::TaskOutcome(DirectRun{tiny_macro_params(), scratch_->path() / "whole"}.run());
+    outcome_ =
+        new engine::TaskOutcome(DirectRun{tiny_macro_params(), scratch_->path() / "whole"}.run());
   }
   static void TearDownTestSuite() {
     delete outcome_;
@@ -118,10 +128,12 @@ TEST_F(MacroRunTest, ReportsTheChargeAndTheDerivedValues) {
   ASSERT_FALSE(outcome_->interrupted);
   const json& r = result();
   const double area = std::numbers::pi * 0.01;  // lifters take ~1.5% of it
-  const double expected_balls = 0.3 * area * 0.036 * 0.6 / (std::numbers::pi * std::pow(0.012, 3) / 6);
+  const double expected_balls =
+      0.3 * area * 0.036 * 0.6 / (std::numbers::pi * std::pow(0.012, 3) / 6);
   EXPECT_NEAR(r["n_balls"].get<double>(), expected_balls, 0.03 * expected_balls);
   EXPECT_NEAR(r["ball_mass_kg"].get<double>(), r["n_balls"].get<double>() * ball_mass(0.012), 1e-9);
-  EXPECT_NEAR(r["dt_s"].get<double>(), 1e-3 / 20, 1e-9);  // the ball-ball pair is the shortest: t_c = 1 ms
+  EXPECT_NEAR(r["dt_s"].get<double>(), 1e-3 / 20,
+              1e-9);  // the ball-ball pair is the shortest: t_c = 1 ms
   const double omega_c = std::sqrt(9.81 / (0.1 - 0.006));
   EXPECT_NEAR(r["critical_speed_rad_s"].get<double>(), omega_c, 1e-9);
   EXPECT_NEAR(r["angular_velocity_rad_s"].get<double>(), 0.75 * omega_c, 1e-9);
@@ -141,7 +153,8 @@ TEST_F(MacroRunTest, PowerIsPositiveAndAgreesWithTheTorqueArmAndTheDissipation) 
   EXPECT_NEAR(power["torque_arm_kw"].get<double>(), p, 0.10 * p);
   EXPECT_NEAR(power["dissipation_kw"].get<double>(), p, 0.10 * p);
   EXPECT_NEAR(power["kw_per_m"].get<double>(), p / 0.036, 1e-9 * p / 0.036);
-  EXPECT_NEAR(power["kw_per_t_balls"].get<double>(), p / (result()["ball_mass_kg"].get<double>() / 1000), 1e-9);
+  EXPECT_NEAR(power["kw_per_t_balls"].get<double>(),
+              p / (result()["ball_mass_kg"].get<double>() / 1000), 1e-9);
   EXPECT_GT(power["std_kw"].get<double>(), 0.0);
 }
 
@@ -166,7 +179,8 @@ TEST_F(MacroRunTest, CountsCollisionsOfBothKinds) {
     counted += r["spectra"][kind]["impact_energy"]["overflow"].get<double>();
     EXPECT_EQ(counted, c["count"].get<double>()) << kind;
   }
-  EXPECT_EQ(r["spectra"]["bin_edges_j"].size(), r["spectra"]["ball_ball"]["impact_energy"]["counts"].size() + 1);
+  EXPECT_EQ(r["spectra"]["bin_edges_j"].size(),
+            r["spectra"]["ball_ball"]["impact_energy"]["counts"].size() + 1);
   EXPECT_EQ(r["collisions"]["ball_ball"]["category"], "steel-steel");
   EXPECT_EQ(r["collisions"]["ball_liner"]["category"], "steel-wall:shell");
 }
@@ -202,7 +216,8 @@ TEST_F(MacroRunTest, FlowSegmentsHoldEveryFrameInOrder) {
 TEST_F(MacroRunTest, WritesPowerCsvAndVtkFiles) {
   std::map<std::string, std::filesystem::path> files;
   for (const auto& a : outcome_->artifacts) files[a.name] = a.file;
-  for (const char* name : {"power.csv", "vtk/particles.pvd", "vtk/particles_0000.vtp", "vtk/mill.vtp"}) {
+  for (const char* name :
+       {"power.csv", "vtk/particles.pvd", "vtk/particles_0000.vtp", "vtk/mill.vtp"}) {
     ASSERT_TRUE(files.count(name)) << name;
     ASSERT_TRUE(std::filesystem::exists(files[name])) << name;
   }
@@ -212,9 +227,11 @@ TEST_F(MacroRunTest, WritesPowerCsvAndVtkFiles) {
   const std::string pvd = read_file(files["vtk/particles.pvd"]);
   std::size_t vtp = 0;
   for (const auto& [name, path] : files) vtp += name.starts_with("vtk/particles_") ? 1 : 0;
-  EXPECT_EQ(static_cast<std::size_t>(std::count(pvd.begin(), pvd.end(), '\n')), vtp + 5);  // 5 lines of header and footer
+  EXPECT_EQ(static_cast<std::size_t>(std::count(pvd.begin(), pvd.end(), '\n')),
+            vtp + 5);  // 5 lines of header and footer
   const std::string particles = read_file(files["vtk/particles_0000.vtp"]);
-  EXPECT_NE(particles.find(fmt::format("NumberOfPoints=\"{}\"", result()["n_balls"].get<int>())), std::string::npos);
+  EXPECT_NE(particles.find(fmt::format("NumberOfPoints=\"{}\"", result()["n_balls"].get<int>())),
+            std::string::npos);
 }
 
 TEST_F(MacroRunTest, InterruptedTwiceAndResumedGivesTheSameResultAndFiles) {
@@ -235,7 +252,8 @@ TEST_F(MacroRunTest, InterruptedTwiceAndResumedGivesTheSameResultAndFiles) {
   ASSERT_EQ(resumed.artifacts.size(), outcome_->artifacts.size());
   for (std::size_t k = 0; k < resumed.artifacts.size(); ++k) {
     EXPECT_EQ(resumed.artifacts[k].name, outcome_->artifacts[k].name);
-    EXPECT_EQ(read_file(resumed.artifacts[k].file), read_file(outcome_->artifacts[k].file)) << resumed.artifacts[k].name;
+    EXPECT_EQ(read_file(resumed.artifacts[k].file), read_file(outcome_->artifacts[k].file))
+        << resumed.artifacts[k].name;
   }
   EXPECT_FALSE(std::filesystem::exists(dir / "state.bin"));  // checkpoints go when the run is done
 }
@@ -248,9 +266,14 @@ TEST(MacroResultsView, OneRowPerMacroTaskWithItsNumbers) {
   const json params = tiny_macro_params(0.35, 0.8);
   const auto spec = engine::make_task_spec("macro", kMacroVersion, params, {});
   const auto other = engine::make_task_spec("average", "1", json::object(), {spec.key});
-  const auto campaign = store.register_campaign("c1", "millflow_campaign", json::object(), {spec, other});
-  const json result = {{"power", {{"mean_kw", 1.5}, {"kw_per_m", 2.5}, {"kw_per_t_balls", 9.0}, {"std_kw", 0.1},
-                                  {"torque_arm_kw", 1.4}}},
+  const auto campaign =
+      store.register_campaign("c1", "millflow_campaign", json::object(), {spec, other});
+  const json result = {{"power",
+                        {{"mean_kw", 1.5},
+                         {"kw_per_m", 2.5},
+                         {"kw_per_t_balls", 9.0},
+                         {"std_kw", 0.1},
+                         {"torque_arm_kw", 1.4}}},
                        {"charge", {{"toe_angle_deg", 220.0}, {"shoulder_angle_deg", 40.0}}},
                        {"n_balls", 123},
                        {"ball_mass_kg", 4.5},
@@ -260,8 +283,10 @@ TEST(MacroResultsView, OneRowPerMacroTaskWithItsNumbers) {
 
   auto read = engine::open_read_only(db);
   auto rows = read.prepare(
-      "SELECT campaign, task_key, fill, speed_fraction, power_kw, power_kw_per_m, power_kw_per_t_balls, power_std_kw, "
-      "torque_arm_power_kw, toe_angle_deg, shoulder_angle_deg, n_balls, ball_mass_kg, mill_diameter_m, dt_s, status "
+      "SELECT campaign, task_key, fill, speed_fraction, power_kw, power_kw_per_m, "
+      "power_kw_per_t_balls, power_std_kw, "
+      "torque_arm_power_kw, toe_angle_deg, shoulder_angle_deg, n_balls, ball_mass_kg, "
+      "mill_diameter_m, dt_s, status "
       "FROM macro_results");
   ASSERT_TRUE(rows.step());
   EXPECT_EQ(rows.text(0), "c1");

@@ -20,14 +20,25 @@ namespace {
 using nlohmann::json;
 
 constexpr double kRelativeTolerance = 1e-9;
-const std::filesystem::path kGoldenFile = std::filesystem::path(MILLFLOW_SOURCE_DIR) / "tests/tasks/golden/macro.json";
+const std::filesystem::path kGoldenFile =
+    std::filesystem::path(MILLFLOW_SOURCE_DIR) / "tests/tasks/golden/macro.json";
 
 // The values the golden file pins, by JSON pointer into the result.
-const std::vector<std::string> kPinned = {
-    "/n_balls", "/ball_mass_kg", "/dt_s", "/frame_count", "/measure_end_s", "/power/mean_kw", "/power/std_kw",
-    "/power/torque_arm_kw", "/power/dissipation_kw", "/charge/toe_angle_deg", "/charge/shoulder_angle_deg",
-    "/collisions/ball_ball/count", "/collisions/ball_liner/count", "/collisions/ball_ball/mean_impact_energy_j",
-    "/collisions/ball_liner/mean_dissipated_j"};
+const std::vector<std::string> kPinned = {"/n_balls",
+                                          "/ball_mass_kg",
+                                          "/dt_s",
+                                          "/frame_count",
+                                          "/measure_end_s",
+                                          "/power/mean_kw",
+                                          "/power/std_kw",
+                                          "/power/torque_arm_kw",
+                                          "/power/dissipation_kw",
+                                          "/charge/toe_angle_deg",
+                                          "/charge/shoulder_angle_deg",
+                                          "/collisions/ball_ball/count",
+                                          "/collisions/ball_liner/count",
+                                          "/collisions/ball_ball/mean_impact_energy_j",
+                                          "/collisions/ball_liner/mean_dissipated_j"};
 
 json golden_params() {
   json params = testing::tiny_macro_params(0.3, 0.8);
@@ -42,15 +53,18 @@ json run_golden_case() {
 
 TEST(MacroGolden, ResultsChangeOnlyWithAVersionBump) {
   const json result = run_golden_case();
-  if (const char* regenerate = std::getenv("MILLFLOW_REGENERATE_GOLDEN"); regenerate && *regenerate) {
-    json golden = {{"kind", "macro"},
-                   {"version", kMacroVersion},
-                   {"relative_tolerance", kRelativeTolerance},
-                   {"how_to_regenerate", "MILLFLOW_REGENERATE_GOLDEN=1 build/tests/tasks_test_macro_golden"},
-                   {"params", golden_params()},
-                   {"task_key", "golden-macro"},
-                   {"values", json::object()}};
-    for (const auto& pointer : kPinned) golden["values"][pointer] = result.at(json::json_pointer(pointer));
+  if (const char* regenerate = std::getenv("MILLFLOW_REGENERATE_GOLDEN");
+      regenerate && *regenerate) {
+    json golden = {
+        {"kind", "macro"},
+        {"version", kMacroVersion},
+        {"relative_tolerance", kRelativeTolerance},
+        {"how_to_regenerate", "MILLFLOW_REGENERATE_GOLDEN=1 build/tests/tasks_test_macro_golden"},
+        {"params", golden_params()},
+        {"task_key", "golden-macro"},
+        {"values", json::object()}};
+    for (const auto& pointer : kPinned)
+      golden["values"][pointer] = result.at(json::json_pointer(pointer));
     std::ofstream(kGoldenFile) << golden.dump(2) << '\n';
     GTEST_SKIP() << "regenerated " << kGoldenFile;
   }
@@ -59,12 +73,15 @@ TEST(MacroGolden, ResultsChangeOnlyWithAVersionBump) {
   const json golden = json::parse(in);
   ASSERT_EQ(golden["version"], kMacroVersion)
       << "the macro kind's version changed: regenerate the golden values (see this file's header)";
-  ASSERT_EQ(golden["params"], golden_params()) << "the golden case changed: regenerate the golden values";
+  ASSERT_EQ(golden["params"], golden_params())
+      << "the golden case changed: regenerate the golden values";
   for (const auto& pointer : kPinned) {
     const double expected = golden["values"].at(pointer).get<double>();
     const double actual = result.at(json::json_pointer(pointer)).get<double>();
     EXPECT_NEAR(actual, expected, kRelativeTolerance * std::abs(expected))
-        << pointer << ": the macro results changed without a version bump; bump kMacroVersion in tasks/macro.hpp "
+        << pointer
+        << ": the macro results changed without a version bump; bump kMacroVersion in "
+           "tasks/macro.hpp "
         << "and regenerate the golden values (see this file's header)";
   }
 }

@@ -19,7 +19,8 @@ double power_kw(double speed_fraction) {
 
 TEST(MacroPhysics, PowerRisesWithSpeedBelowTheOperatingRange) {
   const double slow = power_kw(0.3), operating = power_kw(0.75);
-  // Power ~ torque x omega with a torque that changes little: 2.5x the speed, at least 1.5x the power.
+  // Power ~ torque x omega with a torque that changes little: 2.5x the speed, at least 1.5x the
+  // power.
   EXPECT_GT(operating, 1.5 * slow) << "slow " << slow << " kW, operating " << operating << " kW";
 }
 
