@@ -1,0 +1,46 @@
+#pragma once
+// Parameters of a `macro` task (tasks/kinds.hpp: macro_params) translated into a DEM mill.
+//
+// Contact stiffness per material pair, from the campaign's `stiffness`:
+//   {"normal": k}           k_n = k directly;
+//   {"collision_time": t}   k_n = the stiffness that gives contact duration t (with the pair's
+//                           restitution) for two reference particles: each the ball of the media's
+//                           mass-weighted mean diameter; the liner is a wall, so a ball-liner
+//                           contact is the reference ball alone (m_eff = m_ball, against m_ball / 2
+//                           for two balls). When the media and the liner share a material, its one
+//                           interaction gives both contacts the same t_c, hence two different k_n.
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "dem/mill_setup.hpp"
+
+namespace millflow::tasks {
+
+struct MacroSettings {
+  dem::MillSetup mill;
+  int steps_per_collision = 20;
+  double skin_fraction = 0.3;  // neighbour skin / smallest ball diameter
+  double settle_time = 0.5;    // s, shell at rest
+  double warmup_revolutions = 2.0;
+  double measure_revolutions = 3.0;
+  double sample_interval = 0.01;        // s between flow frames
+  double vtk_interval = 0.1;            // s between VTK files
+  double checkpoint_interval_s = 60.0;  // wall-clock s between checkpoints
+};
+
+// Throws engine::InvalidInput naming the parameter path for a missing or unusable value.
+MacroSettings macro_settings(const nlohmann::json& params, const std::string& task_key);
+
+// The contact parameters of one campaign interaction, for contacts of effective mass
+// `reference_mass` (used only for a collision-time stiffness).
+dem::InteractionSpec interaction_spec(const nlohmann::json& interaction, double reference_mass);
+
+// The run's random seed: dem.seed mixed with the task key (FNV-1a of its text), so that every
+// task of a sweep packs its own bed, and the same task always the same one.
+std::uint64_t macro_seed(std::uint64_t dem_seed, const std::string& task_key);
+
+// Mass of a ball of the media's mass-weighted mean diameter, kg.
+double reference_ball_mass(const dem::MillSetup& mill);
+
+}  // namespace millflow::tasks

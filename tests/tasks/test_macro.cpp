@@ -1,0 +1,312 @@
+// The macro task: parameter translation, a tiny run through the task function with all its
+// artifacts, interruption and resumption with the same result, and the macro_results view.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "dem/flow_sample.hpp"
+#include "engine/sqlite.hpp"
+#include "engine/store.hpp"
+#include "engine/validation.hpp"
+#include "tasks/macro_setup.hpp"
+#include "tests/tasks/macro_fixtures.hpp"
+
+namespace millflow::tasks {
+namespace {
+
+using nlohmann::json;
+using testing::DirectRun;
+using testing::ScratchDir;
+using testing::tiny_macro_params;
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+double ball_mass(double diameter) {
+  return 7800.0 * std::numbers::pi * std::pow(diameter, 3) / 6.0;
+}
+
+TEST(MacroParams, CollisionTimeGivesThatContactDurationForTheReferencePairs) {
+  const MacroSettings settings = macro_settings(tiny_macro_params(), "key");
+  const double m = ball_mass(0.012);
+  const double zeta = dem::damping_ratio_for_restitution(0.5);
+  // Two balls: m_eff = m / 2; a ball on the liner (a wall): m_eff = m.
+  EXPECT_NEAR(dem::collision_duration(settings.mill.ball_ball.normal_stiffness, m / 2, zeta), 1e-3,
+              1e-12);
+  EXPECT_NEAR(dem::collision_duration(settings.mill.ball_liner.normal_stiffness, m, zeta), 1e-3,
+              1e-12);
+  // Independently: t_c = pi / (omega_0 sqrt(1 - zeta^2)) => k = m_eff (pi / (t_c sqrt(1 -
+  // zeta^2)))^2.
+  const double expected =
+      (m / 2) * std::pow(std::numbers::pi / (1e-3 * std::sqrt(1 - zeta * zeta)), 2);
+  EXPECT_NEAR(settings.mill.ball_ball.normal_stiffness, expected, 1e-9 * expected);
+  EXPECT_DOUBLE_EQ(settings.mill.ball_ball.tangential_stiffness_ratio, 0.2857142857);
+  EXPECT_EQ(settings.mill.shell.lifter_count, 4);
+  EXPECT_FALSE(settings.mill.shell.end_walls);
+}
+
+TEST(MacroParams, NormalStiffnessAndSizeDistributionAndEndWalls) {
+  json params = tiny_macro_params();
+  params["interactions"][0]["stiffness"] = {{"normal", 2.5e5}};
+  params["media"] = {
+      {"material", "steel"},
+      {"size_distribution",
+       {{{"diameter", 0.016}, {"mass_fraction", 3}}, {{"diameter", 0.008}, {"mass_fraction", 1}}}}};
+  params["mill"]["axial_ends"] = "walls";
+  const MacroSettings settings = macro_settings(params, "key");
+  EXPECT_EQ(settings.mill.ball_ball.normal_stiffness, 2.5e5);
+  EXPECT_EQ(settings.mill.ball_liner.normal_stiffness, 2.5e5);
+  EXPECT_NEAR(dem::mean_ball_diameter(settings.mill), 0.75 * 0.016 + 0.25 * 0.008, 1e-15);
+  EXPECT_TRUE(settings.mill.shell.end_walls);
+}
+
+TEST(MacroParams, SeedDependsOnTheKeyAndTheDemSeed) {
+  EXPECT_EQ(macro_seed(1, "abc"), macro_seed(1, "abc"));
+  EXPECT_NE(macro_seed(1, "abc"), macro_seed(1, "abd"));
+  EXPECT_NE(macro_seed(1, "abc"), macro_seed(2, "abc"));
+}
+
+TEST(MacroParams, MissingValuesAndPairsAreNamed) {
+  json params = tiny_macro_params();
+  params["macro"].erase("fill");
+  try {
+    macro_settings(params, "key");
+    FAIL() << "no error";
+  } catch (const engine::InvalidInput& e) {
+    EXPECT_EQ(e.errors().at(0).path, "/macro/fill");
+  }
+  params = tiny_macro_params();
+  params["mill"]["liner_material"] = "rubber";
+  params["materials"]["rubber"] = {{"density", 1200}};
+  try {
+    macro_settings(params, "key");
+    FAIL() << "no error";
+  } catch (const engine::InvalidInput& e) {
+    EXPECT_NE(e.errors().at(0).problem.find("\"steel\" and \"rubber\""), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(MacroParams, CorrelationsMatchTheFactsSheet) {
+  // FACTS.md: Bond ~8 kW/t at D = 1 m, ~13 kW/t at D = 5 m; Hogg-Fuerstenau ~6.4 kW/t at D = 1 m
+  // (J = 0.3, phi_c = 0.75).
+  EXPECT_NEAR(bond_kw_per_tonne(1.0, 0.3, 0.75), 8.0, 0.3);
+  EXPECT_NEAR(bond_kw_per_tonne(5.0, 0.3, 0.75), 13.0, 0.5);
+  EXPECT_NEAR(hogg_fuerstenau_kw_per_tonne(1.0, 0.3, 0.75), 6.4, 0.1);
+}
+
+class MacroRunTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    scratch_ = new ScratchDir("macro_run");
+    outcome_ =
+        new engine::TaskOutcome(DirectRun{tiny_macro_params(), scratch_->path() / "whole"}.run());
+  }
+  static void TearDownTestSuite() {
+    delete outcome_;
+    delete scratch_;
+  }
+  static const json& result() { return outcome_->result; }
+
+  static ScratchDir* scratch_;
+  static engine::TaskOutcome* outcome_;
+};
+ScratchDir* MacroRunTest::scratch_ = nullptr;
+engine::TaskOutcome* MacroRunTest::outcome_ = nullptr;
+
+TEST_F(MacroRunTest, ReportsTheChargeAndTheDerivedValues) {
+  ASSERT_FALSE(outcome_->interrupted);
+  const json& r = result();
+  const double area = std::numbers::pi * 0.01;  // lifters take ~1.5% of it
+  const double expected_balls =
+      0.3 * area * 0.036 * 0.6 / (std::numbers::pi * std::pow(0.012, 3) / 6);
+  EXPECT_NEAR(r["n_balls"].get<double>(), expected_balls, 0.03 * expected_balls);
+  EXPECT_NEAR(r["ball_mass_kg"].get<double>(), r["n_balls"].get<double>() * ball_mass(0.012), 1e-9);
+  EXPECT_NEAR(r["dt_s"].get<double>(), 1e-3 / 20,
+              1e-9);  // the ball-ball pair is the shortest: t_c = 1 ms
+  const double omega_c = std::sqrt(9.81 / (0.1 - 0.006));
+  EXPECT_NEAR(r["critical_speed_rad_s"].get<double>(), omega_c, 1e-9);
+  EXPECT_NEAR(r["angular_velocity_rad_s"].get<double>(), 0.75 * omega_c, 1e-9);
+  EXPECT_EQ(r["mill"]["lifter_count"], 4);
+  EXPECT_EQ(r["mill"]["axial_ends"], "periodic");
+  EXPECT_NEAR(r["measure_revolutions"].get<double>(), 1.0, 0.02);
+  EXPECT_NEAR(r["contacts"]["ball_liner"]["collision_time_s"].get<double>(), 1e-3, 1e-12);
+}
+
+TEST_F(MacroRunTest, PowerIsPositiveAndAgreesWithTheTorqueArmAndTheDissipation) {
+  const json& power = result()["power"];
+  const double p = power["mean_kw"].get<double>();
+  EXPECT_GT(p, 0.0);
+  // Over one revolution the charge's kinetic and potential energy barely change: the shell's work
+  // goes into dissipation, and the torque that holds the centre of mass off-centre is the torque
+  // the shell supplies. Tolerances: 10% (a single, short revolution of ~220 balls).
+  EXPECT_NEAR(power["torque_arm_kw"].get<double>(), p, 0.10 * p);
+  EXPECT_NEAR(power["dissipation_kw"].get<double>(), p, 0.10 * p);
+  EXPECT_NEAR(power["kw_per_m"].get<double>(), p / 0.036, 1e-9 * p / 0.036);
+  EXPECT_NEAR(power["kw_per_t_balls"].get<double>(),
+              p / (result()["ball_mass_kg"].get<double>() / 1000), 1e-9);
+  EXPECT_GT(power["std_kw"].get<double>(), 0.0);
+}
+
+TEST_F(MacroRunTest, ChargeIsLiftedOnTheRisingSide) {
+  const json& charge = result()["charge"];
+  ASSERT_TRUE(charge["toe_angle_deg"].is_number());
+  const double toe = charge["toe_angle_deg"], shoulder = charge["shoulder_angle_deg"];
+  EXPECT_GT(toe, 180.0);  // lower left
+  EXPECT_LT(toe, 270.0);
+  EXPECT_GT(shoulder, -30.0);  // right, above the bed's static surface
+  EXPECT_LT(shoulder, 90.0);
+}
+
+TEST_F(MacroRunTest, CountsCollisionsOfBothKinds) {
+  const json& r = result();
+  for (const char* kind : {"ball_ball", "ball_liner"}) {
+    const json& c = r["collisions"][kind];
+    EXPECT_GT(c["count"].get<double>(), 100) << kind;
+    double counted = 0;
+    for (const json& n : r["spectra"][kind]["impact_energy"]["counts"]) counted += n.get<double>();
+    counted += r["spectra"][kind]["impact_energy"]["underflow"].get<double>();
+    counted += r["spectra"][kind]["impact_energy"]["overflow"].get<double>();
+    EXPECT_EQ(counted, c["count"].get<double>()) << kind;
+  }
+  EXPECT_EQ(r["spectra"]["bin_edges_j"].size(),
+            r["spectra"]["ball_ball"]["impact_energy"]["counts"].size() + 1);
+  EXPECT_EQ(r["collisions"]["ball_ball"]["category"], "steel-steel");
+  EXPECT_EQ(r["collisions"]["ball_liner"]["category"], "steel-wall:shell");
+}
+
+TEST_F(MacroRunTest, FlowSegmentsHoldEveryFrameInOrder) {
+  const json& r = result();
+  std::map<std::string, std::filesystem::path> files;
+  for (const auto& a : outcome_->artifacts) files[a.name] = a.file;
+  const std::uint64_t segments = r["segment_count"];
+  ASSERT_GT(segments, 1u);
+  std::size_t frames = 0, events = 0;
+  double last_time = r["measure_start_s"];
+  const double interval = r["sample_interval_s"];
+  for (std::uint64_t k = 0; k < segments; ++k) {
+    const auto name = fmt::format("flow/segment_{:04d}.mfs", k);
+    ASSERT_TRUE(files.count(name)) << name;
+    for (const dem::FlowFrame& frame : dem::read_flow_segment(files[name])) {
+      EXPECT_NEAR(frame.time - last_time, interval, 1e-9);
+      last_time = frame.time;
+      EXPECT_EQ(frame.position.size(), r["n_balls"].get<std::size_t>());
+      EXPECT_GT(frame.contact_a.size(), frame.position.size() / 2);
+      events += frame.event_time.size();
+      ++frames;
+    }
+  }
+  EXPECT_EQ(frames, r["frame_count"].get<std::size_t>());
+  EXPECT_NEAR(last_time, r["measure_end_s"].get<double>(), 1e-12);
+  EXPECT_EQ(events, r["collisions"]["ball_ball"]["count"].get<std::size_t>() +
+                        r["collisions"]["ball_liner"]["count"].get<std::size_t>());
+  EXPECT_EQ(r["categories"].size(), 6u);  // 2 materials: 4 pair categories + 2 wall categories
+}
+
+TEST_F(MacroRunTest, WritesPowerCsvAndVtkFiles) {
+  std::map<std::string, std::filesystem::path> files;
+  for (const auto& a : outcome_->artifacts) files[a.name] = a.file;
+  for (const char* name :
+       {"power.csv", "vtk/particles.pvd", "vtk/particles_0000.vtp", "vtk/mill.vtp"}) {
+    ASSERT_TRUE(files.count(name)) << name;
+    ASSERT_TRUE(std::filesystem::exists(files[name])) << name;
+  }
+  const std::string csv = read_file(files["power.csv"]);
+  const auto lines = std::count(csv.begin(), csv.end(), '\n');
+  EXPECT_NEAR(static_cast<double>(lines - 1), 200.0, 2.0);  // ~200 points per revolution
+  const std::string pvd = read_file(files["vtk/particles.pvd"]);
+  std::size_t vtp = 0;
+  for (const auto& [name, path] : files) vtp += name.starts_with("vtk/particles_") ? 1 : 0;
+  EXPECT_EQ(static_cast<std::size_t>(std::count(pvd.begin(), pvd.end(), '\n')),
+            vtp + 5);  // 5 lines of header and footer
+  const std::string particles = read_file(files["vtk/particles_0000.vtp"]);
+  EXPECT_NE(particles.find(fmt::format("NumberOfPoints=\"{}\"", result()["n_balls"].get<int>())),
+            std::string::npos);
+}
+
+TEST_F(MacroRunTest, InterruptedTwiceAndResumedGivesTheSameResultAndFiles) {
+  const auto dir = scratch_->path() / "interrupted";
+  const DirectRun run{tiny_macro_params(), dir};
+  // Stop once in the warm-up and once in the measurement (with frames waiting for a segment).
+  for (const double stop_at : {0.25, 0.8}) {
+    std::stop_source stop;
+    const auto outcome = run.run(stop.get_token(), [&](double fraction, std::string_view) {
+      if (fraction >= stop_at) stop.request_stop();
+    });
+    ASSERT_TRUE(outcome.interrupted) << stop_at;
+    EXPECT_TRUE(std::filesystem::exists(dir / "state.bin"));
+  }
+  const auto resumed = run.run();
+  ASSERT_FALSE(resumed.interrupted);
+  EXPECT_EQ(resumed.result.dump(), result().dump());
+  ASSERT_EQ(resumed.artifacts.size(), outcome_->artifacts.size());
+  for (std::size_t k = 0; k < resumed.artifacts.size(); ++k) {
+    EXPECT_EQ(resumed.artifacts[k].name, outcome_->artifacts[k].name);
+    EXPECT_EQ(read_file(resumed.artifacts[k].file), read_file(outcome_->artifacts[k].file))
+        << resumed.artifacts[k].name;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "state.bin"));  // checkpoints go when the run is done
+}
+
+TEST(MacroResultsView, OneRowPerMacroTaskWithItsNumbers) {
+  ScratchDir scratch("macro_view");
+  const auto db = scratch.path() / "test.db";
+  engine::SystemClock clock;
+  engine::Store store(db, {macro_results_view()}, clock);
+  const json params = tiny_macro_params(0.35, 0.8);
+  const auto spec = engine::make_task_spec("macro", kMacroVersion, params, {});
+  const auto other = engine::make_task_spec("average", "1", json::object(), {spec.key});
+  const auto campaign =
+      store.register_campaign("c1", "millflow_campaign", json::object(), {spec, other});
+  const json result = {{"power",
+                        {{"mean_kw", 1.5},
+                         {"kw_per_m", 2.5},
+                         {"kw_per_t_balls", 9.0},
+                         {"std_kw", 0.1},
+                         {"torque_arm_kw", 1.4}}},
+                       {"charge", {{"toe_angle_deg", 220.0}, {"shoulder_angle_deg", 40.0}}},
+                       {"n_balls", 123},
+                       {"ball_mass_kg", 4.5},
+                       {"dt_s", 5e-5}};
+  store.mark_running(spec.key);
+  store.commit_done(campaign, spec.key, result, {}, {}, 1.0);
+
+  auto read = engine::open_read_only(db);
+  auto rows = read.prepare(
+      "SELECT campaign, task_key, fill, speed_fraction, power_kw, power_kw_per_m, "
+      "power_kw_per_t_balls, power_std_kw, "
+      "torque_arm_power_kw, toe_angle_deg, shoulder_angle_deg, n_balls, ball_mass_kg, "
+      "mill_diameter_m, dt_s, status "
+      "FROM macro_results");
+  ASSERT_TRUE(rows.step());
+  EXPECT_EQ(rows.text(0), "c1");
+  EXPECT_EQ(rows.text(1), spec.key);
+  EXPECT_EQ(rows.real(2), 0.35);
+  EXPECT_EQ(rows.real(3), 0.8);
+  EXPECT_EQ(rows.real(4), 1.5);
+  EXPECT_EQ(rows.real(5), 2.5);
+  EXPECT_EQ(rows.real(6), 9.0);
+  EXPECT_EQ(rows.real(7), 0.1);
+  EXPECT_EQ(rows.real(8), 1.4);
+  EXPECT_EQ(rows.real(9), 220.0);
+  EXPECT_EQ(rows.real(10), 40.0);
+  EXPECT_EQ(rows.integer(11), 123);
+  EXPECT_EQ(rows.real(12), 4.5);
+  EXPECT_EQ(rows.real(13), 0.2);
+  EXPECT_EQ(rows.real(14), 5e-5);
+  EXPECT_EQ(rows.text(15), "done");
+  EXPECT_FALSE(rows.step());  // the average task is not a macro row
+}
+
+}  // namespace
+}  // namespace millflow::tasks
