@@ -387,7 +387,7 @@ void ShearCell::compact() {
     if (stress / static_cast<double>(chunk) >= 0.5 * setup_.normal_stress) break;
   }
   system_.group(top_).servo_mobility = servo_mobility_;
-  spdlog::info("shear cell: compacted in {:.4g} s to a gap of {:.4g} m", system_.time(), gap());
+  spdlog::debug("shear cell: compacted in {:.4g} s to a gap of {:.4g} m", system_.time(), gap());
 }
 
 void ShearCell::set_wall_speed(double speed) {
@@ -562,7 +562,7 @@ void ShearCell::warm_up(double strain, int windows) {
     const double measured = bulk_shear_rate(profile);
     const double factor = measured > 0.0 ? std::clamp(setup_.shear_rate / measured, 1.0 / kMaxSpeedChange, kMaxSpeedChange)
                                          : kMaxSpeedChange;
-    spdlog::info("shear cell: warm-up window {}: bulk rate {:.4g} 1/s (target {:.4g}), wall speed {:.4g} -> {:.4g} m/s",
+    spdlog::debug("shear cell: warm-up window {}: bulk rate {:.4g} 1/s (target {:.4g}), wall speed {:.4g} -> {:.4g} m/s",
                   w, measured, setup_.shear_rate, wall_speed_, wall_speed_ * factor);
     set_wall_speed(wall_speed_ * factor);
   }
