@@ -1,0 +1,682 @@
+#include "dem/shear_cell.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+namespace millflow::dem {
+namespace {
+
+// Solid fraction at which the walled cell is first filled: random sequential addition jams near
+// 0.38, so particles go into a taller, looser cell that the servo then compresses.
+constexpr double kPlacementSolidFraction = 0.3;
+// Wall balls sit on a square lattice of this spacing (in diameters), each raised or lowered by a
+// random amount up to kWallBallJitter diameters: a random bumpy surface that does not template a
+// crystal in the bed. Four neighbours' centres then lie within sqrt(0.5^2/2 + 0.25^2) = 0.43 d
+// of their middle, inside every ball: the layer has no hole for powder to leak through.
+constexpr double kWallBallSpacing = 0.5;
+constexpr double kWallBallJitter = 0.25;
+// First guess of bulk / nominal shear rate (FACTS.md: rough walls slip, bulk ~40% of nominal).
+constexpr double kInitialBulkFraction = 0.5;
+// The wall-speed controller changes the speed by at most this factor per window.
+constexpr double kMaxSpeedChange = 2.0;
+// Random sequential addition gives up after this many failed tries per particle.
+constexpr int kInsertionTries = 20000;
+
+double sphere_volume(double diameter) { return std::numbers::pi / 6.0 * diameter * diameter * diameter; }
+
+void require(bool ok, const std::string& message) {
+  if (!ok) throw std::invalid_argument("shear cell: " + message);
+}
+
+// Random sequential addition against a cell grid of equal spheres: periodic axes wrap, the others
+// clamp. Cells are one member diameter wide.
+class InsertionGrid {
+ public:
+  InsertionGrid(const Domain& domain, double member_radius) : domain_(domain), radius_(member_radius) {
+    for (int a = 0; a < 3; ++a) {
+      cells_[a] = std::max(1, static_cast<int>(std::floor(domain.length()[a] / (2.0 * member_radius))));
+      cell_size_[a] = domain.length()[a] / cells_[a];
+    }
+    members_.resize(static_cast<std::size_t>(cells_[0]) * cells_[1] * cells_[2]);
+  }
+
+  void insert(const Vec3& x) {
+    members_[cell_id(cell_of(x))].push_back(static_cast<std::uint32_t>(positions_.size()));
+    positions_.push_back(x);
+  }
+
+  // Whether a sphere of `radius` at x would overlap a member.
+  bool overlaps(const Vec3& x, double radius) const {
+    const double reach = radius + radius_;
+    const std::array<int, 3> centre = cell_of(x);
+    std::array<std::vector<int>, 3> rows;
+    for (int a = 0; a < 3; ++a) rows[a] = cells_near(a, centre[a], reach);
+    for (int i : rows[0]) {
+      for (int j : rows[1]) {
+        for (int k : rows[2]) {
+          for (std::uint32_t m : members_[cell_id({i, j, k})]) {
+            if (domain_.separation(x, positions_[m]).squaredNorm() < reach * reach) return true;
+          }
+        }
+      }
+    }
+    return false;
+  }
+
+ private:
+  std::array<int, 3> cell_of(const Vec3& x) const {
+    std::array<int, 3> c{};
+    for (int a = 0; a < 3; ++a) {
+      const int u = static_cast<int>(std::floor((x[a] - domain_.lo[a]) / cell_size_[a]));
+      c[a] = domain_.periodic[a] ? ((u % cells_[a]) + cells_[a]) % cells_[a] : std::clamp(u, 0, cells_[a] - 1);
+    }
+    return c;
+  }
+
+  // Distinct cells along axis a within `reach` of cell c.
+  std::vector<int> cells_near(int a, int c, double reach) const {
+    const int span = static_cast<int>(std::ceil(reach / cell_size_[a]));
+    std::vector<int> cells;
+    if (domain_.periodic[a] && 2 * span + 1 >= cells_[a]) {
+      for (int u = 0; u < cells_[a]; ++u) cells.push_back(u);
+      return cells;
+    }
+    for (int u = c - span; u <= c + span; ++u) {
+      if (domain_.periodic[a]) {
+        cells.push_back(((u % cells_[a]) + cells_[a]) % cells_[a]);
+      } else if (u >= 0 && u < cells_[a]) {
+        cells.push_back(u);
+      }
+    }
+    return cells;
+  }
+
+  std::size_t cell_id(const std::array<int, 3>& c) const {
+    return (static_cast<std::size_t>(c[0]) * cells_[1] + c[1]) * cells_[2] + c[2];
+  }
+
+  Domain domain_;
+  double radius_;
+  std::array<int, 3> cells_{};
+  Vec3 cell_size_ = Vec3::Ones();
+  std::vector<std::vector<std::uint32_t>> members_;
+  std::vector<Vec3> positions_;
+};
+
+double nominal_gap(const ShearCellSetup& s) { return s.size_diameters.y() * s.media_diameter; }
+double cell_area(const ShearCellSetup& s) {
+  return s.size_diameters.x() * s.size_diameters.z() * s.media_diameter * s.media_diameter;
+}
+double powder_diameter(const ShearCellSetup& s) { return s.powder_diameter_ratio * s.media_diameter; }
+
+std::size_t media_count_for(const ShearCellSetup& s) {
+  return static_cast<std::size_t>(
+      std::llround(s.media_solid_fraction * cell_area(s) * nominal_gap(s) / sphere_volume(s.media_diameter)));
+}
+
+std::size_t powder_count_for(const ShearCellSetup& s) {
+  const double solid = s.powder_load * (1.0 - s.media_solid_fraction) * cell_area(s) * nominal_gap(s) *
+                       s.powder_bed_solid_fraction;
+  return static_cast<std::size_t>(std::llround(solid / sphere_volume(powder_diameter(s))));
+}
+
+// Height between the wall ball centre planes at which the walled cell is filled.
+double placement_gap(const ShearCellSetup& s) {
+  const double solid = s.media_solid_fraction + s.powder_load * (1.0 - s.media_solid_fraction) * s.powder_bed_solid_fraction;
+  return (1.0 + 2.0 * kWallBallJitter) * s.media_diameter + std::max(1.0, solid / kPlacementSolidFraction) * nominal_gap(s);
+}
+
+MaterialTable make_materials(const ShearCellSetup& s) {
+  MaterialTable table;
+  const MaterialId media = table.add(s.media);
+  const MaterialId powder = table.add(s.powder);
+  const MaterialId wall = table.add({s.media.name + "_wall", s.media.density});
+  table.set_interaction(media, media, s.media_media);
+  table.set_interaction(media, powder, s.media_powder);
+  table.set_interaction(powder, powder, s.powder_powder);
+  table.set_interaction(wall, media, s.media_media);
+  table.set_interaction(wall, powder, s.media_powder);
+  table.set_interaction(wall, wall, s.media_media);
+  return table;
+}
+
+Domain make_domain(const ShearCellSetup& s) {
+  const double d = s.media_diameter;
+  Domain domain;
+  if (s.boundary == ShearCellSetup::Boundary::LeesEdwards) {
+    domain.hi = s.size_diameters * d;
+    domain.periodic = {true, true, true};
+    domain.lees_edwards = LeesEdwards{.enabled = true, .flow_axis = 0, .gradient_axis = 1, .offset = 0.0,
+                                      .velocity = s.shear_rate * domain.hi.y()};
+    return domain;
+  }
+  // Room above the top wall for the cell to dilate.
+  domain.lo = Vec3(0.0, -d, 0.0);
+  domain.hi = Vec3(s.size_diameters.x() * d, placement_gap(s) + 2.0 * d, s.size_diameters.z() * d);
+  domain.periodic = {true, false, true};
+  return domain;
+}
+
+const ShearCellSetup& checked(const ShearCellSetup& s) {
+  validate(s);
+  return s;
+}
+
+}  // namespace
+
+void validate(const ShearCellSetup& s) {
+  require(s.media_diameter > 0.0 && std::isfinite(s.media_diameter),
+          fmt::format("media diameter = {} m must be > 0", s.media_diameter));
+  require(s.powder_diameter_ratio > 0.0 && s.powder_diameter_ratio <= 1.0,
+          fmt::format("powder diameter ratio = {} must be in (0, 1]", s.powder_diameter_ratio));
+  require(s.powder_load >= 0.0 && s.powder_load <= 3.0,
+          fmt::format("powder load = {} must be in [0, 3] (fraction of the media bed's voids)", s.powder_load));
+  require(s.powder_bed_solid_fraction > 0.0 && s.powder_bed_solid_fraction < 0.75,
+          fmt::format("powder bed solid fraction = {} must be in (0, 0.75)", s.powder_bed_solid_fraction));
+  for (int a = 0; a < 3; ++a) {
+    require(s.size_diameters[a] >= 3.0 && std::isfinite(s.size_diameters[a]),
+            fmt::format("cell size along axis {} = {} media diameters must be >= 3", a, s.size_diameters[a]));
+  }
+  require(s.shear_rate > 0.0 && std::isfinite(s.shear_rate),
+          fmt::format("shear rate = {} 1/s must be > 0", s.shear_rate));
+  require(s.normal_stress > 0.0 && std::isfinite(s.normal_stress),
+          fmt::format("normal stress = {} Pa must be > 0", s.normal_stress));
+  require(s.servo_gain > 0.0 && s.servo_gain <= 1.0,
+          fmt::format("servo gain = {} must be in (0, 1]; 0.5 is a good start", s.servo_gain));
+  require(s.media_solid_fraction > 0.05 && s.media_solid_fraction < 0.64,
+          fmt::format("media solid fraction = {} must be in (0.05, 0.64)", s.media_solid_fraction));
+  require(s.steps_per_collision >= 10,
+          fmt::format("steps per collision = {} must be >= 10 (20 is usual)", s.steps_per_collision));
+  require(!(s.gravity && s.boundary == ShearCellSetup::Boundary::LeesEdwards),
+          "gravity needs walls: a Lees-Edwards cell is periodic along the gradient axis; turn gravity off");
+}
+
+double size_scaled_stiffness(double reference_stiffness, double reference_diameter, double diameter_a,
+                             double diameter_b) {
+  if (!(reference_stiffness > 0.0) || !(reference_diameter > 0.0) || !(diameter_a > 0.0) || !(diameter_b > 0.0)) {
+    throw std::invalid_argument(fmt::format(
+        "size_scaled_stiffness: stiffness {} N/m and diameters {}, {}, {} m must all be > 0", reference_stiffness,
+        reference_diameter, diameter_a, diameter_b));
+  }
+  const double effective_diameter = 2.0 * diameter_a * diameter_b / (diameter_a + diameter_b);
+  return reference_stiffness * effective_diameter / reference_diameter;
+}
+
+std::string contact_type_name(ContactType type) {
+  switch (type) {
+    case ContactType::MediaMedia: return "media-media";
+    case ContactType::MediaPowder: return "media-powder";
+    case ContactType::PowderPowder: return "powder-powder";
+    case ContactType::WallMedia: return "wall-media";
+    case ContactType::WallPowder: return "wall-powder";
+  }
+  return "unknown";
+}
+
+// Least-squares sums of v_x against y, weighted by mass, plus the solid volume in the slab.
+struct ShearCell::Profile {
+  double w = 0.0, wy = 0.0, wyy = 0.0, wv = 0.0, wyv = 0.0;
+  double media_volume = 0.0, powder_volume = 0.0, slab_volume = 0.0;
+};
+
+ShearCell::ShearCell(const ShearCellSetup& setup)
+    : setup_(checked(setup)),
+      system_(make_materials(setup), make_domain(setup), setup.gravity ? Vec3(0.0, -9.81, 0.0) : Vec3::Zero()) {
+  const double d = setup_.media_diameter;
+  media_count_ = media_count_for(setup_);
+  powder_count_ = powder_count_for(setup_);
+  system_.rng().reseed(setup_.seed);
+  if (walls()) {
+    const double gap0 = placement_gap(setup_);
+    bottom_ = system_.add_group({.name = "bottom wall"});
+    top_ = system_.add_group({.name = "top wall"});
+    place_wall_layer(bottom_, 0.0);
+    place_wall_layer(top_, gap0);
+    place_media_dilute(gap0);
+    const double wall_top = (0.5 + kWallBallJitter) * d;  // highest point of the bottom layer
+    place_powder(wall_top, gap0 - wall_top);
+  } else {
+    place_media_lattice();
+    place_powder(system_.domain().lo.y(), system_.domain().hi.y());
+  }
+  system_.set_time_step_from_collisions(setup_.steps_per_collision);
+  set_wall_speed(walls() ? setup_.shear_rate * nominal_gap(setup_) / kInitialBulkFraction
+                         : setup_.shear_rate * system_.domain().length().y());
+  if (walls()) configure_servo();
+}
+
+void ShearCell::place_wall_layer(GroupId group, double y) {
+  const double d = setup_.media_diameter;
+  const Vec3 length = system_.domain().length();
+  const int nx = static_cast<int>(std::ceil(length.x() / (kWallBallSpacing * d)));
+  const int nz = static_cast<int>(std::ceil(length.z() / (kWallBallSpacing * d)));
+  for (int i = 0; i < nx; ++i) {
+    for (int k = 0; k < nz; ++k) {
+      const double height = y + kWallBallJitter * d * system_.rng().uniform(-1.0, 1.0);
+      const Vec3 x((i + 0.5) * length.x() / nx, height, (k + 0.5) * length.z() / nz);
+      system_.add_particle({.position = x, .radius = 0.5 * d, .material = wall_material_, .group = group});
+      ++wall_ball_count_;
+    }
+  }
+}
+
+void ShearCell::place_media_dilute(double gap0) {
+  const double r = 0.5 * setup_.media_diameter;
+  InsertionGrid grid(system_.domain(), r);
+  const Vec3 lo = system_.domain().lo, hi = system_.domain().hi;
+  Rng& rng = system_.rng();
+  for (std::size_t n = 0; n < media_count_; ++n) {
+    for (int attempt = 0;; ++attempt) {
+      require(attempt < kInsertionTries,
+              fmt::format("could not place media ball {} of {} without overlaps; lower media_solid_fraction",
+                          n, media_count_));
+      // Centres at least r above the highest wall ball's top and below the lowest of the top layer.
+      const double clear = (0.5 + kWallBallJitter) * setup_.media_diameter + r;
+      const Vec3 x(rng.uniform(lo.x(), hi.x()), rng.uniform(clear, gap0 - clear), rng.uniform(lo.z(), hi.z()));
+      if (grid.overlaps(x, r)) continue;
+      grid.insert(x);
+      system_.add_particle({.position = x, .radius = r, .material = media_});
+      break;
+    }
+  }
+}
+
+void ShearCell::place_media_lattice() {
+  // FCC conventional cells of side >= sqrt(2) d (touching neighbours), stretched to fit the box;
+  // the media take a random subset of the sites.
+  const double d = setup_.media_diameter;
+  const Vec3 length = system_.domain().length();
+  std::array<int, 3> cells{};
+  for (int a = 0; a < 3; ++a) cells[a] = static_cast<int>(std::floor(length[a] / (std::numbers::sqrt2 * d * 1.001)));
+  std::vector<Vec3> sites;
+  const std::array<Vec3, 4> basis{Vec3(0, 0, 0), Vec3(0.5, 0.5, 0), Vec3(0.5, 0, 0.5), Vec3(0, 0.5, 0.5)};
+  for (int i = 0; i < cells[0]; ++i) {
+    for (int j = 0; j < cells[1]; ++j) {
+      for (int k = 0; k < cells[2]; ++k) {
+        for (const Vec3& b : basis) {
+          const Vec3 unit = (Vec3(i, j, k) + b + Vec3::Constant(0.25));
+          sites.push_back(system_.domain().lo + Vec3(unit.x() * length.x() / cells[0], unit.y() * length.y() / cells[1],
+                                                     unit.z() * length.z() / cells[2]));
+        }
+      }
+    }
+  }
+  require(sites.size() >= media_count_,
+          fmt::format("a Lees-Edwards cell of {} x {} x {} media diameters holds at most {} media balls on its FCC "
+                      "lattice, {} are needed for media_solid_fraction {}; lower it or enlarge the cell",
+                      setup_.size_diameters.x(), setup_.size_diameters.y(), setup_.size_diameters.z(), sites.size(),
+                      media_count_, setup_.media_solid_fraction));
+  Rng& rng = system_.rng();
+  for (std::size_t n = 0; n < media_count_; ++n) {  // partial Fisher-Yates shuffle
+    const std::size_t pick = n + static_cast<std::size_t>(rng.uniform() * static_cast<double>(sites.size() - n));
+    std::swap(sites[n], sites[pick]);
+    const double y_mid = system_.domain().lo.y() + 0.5 * length.y();
+    const Vec3 velocity(setup_.shear_rate * (sites[n].y() - y_mid), 0.0, 0.0);  // the imposed profile
+    system_.add_particle({.position = sites[n], .velocity = velocity, .radius = 0.5 * d, .material = media_});
+  }
+}
+
+void ShearCell::place_powder(double y_lo, double y_hi) {
+  if (powder_count_ == 0) return;
+  const double r = 0.5 * powder_diameter(setup_);
+  const double r_media = 0.5 * setup_.media_diameter;
+  InsertionGrid media_grid(system_.domain(), r_media), powder_grid(system_.domain(), r);
+  for (std::size_t p = 0; p < system_.size(); ++p) {
+    if (system_.particle_groups()[p] == kFreeParticle) media_grid.insert(system_.positions()[p]);
+  }
+  const Vec3 lo = system_.domain().lo, hi = system_.domain().hi;
+  const bool periodic_y = system_.domain().periodic[1];
+  Rng& rng = system_.rng();
+  for (std::size_t n = 0; n < powder_count_; ++n) {
+    for (int attempt = 0;; ++attempt) {
+      require(attempt < kInsertionTries,
+              fmt::format("could not place powder particle {} of {} without overlaps; lower powder_load", n,
+                          powder_count_));
+      const double y = periodic_y ? rng.uniform(y_lo, y_hi) : rng.uniform(y_lo + r, y_hi - r);
+      const Vec3 x(rng.uniform(lo.x(), hi.x()), y, rng.uniform(lo.z(), hi.z()));
+      if (media_grid.overlaps(x, r) || powder_grid.overlaps(x, r)) continue;
+      powder_grid.insert(x);
+      Vec3 velocity = Vec3::Zero();
+      if (!walls()) velocity.x() = setup_.shear_rate * (y - (lo.y() + 0.5 * (hi.y() - lo.y())));
+      system_.add_particle({.position = x, .velocity = velocity, .radius = r, .material = powder_});
+      break;
+    }
+  }
+}
+
+void ShearCell::configure_servo() {
+  const double d = setup_.media_diameter, gap = nominal_gap(setup_);
+  const PairParams& media = system_.materials().pair(media_, media_);
+  const double media_mass = setup_.media.density * sphere_volume(d);
+  const double t_c = collision_duration(media.normal_stiffness, 0.5 * media_mass, media.damping_ratio);
+  const double bed_stiffness = media.normal_stiffness * (wall_area() / (d * d)) * (d / gap);
+  crossing_time_ = (gap / d) * t_c;
+  servo_mobility_ = setup_.servo_gain / (bed_stiffness * crossing_time_);
+  servo_max_speed_ = setup_.servo_gain * d / crossing_time_;
+  KinematicGroup& top = system_.group(top_);
+  top.servo_axis = 1;
+  top.servo_target_force = -setup_.normal_stress * wall_area();  // the wall pushes the bed along -y
+  top.servo_mobility = servo_mobility_;
+  top.servo_max_speed = servo_max_speed_;
+}
+
+void ShearCell::compact() {
+  if (compacted_) return;
+  compacted_ = true;
+  if (!walls()) return;
+  // The linear law moves a wall that touches nothing at only M F_target (the tiny compression
+  // that carries the target, per time constant), far too slowly to close the loose placement
+  // gap. So first close it at the speed limit (mobility v_max / F_target), until the wall carries
+  // half the target over one crossing time, then hand over to the servo's own mobility.
+  KinematicGroup& top = system_.group(top_);
+  top.servo_mobility = servo_max_speed_ / std::abs(top.servo_target_force);
+  const std::size_t chunk = std::max<std::size_t>(1, static_cast<std::size_t>(crossing_time_ / system_.time_step()));
+  const double limit = 4.0 * placement_gap(setup_) / servo_max_speed_;
+  while (system_.time() < limit) {
+    double stress = 0.0;
+    for (std::size_t s = 0; s < chunk; ++s) {
+      system_.step();
+      stress += wall_normal_stress();
+    }
+    if (stress / static_cast<double>(chunk) >= 0.5 * setup_.normal_stress) break;
+  }
+  system_.group(top_).servo_mobility = servo_mobility_;
+  spdlog::debug("shear cell: compacted in {:.4g} s to a gap of {:.4g} m", system_.time(), gap());
+}
+
+void ShearCell::set_wall_speed(double speed) {
+  wall_speed_ = speed;
+  if (walls()) {
+    system_.group(bottom_).velocity.x() = -0.5 * speed;
+    system_.group(top_).velocity.x() = 0.5 * speed;
+  }
+}
+
+double ShearCell::wall_area() const { return cell_area(setup_); }
+
+double ShearCell::gap() const {
+  if (!walls()) return system_.domain().length().y();
+  // Wall balls come first: the bottom layer, then the top one (both at their layer's height).
+  return system_.positions()[wall_ball_count_ - 1].y() - system_.positions()[0].y();
+}
+
+double ShearCell::wall_normal_stress() const {
+  // The particles push the top wall up (+y) and the bottom one down.
+  return 0.5 * (system_.group_load(top_).force.y() - system_.group_load(bottom_).force.y()) / wall_area();
+}
+
+ContactType ShearCell::contact_type(std::uint32_t category) const {
+  const std::size_t n = system_.materials().size();
+  const auto a = static_cast<MaterialId>(category / n), b = static_cast<MaterialId>(category % n);
+  if (a == wall_material_ || b == wall_material_) {
+    return (a == powder_ || b == powder_) ? ContactType::WallPowder : ContactType::WallMedia;
+  }
+  if (a == powder_ && b == powder_) return ContactType::PowderPowder;
+  if (a == powder_ || b == powder_) return ContactType::MediaPowder;
+  return ContactType::MediaMedia;
+}
+
+std::size_t ShearCell::steps_for_strain(double strain) const {
+  if (!(strain >= 0.0) || !std::isfinite(strain)) {
+    throw std::invalid_argument(fmt::format("shear cell: strain = {} must be >= 0", strain));
+  }
+  return static_cast<std::size_t>(std::ceil(strain / (setup_.shear_rate * system_.time_step())));
+}
+
+double ShearCell::shear_stress_now() const {
+  if (walls()) {
+    // The particles drag the top wall back (-x) and the bottom one forward (+x).
+    return 0.5 * (system_.group_load(bottom_).force.x() - system_.group_load(top_).force.x()) / wall_area();
+  }
+  return lees_edwards_power() / (setup_.shear_rate * system_.domain().length().prod());
+}
+
+double ShearCell::normal_stress_now() const {
+  if (walls()) return wall_normal_stress();
+  // p_yy of the virial: contacts plus the kinetic part of the peculiar motion.
+  double sum = 0.0;
+  const auto pairs = system_.candidate_pairs();
+  const auto histories = system_.pair_histories();
+  const auto forces = system_.pair_forces();
+  const auto x = system_.positions();
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    if (!histories[k].touching) continue;
+    sum -= forces[k].y() * system_.domain().separation(x[pairs[k].i], x[pairs[k].j]).y();
+  }
+  const auto v = system_.velocities();
+  const auto m = system_.masses();
+  for (std::size_t p = 0; p < system_.size(); ++p) sum += m[p] * v[p].y() * v[p].y();
+  return sum / system_.domain().length().prod();
+}
+
+double ShearCell::lees_edwards_power() const {
+  // P = gdot V tau, V tau = sum over contacts of F_x (on i) b_y (i to j) - sum m c_x c_y: the
+  // exact rate at which the sheared images feed (peculiar kinetic + elastic) energy and dissipation.
+  double shear = 0.0;
+  const auto pairs = system_.candidate_pairs();
+  const auto histories = system_.pair_histories();
+  const auto forces = system_.pair_forces();
+  const auto x = system_.positions();
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    if (!histories[k].touching) continue;
+    shear += forces[k].x() * system_.domain().separation(x[pairs[k].i], x[pairs[k].j]).y();
+  }
+  const auto v = system_.velocities();
+  const auto m = system_.masses();
+  const double y_mid = system_.domain().lo.y() + 0.5 * system_.domain().length().y();
+  for (std::size_t p = 0; p < system_.size(); ++p) {
+    shear -= m[p] * (v[p].x() - setup_.shear_rate * (x[p].y() - y_mid)) * v[p].y();
+  }
+  return setup_.shear_rate * shear;
+}
+
+double ShearCell::peculiar_kinetic_energy() const {
+  const auto x = system_.positions();
+  const auto v = system_.velocities();
+  const auto w = system_.angular_velocities();
+  const auto m = system_.masses();
+  const auto r = system_.radii();
+  const double y_mid = system_.domain().lo.y() + 0.5 * system_.domain().length().y();
+  double energy = 0.0;
+  for (std::size_t p = 0; p < system_.size(); ++p) {
+    const Vec3 c = v[p] - Vec3(setup_.shear_rate * (x[p].y() - y_mid), 0.0, 0.0);
+    energy += 0.5 * m[p] * c.squaredNorm() + 0.2 * m[p] * r[p] * r[p] * w[p].squaredNorm();
+  }
+  return energy;
+}
+
+void ShearCell::advance(std::size_t steps) {
+  compact();
+  if (walls()) {
+    system_.step(steps);
+    return;
+  }
+  // The LE boundary's work, by the trapezoidal rule over every step.
+  double power = lees_edwards_power();
+  for (std::size_t s = 0; s < steps; ++s) {
+    system_.step();
+    const double next = lees_edwards_power();
+    le_work_ += 0.5 * (power + next) * system_.time_step();
+    power = next;
+  }
+}
+
+double ShearCell::work_in() const { return walls() ? system_.energy().wall_work : le_work_; }
+
+double ShearCell::motion_energy() const {
+  if (!walls()) return peculiar_kinetic_energy();
+  const EnergyBudget budget = system_.energy();
+  return budget.kinetic + budget.potential;
+}
+
+void ShearCell::run_strain(double strain) { advance(steps_for_strain(strain)); }
+
+void ShearCell::sample_profile(Profile& profile) const {
+  const double y0 = walls() ? system_.positions()[0].y() : system_.domain().lo.y();
+  const double lo = y0 + 0.25 * gap(), hi = y0 + 0.75 * gap();
+  const auto x = system_.positions();
+  const auto v = system_.velocities();
+  const auto m = system_.masses();
+  const auto r = system_.radii();
+  const auto groups = system_.particle_groups();
+  const auto materials = system_.particle_materials();
+  for (std::size_t p = 0; p < system_.size(); ++p) {
+    if (groups[p] != kFreeParticle || x[p].y() < lo || x[p].y() >= hi) continue;
+    const double y = x[p].y() - y0;
+    profile.w += m[p];
+    profile.wy += m[p] * y;
+    profile.wyy += m[p] * y * y;
+    profile.wv += m[p] * v[p].x();
+    profile.wyv += m[p] * y * v[p].x();
+    const double volume = 4.0 / 3.0 * std::numbers::pi * r[p] * r[p] * r[p];
+    (materials[p] == powder_ ? profile.powder_volume : profile.media_volume) += volume;
+  }
+  profile.slab_volume += wall_area() * (hi - lo);
+}
+
+double ShearCell::bulk_shear_rate(const Profile& profile) {
+  const double denominator = profile.w * profile.wyy - profile.wy * profile.wy;
+  return denominator > 0.0 ? (profile.w * profile.wyv - profile.wy * profile.wv) / denominator : 0.0;
+}
+
+void ShearCell::warm_up(double strain, int windows) {
+  if (windows < 1) throw std::invalid_argument(fmt::format("shear cell: warm-up windows = {} must be >= 1", windows));
+  const std::size_t steps = steps_for_strain(strain / windows);
+  const std::size_t half = steps / 2;
+  const std::size_t every = std::max<std::size_t>(1, (steps - half) / 50);
+  for (int w = 0; w < windows; ++w) {
+    // The profile takes a while to answer a new wall speed: measure over the second half only.
+    advance(half);
+    Profile profile;
+    for (std::size_t done = half; done < steps; done += every) {
+      advance(std::min(every, steps - done));
+      sample_profile(profile);
+    }
+    if (!walls()) continue;
+    const double measured = bulk_shear_rate(profile);
+    const double factor = measured > 0.0 ? std::clamp(setup_.shear_rate / measured, 1.0 / kMaxSpeedChange, kMaxSpeedChange)
+                                         : kMaxSpeedChange;
+    spdlog::debug("shear cell: warm-up window {}: bulk rate {:.4g} 1/s (target {:.4g}), wall speed {:.4g} -> {:.4g} m/s",
+                  w, measured, setup_.shear_rate, wall_speed_, wall_speed_ * factor);
+    set_wall_speed(wall_speed_ * factor);
+  }
+}
+
+namespace {
+
+void tally(const std::vector<CollisionEvent>& events, const ShearCell& cell,
+           std::array<CollisionStats, kContactTypeCount>& stats) {
+  for (const CollisionEvent& event : events) {
+    CollisionStats& s = stats[static_cast<std::size_t>(cell.contact_type(event.category))];
+    s.count += 1.0;
+    s.dissipated_energy.add(event.dissipated);
+  }
+}
+
+CollisionStats merged(const std::array<CollisionStats, kContactTypeCount>& stats, std::initializer_list<ContactType> types) {
+  CollisionStats total;
+  for (ContactType type : types) {
+    const CollisionStats& s = stats[static_cast<std::size_t>(type)];
+    total.count += s.count;
+    total.rate_per_volume += s.rate_per_volume;
+    total.dissipated_energy.merge(s.dissipated_energy);
+  }
+  return total;
+}
+
+}  // namespace
+
+ShearCellMeasurements ShearCell::measure(double strain, const MeasureOptions& options) {
+  if (options.samples < 2 || !(options.steady_tolerance > 0.0)) {
+    throw std::invalid_argument(fmt::format("shear cell: measure needs samples = {} >= 2 and steady tolerance = {} > 0",
+                                            options.samples, options.steady_tolerance));
+  }
+  const std::size_t steps = steps_for_strain(strain);
+  if (steps < 2) throw std::invalid_argument(fmt::format("shear cell: strain = {} is less than two time steps", strain));
+  const std::size_t every = std::max<std::size_t>(1, steps / static_cast<std::size_t>(options.samples));
+  // Wall loads are free to read every step; the LE virial costs a pass over the contacts.
+  const std::size_t stress_every = walls() ? 1 : every;
+
+  const double work0 = work_in(), motion0 = motion_energy();
+  const EnergyBudget budget0 = system_.energy();
+  const std::vector<Dissipation> dissipation0 = system_.dissipation_by_category();
+  ShearCellMeasurements m;
+  if (options.record_collisions) {
+    system_.take_collision_events();
+    system_.set_record_collisions(true);
+  }
+  Profile profile;
+  std::array<double, 2> shear_sum{}, stress_count{};
+  double normal_sum = 0.0, gap_sum = 0.0;
+  const auto started = std::chrono::steady_clock::now();
+  for (std::size_t s = 1; s <= steps; ++s) {
+    advance(1);
+    if (s % stress_every == 0) {
+      const std::size_t half = 2 * s <= steps ? 0 : 1;
+      shear_sum[half] += shear_stress_now();
+      stress_count[half] += 1.0;
+      normal_sum += normal_stress_now();
+      gap_sum += gap();
+    }
+    if (s % every == 0) {
+      sample_profile(profile);
+      if (options.record_collisions) tally(system_.take_collision_events(), *this, m.collisions);
+    }
+  }
+  m.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  if (options.record_collisions) {
+    tally(system_.take_collision_events(), *this, m.collisions);
+    system_.set_record_collisions(false);
+  }
+
+  const double samples = stress_count[0] + stress_count[1];
+  m.steps = steps;
+  m.duration = static_cast<double>(steps) * system_.time_step();
+  m.strain = setup_.shear_rate * m.duration;
+  m.particle_steps_per_second = static_cast<double>(steps * system_.size()) / m.wall_seconds;
+  m.target_shear_rate = setup_.shear_rate;
+  m.bulk_shear_rate = bulk_shear_rate(profile);
+  m.wall_speed = wall_speed_;
+  m.gap = gap_sum / samples;
+  m.nominal_shear_rate = wall_speed_ / m.gap;
+  m.volume = wall_area() * m.gap;
+  m.shear_stress_first_half = shear_sum[0] / stress_count[0];
+  m.shear_stress_second_half = shear_sum[1] / stress_count[1];
+  m.shear_stress = (shear_sum[0] + shear_sum[1]) / samples;
+  m.normal_stress = normal_sum / samples;
+  m.friction = m.shear_stress / m.normal_stress;
+  m.inertial_number = m.bulk_shear_rate * setup_.media_diameter / std::sqrt(m.normal_stress / setup_.media.density);
+  m.media_solid_fraction = profile.media_volume / profile.slab_volume;
+  m.powder_solid_fraction = profile.powder_volume / profile.slab_volume;
+  m.steady_state_deviation = std::abs(m.shear_stress_first_half - m.shear_stress_second_half) /
+                             (0.5 * std::abs(m.shear_stress_first_half + m.shear_stress_second_half));
+  m.steady = m.steady_state_deviation <= options.steady_tolerance;
+
+  const double volume_time = m.volume * m.duration;
+  const std::vector<Dissipation> dissipation1 = system_.dissipation_by_category();
+  for (std::size_t c = 0; c < dissipation1.size(); ++c) {
+    const double joules = dissipation1[c].total() - dissipation0[c].total();
+    m.dissipation_density[static_cast<std::size_t>(contact_type(static_cast<std::uint32_t>(c)))] += joules / volume_time;
+  }
+  for (double d : m.dissipation_density) m.dissipation_density_total += d;
+  for (CollisionStats& s : m.collisions) s.rate_per_volume = s.count / volume_time;
+  m.media_collisions = merged(m.collisions, {ContactType::MediaMedia, ContactType::WallMedia});
+  m.powder_collisions = merged(m.collisions, {ContactType::MediaPowder, ContactType::PowderPowder, ContactType::WallPowder});
+
+  const EnergyBudget budget1 = system_.energy();
+  m.work_in = work_in() - work0;
+  m.power_density = m.work_in / volume_time;
+  m.kinetic_change = motion_energy() - motion0;
+  m.elastic_change = budget1.elastic - budget0.elastic;
+  m.dissipated = budget1.dissipated - budget0.dissipated;
+  m.energy_balance_error = std::abs(m.work_in - (m.kinetic_change + m.elastic_change + m.dissipated)) / std::abs(m.work_in);
+  return m;
+}
+
+}  // namespace millflow::dem

@@ -1,0 +1,201 @@
+#pragma once
+// The microscale Couette shear cell of the multiscale method (DESIGN.md section 1, step 3): media
+// balls and fine powder sheared at a site's shear rate under the site's normal stress.
+//
+// Geometry (x flow, y gradient, z spanwise; periodic in x and z):
+//  - RoughWalls: two layers of media-sized balls glued to the walls (two kinematic groups) at the
+//    bottom (y = 0, moving at -U/2 along x) and at the top (y = H, moving at +U/2 along x). The
+//    layer is a square lattice of spacing <= 0.7 d, so neighbouring wall balls overlap and leave
+//    no hole that powder could leak through, while the surface stays bumpy on the media scale.
+//    The top layer is stress-controlled along y (control law below), so the cell finds its own
+//    gap and solid fraction. The wall balls are a material of their own ("<media>_wall", the
+//    media's density and contact parameters) so their contacts are counted as "wall".
+//  - LeesEdwards: periodic in all three axes, Lees-Edwards images along y moving at
+//    gdot * L_y along x. The volume is FIXED at media_solid_fraction (no barostat: System offers
+//    no way to move particles affinely); the normal stress is measured, not imposed.
+//
+// Contents: N_m = phi_m A H / (pi d^3 / 6) media balls (A = L_x L_z, H = size_diameters.y d) at
+// random non-overlapping positions, then powder filling a fraction U (powder_load) of the media
+// bed's voids, the powder bed itself at solid fraction powder_bed_solid_fraction:
+//   powder solid volume = U (1 - phi_m) A H phi_powder_bed,
+// inserted by random sequential addition checked against two cell grids (media and powder).
+// With walls the particles are first placed in a taller, looser cell (solid fraction
+// kPlacementSolidFraction) and the servo compresses it; with Lees-Edwards the media take a random
+// subset of the sites of an FCC lattice that fits the box.
+//
+// Servo (RoughWalls). Stiffness of the bed seen by the wall: columns of H/d contacts in series,
+// one column per d^2 of wall area, k_bed = k_n,media (A / d^2) (d / H); wave crossing time of the
+// gap t_wave = (H / d) t_c,media (one contact duration per layer). With the gain g:
+//   mobility  M = g / (k_bed t_wave),   v_y = clamp(M (F_target - F_y), +-v_max),
+//   max speed v_max = g d / t_wave,
+// so the normal force relaxes to F_target = normal_stress A with time constant t_wave / g
+// (dF/dt = -k_bed v_y), and the wall never moves more than g diameters per crossing time.
+//
+// Shear rate. Rough walls slip, so the bulk shear rate is measured: a least-squares line through
+// (y, v_x) of all free particles (mass-weighted) whose centres lie in the middle half of the gap,
+// over all samples of a window. warm_up() adjusts the wall speed between windows,
+// U <- U * clamp(target / measured, 0.5, 2), so the bulk approaches the target rate. The strain
+// of run_strain() and measure() is target rate x time.
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include "dem/spectrum.hpp"
+#include "dem/system.hpp"
+
+namespace millflow::dem {
+
+struct ShearCellSetup {
+  double media_diameter = 0.01;  // m
+  Material media{"steel", 7800.0};
+  Material powder{"powder", 3000.0};
+  InteractionSpec media_media, media_powder, powder_powder;
+  double powder_diameter_ratio = 0.2;  // powder / media diameter
+  double powder_load = 0.0;            // U: fraction of the media bed's voids filled with powder bed
+  double powder_bed_solid_fraction = 0.6;  // solid fraction of the powder bed filling the voids
+  Vec3 size_diameters{6, 8, 6};            // cell size in media diameters: x flow, y gradient, z spanwise
+  enum class Boundary { RoughWalls, LeesEdwards } boundary = Boundary::RoughWalls;
+  double shear_rate = 10.0;       // target BULK shear rate, 1/s
+  double normal_stress = 1e4;     // Pa, imposed along y (RoughWalls)
+  bool gravity = false;           // 9.81 m/s^2 along -y when on
+  double servo_gain = 0.5;        // g of the control law above, in (0, 1]
+  std::uint64_t seed = 1;
+  double media_solid_fraction = 0.55;  // sets the number of media balls (and the LE volume)
+  int steps_per_collision = 20;        // dt = shortest contact duration / this
+};
+
+// Checks a setup; throws std::invalid_argument naming the bad value and how to fix it.
+void validate(const ShearCellSetup& setup);
+
+// Size-scaled stiffness (k_n ~ E d, a model choice): the stiffness of a pair of diameters d_a,
+// d_b is k_ref * d_eff / d_ref with d_eff = 2 d_a d_b / (d_a + d_b) the harmonic-mean diameter.
+double size_scaled_stiffness(double reference_stiffness, double reference_diameter, double diameter_a,
+                             double diameter_b);
+
+// Contact types of the cell. "Wall" types involve a ball glued to a rough wall.
+enum class ContactType { MediaMedia, MediaPowder, PowderPowder, WallMedia, WallPowder };
+inline constexpr std::size_t kContactTypeCount = 5;
+std::string contact_type_name(ContactType type);
+
+// Collisions (finished contacts) of one type in a window, and the spectrum of the energy each
+// dissipated (the usual DEM collision energy spectrum), J.
+struct CollisionStats {
+  double count = 0.0;
+  double rate_per_volume = 0.0;  // collisions / (m^3 s)
+  LogHistogram dissipated_energy{1e-16, 1.0, 5};
+};
+
+struct ShearCellMeasurements {
+  double strain = 0.0;    // target shear rate x duration
+  double duration = 0.0;  // s
+  std::uint64_t steps = 0;
+  // Shear rates, 1/s. Nominal: wall speed difference / gap (RoughWalls) or the LE rate.
+  double target_shear_rate = 0.0, bulk_shear_rate = 0.0, nominal_shear_rate = 0.0;
+  double wall_speed = 0.0;  // relative speed of the walls (or LE images), m/s
+  double gap = 0.0;         // mean distance between the wall ball centre planes (L_y for LE), m
+  double volume = 0.0;      // mean cell volume A x gap, m^3
+  // Stresses (compression positive), Pa.
+  double shear_stress = 0.0, normal_stress = 0.0;
+  double friction = 0.0;         // mu = shear / normal stress
+  double inertial_number = 0.0;  // bulk rate x d_media / sqrt(normal stress / rho_media)
+  // Solid fractions in the middle half of the gap.
+  double media_solid_fraction = 0.0, powder_solid_fraction = 0.0;
+  double power_density = 0.0;  // work put in by the walls (LE: tau gdot) per volume and time, W/m^3
+  std::array<double, kContactTypeCount> dissipation_density{};  // W/m^3, by ContactType
+  double dissipation_density_total = 0.0;
+  std::array<CollisionStats, kContactTypeCount> collisions;  // by ContactType
+  CollisionStats media_collisions;   // media-media and wall-media
+  CollisionStats powder_collisions;  // every collision involving powder
+  // Energy balance over the window: work in = change of (kinetic + elastic) + dissipated, J.
+  double work_in = 0.0, kinetic_change = 0.0, elastic_change = 0.0, dissipated = 0.0;
+  double energy_balance_error = 0.0;  // |work - accounted| / work
+  // Steady state: shear stress means over the two halves of the window.
+  double shear_stress_first_half = 0.0, shear_stress_second_half = 0.0;
+  double steady_state_deviation = 0.0;  // |first - second| / mean of both
+  bool steady = false;                  // deviation <= the tolerance asked for
+  double wall_seconds = 0.0;            // wall-clock time of the window
+  double particle_steps_per_second = 0.0;
+};
+
+struct MeasureOptions {
+  int samples = 200;                  // velocity-profile / solid-fraction samples in the window
+  double steady_tolerance = 0.15;     // on steady_state_deviation
+  bool record_collisions = true;
+};
+
+class ShearCell {
+ public:
+  explicit ShearCell(const ShearCellSetup& setup);
+
+  System& system() { return system_; }
+  const System& system() const { return system_; }
+  const ShearCellSetup& setup() const { return setup_; }
+
+  std::size_t media_count() const { return media_count_; }
+  std::size_t powder_count() const { return powder_count_; }
+  std::size_t wall_ball_count() const { return wall_ball_count_; }
+
+  // Closes the loose placement gap until the top wall carries half the normal stress
+  // (RoughWalls; nothing for LE). The first run below does it if it was not done.
+  void compact();
+  // Runs `strain` of shear (target rate x time) with no measurement and no control.
+  void run_strain(double strain);
+  // Runs `strain` of shear in `windows` equal windows, adjusting the wall speed after each so the
+  // bulk shear rate approaches the target (RoughWalls; LE has no slip and only runs).
+  void warm_up(double strain, int windows = 4);
+  // Runs `strain` of shear and measures over it.
+  ShearCellMeasurements measure(double strain, const MeasureOptions& options = {});
+
+  // Relative speed of the walls (or of the LE images), m/s, and the distance between the wall
+  // ball centre planes (L_y for LE), m.
+  double wall_speed() const { return wall_speed_; }
+  double gap() const;
+  double wall_area() const;
+  // Normal force per area the particles exert on the top wall right now, Pa (RoughWalls).
+  double wall_normal_stress() const;
+  // The servo's derived constants (RoughWalls).
+  double servo_mobility() const { return servo_mobility_; }
+  double servo_max_speed() const { return servo_max_speed_; }
+
+  ContactType contact_type(std::uint32_t category) const;
+
+ private:
+  struct Profile;  // accumulated least-squares sums of the velocity profile
+
+  bool walls() const { return setup_.boundary == ShearCellSetup::Boundary::RoughWalls; }
+  void place_wall_layer(GroupId group, double y);
+  void place_media_dilute(double height);
+  void place_media_lattice();
+  void place_powder(double y_lo, double y_hi);
+  void configure_servo();
+  void set_wall_speed(double speed);
+  std::size_t steps_for_strain(double strain) const;
+  // Steps the system; with Lees-Edwards also integrates the boundary's work.
+  void advance(std::size_t steps);
+  // Work put in so far (walls or LE boundary), J.
+  double work_in() const;
+  // Kinetic (+ gravitational) energy of the free particles; with LE the kinetic energy of the
+  // motion relative to the imposed profile (lab-frame velocities jump at the LE boundary), J.
+  double motion_energy() const;
+  void sample_profile(Profile& profile) const;
+  static double bulk_shear_rate(const Profile& profile);
+  // Shear stress, Pa, now: from the wall loads (RoughWalls) or the virial (LE).
+  double shear_stress_now() const;
+  double normal_stress_now() const;
+  // Power the LE boundary puts in now: V gdot tau, W.
+  double lees_edwards_power() const;
+  // Kinetic energy of the free particles relative to the imposed linear profile (LE), J.
+  double peculiar_kinetic_energy() const;
+
+  ShearCellSetup setup_;
+  System system_;
+  MaterialId media_ = 0, powder_ = 1, wall_material_ = 2;
+  GroupId bottom_ = 0, top_ = 0;
+  std::size_t media_count_ = 0, powder_count_ = 0, wall_ball_count_ = 0;
+  double wall_speed_ = 0.0;
+  double servo_mobility_ = 0.0, servo_max_speed_ = 0.0, crossing_time_ = 0.0;
+  double le_work_ = 0.0;  // work put in through the LE boundary so far, J
+  bool compacted_ = false;
+};
+
+}  // namespace millflow::dem

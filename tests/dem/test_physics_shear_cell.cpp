@@ -1,0 +1,124 @@
+// Shear cells in motion: the servo holds the normal stress, the energy balance closes, effective
+// friction rises with the inertial number in the range of frictional spheres, and dissipation
+// splits by contact type.
+#include <gtest/gtest.h>
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+
+#include "dem/shear_cell.hpp"
+#include "tests/dem/shear_cells.hpp"
+
+namespace millflow::dem {
+namespace {
+
+using testing::small_shear_cell;
+
+std::size_t index(ContactType type) { return static_cast<std::size_t>(type); }
+
+// Jop, Forterre & Pouliquen (2006), glass beads: the reference, not a fit.
+double jop_forterre_pouliquen(double inertial_number) {
+  return 0.38 + (0.64 - 0.38) / (0.279 / inertial_number + 1.0);
+}
+
+class ShearCellPhysics : public ::testing::Test {
+ protected:
+  void SetUp() override { spdlog::set_level(spdlog::level::warn); }
+};
+
+TEST_F(ShearCellPhysics, ServoHoldsTheNormalStressAndTheEnergyBalanceCloses) {
+  ShearCellSetup setup = small_shear_cell(0.1);
+  // The integrator's energy error is first order in dt here (1.0%, 0.55%, 0.27% at 20, 40, 80
+  // steps per contact): 40 keeps it well inside 1%.
+  setup.steps_per_collision = 40;
+  ShearCell cell(setup);
+  cell.warm_up(2.0, 2);
+  // The servo law v = M (F_target - F) makes the top wall's mean force over a window T exactly
+  // F_target - (its displacement) / (M T) while the speed limit is not hit; the monodisperse bed
+  // still compacts slowly under shear, so the mean sits a little below the target.
+  System& system = cell.system();
+  const std::size_t top_ball = cell.wall_ball_count() - 1;  // the last ball of the top layer
+  const double start_height = system.positions()[top_ball].y();
+  double impulse = 0.0;
+  const std::size_t steps = 4000;
+  for (std::size_t s = 0; s < steps; ++s) {
+    system.step();
+    impulse += system.group_load(2).force.y() * system.time_step();
+  }
+  const double window = static_cast<double>(steps) * system.time_step();
+  const double target = setup.normal_stress * cell.wall_area();
+  const double displacement = system.positions()[top_ball].y() - start_height;
+  EXPECT_NEAR(impulse / window, target + displacement / (cell.servo_mobility() * window), 0.02 * target) << "servo law";
+  EXPECT_NEAR(impulse / window, target, 0.25 * target) << "wall settled near the target";
+
+  const ShearCellMeasurements m = cell.measure(2.0);
+  EXPECT_NEAR(m.normal_stress, setup.normal_stress, 0.25 * setup.normal_stress);
+  ASSERT_GT(m.work_in, 0.0);
+  EXPECT_LT(m.energy_balance_error, 0.01) << "work " << m.work_in << " J, dissipated " << m.dissipated << " J";
+  EXPECT_NEAR(m.power_density, m.work_in / (m.volume * m.duration), 1e-9 * m.power_density);
+  // Media only: no powder dissipation at all, and no powder collisions.
+  EXPECT_EQ(m.dissipation_density[index(ContactType::MediaPowder)], 0.0);
+  EXPECT_EQ(m.dissipation_density[index(ContactType::PowderPowder)], 0.0);
+  EXPECT_EQ(m.dissipation_density[index(ContactType::WallPowder)], 0.0);
+  EXPECT_EQ(m.powder_collisions.count, 0.0);
+  EXPECT_GT(m.media_collisions.count, 0.0);
+  EXPECT_EQ(m.powder_solid_fraction, 0.0);
+  // Rough walls slip: the wall speed is above what the bulk rate alone would need.
+  EXPECT_GT(m.nominal_shear_rate, m.bulk_shear_rate);
+}
+
+TEST_F(ShearCellPhysics, FrictionRisesWithInertialNumberLikeFrictionalSpheres) {
+  std::vector<ShearCellMeasurements> runs;
+  for (double inertial_number : {0.03, 0.3}) {
+    ShearCell cell(small_shear_cell(inertial_number));
+    cell.warm_up(2.0, 3);
+    runs.push_back(cell.measure(2.0));
+    const ShearCellMeasurements& m = runs.back();
+    std::printf("I = %.4g (bulk rate %.4g 1/s, nominal %.4g 1/s): mu = %.4g, JFP mu(I) = %.4g, solid fraction %.3g\n",
+                m.inertial_number, m.bulk_shear_rate, m.nominal_shear_rate, m.friction,
+                jop_forterre_pouliquen(m.inertial_number), m.media_solid_fraction);
+    EXPECT_GT(m.friction, 0.2);
+    EXPECT_LT(m.friction, 0.8);
+  }
+  EXPECT_GT(runs[1].inertial_number, 3.0 * runs[0].inertial_number) << "the controller kept the rates apart";
+  EXPECT_GT(runs[1].friction, runs[0].friction);
+  EXPECT_LT(runs[1].media_solid_fraction, runs[0].media_solid_fraction) << "faster flow dilates";
+}
+
+TEST_F(ShearCellPhysics, DissipationWithPowderSplitsIntoTheFourTypesAndSumsToTheTotal) {
+  ShearCell cell(small_shear_cell(0.1, 0.3, 0.3));
+  ASSERT_GT(cell.powder_count(), 0u);
+  cell.warm_up(0.5, 1);
+  const ShearCellMeasurements m = cell.measure(0.5);
+  const double wall = m.dissipation_density[index(ContactType::WallMedia)] + m.dissipation_density[index(ContactType::WallPowder)];
+  EXPECT_GT(m.dissipation_density[index(ContactType::MediaMedia)], 0.0);
+  EXPECT_GT(m.dissipation_density[index(ContactType::MediaPowder)], 0.0);
+  EXPECT_GT(m.dissipation_density[index(ContactType::PowderPowder)], 0.0);
+  EXPECT_GT(wall, 0.0);
+  const double sum = m.dissipation_density[index(ContactType::MediaMedia)] +
+                     m.dissipation_density[index(ContactType::MediaPowder)] +
+                     m.dissipation_density[index(ContactType::PowderPowder)] + wall;
+  EXPECT_NEAR(sum, m.dissipated / (m.volume * m.duration), 1e-9 * sum);
+  EXPECT_GT(m.powder_collisions.count, 0.0);
+  EXPECT_DOUBLE_EQ(m.powder_collisions.dissipated_energy.total(), m.powder_collisions.count);
+  EXPECT_GT(m.powder_solid_fraction, 0.0);
+}
+
+TEST_F(ShearCellPhysics, LeesEdwardsCellBalancesEnergyAndResistsShear) {
+  ShearCellSetup setup = small_shear_cell(0.1);
+  setup.boundary = ShearCellSetup::Boundary::LeesEdwards;
+  setup.size_diameters = Vec3(6, 6, 6);
+  setup.steps_per_collision = 40;
+  ShearCell cell(setup);
+  cell.run_strain(1.0);
+  const ShearCellMeasurements m = cell.measure(1.0);
+  std::printf("LE at fixed solid fraction 0.55: p = %.4g Pa, tau = %.4g Pa, mu = %.4g, bulk rate %.4g (target %.4g)\n",
+              m.normal_stress, m.shear_stress, m.friction, m.bulk_shear_rate, m.target_shear_rate);
+  EXPECT_GT(m.shear_stress, 0.0);
+  EXPECT_GT(m.normal_stress, 0.0);
+  EXPECT_NEAR(m.bulk_shear_rate, setup.shear_rate, 0.3 * setup.shear_rate) << "no walls to slip";
+  EXPECT_LT(m.energy_balance_error, 0.01) << "work " << m.work_in << " J";
+}
+
+}  // namespace
+}  // namespace millflow::dem

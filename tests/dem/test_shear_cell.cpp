@@ -1,0 +1,139 @@
+// Shear cell construction: counts from the solid fraction and the powder load, placement without
+// overlaps, the wall layers, the servo's derived constants, and input checks.
+#include <gtest/gtest.h>
+
+#include <numbers>
+
+#include "dem/shear_cell.hpp"
+#include "tests/dem/shear_cells.hpp"
+
+namespace millflow::dem {
+namespace {
+
+using testing::small_shear_cell;
+
+double sphere_volume(double d) { return std::numbers::pi / 6.0 * d * d * d; }
+
+std::size_t count_material(const System& system, const std::string& name) {
+  const MaterialId id = system.materials().find(name);
+  std::size_t n = 0;
+  for (std::size_t p = 0; p < system.size(); ++p) {
+    n += system.particle_groups()[p] == kFreeParticle && system.particle_materials()[p] == id ? 1 : 0;
+  }
+  return n;
+}
+
+TEST(ShearCell, MediaCountFollowsTheSolidFractionAndPowderCountTheLoad) {
+  const ShearCellSetup setup = small_shear_cell(0.05, 0.5, 0.3);
+  const ShearCell cell(setup);
+  const double d = setup.media_diameter, area = 16 * d * d, height = 6 * d;
+  const double media = setup.media_solid_fraction * area * height / sphere_volume(d);  // 105.04
+  // U = 0.5 of the voids (1 - 0.55) filled by a powder bed at solid fraction 0.6.
+  const double powder = 0.5 * 0.45 * area * height * 0.6 / sphere_volume(0.3 * d);
+  EXPECT_EQ(cell.media_count(), static_cast<std::size_t>(std::llround(media)));
+  EXPECT_EQ(cell.powder_count(), static_cast<std::size_t>(std::llround(powder)));
+  EXPECT_EQ(count_material(cell.system(), "steel"), cell.media_count());
+  EXPECT_EQ(count_material(cell.system(), "clinker"), cell.powder_count());
+}
+
+TEST(ShearCell, ZeroLoadHasNoPowder) {
+  const ShearCell cell(small_shear_cell(0.05, 0.0));
+  EXPECT_EQ(cell.powder_count(), 0u);
+  EXPECT_EQ(count_material(cell.system(), "clinker"), 0u);
+  EXPECT_EQ(cell.system().size(), cell.media_count() + cell.wall_ball_count());
+}
+
+TEST(ShearCell, ParticlesArePlacedWithoutOverlaps) {
+  for (auto boundary : {ShearCellSetup::Boundary::RoughWalls, ShearCellSetup::Boundary::LeesEdwards}) {
+    // At fixed volume the LE lattice leaves less room for powder than the loose walled cell.
+    const bool le = boundary == ShearCellSetup::Boundary::LeesEdwards;
+    ShearCellSetup setup = small_shear_cell(0.05, le ? 0.2 : 0.4, 0.25);
+    setup.boundary = boundary;
+    setup.size_diameters = Vec3(6, 6, 6);  // the LE lattice needs room for 0.55
+    const ShearCell cell(setup);
+    ASSERT_GT(cell.powder_count(), 100u);
+    EXPECT_NO_THROW(cell.system().check_overlaps(0.0));
+  }
+}
+
+TEST(ShearCell, WallLayersAreGroupsMovingOppositeWaysWithTheGapBetweenThem) {
+  const ShearCellSetup setup = small_shear_cell(0.05);
+  const ShearCell cell(setup);
+  const System& system = cell.system();
+  ASSERT_EQ(system.group_count(), 2u);
+  EXPECT_DOUBLE_EQ(system.group(1).velocity.x(), -system.group(2).velocity.x());
+  EXPECT_DOUBLE_EQ(system.group(2).velocity.x() - system.group(1).velocity.x(), cell.wall_speed());
+  // Every free particle lies between the layers, clear of them.
+  const double d = setup.media_diameter;
+  for (std::size_t p = 0; p < system.size(); ++p) {
+    if (system.particle_groups()[p] != kFreeParticle) continue;
+    EXPECT_GT(system.positions()[p].y(), 0.5 * d);
+    EXPECT_LT(system.positions()[p].y(), cell.gap() - 0.5 * d);
+  }
+  // Wall balls use their own material so their contacts count as "wall".
+  EXPECT_EQ(system.materials().material(system.particle_materials()[0]).name, "steel_wall");
+}
+
+TEST(ShearCell, LeesEdwardsCellIsPeriodicWithTheImposedProfile) {
+  ShearCellSetup setup = small_shear_cell(0.05);
+  setup.boundary = ShearCellSetup::Boundary::LeesEdwards;
+  setup.size_diameters = Vec3(6, 6, 6);
+  const ShearCell cell(setup);
+  const Domain& domain = cell.system().domain();
+  EXPECT_TRUE(domain.lees_edwards.enabled);
+  EXPECT_DOUBLE_EQ(domain.lees_edwards.velocity, setup.shear_rate * 6 * setup.media_diameter);
+  EXPECT_EQ(cell.system().group_count(), 0u);
+  const double y_mid = 3 * setup.media_diameter;
+  for (std::size_t p = 0; p < cell.system().size(); ++p) {
+    EXPECT_DOUBLE_EQ(cell.system().velocities()[p].x(), setup.shear_rate * (cell.system().positions()[p].y() - y_mid));
+  }
+}
+
+TEST(ShearCell, ServoConstantsFollowTheDocumentedLaw) {
+  const ShearCellSetup setup = small_shear_cell(0.05);
+  const ShearCell cell(setup);
+  const double d = setup.media_diameter, m = 7800.0 * sphere_volume(d);
+  const double t_c = collision_duration(setup.media_media.normal_stiffness, 0.5 * m,
+                                        damping_ratio_for_restitution(setup.media_media.restitution));
+  const double k_bed = setup.media_media.normal_stiffness * 16.0 / 6.0;  // (A / d^2) (d / H)
+  const double t_wave = 6.0 * t_c;
+  EXPECT_NEAR(cell.servo_mobility(), 0.5 / (k_bed * t_wave), 1e-12 * cell.servo_mobility());
+  EXPECT_NEAR(cell.servo_max_speed(), 0.5 * d / t_wave, 1e-12);
+  EXPECT_DOUBLE_EQ(cell.system().group(2).servo_target_force, -1000.0 * 16 * d * d);
+}
+
+TEST(ShearCell, SizeScaledStiffnessUsesTheHarmonicMeanDiameter) {
+  EXPECT_DOUBLE_EQ(size_scaled_stiffness(1000.0, 0.01, 0.01, 0.01), 1000.0);
+  EXPECT_DOUBLE_EQ(size_scaled_stiffness(1000.0, 0.01, 0.002, 0.002), 200.0);
+  EXPECT_NEAR(size_scaled_stiffness(1000.0, 0.01, 0.01, 0.002), 1000.0 * (2 * 0.01 * 0.002 / 0.012) / 0.01, 1e-9);
+  EXPECT_THROW(size_scaled_stiffness(1000.0, 0.01, -1.0, 0.002), std::invalid_argument);
+}
+
+TEST(ShearCell, RejectsBadSettingsNamingThem) {
+  auto message = [](auto change) {
+    ShearCellSetup setup = small_shear_cell(0.05);
+    change(setup);
+    try {
+      ShearCell cell(setup);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message([](auto& s) { s.powder_diameter_ratio = 1.5; }).find("powder diameter ratio = 1.5"), std::string::npos);
+  EXPECT_NE(message([](auto& s) { s.servo_gain = 0.0; }).find("servo gain"), std::string::npos);
+  EXPECT_NE(message([](auto& s) { s.shear_rate = -1.0; }).find("shear rate = -1"), std::string::npos);
+  EXPECT_NE(message([](auto& s) {
+              s.boundary = ShearCellSetup::Boundary::LeesEdwards;
+              s.gravity = true;
+            }).find("gravity"),
+            std::string::npos);
+  EXPECT_NE(message([](auto& s) {
+              s.boundary = ShearCellSetup::Boundary::LeesEdwards;
+              s.media_solid_fraction = 0.63;
+            }).find("FCC"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace millflow::dem
