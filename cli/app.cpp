@@ -5,6 +5,7 @@
 #include "cli/commands.hpp"
 #include "cli/demo.hpp"
 #include "engine/testing_tasks.hpp"
+#include "tasks/millflow.hpp"
 
 namespace millflow::cli {
 
@@ -13,6 +14,7 @@ int run(int argc, char** argv) {
   app.require_subcommand(1);
   engine::Registry registry;
   engine::add_testing(registry);
+  tasks::register_millflow(registry);
   std::optional<int> engine_exit_code;
   add_engine_commands(app, registry, engine_exit_code);
   add_demo_command(app);
