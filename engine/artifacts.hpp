@@ -1,11 +1,14 @@
 #pragma once
 // Content-addressed artifact files beside the database: <db>.artifacts/<sha[0:2]>/<sha>.
 // Files are copied in under a temporary name and renamed into place, so a crash never leaves a
-// partial file under a content name; they are verified (size and SHA-256) whenever they are read.
+// partial file under a content name (and a failed copy leaves no file at all); they are verified
+// (size and SHA-256) whenever they are read. All disk access goes through a FileSystem.
 #include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
+
+#include "engine/files.hpp"
 
 namespace millflow::engine {
 
@@ -17,7 +20,8 @@ struct StoredArtifact {
 
 class ArtifactStore {
  public:
-  explicit ArtifactStore(std::filesystem::path root) : root_(std::move(root)) {}
+  explicit ArtifactStore(std::filesystem::path root, const FileSystem& files = local_file_system())
+      : root_(std::move(root)), files_(&files) {}
 
   // Copies `file` into the store (a no-op when identical content is already there).
   StoredArtifact put(const std::string& name, const std::filesystem::path& file) const;
@@ -32,6 +36,7 @@ class ArtifactStore {
 
  private:
   std::filesystem::path root_;
+  const FileSystem* files_;
 };
 
 }  // namespace millflow::engine

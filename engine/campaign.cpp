@@ -162,7 +162,8 @@ RunSummary submit_campaign(const Registry& registry, const Campaign& campaign, c
   std::unique_ptr<Launcher> own_launcher;
   if (!options.launcher) own_launcher = std::make_unique<TbbLauncher>(options.run.jobs, options.run.threads_per_task);
   RunEnvironment environment{store, registry.kinds, options.launcher ? *options.launcher : *own_launcher,
-                             options.progress ? *options.progress : quiet, clock, logger};
+                             options.progress ? *options.progress : quiet, clock,
+                             options.files ? *options.files : local_file_system(), logger};
   const RunSummary summary = run_campaign(environment, id, planned, options.run);
   const std::string outcome = summary.stopped ? "interrupted" : summary.failed > 0 ? "failed" : "done";
   store.finish_campaign(id, outcome);

@@ -63,6 +63,7 @@ struct SubmitOptions {
   ProgressView* progress = nullptr;  // default: quiet
   const Clock* clock = nullptr;      // default: the system clock
   Launcher* launcher = nullptr;      // default: TbbLauncher(jobs, threads_per_task)
+  const FileSystem* files = nullptr; // default: the local disk
 };
 
 // Takes the coordinator lock (CoordinatorBusy), registers the campaign and runs it.

@@ -1,15 +1,14 @@
 #include "engine/coordinator_lock.hpp"
 
 #include <fcntl.h>
-#include <fmt/chrono.h>
 #include <fmt/format.h>
 #include <sys/file.h>
 #include <unistd.h>
 
 #include <cerrno>
-#include <chrono>
 #include <cstring>
 
+#include "engine/clock.hpp"
 #include "engine/store.hpp"
 
 namespace millflow::engine {
@@ -20,10 +19,8 @@ std::optional<std::string> describe_coordinator(const std::filesystem::path& db)
   if (connection.user_version() == 0) return std::nullopt;  // created, schema not yet written
   auto row = connection.prepare("SELECT pid, host, started_at, coalesce(campaign, '') FROM coordinator");
   if (!row.step()) return std::nullopt;
-  const auto started = std::chrono::system_clock::time_point(
-      std::chrono::duration_cast<std::chrono::system_clock::duration>(std::chrono::duration<double>(row.real(2))));
-  return fmt::format("pid {} on {} since {:%Y-%m-%d %H:%M:%S} UTC (campaign \"{}\")", row.integer(0), row.text(1),
-                     fmt::gmtime(std::chrono::system_clock::to_time_t(started)), row.text(3));
+  return fmt::format("pid {} on {} since {} (campaign \"{}\")", row.integer(0), row.text(1), iso8601_utc(row.real(2)),
+                     row.text(3));
 }
 
 CoordinatorLock::CoordinatorLock(const std::filesystem::path& db) {

@@ -10,6 +10,7 @@
 
 #include "engine/artifacts.hpp"
 #include "engine/canonical_json.hpp"
+#include "engine/clock.hpp"
 #include "engine/coordinator_lock.hpp"
 #include "engine/store.hpp"
 #include "engine/validation.hpp"
@@ -160,15 +161,22 @@ std::vector<std::string> run_reasons(sql::Connection& db, const ArtifactStore& a
   return {"would run: new (never attempted)"};
 }
 
-// Compares with the cached task of the same kind whose parameters differ least.
+size_t upstream_differences(const std::vector<std::string>& before, const std::vector<std::string>& after) {
+  size_t differences = std::max(before.size(), after.size()) - std::min(before.size(), after.size());
+  for (size_t i = 0; i < std::min(before.size(), after.size()); ++i) differences += before[i] != after[i];
+  return differences;
+}
+
+// Compares with the cached task of the same kind whose parameters differ least (then its inputs).
 std::vector<std::string> compare_with_nearest(sql::Connection& db, const TaskRecord& task) {
-  auto candidates = db.prepare("SELECT key FROM tasks WHERE kind = ? AND status = 'done' AND key <> ?");
+  auto candidates = db.prepare("SELECT key FROM tasks WHERE kind = ? AND status = 'done' AND key <> ? ORDER BY key");
   candidates.bind_all(task.spec.kind, task.spec.key);
   std::optional<TaskRecord> nearest;
-  size_t fewest = std::numeric_limits<size_t>::max();
+  std::pair<size_t, size_t> fewest{std::numeric_limits<size_t>::max(), 0};
   while (candidates.step()) {
     auto candidate = find_task(db, candidates.text(0));
-    const size_t differences = param_diff(candidate->spec.params, task.spec.params).size();
+    const std::pair differences{param_diff(candidate->spec.params, task.spec.params).size(),
+                                upstream_differences(candidate->spec.upstream, task.spec.upstream)};
     if (differences < fewest) {
       fewest = differences;
       nearest = std::move(candidate);
@@ -257,14 +265,14 @@ void print_show(const fs::path& db, const std::string& task, std::ostream& out) 
   const std::string key = resolve_task(connection, task);
   const auto record = *find_task(connection, key);
   auto times = connection.prepare(
-      "SELECT coalesce(started_at, ''), coalesce(duration_s, ''), coalesce(host, ''), coalesce(code_version, '') "
-      "FROM tasks WHERE key = ?");
+      "SELECT started_at, coalesce(duration_s, ''), coalesce(host, ''), coalesce(code_version, '') FROM tasks WHERE key = ?");
   times.bind_all(key);
   times.step();
+  const std::string started = times.is_null(0) ? std::string("never") : iso8601_utc(times.real(0));
   out << fmt::format("task {}\nkind {} (version {})\nstatus {} after {} attempt(s){}\n", key, record.spec.kind,
                      record.spec.version, record.status, record.attempts,
                      record.error.empty() ? "" : "\nerror " + record.error);
-  out << fmt::format("started {} duration {} s host {} code {}\n", times.text(0), times.text(1), times.text(2), times.text(3));
+  out << fmt::format("started {} duration {} s host {} code {}\n", started, times.text(1), times.text(2), times.text(3));
   out << "params " << record.spec.params.dump(2) << '\n';
   if (const auto result = find_result(connection, key)) out << "result " << result->dump(2) << '\n';
   const ArtifactStore artifacts(artifacts_dir(db));

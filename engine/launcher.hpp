@@ -25,8 +25,9 @@ class InlineLauncher final : public Launcher {
 };
 
 // Runs attempts on oneTBB worker threads of an arena with `jobs` slots (the coordinator never
-// launches more than `jobs` at once). Each attempt opens its own arena of threads_per_task, so
-// nested parallelism stays inside its task (a waiting thread never picks up another task).
+// launches more than `jobs` at once). The runtime runs each attempt inside an arena of
+// threads_per_task that no other running task shares, so nested parallelism stays inside its
+// task (a waiting thread never picks up another task).
 class TbbLauncher final : public Launcher {
  public:
   TbbLauncher(int jobs, int threads_per_task);

@@ -22,7 +22,8 @@ struct Node {
   int waiting_on = 0;  // upstream tasks not done yet
   std::vector<std::string> downstream;
   int attempts_this_run = 0;
-  std::optional<nlohmann::json> result;  // loaded when a downstream task needs it
+  std::optional<nlohmann::json> result;                 // loaded when a downstream task needs it
+  std::optional<std::vector<StoredArtifact>> artifacts;  // likewise
 };
 
 // What a worker reports back to the coordinating thread.
@@ -105,6 +106,52 @@ class ProgressBoard {
   std::map<std::string, RunningTask> running_;
 };
 
+// Arenas of threads_per_task slots, reused from task to task (creating one per task costs more
+// than a trivial task). An arena serves one task at a time, so nested parallelism stays inside
+// its task and a waiting thread never picks up another task's work.
+class ArenaPool {
+ public:
+  explicit ArenaPool(int threads) : threads_(threads) {}
+
+  void execute(const std::function<void()>& body) {
+    Lease lease(*this);
+    lease.arena->execute(body);
+  }
+
+ private:
+  struct Lease {
+    explicit Lease(ArenaPool& pool) : pool(pool), arena(pool.take()) {}
+    ~Lease() { pool.give_back(std::move(arena)); }
+    Lease(const Lease&) = delete;
+    Lease& operator=(const Lease&) = delete;
+    ArenaPool& pool;
+    std::unique_ptr<tbb::task_arena> arena;
+  };
+
+  std::unique_ptr<tbb::task_arena> take() {
+    std::lock_guard lock(mutex_);
+    if (free_.empty()) return std::make_unique<tbb::task_arena>(threads_);
+    auto arena = std::move(free_.back());
+    free_.pop_back();
+    return arena;
+  }
+  void give_back(std::unique_ptr<tbb::task_arena> arena) {
+    std::lock_guard lock(mutex_);
+    free_.push_back(std::move(arena));
+  }
+
+  int threads_;
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<tbb::task_arena>> free_;
+};
+
+// A task claimed for launch: recorded running in the store, inputs gathered.
+struct Launch {
+  const TaskSpec* spec;
+  std::shared_ptr<const std::vector<TaskInput>> inputs;
+  int attempt;
+};
+
 // Status and artifacts of every task of the campaign, read in bulk before the run.
 struct StoredState {
   std::unordered_map<std::string, std::string> status;
@@ -139,7 +186,9 @@ class Coordinator {
       : env_(std::move(environment)),
         campaign_(campaign),
         options_(options),
-        artifacts_(artifacts_dir(env_.store.path())),
+        artifacts_(artifacts_dir(env_.store.path()), env_.files),
+        work_root_(work_dir(env_.store.path())),
+        arenas_(options.threads_per_task),
         started_(env_.clock.now()) {}
 
   RunSummary run(const std::vector<TaskSpec>& planned) {
@@ -223,19 +272,17 @@ class Coordinator {
   // --- the loop --------------------------------------------------------------------------
   void loop() {
     double last_refresh = 0.0;
+    std::optional<Event> event;
     while (true) {
       if (!stopping_ && options_.stop_requested()) {
         stopping_ = true;
         stop_.request_stop();
         log(std::nullopt, "warn", "stop requested: no new tasks; running tasks stop at their next checkpoint");
       }
-      while (!stopping_ && running_ < options_.jobs && !ready_.empty()) {
-        const std::string key = ready_.front();
-        ready_.pop_front();
-        launch(key);
-      }
+      for (const auto& launch : record_turn(event)) start(launch);
+      event.reset();
       if (running_ == 0 && (ready_.empty() || stopping_)) break;
-      if (auto event = events_.pop_for(options_.refresh_s)) handle(std::move(*event));
+      event = events_.pop_for(options_.refresh_s);
       if (env_.clock.now() - last_refresh >= options_.refresh_s) {
         env_.progress.refresh(snapshot());
         last_refresh = env_.clock.now();
@@ -245,21 +292,39 @@ class Coordinator {
     env_.progress.finish();
   }
 
+  bool can_launch() const { return !stopping_ && running_ < options_.jobs && !ready_.empty(); }
+
+  // One write transaction per turn of the loop: the outcome that just arrived and the launches it
+  // made possible. A task is recorded running (its attempt counted) in a committed transaction
+  // before it starts, so a task found 'running' after a crash is known to have been interrupted.
+  std::vector<Launch> record_turn(std::optional<Event>& event) {
+    if (!event && !can_launch()) return {};
+    sql::Transaction transaction(env_.store.connection());
+    if (event) handle(std::move(*event));
+    std::vector<Launch> launches;
+    while (can_launch()) {
+      launches.push_back(claim(ready_.front()));
+      ready_.pop_front();
+    }
+    transaction.commit();
+    remove_finished_work_dirs();
+    return launches;
+  }
+
   std::vector<TaskInput> inputs_of(const TaskSpec& spec) {
     std::vector<TaskInput> inputs;
     for (const auto& key : spec.upstream) {
       Node& upstream = nodes_.at(key);
       if (!upstream.result) upstream.result = find_result(env_.store.connection(), key).value_or(nlohmann::json::object());
+      if (!upstream.artifacts) upstream.artifacts = find_artifacts(env_.store.connection(), key);
       TaskInput input{key, upstream.spec.kind, *upstream.result, {}};
-      for (const auto& artifact : find_artifacts(env_.store.connection(), key)) {
-        input.artifacts[artifact.name] = artifacts_.path_of(artifact.sha256);
-      }
+      for (const auto& artifact : *upstream.artifacts) input.artifacts[artifact.name] = artifacts_.path_of(artifact.sha256);
       inputs.push_back(std::move(input));
     }
     return inputs;
   }
 
-  void launch(const std::string& key) {
+  Launch claim(const std::string& key) {
     Node& node = nodes_.at(key);
     node.state = State::running;
     ++node.attempts_this_run;
@@ -267,19 +332,29 @@ class Coordinator {
     const int attempt = env_.store.mark_running(key);
     board_.start(key, node.spec.kind);
     env_.progress.task_event(node.spec.kind, key, fmt::format("started (attempt {})", attempt));
-    auto inputs = std::make_shared<std::vector<TaskInput>>(inputs_of(node.spec));
-    const fs::path work = work_dir(env_.store.path()) / key;
-    fs::create_directories(work);
-    env_.launcher.launch([this, spec = &node.spec, inputs, work, attempt] { attempt_task(*spec, *inputs, work, attempt); });
+    return Launch{&node.spec, std::make_shared<const std::vector<TaskInput>>(inputs_of(node.spec)), attempt};
+  }
+
+  void start(const Launch& launch) {
+    env_.launcher.launch([this, launch] { attempt_task(*launch.spec, *launch.inputs, launch.attempt); });
+  }
+
+  // Work directories of tasks committed done: removed once the commit is durable.
+  void remove_finished_work_dirs() {
+    for (const auto& key : finished_work_) {
+      std::error_code ignored;
+      fs::remove_all(work_root_ / key, ignored);
+    }
+    finished_work_.clear();
   }
 
   // Runs on a worker thread: everything it touches is either its own or thread-safe.
-  void attempt_task(const TaskSpec& spec, const std::vector<TaskInput>& inputs, const fs::path& work, int attempt) {
+  void attempt_task(const TaskSpec& spec, const std::vector<TaskInput>& inputs, int attempt) {
     const double started = env_.clock.now();
     Event event = Event::finished(spec.key, attempt);
     try {
       const TaskKind& kind = env_.kinds.get(spec.kind);
-      TaskContext context{.key = spec.key, .params = spec.params, .inputs = inputs, .work_dir = work,
+      TaskContext context{.key = spec.key, .params = spec.params, .inputs = inputs, .work_dir = work_root_ / spec.key,
                           .threads = options_.threads_per_task, .attempt = attempt, .stop = stop_.get_token(),
                           .progress = [this, key = spec.key](double fraction, std::string_view message) {
                             board_.update(key, fraction, message);
@@ -287,8 +362,7 @@ class Coordinator {
                           .log = [this, key = spec.key](std::string_view message) {
                             events_.push(Event::log_line(key, message));
                           }};
-      tbb::task_arena arena(options_.threads_per_task);
-      arena.execute([&] { event.outcome = kind.run(context); });
+      arenas_.execute([&] { event.outcome = kind.run(context); });
       if (!event.outcome.interrupted) store_outputs(spec.key, event);
     } catch (const std::exception& error) {
       event.error = error.what();
@@ -332,10 +406,10 @@ class Coordinator {
     env_.store.commit_done(campaign_, event.key, event.outcome.result, event.stored, event.children, event.duration_s);
     node.state = State::done;
     node.result = std::move(event.outcome.result);
+    node.artifacts = std::move(event.stored);
     ++done_;
     report(event.key, fmt::format("done in {:.3f} s", event.duration_s));
-    std::error_code ignored;
-    fs::remove_all(work_dir(env_.store.path()) / event.key, ignored);
+    finished_work_.push_back(event.key);
     for (const auto& downstream : node.downstream) {
       Node& below = nodes_.at(downstream);
       if (--below.waiting_on == 0 && below.state == State::pending) ready_.push_back(downstream);
@@ -425,11 +499,14 @@ class Coordinator {
   std::int64_t campaign_;
   RunOptions options_;
   ArtifactStore artifacts_;
+  fs::path work_root_;
+  ArenaPool arenas_;
   double started_;
   StoredState stored_;
   std::unordered_map<std::string, Node> nodes_;
   std::vector<std::string> adopted_;  // stored tasks that joined this campaign's graph
   std::deque<std::string> ready_;
+  std::vector<std::string> finished_work_;  // done in the open transaction; work dirs go after it
   EventQueue events_;
   ProgressBoard board_;
   std::stop_source stop_;

@@ -46,6 +46,7 @@ struct RunEnvironment {
   Launcher& launcher;
   ProgressView& progress;
   const Clock& clock;
+  const FileSystem& files;  // where artifacts are written and read
   std::shared_ptr<spdlog::logger> log;  // the campaign's log file (may be null)
 };
 

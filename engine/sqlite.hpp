@@ -83,7 +83,9 @@ class Statement {
   sqlite3_stmt* stmt_ = nullptr;
 };
 
-// BEGIN IMMEDIATE on construction; rolls back on destruction unless committed.
+// BEGIN IMMEDIATE on construction; rolls back on destruction unless committed. Inside an open
+// transaction it is a savepoint instead, so a caller can group several writes (each its own
+// Transaction) into one commit, and a failed inner part still rolls back alone.
 class Transaction {
  public:
   explicit Transaction(Connection& connection);
@@ -94,6 +96,7 @@ class Transaction {
 
  private:
   Connection& connection_;
+  bool nested_;
   bool done_ = false;
 };
 

@@ -79,7 +79,9 @@ struct TaskContext {
   std::string key;
   const nlohmann::json& params;
   const std::vector<TaskInput>& inputs;  // in the order of TaskSpec::upstream
-  std::filesystem::path work_dir;        // private, kept across attempts (checkpoints)
+  // Private to the task and kept across attempts (checkpoints). The engine does not create it
+  // (most tasks never write a file): create_directories(work_dir) before writing into it.
+  std::filesystem::path work_dir;
   int threads = 1;                       // size of the task's own arena
   int attempt = 1;                       // 1 for the first attempt ever, counted in the store
   std::stop_token stop;                  // poll at checkpoints; return TaskOutcome::stopped()

@@ -1,25 +1,8 @@
 #include "support_engine.hpp"
 
-#include <unistd.h>
-
-#include <atomic>
-
 #include "engine/store.hpp"
 
 namespace millflow::engine::testing {
-
-ScratchDir::ScratchDir() {
-  static std::atomic<int> counter{0};
-  path_ = std::filesystem::temp_directory_path() /
-          ("millflow-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
-  std::filesystem::remove_all(path_);
-  std::filesystem::create_directories(path_);
-}
-
-ScratchDir::~ScratchDir() {
-  std::error_code ignored;
-  std::filesystem::remove_all(path_, ignored);
-}
 
 Registry testing_registry() {
   Registry registry;

@@ -6,20 +6,11 @@
 
 #include "engine/campaign.hpp"
 #include "engine/testing_tasks.hpp"
+#include "tests/common/scratch_dir.hpp"
 
 namespace millflow::engine::testing {
 
-// A fresh directory under the system temp dir, removed when the object goes away.
-class ScratchDir {
- public:
-  ScratchDir();
-  ~ScratchDir();
-  const std::filesystem::path& path() const { return path_; }
-  std::filesystem::path db() const { return path_ / "test.db"; }
-
- private:
-  std::filesystem::path path_;
-};
+using millflow::testing::ScratchDir;
 
 Registry testing_registry();
 

@@ -3,10 +3,6 @@
 // uninterrupted run, no task committed done was ever started again, and the database is intact.
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <fcntl.h>
 
 #include <fstream>
 #include <map>
@@ -16,14 +12,14 @@
 
 #include "engine/store.hpp"
 #include "support_engine.hpp"
+#include "tests/common/child_process.hpp"
 
 namespace millflow::engine::testing {
 namespace {
 
 namespace fs = std::filesystem;
+using millflow::testing::wait_exit_code;
 using nlohmann::json;
-
-const fs::path kBinary = fs::path(MILLFLOW_BINARY_DIR) / "millflow";
 
 // Layers of sum tasks, each task after two tasks of the layer above, some writing artifacts,
 // and a fanout that expands into five more tasks.
@@ -44,25 +40,7 @@ json layered_campaign() {
 }
 
 pid_t spawn_millflow(const std::vector<std::string>& arguments, const fs::path& trace) {
-  const pid_t child = ::fork();
-  if (child == 0) {
-    ::setenv("MILLFLOW_TEST_TRACE", trace.c_str(), 1);
-    const int null = ::open("/dev/null", O_WRONLY);
-    ::dup2(null, STDOUT_FILENO);
-    ::dup2(null, STDERR_FILENO);
-    std::vector<char*> argv{const_cast<char*>(kBinary.c_str())};
-    for (const auto& argument : arguments) argv.push_back(const_cast<char*>(argument.c_str()));
-    argv.push_back(nullptr);
-    ::execv(kBinary.c_str(), argv.data());
-    ::_exit(127);
-  }
-  return child;
-}
-
-int wait_exit_code(pid_t child) {
-  int status = 0;
-  ::waitpid(child, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+  return millflow::testing::spawn_millflow(arguments, "/dev/null", "/dev/null", {{"MILLFLOW_TEST_TRACE", trace.string()}});
 }
 
 std::map<std::string, std::string> done_results(const fs::path& db) {
