@@ -1,3 +1,4 @@
+#include <filesystem>
 #include "tasks/average.hpp"
 
 #include <fmt/format.h>
@@ -122,6 +123,7 @@ engine::TaskOutcome run_average(engine::TaskContext& context) {
                      {"media_diameter_m", macro.result.at("media_diameter_m")},
                      {"angular_velocity_rad_s", macro.result.at("angular_velocity_rad_s")},
                      {"kernel_width_m", settings.kernel_width}};
+  std::filesystem::create_directories(context.work_dir);  // the engine leaves its creation to the task
   const auto vti = context.work_dir / "fields.vti";
   const auto arrays = cell_arrays(fields);
   write_vtk_image(vti, fields.grid, arrays);

@@ -1,3 +1,4 @@
+#include <filesystem>
 #include "tasks/sites.hpp"
 
 #include <fmt/format.h>
@@ -271,6 +272,7 @@ engine::TaskOutcome run_sites(engine::TaskContext& context) {
                                          {"solid_fraction", 1, map.solid_fraction},
                                          {"shear_rate_per_s", 1, map.shear_rate},
                                          {"dissipation_w_m3", 1, map.dissipation}};
+  std::filesystem::create_directories(context.work_dir);  // the engine leaves its creation to the task
   const auto vti = context.work_dir / "regions.vti";
   write_vtk_image(vti, map.grid, arrays);
 
