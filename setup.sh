@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # One entry point for a fresh Debian 12 machine (README.md, "Getting started").
 #   ./setup.sh run   install what is missing, build (Release), run the default campaign
+#                    (campaigns/quick.json) and print its power draw table
 #   ./setup.sh test  install what is missing, build (Release), run every CTest test
 # Environment: BUILD_DIR (default build), JOBS (default: nproc).
 set -euo pipefail
@@ -35,7 +36,13 @@ case "$mode" in
   run)
     install_missing
     build
-    "$build_dir/millflow" demo
+    # The default campaign: local executor, ./millflow.db, no server. Finished tasks are cached,
+    # so running it again only prints the results.
+    "$build_dir/millflow" submit campaigns/quick.json --jobs "$jobs"
+    "$build_dir/millflow" query "SELECT fill, speed_fraction, round(power_kw, 3) AS power_kw,
+        round(power_kw_per_t_balls, 2) AS kw_per_t, round(torque_arm_power_kw, 3) AS torque_arm_kw,
+        round(toe_angle_deg) AS toe_deg, round(shoulder_angle_deg) AS shoulder_deg, n_balls
+        FROM macro_results WHERE campaign = 'quick' ORDER BY fill, speed_fraction"
     ;;
   test)
     install_missing
