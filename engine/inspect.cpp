@@ -208,14 +208,15 @@ void print_status(const fs::path& db, const std::string& campaign, std::ostream&
   if (const auto holder = describe_coordinator(db)) out << "coordinator: " << *holder << '\n';
   if (campaign.empty()) {
     auto rows = connection.prepare(
-        "SELECT c.name, c.outcome, count(t.key), sum(t.status = 'done'), sum(t.status = 'failed') "
+        "SELECT c.name AS campaign, c.outcome, count(t.key) AS tasks, sum(t.status = 'done') AS done, "
+        "sum(t.status = 'failed') AS failed, sum(t.status IN ('pending', 'running', 'interrupted')) AS to_run "
         "FROM campaigns c LEFT JOIN campaign_tasks ct ON ct.campaign_id = c.id LEFT JOIN tasks t ON t.key = ct.task_key "
         "GROUP BY c.id ORDER BY c.submitted_at");
     print_aligned(read_table(rows), out);
     return;
   }
   auto rows = connection.prepare(
-      "SELECT t.kind, t.status, count(*) FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
+      "SELECT t.kind, t.status, count(*) AS tasks FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
       "WHERE ct.campaign_id = ? GROUP BY t.kind, t.status ORDER BY t.kind, t.status");
   rows.bind_all(campaign_id(connection, campaign));
   print_aligned(read_table(rows), out);
