@@ -12,6 +12,21 @@
 namespace millflow::dem {
 namespace {
 
+// Sum over the pair contacts in force of F[row] b[col]: F the force on the first particle, b the
+// minimum-image vector from it to the second (the contact part of -V sigma).
+double contact_virial(const System& system, int row, int col) {
+  double sum = 0.0;
+  const auto pairs = system.candidate_pairs();
+  const auto histories = system.pair_histories();
+  const auto forces = system.pair_forces();
+  const auto x = system.positions();
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    if (!histories[k].touching) continue;
+    sum += forces[k][row] * system.domain().separation(x[pairs[k].i], x[pairs[k].j])[col];
+  }
+  return sum;
+}
+
 // Solid fraction at which the walled cell is first filled: random sequential addition jams near
 // 0.38, so particles go into a taller, looser cell that the servo then compresses.
 constexpr double kPlacementSolidFraction = 0.3;
@@ -440,15 +455,7 @@ double ShearCell::shear_stress_now() const {
 double ShearCell::normal_stress_now() const {
   if (walls()) return wall_normal_stress();
   // p_yy of the virial: contacts plus the kinetic part of the peculiar motion.
-  double sum = 0.0;
-  const auto pairs = system_.candidate_pairs();
-  const auto histories = system_.pair_histories();
-  const auto forces = system_.pair_forces();
-  const auto x = system_.positions();
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    if (!histories[k].touching) continue;
-    sum -= forces[k].y() * system_.domain().separation(x[pairs[k].i], x[pairs[k].j]).y();
-  }
+  double sum = -contact_virial(system_, 1, 1);
   const auto v = system_.velocities();
   const auto m = system_.masses();
   for (std::size_t p = 0; p < system_.size(); ++p) sum += m[p] * v[p].y() * v[p].y();
@@ -458,15 +465,8 @@ double ShearCell::normal_stress_now() const {
 double ShearCell::lees_edwards_power() const {
   // P = gdot V tau, V tau = sum over contacts of F_x (on i) b_y (i to j) - sum m c_x c_y: the
   // exact rate at which the sheared images feed (peculiar kinetic + elastic) energy and dissipation.
-  double shear = 0.0;
-  const auto pairs = system_.candidate_pairs();
-  const auto histories = system_.pair_histories();
-  const auto forces = system_.pair_forces();
+  double shear = contact_virial(system_, 0, 1);
   const auto x = system_.positions();
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    if (!histories[k].touching) continue;
-    shear += forces[k].x() * system_.domain().separation(x[pairs[k].i], x[pairs[k].j]).y();
-  }
   const auto v = system_.velocities();
   const auto m = system_.masses();
   const double y_mid = system_.domain().lo.y() + 0.5 * system_.domain().length().y();

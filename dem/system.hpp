@@ -177,7 +177,8 @@ class System {
   // Contacts now in force: pairs from the neighbour list with their history.
   std::span<const NeighborPair> candidate_pairs() const { return neighbors_.pairs(); }
   std::span<const ContactHistory> pair_histories() const { return pair_history_; }
-  std::span<const Vec3> pair_forces() const { return pair_force_; }  // on the first particle
+  // Force on the first particle of each candidate pair; valid for pairs whose history is touching.
+  std::span<const Vec3> pair_forces() const { return pair_force_; }
   std::size_t active_contact_count() const;
   // Every contact in force, pairs first (in (i, j) order), then wall contacts by particle.
   std::vector<ActiveContact> active_contacts() const;

@@ -20,6 +20,16 @@ constexpr double kStiffness = 1e6;
 // 200 steps per contact: the measured contact time is quantised to dt, 0.5% of t_c.
 constexpr int kStepsPerCollision = 200;
 
+// Steps until the first contact has ended (at most 20 contact durations).
+std::vector<CollisionEvent> step_until_a_collision_ends(System& system) {
+  std::vector<CollisionEvent> events;
+  for (int i = 0; i < 20 * kStepsPerCollision && events.empty(); ++i) {
+    system.step();
+    events = system.take_collision_events();
+  }
+  return events;
+}
+
 class BinaryCollision : public ::testing::TestWithParam<double> {};
 
 TEST_P(BinaryCollision, SphereSphereRestitutionAndDurationMatchAnalytic) {
@@ -34,12 +44,7 @@ TEST_P(BinaryCollision, SphereSphereRestitutionAndDurationMatchAnalytic) {
   const double t_c = collision_duration(kStiffness, m_eff, damping_ratio_for_restitution(e));
   EXPECT_NEAR(system.min_collision_duration(), t_c, 1e-12 * t_c);
 
-  std::vector<CollisionEvent> events;
-  for (int i = 0; i < 20 * kStepsPerCollision && events.empty(); ++i) {
-    system.step();
-    auto finished = system.take_collision_events();
-    events.insert(events.end(), finished.begin(), finished.end());
-  }
+  const std::vector<CollisionEvent> events = step_until_a_collision_ends(system);
   ASSERT_EQ(events.size(), 1u);
   const double separation_speed = system.velocities()[1].x() - system.velocities()[0].x();
   EXPECT_NEAR(separation_speed / (2 * speed), e, 0.01 * e) << "measured restitution";
@@ -60,12 +65,7 @@ TEST_P(BinaryCollision, SphereWallRestitutionAndDurationMatchAnalytic) {
   system.set_time_step_from_collisions(kStepsPerCollision);
   const double t_c = collision_duration(kStiffness, sphere_mass(kRadius), damping_ratio_for_restitution(e));
 
-  std::vector<CollisionEvent> events;
-  for (int i = 0; i < 20 * kStepsPerCollision && events.empty(); ++i) {
-    system.step();
-    auto finished = system.take_collision_events();
-    events.insert(events.end(), finished.begin(), finished.end());
-  }
+  const std::vector<CollisionEvent> events = step_until_a_collision_ends(system);
   ASSERT_EQ(events.size(), 1u);
   EXPECT_TRUE(events[0].with_wall);
   EXPECT_NEAR(system.velocities()[0].z() / speed, e, 0.01 * e) << "measured restitution";
