@@ -16,11 +16,18 @@ void register_macro(engine::Registry& registry);
 void register_average(engine::Registry& registry);
 // sites: flow regions and representative sites of one average. Upstream: the average task.
 void register_sites(engine::Registry& registry);
+// shear_cells: declares one child `shear_cell` per usable site of a sites result (the child's
+// upstream is the shear_cells task). Upstream: the sites task. shear_cell: one microscale shear
+// cell at a site's shear rate and normal stress (tasks/shear_cell.hpp). Registers both kinds.
+void register_shear_cells(engine::Registry& registry);
 
 // Parameter slices of a campaign point (a validated document with the sweep applied).
 nlohmann::json macro_params(const nlohmann::json& point);    // materials and interactions of media
                                                              // and liner, dem, mill, media, macro
 nlohmann::json average_params(const nlohmann::json& point);  // average
 nlohmann::json sites_params(const nlohmann::json& point);    // sites
+nlohmann::json shear_cells_params(const nlohmann::json& point);  // shear_cell, dem, media, and the
+                                                                 // materials and interactions of
+                                                                 // media and powder
 
 }  // namespace millflow::tasks

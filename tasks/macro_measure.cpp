@@ -22,13 +22,13 @@ double reported_angle(double degrees) {
   return a >= 270.0 ? a - 360.0 : a;
 }
 
+}  // namespace
+
 nlohmann::json histogram_json(const dem::LogHistogram& h) {
   std::vector<double> counts(h.bin_count());
   for (std::size_t k = 0; k < counts.size(); ++k) counts[k] = h.count(k);
   return {{"counts", counts}, {"underflow", h.underflow()}, {"overflow", h.overflow()}};
 }
-
-}  // namespace
 
 bool PowerMeter::add_step(double power) {
   sum_ += power;

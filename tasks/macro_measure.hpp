@@ -111,4 +111,7 @@ class CollisionStats {
 void write_events(dem::BinaryWriter& out, std::span<const dem::CollisionEvent> events);
 std::vector<dem::CollisionEvent> read_events(dem::BinaryReader& in);
 
+// A histogram's bin counts, underflow and overflow (the bin edges are shared and written once).
+nlohmann::json histogram_json(const dem::LogHistogram& h);
+
 }  // namespace millflow::tasks

@@ -30,18 +30,6 @@ double number(const json& params, const std::string& path) {
   return value.get<double>();
 }
 
-// The campaign interaction of materials a and b (in either order).
-const json& find_interaction(const json& params, const std::string& a, const std::string& b) {
-  for (const json& interaction : field(params, "/interactions")) {
-    const auto first = interaction.at("materials").at(0).get<std::string>();
-    const auto second = interaction.at("materials").at(1).get<std::string>();
-    if ((first == a && second == b) || (first == b && second == a)) return interaction;
-  }
-  throw engine::InvalidInput(
-      {{"/interactions", fmt::format("no interaction is given for \"{}\" and \"{}\"", a, b),
-        "add {\"materials\": [\"" + a + "\", \"" + b + "\"], ...} to /interactions"}});
-}
-
 dem::Material material(const json& params, const std::string& name) {
   return dem::Material{name, number(params, "/materials/" + name + "/density")};
 }
@@ -77,6 +65,23 @@ void set_media_sizes(const json& params, dem::MillSetup& mill) {
 }
 
 }  // namespace
+
+const json& find_interaction(const json& params, const std::string& a, const std::string& b) {
+  for (const json& interaction : field(params, "/interactions")) {
+    const auto first = interaction.at("materials").at(0).get<std::string>();
+    const auto second = interaction.at("materials").at(1).get<std::string>();
+    if ((first == a && second == b) || (first == b && second == a)) return interaction;
+  }
+  throw engine::InvalidInput(
+      {{"/interactions", fmt::format("no interaction is given for \"{}\" and \"{}\"", a, b),
+        "add {\"materials\": [\"" + a + "\", \"" + b + "\"], ...} to /interactions"}});
+}
+
+double media_diameter(const json& params) {
+  dem::MillSetup mill;
+  set_media_sizes(params, mill);
+  return dem::mean_ball_diameter(mill);
+}
 
 std::uint64_t macro_seed(std::uint64_t dem_seed, const std::string& task_key) {
   std::uint64_t hash = 0xcbf29ce484222325ULL;  // FNV-1a, 64 bit

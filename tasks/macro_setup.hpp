@@ -36,6 +36,14 @@ MacroSettings macro_settings(const nlohmann::json& params, const std::string& ta
 // `reference_mass` (used only for a collision-time stiffness).
 dem::InteractionSpec interaction_spec(const nlohmann::json& interaction, double reference_mass);
 
+// The campaign interaction (params /interactions) of materials a and b, in either order. Throws
+// engine::InvalidInput when there is none.
+const nlohmann::json& find_interaction(const nlohmann::json& params, const std::string& a,
+                                       const std::string& b);
+
+// The mass-weighted mean diameter of params /media (its diameter or size distribution), m.
+double media_diameter(const nlohmann::json& params);
+
 // The run's random seed: dem.seed mixed with the task key (FNV-1a of its text), so that every
 // task of a sweep packs its own bed, and the same task always the same one.
 std::uint64_t macro_seed(std::uint64_t dem_seed, const std::string& task_key);

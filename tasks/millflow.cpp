@@ -35,6 +35,18 @@ nlohmann::json macro_params(const nlohmann::json& point) {
           {"macro", point.at("macro")}};
 }
 
+nlohmann::json shear_cells_params(const nlohmann::json& point) {
+  const std::set<std::string> names{point.at("media").at("material").get<std::string>(),
+                                    point.at("shear_cell").at("powder").at("material").get<std::string>()};
+  nlohmann::json materials = nlohmann::json::object();
+  for (const auto& name : names) materials[name] = point.at("materials").at(name);
+  return {{"shear_cell", point.at("shear_cell")},
+          {"materials", materials},
+          {"interactions", interactions_among(point.at("interactions"), names)},
+          {"media", point.at("media")},
+          {"dem", point.at("dem")}};
+}
+
 nlohmann::json average_params(const nlohmann::json& point) { return {{"average", point.at("average")}}; }
 
 nlohmann::json sites_params(const nlohmann::json& point) { return {{"sites", point.at("sites")}}; }
@@ -43,7 +55,8 @@ void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
   for (const CampaignPoint& point : expand(campaign)) {
     const std::string macro = plan.add("macro", macro_params(point.document));
     const std::string average = plan.add("average", average_params(point.document), {macro});
-    plan.add("sites", sites_params(point.document), {average});
+    const std::string sites = plan.add("sites", sites_params(point.document), {average});
+    plan.add("shear_cells", shear_cells_params(point.document), {sites});
   }
 }
 
@@ -52,6 +65,7 @@ void register_millflow(engine::Registry& registry) {
   register_macro(registry);
   register_average(registry);
   register_sites(registry);
+  register_shear_cells(registry);
 }
 
 }  // namespace millflow::tasks

@@ -1,0 +1,161 @@
+#include "tasks/shear_cell.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "dem/material.hpp"
+#include "engine/validation.hpp"
+#include "tasks/macro_measure.hpp"
+#include "tasks/macro_setup.hpp"
+
+namespace millflow::tasks {
+namespace {
+
+using nlohmann::json;
+
+const json& at(const json& params, const std::string& path) { return params.at(json::json_pointer(path)); }
+
+double sphere_mass(double density, double diameter) {
+  return density * std::numbers::pi * diameter * diameter * diameter / 6.0;
+}
+
+dem::ShearCellSetup::Boundary boundary(const std::string& name) {
+  if (name == "walls") return dem::ShearCellSetup::Boundary::RoughWalls;
+  if (name == "lees_edwards") return dem::ShearCellSetup::Boundary::LeesEdwards;
+  throw engine::InvalidInput({{"/shear_cell/boundary", "is \"" + name + "\"", "write \"walls\" or \"lees_edwards\""}});
+}
+
+bool involves_powder(dem::ContactType type) {
+  return type == dem::ContactType::MediaPowder || type == dem::ContactType::PowderPowder ||
+         type == dem::ContactType::WallPowder;
+}
+
+json collisions_json(const dem::CollisionStats& stats) {
+  return {{"count", stats.count}, {"rate_per_m3_s", stats.rate_per_volume}};
+}
+
+json spectra_json(const dem::ShearCellMeasurements& m) {
+  const dem::LogHistogram& grid = m.media_collisions.dissipated_energy;
+  std::vector<double> edges;
+  for (std::size_t k = 0; k < grid.bin_count(); ++k) edges.push_back(grid.bin_lower(k));
+  if (grid.bin_count() > 0) edges.push_back(grid.bin_upper(grid.bin_count() - 1));
+  return {{"bin_edges_j", edges},
+          {"media", histogram_json(m.media_collisions.dissipated_energy)},
+          {"powder", histogram_json(m.powder_collisions.dissipated_energy)}};
+}
+
+}  // namespace
+
+dem::ShearCellSetup shear_cell_setup(const json& params, const std::string& task_key) {
+  dem::ShearCellSetup setup;
+  const json& cell = params.at("shear_cell");
+  const json& site = params.at("site");
+  const auto media = at(params, "/media/material").get<std::string>();
+  const auto powder = at(cell, "/powder/material").get<std::string>();
+  setup.media_diameter = media_diameter(params);
+  setup.media = dem::Material{media, at(params, "/materials/" + media + "/density").get<double>()};
+  setup.powder = dem::Material{powder, at(params, "/materials/" + powder + "/density").get<double>()};
+  setup.powder_diameter_ratio = at(cell, "/powder/diameter_ratio").get<double>();
+  setup.powder_load = at(cell, "/powder/load").get<double>();
+
+  const double media_mass = sphere_mass(setup.media.density, setup.media_diameter);
+  const double powder_mass =
+      sphere_mass(setup.powder.density, setup.powder_diameter_ratio * setup.media_diameter);
+  setup.media_media = interaction_spec(find_interaction(params, media, media), dem::effective_mass(media_mass, media_mass));
+  setup.media_powder =
+      interaction_spec(find_interaction(params, media, powder), dem::effective_mass(media_mass, powder_mass));
+  setup.powder_powder =
+      interaction_spec(find_interaction(params, powder, powder), dem::effective_mass(powder_mass, powder_mass));
+
+  const json& size = cell.at("size_diameters");
+  setup.size_diameters = dem::Vec3(size.at(0).get<double>(), size.at(1).get<double>(), size.at(2).get<double>());
+  setup.boundary = boundary(cell.at("boundary").get<std::string>());
+  setup.shear_rate = site.at("shear_rate_per_s").get<double>();
+  setup.normal_stress = site.at("normal_stress_pa").get<double>();
+  setup.gravity = cell.at("gravity").get<bool>();
+  setup.servo_gain = at(cell, "/stress_control/gain").get<double>();
+  setup.seed = macro_seed(at(params, "/dem/seed").get<std::uint64_t>(), task_key);
+  setup.steps_per_collision = at(params, "/dem/steps_per_collision").get<int>();
+  return setup;
+}
+
+json measurements_json(const dem::ShearCellMeasurements& m) {
+  json dissipation = json::object(), collisions = json::object();
+  double powder_dissipation = 0.0;
+  for (std::size_t t = 0; t < dem::kContactTypeCount; ++t) {
+    const auto type = static_cast<dem::ContactType>(t);
+    dissipation[dem::contact_type_name(type)] = m.dissipation_density[t];
+    collisions[dem::contact_type_name(type)] = collisions_json(m.collisions[t]);
+    if (involves_powder(type)) powder_dissipation += m.dissipation_density[t];
+  }
+  dissipation["total"] = m.dissipation_density_total;
+  collisions["media"] = collisions_json(m.media_collisions);
+  collisions["powder"] = collisions_json(m.powder_collisions);
+  return {
+      {"strain", m.strain},
+      {"duration_s", m.duration},
+      {"steps", m.steps},
+      {"target_shear_rate_per_s", m.target_shear_rate},
+      {"bulk_shear_rate_per_s", m.bulk_shear_rate},
+      {"nominal_shear_rate_per_s", m.nominal_shear_rate},
+      {"wall_speed_m_s", m.wall_speed},
+      {"gap_m", m.gap},
+      {"volume_m3", m.volume},
+      {"shear_stress_pa", m.shear_stress},
+      {"normal_stress_pa", m.normal_stress},
+      {"friction", m.friction},
+      {"inertial_number", m.inertial_number},
+      {"media_solid_fraction", m.media_solid_fraction},
+      {"powder_solid_fraction", m.powder_solid_fraction},
+      {"solid_fraction", m.media_solid_fraction + m.powder_solid_fraction},
+      {"power_density_w_m3", m.power_density},
+      {"dissipation_w_m3", dissipation},
+      {"powder_dissipation_w_m3", powder_dissipation},
+      {"collisions", collisions},
+      {"spectra", spectra_json(m)},
+      {"energy",
+       {{"work_in_j", m.work_in},
+        {"kinetic_change_j", m.kinetic_change},
+        {"elastic_change_j", m.elastic_change},
+        {"dissipated_j", m.dissipated},
+        {"balance_error", m.energy_balance_error}}},
+      {"steady_state",
+       {{"shear_stress_first_half_pa", m.shear_stress_first_half},
+        {"shear_stress_second_half_pa", m.shear_stress_second_half},
+        {"deviation", m.steady_state_deviation},
+        {"steady", m.steady}}},
+      {"wall_seconds", m.wall_seconds},
+      {"particle_steps_per_second", m.particle_steps_per_second},
+  };
+}
+
+engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
+  const json& cell_params = context.params.at("shear_cell");
+  dem::ShearCell cell(shear_cell_setup(context.params, context.key));
+  const double warmup_strain = cell_params.at("warmup_strain").get<double>();
+  const double measure_strain = cell_params.at("measure_strain").get<double>();
+  const double total_strain = warmup_strain + measure_strain;
+  for (int window = 0; window < kWarmupWindows && warmup_strain > 0.0; ++window) {
+    if (context.stop.stop_requested()) return engine::TaskOutcome::stopped();
+    cell.warm_up(warmup_strain / kWarmupWindows, 1);
+    context.progress(warmup_strain * (window + 1) / kWarmupWindows / total_strain, "warm-up");
+  }
+  if (context.stop.stop_requested()) return engine::TaskOutcome::stopped();
+  const dem::ShearCellMeasurements m = cell.measure(measure_strain);
+  context.progress(1.0, "measured");
+
+  json result = measurements_json(m);
+  result["site"] = context.params.at("site");
+  result["media_count"] = cell.media_count();
+  result["powder_count"] = cell.powder_count();
+  result["wall_ball_count"] = cell.wall_ball_count();
+  context.log(fmt::format("shear cell {}: tau {:.4g} Pa, p {:.4g} Pa, mu {:.3g}, I {:.3g}, {:.4g} W/m^3{}",
+                          context.params.at("site").at("site_id").get<std::string>(), m.shear_stress,
+                          m.normal_stress, m.friction, m.inertial_number, m.power_density,
+                          m.steady ? "" : " (not steady)"));
+  return engine::TaskOutcome::with_result(std::move(result));
+}
+
+}  // namespace millflow::tasks

@@ -1,0 +1,50 @@
+#pragma once
+// The `shear_cells` and `shear_cell` task kinds (DESIGN.md section 1, step 3).
+//
+// shear_cells: parameters tasks::shear_cells_params (shear_cell, materials, interactions, media,
+// dem); upstream: a sites task. Declares one child `shear_cell` per site whose shear rate and
+// normal stress are both positive and finite; the child's parameters are its own plus
+//   site {site_id, region, shear_rate_per_s, normal_stress_pa, weight_m3, dissipation_share}.
+// Result: {children: count, skipped: [{site_id, reason}]}.
+//
+// shear_cell: a dem::ShearCell at the site's shear rate and normal stress. Translation:
+//   media diameter   the mass-weighted mean of /media (as the macro run's);
+//   contacts         tasks::interaction_spec of the campaign interaction of each pair; a
+//                    collision-time stiffness is for the pair's two reference particles (media
+//                    balls of that diameter, powder grains of diameter_ratio x it);
+//   boundary         "walls" -> rough walls, "lees_edwards" -> Lees-Edwards;
+//   servo gain       /shear_cell/stress_control/gain;
+//   seed             tasks::macro_seed(dem.seed, task key).
+// Run: warm_up(warmup_strain) in kWarmupWindows windows, then measure(measure_strain). The stop
+// token is polled between windows; an interrupted cell starts again from scratch (no checkpoint).
+// Result JSON: see measurements_json, plus site, media_count, powder_count, wall_ball_count.
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "dem/shear_cell.hpp"
+#include "engine/task.hpp"
+
+namespace millflow::tasks {
+
+inline constexpr const char* kShearCellsVersion = "1";
+inline constexpr const char* kShearCellVersion = "1";
+inline constexpr int kWarmupWindows = 4;
+
+// The cell of a shear_cell task's parameters. Throws engine::InvalidInput or
+// nlohmann::json::exception for missing values, std::invalid_argument for unusable ones.
+dem::ShearCellSetup shear_cell_setup(const nlohmann::json& params, const std::string& task_key);
+
+// The measurements in SI units: strain, duration_s, steps, *_shear_rate_per_s (target, bulk,
+// nominal), wall_speed_m_s, gap_m, volume_m3, shear_stress_pa, normal_stress_pa, friction,
+// inertial_number, media/powder/total solid_fraction, power_density_w_m3, dissipation_w_m3 {by
+// contact type, total}, powder_dissipation_w_m3 (every type involving powder), collisions {by
+// contact type, media, powder: count, rate_per_m3_s}, spectra {bin_edges_j, media, powder:
+// dissipated energy histograms}, energy {work_in_j, kinetic_change_j, elastic_change_j,
+// dissipated_j, balance_error}, steady_state {shear_stress_first_half_pa,
+// shear_stress_second_half_pa, deviation, steady}, wall_seconds, particle_steps_per_second.
+nlohmann::json measurements_json(const dem::ShearCellMeasurements& m);
+
+engine::TaskOutcome run_shear_cells(engine::TaskContext& context);
+engine::TaskOutcome run_shear_cell(engine::TaskContext& context);
+
+}  // namespace millflow::tasks

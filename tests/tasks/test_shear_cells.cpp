@@ -1,0 +1,185 @@
+// The shear_cells and shear_cell kinds: planning per sweep point, one child per usable site, the
+// translation of campaign parameters into a cell, and tiny cells run through the task function.
+#include <gtest/gtest.h>
+
+#include <tbb/task_arena.h>
+
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "dem/material.hpp"
+#include "engine/campaign.hpp"
+#include "tasks/millflow.hpp"
+#include "tasks/shear_cell.hpp"
+
+namespace millflow::tasks {
+namespace {
+
+using nlohmann::json;
+
+json tiny_cell_params(double powder_load) {
+  return json::parse(R"({
+    "materials": {"steel": {"density": 7800}, "clinker": {"density": 3150}},
+    "interactions": [
+      {"materials": ["steel", "steel"], "restitution": 0.5, "friction": 0.5, "stiffness": {"collision_time": 0.001}},
+      {"materials": ["steel", "clinker"], "restitution": 0.4, "friction": 0.5, "stiffness": {"collision_time": 0.0008}},
+      {"materials": ["clinker", "clinker"], "restitution": 0.3, "friction": 0.5, "stiffness": {"collision_time": 0.0006}}],
+    "dem": {"steps_per_collision": 20, "neighbor_skin_fraction": 0.3, "seed": 3},
+    "media": {"material": "steel", "diameter": 0.01},
+    "shear_cell": {"boundary": "walls", "size_diameters": [4, 4, 4], "gravity": false,
+                   "warmup_strain": 0.5, "measure_strain": 1.0, "stress_control": {"gain": 0.5},
+                   "powder": {"material": "clinker", "diameter_ratio": 0.5, "load": 0}},
+    "site": {"site_id": "toe-0", "region": "toe", "shear_rate_per_s": 20.0, "normal_stress_pa": 2000.0,
+             "weight_m3": 0.001, "dissipation_share": 0.2}
+  })")
+      .patch(json::array({{{"op", "replace"}, {"path", "/shear_cell/powder/load"}, {"value", powder_load}}}));
+}
+
+struct Direct {
+  json params;
+  std::vector<engine::TaskInput> inputs;
+  std::string key = "tiny-cell";
+
+  engine::TaskOutcome run(engine::RunFunction function) const {
+    engine::TaskContext context{.key = key,
+                                .params = params,
+                                .inputs = inputs,
+                                .work_dir = {},
+                                .threads = 2,
+                                .stop = {},
+                                .progress = [](double, std::string_view) {},
+                                .log = [](std::string_view) {}};
+    engine::TaskOutcome outcome;
+    tbb::task_arena arena(2);
+    arena.execute([&] { outcome = function(context); });
+    return outcome;
+  }
+};
+
+std::vector<engine::TaskSpec> quick_plan() {
+  engine::Registry registry;
+  register_millflow(registry);
+  const auto campaign = engine::load_campaign_file(registry, MILLFLOW_SOURCE_DIR "/campaigns/quick.json");
+  return engine::plan_campaign(registry, campaign);
+}
+
+TEST(ShearCellsPlan, EveryPointHasItsOwnShearCellsBelowSharedSites) {
+  const auto tasks = quick_plan();
+  std::map<std::string, int> per_kind;
+  std::map<std::string, std::string> kind_of;
+  for (const auto& task : tasks) {
+    ++per_kind[task.kind];
+    kind_of[task.key] = task.kind;
+  }
+  EXPECT_EQ(per_kind["macro"], 4);
+  EXPECT_EQ(per_kind["average"], 4);
+  EXPECT_EQ(per_kind["sites"], 4);
+  EXPECT_EQ(per_kind["shear_cells"], 12);
+
+  std::map<std::string, std::set<double>> loads_per_sites;
+  for (const auto& task : tasks) {
+    if (task.kind != "shear_cells") continue;
+    ASSERT_EQ(task.upstream.size(), 1u);
+    EXPECT_EQ(kind_of[task.upstream[0]], "sites");
+    loads_per_sites[task.upstream[0]].insert(task.params.at("shear_cell").at("powder").at("load").get<double>());
+    EXPECT_EQ(task.params.at("materials").size(), 2u);  // steel and clinker
+    EXPECT_EQ(task.params.at("interactions").size(), 3u);
+    EXPECT_EQ(task.params.at("media").at("diameter").get<double>(), 0.04);
+    EXPECT_TRUE(task.params.contains("dem"));
+    EXPECT_FALSE(task.params.contains("macro"));  // a macro setting must not re-key the cells
+  }
+  ASSERT_EQ(loads_per_sites.size(), 4u);
+  for (const auto& [sites, loads] : loads_per_sites) EXPECT_EQ(loads, (std::set<double>{0.0, 0.5, 1.0}));
+}
+
+json site(const std::string& id, double shear_rate, double normal_stress) {
+  return {{"site_id", id},          {"region", "bed"},       {"shear_rate_per_s", shear_rate},
+          {"normal_stress_pa", normal_stress}, {"weight_m3", 0.002}, {"dissipation_share", 0.1},
+          {"pressure_pa", 5.0},     {"position_m", {0.1, -0.2}}};
+}
+
+TEST(ShearCells, DeclaresOneChildPerUsableSiteAndListsTheRest) {
+  Direct direct{.params = {{"shear_cell", {{"boundary", "walls"}}}, {"dem", {{"seed", 1}}}}, .inputs = {}};
+  direct.inputs.push_back(engine::TaskInput{
+      .key = "sites-key",
+      .kind = "sites",
+      .result = {{"sites", {site("bed-0", 4.0, 100.0), site("bed-1", 0.0, 100.0), site("bed-2", 3.0, -1.0),
+                            site("bed-3", 2.0, 300.0)}}},
+      .artifacts = {}});
+  const auto outcome = direct.run(run_shear_cells);
+
+  ASSERT_EQ(outcome.children.size(), 2u);
+  EXPECT_EQ(outcome.result.at("children"), 2);
+  const std::vector<std::string> skipped = {outcome.result.at("skipped").at(0).at("site_id"),
+                                            outcome.result.at("skipped").at(1).at("site_id")};
+  EXPECT_EQ(skipped, (std::vector<std::string>{"bed-1", "bed-2"}));
+  EXPECT_NE(outcome.result.at("skipped").at(1).at("reason").get<std::string>().find("normal_stress_pa"),
+            std::string::npos);
+  const auto& child = outcome.children[1];
+  EXPECT_EQ(child.kind, "shear_cell");
+  EXPECT_TRUE(child.extra_upstream.empty());
+  EXPECT_EQ(child.params.at("shear_cell"), direct.params.at("shear_cell"));
+  EXPECT_EQ(child.params.at("dem"), direct.params.at("dem"));
+  const json expected_site = {{"site_id", "bed-3"},      {"region", "bed"},      {"shear_rate_per_s", 2.0},
+                              {"normal_stress_pa", 300.0}, {"weight_m3", 0.002}, {"dissipation_share", 0.1}};
+  EXPECT_EQ(child.params.at("site"), expected_site);
+}
+
+TEST(ShearCellSetup, CollisionTimesHoldForEachPairsReferenceParticles) {
+  const dem::ShearCellSetup setup = shear_cell_setup(tiny_cell_params(0.3), "key");
+  EXPECT_DOUBLE_EQ(setup.media_diameter, 0.01);
+  EXPECT_DOUBLE_EQ(setup.powder.density, 3150.0);
+  EXPECT_DOUBLE_EQ(setup.shear_rate, 20.0);
+  EXPECT_DOUBLE_EQ(setup.normal_stress, 2000.0);
+  EXPECT_DOUBLE_EQ(setup.powder_load, 0.3);
+  EXPECT_EQ(setup.boundary, dem::ShearCellSetup::Boundary::RoughWalls);
+  const double pi = 3.14159265358979323846;
+  const double ball = 7800.0 * pi * std::pow(0.01, 3) / 6.0, grain = 3150.0 * pi * std::pow(0.005, 3) / 6.0;
+  auto duration = [](const dem::InteractionSpec& spec, double m_a, double m_b) {
+    return dem::collision_duration(spec.normal_stiffness, m_a * m_b / (m_a + m_b),
+                                   dem::damping_ratio_for_restitution(spec.restitution));
+  };
+  EXPECT_NEAR(duration(setup.media_media, ball, ball), 1e-3, 1e-9);
+  EXPECT_NEAR(duration(setup.media_powder, ball, grain), 8e-4, 1e-9);
+  EXPECT_NEAR(duration(setup.powder_powder, grain, grain), 6e-4, 1e-9);
+  EXPECT_NE(setup.seed, shear_cell_setup(tiny_cell_params(0.3), "other key").seed);
+}
+
+TEST(ShearCell, TinyMediaCellGivesFiniteStressesAndNoPowderDissipation) {
+  const auto outcome = Direct{.params = tiny_cell_params(0.0), .inputs = {}}.run(run_shear_cell);
+  ASSERT_FALSE(outcome.interrupted);
+  const json& r = outcome.result;
+  EXPECT_EQ(r.at("powder_count"), 0);
+  EXPECT_GT(r.at("media_count").get<int>(), 0);
+  const double tau = r.at("shear_stress_pa"), p = r.at("normal_stress_pa");
+  EXPECT_TRUE(std::isfinite(tau) && std::isfinite(p));
+  EXPECT_GT(p, 0.0);
+  EXPECT_NEAR(r.at("friction").get<double>(), tau / p, 1e-12 * std::abs(tau / p));
+  EXPECT_GT(r.at("power_density_w_m3").get<double>(), 0.0);
+  EXPECT_EQ(r.at("powder_dissipation_w_m3").get<double>(), 0.0);
+  EXPECT_GT(r.at("dissipation_w_m3").at("total").get<double>(), 0.0);
+  EXPECT_EQ(r.at("site").at("site_id"), "toe-0");
+}
+
+TEST(ShearCell, PowderInTheCellDissipates) {
+  const auto outcome = Direct{.params = tiny_cell_params(0.1), .inputs = {}}.run(run_shear_cell);
+  const json& r = outcome.result;
+  EXPECT_GT(r.at("powder_count").get<int>(), 0);
+  EXPECT_GT(r.at("powder_dissipation_w_m3").get<double>(), 0.0);
+  EXPECT_TRUE(std::isfinite(r.at("friction").get<double>()));
+}
+
+TEST(ShearCell, StopsBeforeTheFirstWindowWhenAsked) {
+  const json params = tiny_cell_params(0.0);
+  std::stop_source stop;
+  stop.request_stop();
+  const std::vector<engine::TaskInput> inputs;
+  engine::TaskContext context{.key = "k", .params = params, .inputs = inputs, .work_dir = {}, .threads = 1,
+                              .stop = stop.get_token(), .progress = [](double, std::string_view) {},
+                              .log = [](std::string_view) {}};
+  EXPECT_TRUE(run_shear_cell(context).interrupted);
+}
+
+}  // namespace
+}  // namespace millflow::tasks
