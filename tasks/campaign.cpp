@@ -135,6 +135,9 @@ std::vector<engine::FieldRule> micro_fields() {
           .items(1, flow_regions.size()).unique(),
       Field("/sites/regions/*", FieldType::enumeration, "a flow region").choices(flow_regions),
       Field("/shear_cell", FieldType::object, "the microscale shear cells").required(),
+      Field("/shear_cell/enabled", FieldType::boolean,
+            "whether the campaign runs the microscale shear cells below its sites (false stops at the sites)")
+          .defaults(true),
       Field("/shear_cell/boundary", FieldType::enumeration, "boundaries in the gradient direction")
           .defaults("walls").choices({"walls", "lees_edwards"}),
       Field("/shear_cell/size_diameters", FieldType::array,

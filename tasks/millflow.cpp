@@ -56,7 +56,9 @@ void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
     const std::string macro = plan.add("macro", macro_params(point.document));
     const std::string average = plan.add("average", average_params(point.document), {macro});
     const std::string sites = plan.add("sites", sites_params(point.document), {average});
-    plan.add("shear_cells", shear_cells_params(point.document), {sites});
+    if (point.document.at("shear_cell").at("enabled").get<bool>()) {
+      plan.add("shear_cells", shear_cells_params(point.document), {sites});
+    }
   }
 }
 

@@ -7,7 +7,8 @@ namespace millflow::tasks {
 
 void register_millflow(engine::Registry& registry);
 
-// The initial DAG of a validated campaign: per sweep point macro -> average -> sites; points
+// The initial DAG of a validated campaign: per sweep point macro -> average -> sites, then
+// shear_cells (which declares one shear_cell per site) unless shear_cell.enabled is false; points
 // that share a slice share its task.
 void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan);
 

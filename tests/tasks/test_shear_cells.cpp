@@ -57,15 +57,21 @@ struct Direct {
   }
 };
 
-std::vector<engine::TaskSpec> quick_plan() {
+// campaigns/quick.json with its shear cells switched on or off.
+std::vector<engine::TaskSpec> quick_plan(bool shear_cells) {
   engine::Registry registry;
   register_millflow(registry);
-  const auto campaign = engine::load_campaign_file(registry, MILLFLOW_SOURCE_DIR "/campaigns/quick.json");
+  auto campaign = engine::load_campaign_file(registry, MILLFLOW_SOURCE_DIR "/campaigns/quick.json");
+  campaign.document["shear_cell"]["enabled"] = shear_cells;
   return engine::plan_campaign(registry, campaign);
 }
 
+TEST(ShearCellsPlan, DisabledShearCellsStopTheDagAtTheSites) {
+  for (const auto& task : quick_plan(false)) EXPECT_NE(task.kind, "shear_cells");
+}
+
 TEST(ShearCellsPlan, EveryPointHasItsOwnShearCellsBelowSharedSites) {
-  const auto tasks = quick_plan();
+  const auto tasks = quick_plan(true);
   std::map<std::string, int> per_kind;
   std::map<std::string, std::string> kind_of;
   for (const auto& task : tasks) {
