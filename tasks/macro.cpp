@@ -508,6 +508,23 @@ double hogg_fuerstenau_kw_per_tonne(double diameter, double fill, double speed_f
          (1.0 - 1.065 * fill) * std::sin(repose_deg * std::numbers::pi / 180.0);
 }
 
+engine::ViewDefinition macro_lineage_view() {
+  // Every task reaches its sweep point's macro run along first-upstream edges
+  // (shear_cell -> shear_cells -> sites -> average -> macro).
+  return {"macro_lineage", R"sql(
+WITH RECURSIVE up(task_key, ancestor) AS (
+  SELECT key, key FROM tasks
+  UNION
+  SELECT up.task_key, e.upstream FROM up JOIN edges e ON e.downstream = up.ancestor AND e.position = 0
+)
+SELECT up.task_key AS task_key,
+       m.key AS macro_key,
+       json_extract(m.params, '$.macro.fill') AS fill,
+       json_extract(m.params, '$.macro.speed_fraction') AS speed_fraction
+FROM up JOIN tasks m ON m.key = up.ancestor AND m.kind = 'macro'
+)sql"};
+}
+
 engine::ViewDefinition macro_results_view() {
   const std::vector<std::string> columns = {
       "c.name AS campaign",
@@ -537,6 +554,7 @@ engine::ViewDefinition macro_results_view() {
 
 void register_macro(engine::Registry& registry) {
   registry.kinds.add(engine::TaskKind{.name = "macro", .version = kMacroVersion, .run = run_macro});
+  registry.views.push_back(macro_lineage_view());
   registry.views.push_back(macro_results_view());
 }
 

@@ -46,6 +46,9 @@ inline constexpr const char* kMacroVersion = "1";
 engine::TaskOutcome run_macro(engine::TaskContext& context);
 
 // macro_results: one row per (campaign, macro task).
+// View macro_lineage: each task with the macro run of its sweep point (macro_key, fill,
+// speed_fraction). Views of later stages join it; it must be installed before them.
+engine::ViewDefinition macro_lineage_view();
 engine::ViewDefinition macro_results_view();
 
 // Specific power of ball mills from the classical correlations, kW per tonne of balls, for mill

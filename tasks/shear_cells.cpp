@@ -47,13 +47,12 @@ engine::TaskOutcome run_shear_cells(engine::TaskContext& context) {
   return outcome;
 }
 
-// One row per finished shear cell, with the sweep point it belongs to (shear_cell -> shear_cells
-// -> sites -> average -> macro along each task's first upstream edge).
+// One row per finished shear cell, with the sweep point it belongs to (view macro_lineage).
 engine::ViewDefinition micro_results_view() {
   return {"micro_results", R"sql(
 SELECT c.name AS campaign,
-       json_extract(macro.params, '$.macro.fill') AS fill,
-       json_extract(macro.params, '$.macro.speed_fraction') AS speed_fraction,
+       lineage.fill AS fill,
+       lineage.speed_fraction AS speed_fraction,
        cell.key AS task_key,
        json_extract(cell.params, '$.site.site_id') AS site_id,
        json_extract(cell.params, '$.site.region') AS region,
@@ -75,11 +74,7 @@ FROM campaign_tasks ct
 JOIN campaigns c ON c.id = ct.campaign_id
 JOIN tasks cell ON cell.key = ct.task_key AND cell.kind = 'shear_cell' AND cell.status = 'done'
 JOIN results r ON r.task_key = cell.key
-JOIN edges to_cells ON to_cells.downstream = cell.key AND to_cells.position = 0
-JOIN edges to_sites ON to_sites.downstream = to_cells.upstream AND to_sites.position = 0
-JOIN edges to_average ON to_average.downstream = to_sites.upstream AND to_average.position = 0
-JOIN edges to_macro ON to_macro.downstream = to_average.upstream AND to_macro.position = 0
-JOIN tasks macro ON macro.key = to_macro.upstream
+JOIN macro_lineage lineage ON lineage.task_key = cell.key
 )sql"};
 }
 

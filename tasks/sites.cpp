@@ -287,8 +287,8 @@ engine::TaskOutcome run_sites(engine::TaskContext& context) {
 engine::ViewDefinition sites_view() {
   return {"sites", R"sql(
 SELECT c.name AS campaign,
-       json_extract(macro.params, '$.macro.fill') AS fill,
-       json_extract(macro.params, '$.macro.speed_fraction') AS speed_fraction,
+       lineage.fill AS fill,
+       lineage.speed_fraction AS speed_fraction,
        st.key AS sites_task,
        json_extract(site.value, '$.site_id') AS site_id,
        json_extract(site.value, '$.region') AS region,
@@ -306,9 +306,7 @@ FROM campaign_tasks ct
 JOIN campaigns c ON c.id = ct.campaign_id
 JOIN tasks st ON st.key = ct.task_key AND st.kind = 'sites' AND st.status = 'done'
 JOIN results r ON r.task_key = st.key
-JOIN edges to_average ON to_average.downstream = st.key AND to_average.position = 0
-JOIN edges to_macro ON to_macro.downstream = to_average.upstream AND to_macro.position = 0
-JOIN tasks macro ON macro.key = to_macro.upstream
+JOIN macro_lineage lineage ON lineage.task_key = st.key
 JOIN json_each(r.result, '$.sites') site
 )sql"};
 }

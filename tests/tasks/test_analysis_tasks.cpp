@@ -10,6 +10,7 @@
 #include "dem/rng.hpp"
 #include "engine/store.hpp"
 #include "tasks/average.hpp"
+#include "tasks/macro.hpp"
 #include "tasks/sites.hpp"
 #include "tests/tasks/mill_frames.hpp"
 
@@ -225,7 +226,7 @@ TEST(AnalysisTasks, SitesGolden) {
 TEST(AnalysisTasks, SitesViewJoinsTheMacroRunsFillAndSpeed) {
   Scratch scratch;
   engine::SystemClock clock;
-  engine::Store store(scratch.path / "view.db", {sites_view()}, clock);
+  engine::Store store(scratch.path / "view.db", {macro_lineage_view(), sites_view()}, clock);
   const json macro_params = {{"macro", {{"fill", 0.35}, {"speed_fraction", 0.7}}}};
   const json result = {{"sites", {{{"site_id", "toe-0"}, {"region", "toe"}, {"position_m", {0.1, -0.2}},
                                    {"weight_m3", 0.5}, {"shear_rate_per_s", 30.0}}}}};
