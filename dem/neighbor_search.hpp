@@ -51,6 +51,8 @@ class NeighborSearch {
   // 2 * (max minimum-image displacement since build) + |change of the Lees-Edwards offset since
   // build, taken modulo L_flow to its smallest magnitude| >= skin.
   bool needs_rebuild(const Domain& domain, std::span<const Vec3> positions) const;
+  // Forces a rebuild at the next needs_rebuild (after the box itself changed).
+  void invalidate() { built_ = false; }
 
   const std::vector<NeighborPair>& pairs() const { return pairs_; }
   std::size_t build_count() const { return build_count_; }

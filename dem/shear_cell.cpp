@@ -141,10 +141,15 @@ std::size_t powder_count_for(const ShearCellSetup& s) {
   return static_cast<std::size_t>(std::llround(solid / sphere_volume(powder_diameter(s))));
 }
 
+// Height of the particle bed when it is filled at kPlacementSolidFraction.
+double placement_height(const ShearCellSetup& s) {
+  const double solid = s.media_solid_fraction + s.powder_load * (1.0 - s.media_solid_fraction) * s.powder_bed_solid_fraction;
+  return std::max(1.0, solid / kPlacementSolidFraction) * nominal_gap(s);
+}
+
 // Height between the wall ball centre planes at which the walled cell is filled.
 double placement_gap(const ShearCellSetup& s) {
-  const double solid = s.media_solid_fraction + s.powder_load * (1.0 - s.media_solid_fraction) * s.powder_bed_solid_fraction;
-  return (1.0 + 2.0 * kWallBallJitter) * s.media_diameter + std::max(1.0, solid / kPlacementSolidFraction) * nominal_gap(s);
+  return (1.0 + 2.0 * kWallBallJitter) * s.media_diameter + placement_height(s);
 }
 
 MaterialTable make_materials(const ShearCellSetup& s) {
@@ -165,7 +170,8 @@ Domain make_domain(const ShearCellSetup& s) {
   const double d = s.media_diameter;
   Domain domain;
   if (s.boundary == ShearCellSetup::Boundary::LeesEdwards) {
-    domain.hi = s.size_diameters * d;
+    // Filled tall and loose; the barostat compresses it.
+    domain.hi = Vec3(s.size_diameters.x() * d, placement_height(s), s.size_diameters.z() * d);
     domain.periodic = {true, true, true};
     domain.lees_edwards = LeesEdwards{.enabled = true, .flow_axis = 0, .gradient_axis = 1, .offset = 0.0,
                                       .velocity = s.shear_rate * domain.hi.y()};
@@ -263,7 +269,7 @@ ShearCell::ShearCell(const ShearCellSetup& setup)
   system_.set_time_step_from_collisions(setup_.steps_per_collision);
   set_wall_speed(walls() ? setup_.shear_rate * nominal_gap(setup_) / kInitialBulkFraction
                          : setup_.shear_rate * system_.domain().length().y());
-  if (walls()) configure_servo();
+  configure_stress_control();
 }
 
 void ShearCell::place_wall_layer(GroupId group, double y) {
@@ -365,15 +371,22 @@ void ShearCell::place_powder(double y_lo, double y_hi) {
   }
 }
 
-void ShearCell::configure_servo() {
+void ShearCell::configure_stress_control() {
   const double d = setup_.media_diameter, gap = nominal_gap(setup_);
   const PairParams& media = system_.materials().pair(media_, media_);
   const double media_mass = setup_.media.density * sphere_volume(d);
   const double t_c = collision_duration(media.normal_stiffness, 0.5 * media_mass, media.damping_ratio);
-  const double bed_stiffness = media.normal_stiffness * (wall_area() / (d * d)) * (d / gap);
   crossing_time_ = (gap / d) * t_c;
-  servo_mobility_ = setup_.servo_gain / (bed_stiffness * crossing_time_);
   servo_max_speed_ = setup_.servo_gain * d / crossing_time_;
+  if (!walls()) {
+    barostat_modulus_floor_ = setup_.normal_stress;
+    barostat_every_ = static_cast<std::size_t>(setup_.steps_per_collision);
+    spdlog::debug("shear cell: barostat every {} steps, time constant {:.4g} s, at most {:.4g} m/s", barostat_every_,
+                  crossing_time_ / setup_.servo_gain, servo_max_speed_);
+    return;
+  }
+  const double bed_stiffness = media.normal_stiffness * (wall_area() / (d * d)) * (d / gap);
+  servo_mobility_ = setup_.servo_gain / (bed_stiffness * crossing_time_);
   KinematicGroup& top = system_.group(top_);
   top.servo_axis = 1;
   top.servo_target_force = -setup_.normal_stress * wall_area();  // the wall pushes the bed along -y
@@ -384,7 +397,19 @@ void ShearCell::configure_servo() {
 void ShearCell::compact() {
   if (compacted_) return;
   compacted_ = true;
-  if (!walls()) return;
+  const double limit = 4.0 * placement_gap(setup_) / servo_max_speed_;
+  if (!walls()) {
+    // As for the wall: the linear law would close the loose fill far too slowly, so the box
+    // shrinks at the speed limit until the bed carries half the target.
+    barostat_at_speed_limit_ = true;
+    while (system_.time() < limit) {
+      step_controlled(barostat_every_);
+      if (normal_stress_now() >= 0.5 * setup_.normal_stress) break;
+    }
+    barostat_at_speed_limit_ = false;
+    spdlog::debug("shear cell: compacted in {:.4g} s to a height of {:.4g} m", system_.time(), gap());
+    return;
+  }
   // The linear law moves a wall that touches nothing at only M F_target (the tiny compression
   // that carries the target, per time constant), far too slowly to close the loose placement
   // gap. So first close it at the speed limit (mobility v_max / F_target), until the wall carries
@@ -392,7 +417,6 @@ void ShearCell::compact() {
   KinematicGroup& top = system_.group(top_);
   top.servo_mobility = servo_max_speed_ / std::abs(top.servo_target_force);
   const std::size_t chunk = std::max<std::size_t>(1, static_cast<std::size_t>(crossing_time_ / system_.time_step()));
-  const double limit = 4.0 * placement_gap(setup_) / servo_max_speed_;
   while (system_.time() < limit) {
     double stress = 0.0;
     for (std::size_t s = 0; s < chunk; ++s) {
@@ -493,6 +517,10 @@ double ShearCell::peculiar_kinetic_energy() const {
 
 void ShearCell::advance(std::size_t steps) {
   compact();
+  step_controlled(steps);
+}
+
+void ShearCell::step_controlled(std::size_t steps) {
   if (walls()) {
     system_.step(steps);
     return;
@@ -504,7 +532,64 @@ void ShearCell::advance(std::size_t steps) {
     const double next = lees_edwards_power();
     le_work_ += 0.5 * (power + next) * system_.time_step();
     power = next;
+    if (system_.step_count() % barostat_every_ == 0) {
+      apply_barostat();
+      power = lees_edwards_power();
+    }
   }
+}
+
+void ShearCell::apply_barostat() {
+  const double control_interval = static_cast<double>(barostat_every_) * system_.time_step();
+  const double relaxation_time = crossing_time_ / setup_.servo_gain;
+  const double height = system_.domain().length().y();
+  const double max_strain = servo_max_speed_ * control_interval / height;
+  const double modulus = std::max(affine_modulus(), barostat_modulus_floor_);
+  const double linear = (normal_stress_now() - setup_.normal_stress) / modulus * control_interval / relaxation_time;
+  const double strain = barostat_at_speed_limit_ ? -max_strain : std::clamp(linear, -max_strain, max_strain);
+  // Particles keep their velocity relative to the imposed profile gdot (y - y_mid), which
+  // stretches with the box about its lower face like the positions.
+  const double y_mid = system_.domain().lo.y() + 0.5 * height;
+  const auto x = system_.positions();
+  const auto v = system_.velocities();
+  std::vector<Vec3> velocities(v.begin(), v.end());
+  for (std::size_t p = 0; p < system_.size(); ++p) velocities[p].x() += setup_.shear_rate * strain * (x[p].y() - y_mid);
+  const double springs_before = normal_spring_energy();
+  system_.deform_affinely(1, 1.0 + strain);
+  for (std::size_t p = 0; p < system_.size(); ++p) system_.set_velocity(static_cast<ParticleId>(p), velocities[p]);
+  le_work_ += normal_spring_energy() - springs_before;
+  wall_speed_ = system_.domain().lees_edwards.velocity;
+}
+
+double ShearCell::affine_modulus() const {
+  // d p_yy / d e = sum k_n (d|b|/de) b_y^2 / |b| / V with d|b|/de = b_y^2 / |b|.
+  const auto pairs = system_.candidate_pairs();
+  const auto histories = system_.pair_histories();
+  const auto x = system_.positions();
+  const auto materials = system_.particle_materials();
+  double sum = 0.0;
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    if (!histories[k].touching) continue;
+    const Vec3 b = system_.domain().separation(x[pairs[k].i], x[pairs[k].j]);
+    const double by2 = b.y() * b.y();
+    sum += system_.materials().pair(materials[pairs[k].i], materials[pairs[k].j]).normal_stiffness * by2 * by2 /
+           b.squaredNorm();
+  }
+  return sum / system_.domain().length().prod();
+}
+
+double ShearCell::normal_spring_energy() const {
+  const auto pairs = system_.candidate_pairs();
+  const auto x = system_.positions();
+  const auto r = system_.radii();
+  const auto materials = system_.particle_materials();
+  double energy = 0.0;
+  for (const NeighborPair& pair : pairs) {
+    const double overlap = r[pair.i] + r[pair.j] - system_.domain().separation(x[pair.i], x[pair.j]).norm();
+    if (overlap <= 0.0) continue;
+    energy += 0.5 * system_.materials().pair(materials[pair.i], materials[pair.j]).normal_stiffness * overlap * overlap;
+  }
+  return energy;
 }
 
 double ShearCell::work_in() const { return walls() ? system_.energy().wall_work : le_work_; }

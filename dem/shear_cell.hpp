@@ -11,17 +11,17 @@
 //    gap and solid fraction. The wall balls are a material of their own ("<media>_wall", the
 //    media's density and contact parameters) so their contacts are counted as "wall".
 //  - LeesEdwards: periodic in all three axes, Lees-Edwards images along y moving at
-//    gdot * L_y along x. The volume is FIXED at media_solid_fraction (no barostat: System offers
-//    no way to move particles affinely); the normal stress is measured, not imposed.
+//    gdot * L_y along x: no walls, so no slip and no wall layers; the bulk shears at gdot. A
+//    barostat (below) imposes the normal stress along y, so the cell finds its own height.
 //
 // Contents: N_m = phi_m A H / (pi d^3 / 6) media balls (A = L_x L_z, H = size_diameters.y d) at
 // random non-overlapping positions, then powder filling a fraction U (powder_load) of the media
 // bed's voids, the powder bed itself at solid fraction powder_bed_solid_fraction:
 //   powder solid volume = U (1 - phi_m) A H phi_powder_bed,
 // inserted by random sequential addition checked against two cell grids (media and powder).
-// With walls the particles are first placed in a taller, looser cell (solid fraction
-// kPlacementSolidFraction) and the servo compresses it; with Lees-Edwards the media take a random
-// subset of the sites of an FCC lattice that fits the box.
+// The particles are first placed in a taller, looser cell (solid fraction kPlacementSolidFraction)
+// that the servo or the barostat compresses; with Lees-Edwards the media take a random subset of
+// the sites of an FCC lattice that fits that box.
 //
 // Servo (RoughWalls). Stiffness of the bed seen by the wall: columns of H/d contacts in series,
 // one column per d^2 of wall area, k_bed = k_n,media (A / d^2) (d / H); wave crossing time of the
@@ -30,6 +30,16 @@
 //   max speed v_max = g d / t_wave,
 // so the normal force relaxes to F_target = normal_stress A with time constant t_wave / g
 // (dF/dt = -k_bed v_y), and the wall never moves more than g diameters per crossing time.
+//
+// Barostat (LeesEdwards), the same law for a box: every steps_per_collision steps (interval
+// dt_c) the box and the particles are stretched affinely along y by the strain
+//   e = clamp((p_yy - p_target) / M  dt_c / (t_wave / g),  +- v_max dt_c / L_y),
+// p_yy the virial normal stress and M the bed's modulus now: the affine stiffness of the contacts
+// in force, dp_yy/de = sum k_n b_y^4 / |b|^2 / V (b the branch vector), at least p_target. A
+// flowing bed is far softer than a jammed one, so a fixed modulus would either crawl or
+// overshoot; with the measured one p_yy relaxes to the target with time constant ~ t_wave / g
+// and the box height changes by at most g diameters per crossing time. Particles keep their velocity relative to the
+// imposed profile; the energy the stretch puts into the contact springs counts as work put in.
 //
 // Shear rate. Rough walls slip, so the bulk shear rate is measured: a least-squares line through
 // (y, v_x) of all free particles (mass-weighted) whose centres lie in the middle half of the gap,
@@ -60,7 +70,7 @@ struct ShearCellSetup {
   bool gravity = false;           // 9.81 m/s^2 along -y when on
   double servo_gain = 0.5;        // g of the control law above, in (0, 1]
   std::uint64_t seed = 1;
-  double media_solid_fraction = 0.55;  // sets the number of media balls (and the LE volume)
+  double media_solid_fraction = 0.55;  // sets the number of media balls
   int steps_per_collision = 20;        // dt = shortest contact duration / this
 };
 
@@ -135,8 +145,8 @@ class ShearCell {
   std::size_t powder_count() const { return powder_count_; }
   std::size_t wall_ball_count() const { return wall_ball_count_; }
 
-  // Closes the loose placement gap until the top wall carries half the normal stress
-  // (RoughWalls; nothing for LE). The first run below does it if it was not done.
+  // Closes the loose placement gap until the bed carries half the normal stress. The first run
+  // below does it if it was not done.
   void compact();
   // Runs `strain` of shear (target rate x time) with no measurement and no control.
   void run_strain(double strain);
@@ -153,7 +163,8 @@ class ShearCell {
   double wall_area() const;
   // Normal force per area the particles exert on the top wall right now, Pa (RoughWalls).
   double wall_normal_stress() const;
-  // The servo's derived constants (RoughWalls).
+  // Derived constants: the servo's mobility (RoughWalls) and the speed limit of the top wall or
+  // of the LE box height.
   double servo_mobility() const { return servo_mobility_; }
   double servo_max_speed() const { return servo_max_speed_; }
 
@@ -167,11 +178,18 @@ class ShearCell {
   void place_media_dilute(double height);
   void place_media_lattice();
   void place_powder(double y_lo, double y_hi);
-  void configure_servo();
+  // The servo's (RoughWalls) or the barostat's (LeesEdwards) constants.
+  void configure_stress_control();
+  // LE: one barostat stretch, and the spring energy of the pairs in contact (normal part), J.
+  void apply_barostat();
+  double normal_spring_energy() const;
+  double affine_modulus() const;  // d p_yy / d e of the contacts in force, Pa
   void set_wall_speed(double speed);
   std::size_t steps_for_strain(double strain) const;
-  // Steps the system; with Lees-Edwards also integrates the boundary's work.
+  // Steps the system after compact(); with Lees-Edwards also integrates the boundary's work and
+  // runs the barostat (step_controlled, which compact() itself uses).
   void advance(std::size_t steps);
+  void step_controlled(std::size_t steps);
   // Work put in so far (walls or LE boundary), J.
   double work_in() const;
   // Kinetic (+ gravitational) energy of the free particles; with LE the kinetic energy of the
@@ -194,6 +212,9 @@ class ShearCell {
   std::size_t media_count_ = 0, powder_count_ = 0, wall_ball_count_ = 0;
   double wall_speed_ = 0.0;
   double servo_mobility_ = 0.0, servo_max_speed_ = 0.0, crossing_time_ = 0.0;
+  double barostat_modulus_floor_ = 0.0;
+  std::size_t barostat_every_ = 1;
+  bool barostat_at_speed_limit_ = false;  // compacting: shrink at the speed limit
   double le_work_ = 0.0;  // work put in through the LE boundary so far, J
   bool compacted_ = false;
 };

@@ -235,6 +235,23 @@ void System::set_neighbor_skin(double skin) {
   prepared_ = false;
 }
 
+void System::deform_affinely(int axis, double factor) {
+  if (axis < 0 || axis > 2 || !domain_.periodic[static_cast<std::size_t>(axis)]) {
+    throw std::invalid_argument(fmt::format("deform_affinely: axis {} must be a periodic axis (0, 1 or 2)", axis));
+  }
+  if (!(factor > 0.0) || !std::isfinite(factor)) {
+    throw std::invalid_argument(fmt::format("deform_affinely: factor = {} must be > 0", factor));
+  }
+  if (!groups_.empty()) {
+    throw std::invalid_argument("deform_affinely: kinematic groups would be torn apart; use walls or no groups");
+  }
+  const double lo = domain_.lo[axis];
+  for (Vec3& x : position_) x[axis] = lo + factor * (x[axis] - lo);
+  domain_.hi[axis] = lo + factor * (domain_.hi[axis] - lo);
+  if (domain_.lees_edwards.enabled && domain_.lees_edwards.gradient_axis == axis) domain_.lees_edwards.velocity *= factor;
+  neighbors_.invalidate();
+}
+
 void System::check_overlaps(double tolerance) const {
   const auto pairs = brute_force_pairs(domain_, position_, radius_, 0.0);
   for (const auto& [i, j] : pairs) {

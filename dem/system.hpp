@@ -146,6 +146,14 @@ class System {
 
   void step(std::size_t count = 1);
 
+  // Stretches the box and every particle affinely along a periodic axis by `factor` about the
+  // box's lower face (x_a -> lo_a + factor (x_a - lo_a)), the homogeneous strain of a barostat.
+  // Velocities are left alone, except that a Lees-Edwards image velocity scales with the length
+  // of its gradient axis (the shear rate stays). The neighbour list is rebuilt on the next step.
+  // Throws std::invalid_argument for a non-periodic axis, kinematic particles, or a factor that
+  // is not positive and finite.
+  void deform_affinely(int axis, double factor);
+
   // State.
   std::size_t size() const { return position_.size(); }
   double time() const { return time_; }

@@ -1,5 +1,5 @@
 // Lees-Edwards boundaries: crossing particles get the image shift in position and velocity, and
-// contacts across the sheared boundary see the image's velocity.
+// contacts across the sheared boundary see the image's velocity; the affine stretch of a barostat.
 #include <gtest/gtest.h>
 
 #include "dem/system.hpp"
@@ -71,6 +71,36 @@ TEST(LeesEdwards, ContactAcrossTheBoundaryFeelsTheImageVelocity) {
   // Normal pushes them apart: the top one down, the image of the bottom one up.
   EXPECT_LT(system.forces()[0].y(), 0.0);
   EXPECT_GT(system.forces()[1].y(), 0.0);
+}
+
+TEST(LeesEdwards, AffineStretchScalesPositionsTheBoxAndTheImageVelocity) {
+  System system(steel_table(0.5, 0.5), sheared_box(0.8), Vec3::Zero());
+  system.add_particle({.position = Vec3(0.05, 0.02, 0.03), .velocity = Vec3(0.1, 0.2, 0.3), .radius = 0.004});
+  system.add_particle({.position = Vec3(0.05, 0.03, 0.03), .radius = 0.004});
+  system.deform_affinely(1, 0.9);
+  EXPECT_DOUBLE_EQ(system.domain().length().y(), 0.08 * 0.9);
+  EXPECT_DOUBLE_EQ(system.positions()[0].y(), 0.02 * 0.9);
+  EXPECT_DOUBLE_EQ(system.positions()[1].y(), 0.03 * 0.9);
+  EXPECT_DOUBLE_EQ(system.positions()[0].x(), 0.05);
+  EXPECT_EQ(system.velocities()[0], Vec3(0.1, 0.2, 0.3));
+  EXPECT_DOUBLE_EQ(system.domain().lees_edwards.velocity, 0.8 * 0.9) << "the shear rate stays";
+  // The neighbour list follows the new box: 9 mm apart, then 7.65 mm, closer than 2 r = 8 mm.
+  system.set_time_step(1e-6);
+  system.step();
+  EXPECT_EQ(system.active_contact_count(), 0u);
+  system.deform_affinely(1, 0.85);
+  system.step();
+  EXPECT_EQ(system.active_contact_count(), 1u);
+}
+
+TEST(LeesEdwards, AffineStretchRefusesAWalledAxisAndABadFactor) {
+  Domain walled = sheared_box(0.0);
+  walled.lees_edwards.enabled = false;
+  walled.periodic = {true, false, true};
+  System system(steel_table(0.5, 0.5), walled, Vec3::Zero());
+  EXPECT_THROW(system.deform_affinely(1, 0.9), std::invalid_argument);
+  EXPECT_THROW(system.deform_affinely(0, 0.0), std::invalid_argument);
+  EXPECT_THROW(system.deform_affinely(0, std::nan("")), std::invalid_argument);
 }
 
 }  // namespace
