@@ -22,7 +22,7 @@
 namespace millflow::tasks {
 
 // Bump whenever the results change (tests/tasks/golden/average.json guards it).
-inline constexpr const char* kAverageVersion = "1";
+inline constexpr const char* kAverageVersion = "2";
 
 engine::TaskOutcome run_average(engine::TaskContext& context);
 

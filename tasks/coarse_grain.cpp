@@ -276,8 +276,9 @@ double shear_rate_of(const Tensor3& strain_rate) {
   return std::sqrt(2.0 * (deviator.array() * deviator.array()).sum());
 }
 
-// -n.sigma.n on the in-plane plane of maximum shear rate nearest the flow's layers (header).
-double shear_plane_normal_stress(const Tensor3& gradient, const Tensor3& strain_rate, const Tensor3& stress) {
+}  // namespace
+
+ShearPlaneTraction shear_plane_traction(const Tensor3& gradient, const Tensor3& strain_rate, const Tensor3& stress) {
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> principal(strain_rate.topLeftCorner<2, 2>().eval());
   const Eigen::Vector2d e_compress = principal.eigenvectors().col(0), e_extend = principal.eigenvectors().col(1);
   const Eigen::Vector2d first = (e_extend + e_compress) / std::sqrt(2.0);
@@ -285,8 +286,12 @@ double shear_plane_normal_stress(const Tensor3& gradient, const Tensor3& strain_
   const Eigen::Matrix2d in_plane_gradient = gradient.topLeftCorner<2, 2>();
   const bool second_is_layers = (in_plane_gradient * second).norm() > (in_plane_gradient * first).norm();
   const Eigen::Vector2d n = second_is_layers ? second : first;
-  return -n.dot(stress.topLeftCorner<2, 2>() * n);
+  const Eigen::Vector2d t(-n.y(), n.x());
+  const Eigen::Vector2d traction = stress.topLeftCorner<2, 2>() * n;
+  return {-n.dot(traction), std::abs(t.dot(traction))};
 }
+
+namespace {
 
 void derive_rates_and_stresses(CoarseFields& f, double min_solid_fraction) {
   compute_velocity_gradient(f, min_solid_fraction);
@@ -296,13 +301,16 @@ void derive_rates_and_stresses(CoarseFields& f, double min_solid_fraction) {
   f.shear_rate.resize(cells);
   f.pressure.resize(cells);
   f.shear_plane_normal_stress.resize(cells);
+  f.shear_plane_shear_stress.resize(cells);
   f.granular_temperature.assign(cells, 0.0);
   for (std::size_t c = 0; c < cells; ++c) {
     f.strain_rate[c] = 0.5 * (f.velocity_gradient[c] + f.velocity_gradient[c].transpose());
     f.stress[c] = f.kinetic_stress[c] + f.contact_stress[c];
     f.shear_rate[c] = shear_rate_of(f.strain_rate[c]);
     f.pressure[c] = -f.stress[c].trace() / 3.0;
-    f.shear_plane_normal_stress[c] = shear_plane_normal_stress(f.velocity_gradient[c], f.strain_rate[c], f.stress[c]);
+    const ShearPlaneTraction traction = shear_plane_traction(f.velocity_gradient[c], f.strain_rate[c], f.stress[c]);
+    f.shear_plane_normal_stress[c] = traction.normal;
+    f.shear_plane_shear_stress[c] = traction.shear;
     if (f.density[c] > 0.0) f.granular_temperature[c] = -f.kinetic_stress[c].trace() / (3.0 * f.density[c]);
   }
 }
@@ -411,6 +419,7 @@ std::vector<CellArray> cell_arrays(const CoarseFields& f) {
   out.push_back({"shear_rate_per_s", 1, f.shear_rate});
   out.push_back({"pressure_pa", 1, f.pressure});
   out.push_back({"normal_stress_pa", 1, f.shear_plane_normal_stress});
+  out.push_back({"shear_stress_pa", 1, f.shear_plane_shear_stress});
   out.push_back({"granular_temperature_m2_s2", 1, f.granular_temperature});
   out.push_back({"collision_frequency_per_m3_s", 1, f.collision_frequency});
   out.push_back({"dissipation_w_m3", 1, f.dissipation});

@@ -32,6 +32,8 @@
 //     is most nearly the velocity-gradient direction (larger |L n|: for layered flow, the plane of
 //     the layers); sigma_n = -n.sigma.n (compressive positive). Where D vanishes the choice is
 //     arbitrary and sigma_n lies between the in-plane principal stresses;
+//   shear stress on the same plane: tau = |t.sigma.n|, t the in-plane unit vector normal to n
+//     (what a simple-shear cell with layers along the plane measures as its shear stress);
 //   granular temperature T = -tr(sigma_k) / (3 rho) (m^2/s^2);
 //   collision frequency = sum_events W / (L * event_window) (collisions per m^3 per s) and
 //     dissipation power density = sum_events E_dissipated W / (L * event_window) (W/m^3), in total
@@ -52,6 +54,16 @@
 namespace millflow::tasks {
 
 inline constexpr std::size_t kParallelSegments = 4;
+
+struct ShearPlaneTraction {
+  double normal = 0.0;  // -n.sigma.n, compressive positive
+  double shear = 0.0;   // |t.sigma.n|
+};
+
+// The traction on the shear plane (the plane of maximum shear rate nearest the flow's layers,
+// above) of a cell with velocity gradient L, strain rate D and stress sigma.
+ShearPlaneTraction shear_plane_traction(const Eigen::Matrix3d& gradient, const Eigen::Matrix3d& strain_rate,
+                                        const Eigen::Matrix3d& stress);
 
 struct CoarseGrainSettings {
   CrossSectionGrid grid;             // half_width: the mill's inner radius
@@ -79,7 +91,8 @@ struct CoarseFields {
   std::vector<Eigen::Vector3d> velocity;
   std::vector<Tensor3> kinetic_stress, contact_stress, stress;
   std::vector<Tensor3> velocity_gradient, strain_rate;
-  std::vector<double> shear_rate, pressure, shear_plane_normal_stress, granular_temperature;
+  std::vector<double> shear_rate, pressure, shear_plane_normal_stress, shear_plane_shear_stress,
+      granular_temperature;
   std::vector<double> collision_frequency, dissipation;
   std::vector<std::vector<double>> collision_frequency_by_category, dissipation_by_category;
 

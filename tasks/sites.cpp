@@ -96,13 +96,14 @@ Site site_of(const FlowMap& map, const std::vector<std::size_t>& cells, double t
     cy += nu * g.y_of(c);
     s.shear_rate += nu * map.shear_rate[c];
     s.normal_stress += nu * map.normal_stress[c];
+    s.shear_stress += nu * map.shear_stress[c];
     s.pressure += nu * map.pressure[c];
     s.granular_temperature += nu * map.granular_temperature[c];
     s.collision_frequency += map.collision_frequency[c];
     dissipated += map.dissipation[c];
   }
   const double n = static_cast<double>(cells.size());
-  for (double* solid_weighted : {&s.shear_rate, &s.normal_stress, &s.pressure, &s.granular_temperature, &cx, &cy}) {
+  for (double* solid_weighted : {&s.shear_rate, &s.normal_stress, &s.shear_stress, &s.pressure, &s.granular_temperature, &cx, &cy}) {
     *solid_weighted /= solid;
   }
   s.solid_fraction = solid / n;
@@ -160,6 +161,7 @@ json site_json(const Site& s) {
           {"dissipation_share", s.dissipation_share},
           {"shear_rate_per_s", s.shear_rate},
           {"normal_stress_pa", s.normal_stress},
+          {"shear_stress_pa", s.shear_stress},
           {"pressure_pa", s.pressure},
           {"solid_fraction", s.solid_fraction},
           {"granular_temperature_m2_s2", s.granular_temperature},
@@ -216,6 +218,7 @@ FlowMap flow_map_from_document(const json& fields) {
   map.solid_fraction = scalar_array(fields, "solid_fraction", cells);
   map.shear_rate = scalar_array(fields, "shear_rate_per_s", cells);
   map.normal_stress = scalar_array(fields, "normal_stress_pa", cells);
+  map.shear_stress = scalar_array(fields, "shear_stress_pa", cells);
   map.pressure = scalar_array(fields, "pressure_pa", cells);
   map.granular_temperature = scalar_array(fields, "granular_temperature_m2_s2", cells);
   map.collision_frequency = scalar_array(fields, "collision_frequency_per_m3_s", cells);
@@ -296,6 +299,7 @@ SELECT c.name AS campaign,
        json_extract(site.value, '$.dissipation_share') AS dissipation_share,
        json_extract(site.value, '$.shear_rate_per_s') AS shear_rate_per_s,
        json_extract(site.value, '$.normal_stress_pa') AS normal_stress_pa,
+       json_extract(site.value, '$.shear_stress_pa') AS shear_stress_pa,
        json_extract(site.value, '$.pressure_pa') AS pressure_pa,
        json_extract(site.value, '$.solid_fraction') AS solid_fraction,
        json_extract(site.value, '$.granular_temperature_m2_s2') AS granular_temperature,

@@ -23,7 +23,7 @@
 //   weight_m3       the group's volume (cell area x slice length x cells): the sites' weights sum
 //                   to the volume of the charge in the regions that get sites;
 //   dissipation_share  the group's dissipated power over the mill's total;
-//   shear rate, normal stress, pressure, granular temperature: means weighted by solid volume
+//   shear rate, normal and shear stress (on the shear plane), pressure, granular temperature: means weighted by solid volume
 //                   (what the media there experience); solid fraction, collision frequency and
 //                   dissipation density: means over the group's volume.
 // Empty regions give no sites.
@@ -39,7 +39,7 @@
 namespace millflow::tasks {
 
 // Bump whenever the results change (tests/tasks/golden/sites.json guards it).
-inline constexpr const char* kSitesVersion = "1";
+inline constexpr const char* kSitesVersion = "2";
 
 // The region names, in rule order.
 const std::vector<std::string>& region_names();
@@ -59,7 +59,7 @@ struct FlowMap {
   double slice_length = 0.0;
   double media_diameter = 0.0;
   double angular_velocity = 0.0;  // rad/s, counter-clockwise seen from +z positive
-  std::vector<double> solid_fraction, shear_rate, normal_stress, pressure, granular_temperature,
+  std::vector<double> solid_fraction, shear_rate, normal_stress, shear_stress, pressure, granular_temperature,
       collision_frequency, dissipation;
 };
 
@@ -73,7 +73,7 @@ struct Site {
   double x = 0.0, y = 0.0;
   double weight_m3 = 0.0;
   double dissipation_share = 0.0;
-  double shear_rate = 0.0, normal_stress = 0.0, pressure = 0.0, solid_fraction = 0.0;
+  double shear_rate = 0.0, normal_stress = 0.0, shear_stress = 0.0, pressure = 0.0, solid_fraction = 0.0;
   double granular_temperature = 0.0, collision_frequency = 0.0, dissipation = 0.0;
 };
 

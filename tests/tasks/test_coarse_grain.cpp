@@ -111,6 +111,24 @@ TEST(CoarseGrain, SimpleShearGivesItsShearRateAndNoStress) {
   EXPECT_GT(checked, 80);
 }
 
+TEST(CoarseGrain, ShearPlaneTractionOfASimpleShearIsOnTheLayers) {
+  // u = gdot y: the layers are normal to y whatever the sign of gdot, so the plane's normal
+  // stress is -sigma_yy (not -sigma_xx) and its shear stress |sigma_xy|.
+  for (const double gdot : {5.0, -5.0}) {
+    Eigen::Matrix3d gradient = Eigen::Matrix3d::Zero();
+    gradient(0, 1) = gdot;
+    const Eigen::Matrix3d strain_rate = 0.5 * (gradient + gradient.transpose());
+    Eigen::Matrix3d stress = Eigen::Matrix3d::Zero();
+    stress(0, 0) = -300.0;
+    stress(1, 1) = -200.0;
+    stress(2, 2) = -250.0;
+    stress(0, 1) = stress(1, 0) = -gdot * 16.0;
+    const ShearPlaneTraction traction = shear_plane_traction(gradient, strain_rate, stress);
+    EXPECT_NEAR(traction.normal, 200.0, 1e-9) << gdot;
+    EXPECT_NEAR(traction.shear, 80.0, 1e-9) << gdot;
+  }
+}
+
 TEST(CoarseGrain, TwoPressedParticlesGiveTheVirialPressure) {
   const double d = 0.01, force = 100.0, w = 0.015;
   dem::FlowFrame frame;

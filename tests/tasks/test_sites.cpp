@@ -27,7 +27,7 @@ FlowMap synthetic_map(bool with_flight = true, bool mirror = false) {
   map.media_diameter = kD;
   map.angular_velocity = mirror ? -4.0 : 4.0;
   const std::size_t n = map.grid.size();
-  for (auto* field : {&map.solid_fraction, &map.shear_rate, &map.normal_stress, &map.pressure,
+  for (auto* field : {&map.solid_fraction, &map.shear_rate, &map.normal_stress, &map.shear_stress, &map.pressure,
                       &map.granular_temperature, &map.collision_frequency, &map.dissipation}) {
     field->assign(n, 0.0);
   }
@@ -41,6 +41,7 @@ FlowMap synthetic_map(bool with_flight = true, bool mirror = false) {
       map.shear_rate[c] = layer ? 20.0 + 100.0 * h : 0.5;  // rises towards the surface
       map.dissipation[c] = layer ? 100.0 : 10.0;
       map.pressure[c] = map.normal_stress[c] = -1e4 * h;
+      map.shear_stress[c] = 0.4 * map.normal_stress[c];
     } else if (with_flight && h < kFlight && x < 0.0) {
       map.solid_fraction[c] = 0.1;
       map.shear_rate[c] = 5.0;
@@ -104,6 +105,8 @@ TEST(Sites, WeightsSumToTheChargeAndSitesLieInTheirRegions) {
     weights += site.weight_m3;
     shares += site.dissipation_share;
     EXPECT_EQ(region_at(map, s, site.x, site.y), region(site.region)) << site.site_id;
+    // Both stresses are means with the same (solid) weights.
+    EXPECT_NEAR(site.shear_stress, 0.4 * site.normal_stress, 1e-9 * site.normal_stress) << site.site_id;
   }
   EXPECT_EQ(s.sites.size(), 6u * 3u);
   EXPECT_NEAR(s.charge_volume_m3, charge, 1e-12);
