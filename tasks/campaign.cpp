@@ -139,7 +139,7 @@ std::vector<engine::FieldRule> micro_fields() {
             "whether the campaign runs the microscale shear cells below its sites (false stops at the sites)")
           .defaults(true),
       Field("/shear_cell/boundary", FieldType::enumeration, "boundaries in the gradient direction")
-          .defaults("walls").choices({"walls", "lees_edwards"}),
+          .defaults("lees_edwards").choices({"walls", "lees_edwards"}),
       Field("/shear_cell/size_diameters", FieldType::array,
             "cell size in ball diameters [x flow, y gradient, z spanwise]")
           .defaults({6.0, 8.0, 6.0}).items(3, 3),
@@ -150,9 +150,9 @@ std::vector<engine::FieldRule> micro_fields() {
           .range(at_least(0), {}),
       Field("/shear_cell/measure_strain", FieldType::number, "shear strain measured").defaults(4.0)
           .range(above(0), {}),
-      Field("/shear_cell/stress_control", FieldType::object, "the stress-controlled wall").defaults(json::object()),
-      Field("/shear_cell/stress_control/gain", FieldType::number, "gain of the wall's normal-stress control law")
-          .defaults(0.5).range(above(0), at_most(10)),
+      Field("/shear_cell/stress_control", FieldType::object, "the normal-stress control").defaults(json::object()),
+      Field("/shear_cell/stress_control/gain", FieldType::number, "gain of the normal-stress control (wall servo or Lees-Edwards barostat)")
+          .defaults(0.5).range(above(0), at_most(1)),
       Field("/shear_cell/powder", FieldType::object, "the powder in the shear cell").required(),
       Field("/shear_cell/powder/material", FieldType::string, "material of the powder").required()
           .pattern(material_name),

@@ -16,10 +16,15 @@ void register_macro(engine::Registry& registry);
 void register_average(engine::Registry& registry);
 // sites: flow regions and representative sites of one average. Upstream: the average task.
 void register_sites(engine::Registry& registry);
-// shear_cells: declares one child `shear_cell` per usable site of a sites result (the child's
-// upstream is the shear_cells task). Upstream: the sites task. shear_cell: one microscale shear
-// cell at a site's shear rate and normal stress (tasks/shear_cell.hpp). Registers both kinds.
+// shear_cell: one microscale shear cell per site slot and powder load (tasks/shear_cell.hpp).
+// Upstream: the sites task.
 void register_shear_cells(engine::Registry& registry);
+// upscale: mill-scale answers of one fill x speed x powder load (tasks/upscale.hpp). Upstream:
+// the macro, average and sites tasks, the cells at that load and at load 0.
+void register_upscale(engine::Registry& registry);
+// report: plots, tables and a page over every upscale of a campaign (tasks/report.hpp).
+// Upstream: the upscale tasks and the average tasks they name.
+void register_report(engine::Registry& registry);
 
 // Parameter slices of a campaign point (a validated document with the sweep applied).
 nlohmann::json macro_params(const nlohmann::json& point);    // materials and interactions of media
@@ -29,5 +34,8 @@ nlohmann::json sites_params(const nlohmann::json& point);    // sites
 nlohmann::json shear_cells_params(const nlohmann::json& point);  // shear_cell, dem, media, and the
                                                                  // materials and interactions of
                                                                  // media and powder
+// The shear_cell tasks of a point, one per slot (region in /sites/regions x index below
+// /sites/per_region), below its sites task; returns their keys.
+std::vector<std::string> plan_shear_cells(engine::Plan& plan, const nlohmann::json& point, const std::string& sites);
 
 }  // namespace millflow::tasks

@@ -51,14 +51,46 @@ nlohmann::json average_params(const nlohmann::json& point) { return {{"average",
 
 nlohmann::json sites_params(const nlohmann::json& point) { return {{"sites", point.at("sites")}}; }
 
+std::vector<std::string> plan_shear_cells(engine::Plan& plan, const nlohmann::json& point, const std::string& sites) {
+  const nlohmann::json base = shear_cells_params(point);
+  const int per_region = point.at("sites").at("per_region").get<int>();
+  std::vector<std::string> cells;
+  for (const auto& region : point.at("sites").at("regions")) {
+    for (int index = 0; index < per_region; ++index) {
+      nlohmann::json params = base;
+      params["slot"] = {{"region", region}, {"index", index}};
+      cells.push_back(plan.add("shear_cell", std::move(params), {sites}));
+    }
+  }
+  return cells;
+}
+
+namespace {
+
+// The point with no powder: its cells are the reference of cushioning and of the coupling check.
+nlohmann::json without_powder(nlohmann::json point) {
+  point["shear_cell"]["powder"]["load"] = 0.0;
+  return point;
+}
+
+}  // namespace
+
+// Per point: macro -> average -> sites, and with shear cells on: its cells (and those without
+// powder) -> upscale.
 void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
   for (const CampaignPoint& point : expand(campaign)) {
-    const std::string macro = plan.add("macro", macro_params(point.document));
-    const std::string average = plan.add("average", average_params(point.document), {macro});
-    const std::string sites = plan.add("sites", sites_params(point.document), {average});
-    if (point.document.at("shear_cell").at("enabled").get<bool>()) {
-      plan.add("shear_cells", shear_cells_params(point.document), {sites});
+    const nlohmann::json& document = point.document;
+    const std::string macro = plan.add("macro", macro_params(document));
+    const std::string average = plan.add("average", average_params(document), {macro});
+    const std::string sites = plan.add("sites", sites_params(document), {average});
+    if (!document.at("shear_cell").at("enabled").get<bool>()) continue;
+    const double load = document.at("shear_cell").at("powder").at("load").get<double>();
+    std::vector<std::string> upstream = {macro, average, sites};
+    for (const auto& cell : plan_shear_cells(plan, document, sites)) upstream.push_back(cell);
+    if (load != 0.0) {
+      for (const auto& cell : plan_shear_cells(plan, without_powder(document), sites)) upstream.push_back(cell);
     }
+    plan.add("upscale", {{"powder_load", load}}, std::move(upstream));
   }
 }
 
@@ -68,6 +100,7 @@ void register_millflow(engine::Registry& registry) {
   register_average(registry);
   register_sites(registry);
   register_shear_cells(registry);
+  register_upscale(registry);
 }
 
 }  // namespace millflow::tasks

@@ -48,10 +48,9 @@ json spectra_json(const dem::ShearCellMeasurements& m) {
 
 }  // namespace
 
-dem::ShearCellSetup shear_cell_setup(const json& params, const std::string& task_key) {
+dem::ShearCellSetup shear_cell_setup(const json& params, const json& site, const std::string& task_key) {
   dem::ShearCellSetup setup;
   const json& cell = params.at("shear_cell");
-  const json& site = params.at("site");
   const auto media = at(params, "/media/material").get<std::string>();
   const auto powder = at(cell, "/powder/material").get<std::string>();
   setup.media_diameter = media_diameter(params);
@@ -133,7 +132,14 @@ json measurements_json(const dem::ShearCellMeasurements& m) {
 
 engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   const json& cell_params = context.params.at("shear_cell");
-  dem::ShearCell cell(shear_cell_setup(context.params, context.key));
+  const json& slot = context.params.at("slot");
+  const json powder_load = at(cell_params, "/powder/load");
+  const SlotSite found = find_slot_site(context.inputs.at(0).result, slot);
+  if (!found.skipped.empty()) {
+    context.log(fmt::format("shear cell {} skipped: {}", slot_site_id(slot), found.skipped));
+    return engine::TaskOutcome::with_result({{"skipped", found.skipped}, {"slot", slot}, {"powder_load", powder_load}});
+  }
+  dem::ShearCell cell(shear_cell_setup(context.params, found.site, context.key));
   const double warmup_strain = cell_params.at("warmup_strain").get<double>();
   const double measure_strain = cell_params.at("measure_strain").get<double>();
   const double total_strain = warmup_strain + measure_strain;
@@ -147,12 +153,14 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   context.progress(1.0, "measured");
 
   json result = measurements_json(m);
-  result["site"] = context.params.at("site");
+  result["site"] = found.site;
+  result["slot"] = slot;
+  result["powder_load"] = powder_load;
   result["media_count"] = cell.media_count();
   result["powder_count"] = cell.powder_count();
   result["wall_ball_count"] = cell.wall_ball_count();
   context.log(fmt::format("shear cell {}: tau {:.4g} Pa, p {:.4g} Pa, mu {:.3g}, I {:.3g}, {:.4g} W/m^3{}",
-                          context.params.at("site").at("site_id").get<std::string>(), m.shear_stress,
+                          slot_site_id(slot), m.shear_stress,
                           m.normal_stress, m.friction, m.inertial_number, m.power_density,
                           m.steady ? "" : " (not steady)"));
   return engine::TaskOutcome::with_result(std::move(result));

@@ -1,13 +1,14 @@
 #pragma once
-// The `shear_cells` and `shear_cell` task kinds (DESIGN.md section 1, step 3).
+// The `shear_cell` task kind (DESIGN.md section 1, step 3): one microscale shear cell per site
+// slot and powder load.
 //
-// shear_cells: parameters tasks::shear_cells_params (shear_cell, materials, interactions, media,
-// dem); upstream: a sites task. Declares one child `shear_cell` per site whose shear rate and
-// normal stress are both positive and finite; the child's parameters are its own plus
-//   site {site_id, region, shear_rate_per_s, normal_stress_pa, weight_m3, dissipation_share}.
-// Result: {children: count, skipped: [{site_id, reason}]}.
-//
-// shear_cell: a dem::ShearCell at the site's shear rate and normal stress. Translation:
+// Parameters: tasks::shear_cells_params (shear_cell, materials, interactions, media, dem) plus
+// slot {region, index}: the site "<region>-<index>" of the sites task, the one upstream task.
+// The planner knows the regions and the sites per region but not which sites exist, so a slot may
+// be empty (a region with fewer cells than sites, or none) or its site unusable (shear rate or
+// normal stress not positive); the task then finishes at once with
+//   {skipped: reason, slot, powder_load}.
+// Otherwise a dem::ShearCell at the site's shear rate and normal stress. Translation:
 //   media diameter   the mass-weighted mean of /media (as the macro run's);
 //   contacts         tasks::interaction_spec of the campaign interaction of each pair; a
 //                    collision-time stiffness is for the pair's two reference particles (media
@@ -17,7 +18,8 @@
 //   seed             tasks::macro_seed(dem.seed, task key).
 // Run: warm_up(warmup_strain) in kWarmupWindows windows, then measure(measure_strain). The stop
 // token is polled between windows; an interrupted cell starts again from scratch (no checkpoint).
-// Result JSON: see measurements_json, plus site, media_count, powder_count, wall_ball_count.
+// Result JSON: see measurements_json, plus site (the sites task's entry), slot, powder_load,
+// media_count, powder_count, wall_ball_count.
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -26,13 +28,23 @@
 
 namespace millflow::tasks {
 
-inline constexpr const char* kShearCellsVersion = "1";
-inline constexpr const char* kShearCellVersion = "1";
+inline constexpr const char* kShearCellVersion = "2";
 inline constexpr int kWarmupWindows = 4;
 
-// The cell of a shear_cell task's parameters. Throws engine::InvalidInput or
+// The site id of a slot: "<region>-<index>".
+std::string slot_site_id(const nlohmann::json& slot);
+
+// The site of a slot in a sites task's result, or the reason there is none to shear.
+struct SlotSite {
+  nlohmann::json site;  // null when there is no usable site
+  std::string skipped;  // empty when `site` can drive a cell
+};
+SlotSite find_slot_site(const nlohmann::json& sites_result, const nlohmann::json& slot);
+
+// The cell of a shear_cell task's parameters at a site. Throws engine::InvalidInput or
 // nlohmann::json::exception for missing values, std::invalid_argument for unusable ones.
-dem::ShearCellSetup shear_cell_setup(const nlohmann::json& params, const std::string& task_key);
+dem::ShearCellSetup shear_cell_setup(const nlohmann::json& params, const nlohmann::json& site,
+                                     const std::string& task_key);
 
 // The measurements in SI units: strain, duration_s, steps, *_shear_rate_per_s (target, bulk,
 // nominal), wall_speed_m_s, gap_m, volume_m3, shear_stress_pa, normal_stress_pa, friction,
@@ -44,7 +56,6 @@ dem::ShearCellSetup shear_cell_setup(const nlohmann::json& params, const std::st
 // shear_stress_second_half_pa, deviation, steady}, wall_seconds, particle_steps_per_second.
 nlohmann::json measurements_json(const dem::ShearCellMeasurements& m);
 
-engine::TaskOutcome run_shear_cells(engine::TaskContext& context);
 engine::TaskOutcome run_shear_cell(engine::TaskContext& context);
 
 }  // namespace millflow::tasks

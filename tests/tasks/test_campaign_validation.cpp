@@ -122,7 +122,7 @@ TEST(CampaignLoading, FillsEveryDefault) {
   EXPECT_EQ(campaign["sites"]["regions"],
             json({"bulk", "shoulder", "cascading", "toe", "cataracting", "near_liner"}));
   const auto& cell = campaign["shear_cell"];
-  EXPECT_EQ(cell["boundary"], "walls");
+  EXPECT_EQ(cell["boundary"], "lees_edwards");
   EXPECT_EQ(cell["size_diameters"], json({6.0, 8.0, 6.0}));
   EXPECT_EQ(cell["gravity"], false);
   EXPECT_EQ(cell["warmup_strain"], 2.0);

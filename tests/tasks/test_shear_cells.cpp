@@ -1,5 +1,6 @@
-// The shear_cells and shear_cell kinds: planning per sweep point, one child per usable site, the
-// translation of campaign parameters into a cell, and tiny cells run through the task function.
+// The shear_cell kind: planning per sweep point (a cell per site slot and load, an upscale per
+// point), finding a slot's site, the translation of campaign parameters into a cell, and tiny
+// cells run through the task function.
 #include <gtest/gtest.h>
 
 #include <tbb/task_arena.h>
@@ -30,10 +31,18 @@ json tiny_cell_params(double powder_load) {
     "shear_cell": {"boundary": "walls", "size_diameters": [4, 4, 4], "gravity": false,
                    "warmup_strain": 0.5, "measure_strain": 1.0, "stress_control": {"gain": 0.5},
                    "powder": {"material": "clinker", "diameter_ratio": 0.5, "load": 0}},
-    "site": {"site_id": "toe-0", "region": "toe", "shear_rate_per_s": 20.0, "normal_stress_pa": 2000.0,
-             "weight_m3": 0.001, "dissipation_share": 0.2}
+    "slot": {"region": "toe", "index": 0}
   })")
       .patch(json::array({{{"op", "replace"}, {"path", "/shear_cell/powder/load"}, {"value", powder_load}}}));
+}
+
+json tiny_site() {
+  return {{"site_id", "toe-0"}, {"region", "toe"}, {"shear_rate_per_s", 20.0}, {"normal_stress_pa", 2000.0},
+          {"shear_stress_pa", 900.0}, {"weight_m3", 0.001}, {"dissipation_share", 0.2}, {"position_m", {0.1, -0.3}}};
+}
+
+engine::TaskInput sites_input() {
+  return engine::TaskInput{.key = "sites-key", .kind = "sites", .result = {{"sites", {tiny_site()}}}, .artifacts = {}};
 }
 
 struct Direct {
@@ -67,73 +76,82 @@ std::vector<engine::TaskSpec> quick_plan(bool shear_cells) {
 }
 
 TEST(ShearCellsPlan, DisabledShearCellsStopTheDagAtTheSites) {
-  for (const auto& task : quick_plan(false)) EXPECT_NE(task.kind, "shear_cells");
+  for (const auto& task : quick_plan(false)) {
+    EXPECT_TRUE(task.kind == "macro" || task.kind == "average" || task.kind == "sites") << task.kind;
+  }
 }
 
-TEST(ShearCellsPlan, EveryPointHasItsOwnShearCellsBelowSharedSites) {
+TEST(ShearCellsPlan, EverySlotAndLoadHasACellBelowSharedSitesAndEveryPointAnUpscale) {
   const auto tasks = quick_plan(true);
   std::map<std::string, int> per_kind;
-  std::map<std::string, std::string> kind_of;
+  std::map<std::string, const engine::TaskSpec*> by_key;
   for (const auto& task : tasks) {
     ++per_kind[task.kind];
-    kind_of[task.key] = task.kind;
+    by_key[task.key] = &task;
   }
+  // 2 fills x 2 speeds; 5 regions x 2 sites per region; loads 0, 0.5, 1.
   EXPECT_EQ(per_kind["macro"], 4);
   EXPECT_EQ(per_kind["average"], 4);
   EXPECT_EQ(per_kind["sites"], 4);
-  EXPECT_EQ(per_kind["shear_cells"], 12);
+  EXPECT_EQ(per_kind["shear_cell"], 4 * 10 * 3);
+  EXPECT_EQ(per_kind["upscale"], 4 * 3);
 
-  std::map<std::string, std::set<double>> loads_per_sites;
   for (const auto& task : tasks) {
-    if (task.kind != "shear_cells") continue;
-    ASSERT_EQ(task.upstream.size(), 1u);
-    EXPECT_EQ(kind_of[task.upstream[0]], "sites");
-    loads_per_sites[task.upstream[0]].insert(task.params.at("shear_cell").at("powder").at("load").get<double>());
-    EXPECT_EQ(task.params.at("materials").size(), 2u);  // steel and clinker
-    EXPECT_EQ(task.params.at("interactions").size(), 3u);
-    EXPECT_EQ(task.params.at("media").at("diameter").get<double>(), 0.04);
-    EXPECT_TRUE(task.params.contains("dem"));
-    EXPECT_FALSE(task.params.contains("macro"));  // a macro setting must not re-key the cells
+    if (task.kind == "shear_cell") {
+      ASSERT_EQ(task.upstream.size(), 1u);
+      EXPECT_EQ(by_key[task.upstream[0]]->kind, "sites");
+      EXPECT_EQ(task.params.at("materials").size(), 2u);  // steel and clinker
+      EXPECT_EQ(task.params.at("interactions").size(), 3u);
+      EXPECT_TRUE(task.params.at("slot").contains("region"));
+      EXPECT_FALSE(task.params.contains("macro"));  // a macro setting must not re-key the cells
+    }
+    if (task.kind != "upscale") continue;
+    // Its macro, average and sites, its 10 cells, and the 10 without powder unless it has none.
+    const double load = task.params.at("powder_load");
+    std::map<std::string, int> upstream_kinds;
+    std::set<double> cell_loads;
+    for (const auto& key : task.upstream) {
+      const engine::TaskSpec& up = *by_key.at(key);
+      ++upstream_kinds[up.kind];
+      if (up.kind == "shear_cell") cell_loads.insert(up.params.at("shear_cell").at("powder").at("load").get<double>());
+    }
+    EXPECT_EQ(upstream_kinds["macro"], 1);
+    EXPECT_EQ(upstream_kinds["average"], 1);
+    EXPECT_EQ(upstream_kinds["sites"], 1);
+    EXPECT_EQ(upstream_kinds["shear_cell"], load == 0.0 ? 10 : 20);
+    const std::set<double> expected = load == 0.0 ? std::set<double>{0.0} : std::set<double>{0.0, load};
+    EXPECT_EQ(cell_loads, expected);
   }
-  ASSERT_EQ(loads_per_sites.size(), 4u);
-  for (const auto& [sites, loads] : loads_per_sites) EXPECT_EQ(loads, (std::set<double>{0.0, 0.5, 1.0}));
 }
 
 json site(const std::string& id, double shear_rate, double normal_stress) {
-  return {{"site_id", id},          {"region", "bed"},       {"shear_rate_per_s", shear_rate},
+  return {{"site_id", id},          {"region", "toe"},       {"shear_rate_per_s", shear_rate},
           {"normal_stress_pa", normal_stress}, {"weight_m3", 0.002}, {"dissipation_share", 0.1},
-          {"pressure_pa", 5.0},     {"position_m", {0.1, -0.2}}};
+          {"shear_stress_pa", 800.0}, {"pressure_pa", 5.0},     {"position_m", {0.1, -0.2}}};
 }
 
-TEST(ShearCells, DeclaresOneChildPerUsableSiteAndListsTheRest) {
-  Direct direct{.params = {{"shear_cell", {{"boundary", "walls"}}}, {"dem", {{"seed", 1}}}}, .inputs = {}};
-  direct.inputs.push_back(engine::TaskInput{
-      .key = "sites-key",
-      .kind = "sites",
-      .result = {{"sites", {site("bed-0", 4.0, 100.0), site("bed-1", 0.0, 100.0), site("bed-2", 3.0, -1.0),
-                            site("bed-3", 2.0, 300.0)}}},
-      .artifacts = {}});
-  const auto outcome = direct.run(run_shear_cells);
+TEST(ShearCellSlot, FindsItsSiteOrSaysWhyThereIsNone) {
+  const json sites = {{"sites", {site("toe-0", 4.0, 100.0), site("toe-1", 0.0, 100.0), site("toe-2", 3.0, -1.0)}}};
+  const SlotSite found = find_slot_site(sites, {{"region", "toe"}, {"index", 0}});
+  EXPECT_TRUE(found.skipped.empty());
+  EXPECT_EQ(found.site, sites["sites"][0]);
+  EXPECT_EQ(find_slot_site(sites, {{"region", "toe"}, {"index", 1}}).skipped, "shear_rate_per_s = 0 is not positive");
+  EXPECT_EQ(find_slot_site(sites, {{"region", "toe"}, {"index", 2}}).skipped, "normal_stress_pa = -1 is not positive");
+  EXPECT_EQ(find_slot_site(sites, {{"region", "bulk"}, {"index", 0}}).skipped,
+            "the sites task chose no site bulk-0 (region bulk has fewer cells or none)");
+}
 
-  ASSERT_EQ(outcome.children.size(), 2u);
-  EXPECT_EQ(outcome.result.at("children"), 2);
-  const std::vector<std::string> skipped = {outcome.result.at("skipped").at(0).at("site_id"),
-                                            outcome.result.at("skipped").at(1).at("site_id")};
-  EXPECT_EQ(skipped, (std::vector<std::string>{"bed-1", "bed-2"}));
-  EXPECT_NE(outcome.result.at("skipped").at(1).at("reason").get<std::string>().find("normal_stress_pa"),
-            std::string::npos);
-  const auto& child = outcome.children[1];
-  EXPECT_EQ(child.kind, "shear_cell");
-  EXPECT_TRUE(child.extra_upstream.empty());
-  EXPECT_EQ(child.params.at("shear_cell"), direct.params.at("shear_cell"));
-  EXPECT_EQ(child.params.at("dem"), direct.params.at("dem"));
-  const json expected_site = {{"site_id", "bed-3"},      {"region", "bed"},      {"shear_rate_per_s", 2.0},
-                              {"normal_stress_pa", 300.0}, {"weight_m3", 0.002}, {"dissipation_share", 0.1}};
-  EXPECT_EQ(child.params.at("site"), expected_site);
+TEST(ShearCellSlot, AnEmptySlotFinishesAtOnceAndSaysWhy) {
+  json params = tiny_cell_params(0.5);
+  params["slot"] = {{"region", "bulk"}, {"index", 3}};
+  const auto outcome = Direct{.params = params, .inputs = {sites_input()}}.run(run_shear_cell);
+  EXPECT_EQ(outcome.result.at("skipped"), "the sites task chose no site bulk-3 (region bulk has fewer cells or none)");
+  EXPECT_EQ(outcome.result.at("powder_load"), 0.5);
+  EXPECT_FALSE(outcome.result.contains("shear_stress_pa"));
 }
 
 TEST(ShearCellSetup, CollisionTimesHoldForEachPairsReferenceParticles) {
-  const dem::ShearCellSetup setup = shear_cell_setup(tiny_cell_params(0.3), "key");
+  const dem::ShearCellSetup setup = shear_cell_setup(tiny_cell_params(0.3), tiny_site(), "key");
   EXPECT_DOUBLE_EQ(setup.media_diameter, 0.01);
   EXPECT_DOUBLE_EQ(setup.powder.density, 3150.0);
   EXPECT_DOUBLE_EQ(setup.shear_rate, 20.0);
@@ -149,11 +167,11 @@ TEST(ShearCellSetup, CollisionTimesHoldForEachPairsReferenceParticles) {
   EXPECT_NEAR(duration(setup.media_media, ball, ball), 1e-3, 1e-9);
   EXPECT_NEAR(duration(setup.media_powder, ball, grain), 8e-4, 1e-9);
   EXPECT_NEAR(duration(setup.powder_powder, grain, grain), 6e-4, 1e-9);
-  EXPECT_NE(setup.seed, shear_cell_setup(tiny_cell_params(0.3), "other key").seed);
+  EXPECT_NE(setup.seed, shear_cell_setup(tiny_cell_params(0.3), tiny_site(), "other key").seed);
 }
 
 TEST(ShearCell, TinyMediaCellGivesFiniteStressesAndNoPowderDissipation) {
-  const auto outcome = Direct{.params = tiny_cell_params(0.0), .inputs = {}}.run(run_shear_cell);
+  const auto outcome = Direct{.params = tiny_cell_params(0.0), .inputs = {sites_input()}}.run(run_shear_cell);
   ASSERT_FALSE(outcome.interrupted);
   const json& r = outcome.result;
   EXPECT_EQ(r.at("powder_count"), 0);
@@ -165,11 +183,12 @@ TEST(ShearCell, TinyMediaCellGivesFiniteStressesAndNoPowderDissipation) {
   EXPECT_GT(r.at("power_density_w_m3").get<double>(), 0.0);
   EXPECT_EQ(r.at("powder_dissipation_w_m3").get<double>(), 0.0);
   EXPECT_GT(r.at("dissipation_w_m3").at("total").get<double>(), 0.0);
-  EXPECT_EQ(r.at("site").at("site_id"), "toe-0");
+  EXPECT_EQ(r.at("site"), tiny_site());
+  EXPECT_EQ(r.at("powder_load"), 0.0);
 }
 
 TEST(ShearCell, PowderInTheCellDissipates) {
-  const auto outcome = Direct{.params = tiny_cell_params(0.1), .inputs = {}}.run(run_shear_cell);
+  const auto outcome = Direct{.params = tiny_cell_params(0.1), .inputs = {sites_input()}}.run(run_shear_cell);
   const json& r = outcome.result;
   EXPECT_GT(r.at("powder_count").get<int>(), 0);
   EXPECT_GT(r.at("powder_dissipation_w_m3").get<double>(), 0.0);
@@ -180,7 +199,7 @@ TEST(ShearCell, StopsBeforeTheFirstWindowWhenAsked) {
   const json params = tiny_cell_params(0.0);
   std::stop_source stop;
   stop.request_stop();
-  const std::vector<engine::TaskInput> inputs;
+  const std::vector<engine::TaskInput> inputs = {sites_input()};
   engine::TaskContext context{.key = "k", .params = params, .inputs = inputs, .work_dir = {}, .threads = 1,
                               .stop = stop.get_token(), .progress = [](double, std::string_view) {},
                               .log = [](std::string_view) {}};
