@@ -125,8 +125,11 @@ void SlurmExecutor::reattach(const JobRecord& job) {
 }
 
 std::optional<AttemptOutcome> SlurmExecutor::settle(Tracked& tracked, const std::string& state) const {
-  const JobRecord& job = tracked.job;
-  if (auto outcome = read_attempt_outcome(job.output_dir, job.task_key, job.attempt)) return outcome;
+  JobRecord& job = tracked.job;
+  if (auto outcome = read_attempt_outcome(job.output_dir, job.task_key, job.attempt)) {
+    job.state = state_from_marker(*outcome);  // says more than FAILED for a checkpointed job
+    return outcome;
+  }
   // A marker written just before the job ended may reach a shared filesystem late: wait one poll.
   if (++tracked.polls_without_marker_after_end < 2) return std::nullopt;
   const std::string how = state == "VANISHED" ? "vanished from squeue" : "ended " + state;
@@ -160,12 +163,11 @@ JobExecutor::Poll SlurmExecutor::poll() {
     const auto found = states.find(it->first);
     const std::string state = found == states.end() ? "VANISHED" : found->second;
     JobRecord& job = it->second.job;
-    if (state != job.state) {
-      job.state = state;
-      result.changed.push_back(job);
-    }
+    const std::string before = job.state;
+    job.state = state;
     std::optional<AttemptOutcome> outcome;
     if (!slurm_state_is_active(state)) outcome = settle(it->second, state);
+    if (job.state != before) result.changed.push_back(job);
     if (outcome) {
       result.finished.push_back(std::move(*outcome));
       it = tracked_.erase(it);

@@ -60,7 +60,8 @@ class SlurmExecutor final : public JobExecutor {
   std::filesystem::path new_batch_dir();
   std::vector<TaskInput> staged(const std::vector<TaskInput>& inputs) const;
   void write_batch_script(const std::filesystem::path& batch_dir) const;
-  // The outcome of a job that ended or vanished, once its marker is known to be missing.
+  // The outcome of a job that ended or vanished: from its marker, or a failure once the marker is
+  // still missing a poll later. Sets the job's state to record.
   std::optional<AttemptOutcome> settle(Tracked& tracked, const std::string& state) const;
 
   SlurmSettings settings_;
