@@ -6,16 +6,15 @@
 # and artifacts are bitwise equal to a run of the same campaign with the local executor.
 # Usage: run_slurm_test.sh MILLFLOW_BINARY CAMPAIGN_FILE. Exit 77 (skipped) without Slurm.
 set -euo pipefail
-millflow=$(realpath "$1")
-campaign=$(realpath "$2")
-here=$(dirname "$(realpath "$0")")
-
 for binary in sbatch squeue sinfo slurmctld slurmd munged; do
   if ! PATH=$PATH:/usr/sbin command -v "$binary" >/dev/null; then
     echo "skipped: $binary is not installed (apt-get install slurm-wlm munge)"
     exit 77
   fi
 done
+millflow=$(realpath "$1")
+campaign=$(realpath "$2")
+here=$(dirname "$(realpath "$0")")
 
 started=$(date +%s.%N)
 scratch=$(mktemp -d /tmp/millflow-slurm-XXXXXX)
