@@ -13,6 +13,8 @@ jobs=${JOBS:-$(nproc)}
 packages=(build-essential cmake ninja-build ccache git pkg-config
           libtbb-dev libeigen3-dev libsqlite3-dev sqlite3 nlohmann-json3-dev libfmt-dev libspdlog-dev
           libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libssl-dev python3 python3-jsonschema)
+# The tests also start a private Slurm cluster (tests/slurm/run_slurm_test.sh).
+test_packages=(slurm-wlm munge)
 
 install_missing() {
   local missing=()
@@ -45,6 +47,7 @@ case "$mode" in
         FROM macro_results WHERE campaign = 'quick' ORDER BY fill, speed_fraction"
     ;;
   test)
+    packages+=("${test_packages[@]}")
     install_missing
     build
     ctest --test-dir "$build_dir" -j "$jobs" --output-on-failure --timeout 600

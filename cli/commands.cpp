@@ -5,9 +5,12 @@
 
 #include <iostream>
 
+#include "cli/executor_choice.hpp"
+#include "engine/attempt_files.hpp"
 #include "engine/coordinator_lock.hpp"
 #include "engine/inspect.hpp"
 #include "engine/interrupt.hpp"
+#include "engine/slurm_executor.hpp"
 #include "engine/validation.hpp"
 
 namespace millflow::cli {
@@ -24,6 +27,9 @@ struct RunFlags {
   int jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   int threads_per_task = 1;
   int retries = 0;
+  std::string executor;  // overrides the campaign's executor.kind
+  double poll_interval_s = 10.0;
+  std::string run_dir;   // batch jobs' run directory; default <db>.jobs
 };
 
 // Runs a command body, turning errors into messages and exit codes.
@@ -55,6 +61,30 @@ void add_run_options(CLI::App* command, RunFlags& flags) {
   command->add_option("--threads-per-task", flags.threads_per_task, "Threads of each task's own arena")
       ->check(CLI::PositiveNumber);
   command->add_option("--retries", flags.retries, "Extra attempts of a failing task")->check(CLI::NonNegativeNumber);
+  command->add_option("--executor", flags.executor, "local or slurm (overrides the campaign's executor.kind)")
+      ->check(CLI::IsMember({"local", "slurm"}));
+  command->add_option("--poll-interval", flags.poll_interval_s, "Slurm: seconds between polls of the jobs (default 10)")
+      ->check(CLI::PositiveNumber);
+  command->add_option("--run-dir", flags.run_dir,
+                      "Slurm: run directory on a filesystem the compute nodes share (default <db>.jobs)");
+}
+
+// The Slurm executor for this run, or null for the in-process launcher.
+struct BatchJobs {
+  std::unique_ptr<engine::SlurmCommands> commands;
+  std::unique_ptr<engine::JobExecutor> executor;
+};
+
+BatchJobs batch_jobs(const ExecutorChoice& choice, const RunFlags& flags) {
+  if (choice.kind != "slurm") return {};
+  engine::SlurmSettings settings = choice.slurm;
+  settings.run_dir = fs::absolute(flags.run_dir.empty() ? engine::jobs_dir(flags.db) : fs::path(flags.run_dir));
+  settings.program = fs::read_symlink("/proc/self/exe");
+  settings.poll_interval_s = flags.poll_interval_s;
+  BatchJobs jobs;
+  jobs.commands = engine::system_slurm_commands();
+  jobs.executor = std::make_unique<engine::SlurmExecutor>(settings, *jobs.commands);
+  return jobs;
 }
 
 TableFormat parse_format(const std::string& name) {
@@ -63,7 +93,11 @@ TableFormat parse_format(const std::string& name) {
   return TableFormat::json;
 }
 
-int run_campaign(const engine::Registry& registry, const engine::Campaign& campaign, const RunFlags& flags) {
+int run_campaign(const engine::Registry& registry, engine::Campaign campaign, const RunFlags& flags) {
+  const ExecutorChoice choice = choose_executor(campaign.document, flags.executor);
+  // The stored document names the executor used, so `resume` goes on with it (and re-attaches).
+  if (!flags.executor.empty()) campaign.document["executor"]["kind"] = flags.executor;
+  const BatchJobs jobs = batch_jobs(choice, flags);
   engine::install_interrupt_handlers();
   engine::LiveProgress live(stderr);
   engine::PlainProgress plain(stderr);
@@ -72,6 +106,7 @@ int run_campaign(const engine::Registry& registry, const engine::Campaign& campa
   options.run.threads_per_task = flags.threads_per_task;
   options.run.retries = flags.retries;
   options.run.stop_requested = engine::interrupt_requested;
+  options.jobs = jobs.executor.get();
   options.progress = ::isatty(STDERR_FILENO) ? static_cast<engine::ProgressView*>(&live) : &plain;
   const auto summary = engine::submit_campaign(registry, campaign, flags.db, options);
   std::cout << "campaign " << campaign.name << ": " << summary.describe() << '\n';
@@ -121,6 +156,19 @@ void add_resume(CLI::App& app, const engine::Registry& registry, std::optional<i
   add_run_options(command, *flags);
   command->callback([&registry, &code, name, flags] {
     code = guarded([&] { return run_campaign(registry, engine::stored_campaign(flags->db, *name), *flags); });
+  });
+}
+
+void add_exec(CLI::App& app, const engine::Registry& registry, std::optional<int>& code) {
+  auto* command = app.add_subcommand(
+      "exec", "Run one task attempt from a task-spec file (what a batch job runs; never opens the database)");
+  command->footer(
+      "Exit codes: 0 done, 1 the task failed, 2 bad spec file, 75 stopped at a checkpoint on SIGUSR1/SIGTERM.");
+  auto file = std::make_shared<std::string>();
+  command->add_option("SPEC_FILE", *file, "Task-spec file written by the coordinator")->required();
+  command->callback([&registry, &code, file] {
+    engine::install_checkpoint_handlers();
+    code = guarded([&] { return engine::execute_attempt(registry.kinds, *file, engine::interrupt_requested, std::cerr); });
   });
 }
 
@@ -227,6 +275,7 @@ void add_engine_commands(CLI::App& app, const engine::Registry& registry, std::o
   add_validate(app, registry, exit_code);
   add_submit(app, registry, exit_code);
   add_resume(app, registry, exit_code);
+  add_exec(app, registry, exit_code);
   add_status(app, exit_code);
   add_query(app, exit_code);
   add_export(app, exit_code);

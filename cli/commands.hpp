@@ -1,7 +1,7 @@
 #pragma once
-// The engine's subcommands: validate, submit, resume, status, query, export, show, explain, dag, gc.
-// Exit codes: 0 done, 1 some tasks failed (or an unexpected error), 2 bad input, 3 the database is
-// held by another coordinator, 130 interrupted.
+// The engine's subcommands: validate, submit, resume, exec, status, query, export, show, explain,
+// dag, gc. Exit codes: 0 done, 1 some tasks failed (or an unexpected error), 2 bad input, 3 the
+// database is held by another coordinator, 130 interrupted; exec has its own (engine/attempt_files.hpp).
 #include <CLI/CLI.hpp>
 #include <optional>
 

@@ -160,10 +160,11 @@ RunSummary submit_campaign(const Registry& registry, const Campaign& campaign, c
 
   QuietProgress quiet;
   std::unique_ptr<Launcher> own_launcher;
-  if (!options.launcher) own_launcher = std::make_unique<TbbLauncher>(options.run.jobs, options.run.threads_per_task);
+  if (options.jobs) own_launcher = std::make_unique<InlineLauncher>();  // idle: the jobs run elsewhere
+  else if (!options.launcher) own_launcher = std::make_unique<TbbLauncher>(options.run.jobs, options.run.threads_per_task);
   RunEnvironment environment{store, registry.kinds, options.launcher ? *options.launcher : *own_launcher,
                              options.progress ? *options.progress : quiet, clock,
-                             options.files ? *options.files : local_file_system(), logger};
+                             options.files ? *options.files : local_file_system(), logger, options.jobs};
   const RunSummary summary = run_campaign(environment, id, planned, options.run);
   const std::string outcome = summary.stopped ? "interrupted" : summary.failed > 0 ? "failed" : "done";
   store.finish_campaign(id, outcome);

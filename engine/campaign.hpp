@@ -64,6 +64,7 @@ struct SubmitOptions {
   const Clock* clock = nullptr;      // default: the system clock
   Launcher* launcher = nullptr;      // default: TbbLauncher(jobs, threads_per_task)
   const FileSystem* files = nullptr; // default: the local disk
+  JobExecutor* jobs = nullptr;       // run attempts as batch jobs (Slurm); default: in this process
 };
 
 // Takes the coordinator lock (CoordinatorBusy), registers the campaign and runs it.

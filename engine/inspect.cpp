@@ -201,6 +201,20 @@ std::vector<std::string> compare_with_nearest(sql::Connection& db, const TaskRec
   return lines;
 }
 
+// The batch job of each task of the campaign that is not finished yet (latest attempt).
+void print_unfinished_jobs(sql::Connection& db, std::int64_t campaign, std::ostream& out) {
+  if (db.user_version() < 2) return;
+  auto rows = db.prepare(
+      "SELECT t.kind, substr(t.key, 1, 16) AS task, j.attempt, j.executor, j.job_id, j.state FROM campaign_tasks ct "
+      "JOIN tasks t ON t.key = ct.task_key JOIN jobs j ON j.task_key = t.key AND j.attempt = t.attempts "
+      "WHERE ct.campaign_id = ? AND t.status = 'running' ORDER BY j.job_id");
+  rows.bind_all(campaign);
+  const Table jobs = read_table(rows);
+  if (jobs.rows.empty()) return;
+  out << "\nbatch jobs of running tasks:\n";
+  print_aligned(jobs, out);
+}
+
 }  // namespace
 
 void print_status(const fs::path& db, const std::string& campaign, std::ostream& out) {
@@ -218,8 +232,10 @@ void print_status(const fs::path& db, const std::string& campaign, std::ostream&
   auto rows = connection.prepare(
       "SELECT t.kind, t.status, count(*) AS tasks FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
       "WHERE ct.campaign_id = ? GROUP BY t.kind, t.status ORDER BY t.kind, t.status");
-  rows.bind_all(campaign_id(connection, campaign));
+  const std::int64_t id = campaign_id(connection, campaign);
+  rows.bind_all(id);
   print_aligned(read_table(rows), out);
+  print_unfinished_jobs(connection, id, out);
 }
 
 void run_query(const fs::path& db, const std::string& sql_text, TableFormat format, std::ostream& out) {
@@ -280,6 +296,10 @@ void print_show(const fs::path& db, const std::string& task, std::ostream& out) 
   for (const auto& artifact : find_artifacts(connection, key)) {
     out << fmt::format("artifact {} {} bytes sha256 {} {} ({})\n", artifact.name, artifact.size, artifact.sha256,
                        artifacts.path_of(artifact.sha256).string(), artifacts.verify(artifact) ? "verified" : "MISSING OR CORRUPT");
+  }
+  for (const auto& job : find_jobs(connection, key)) {
+    out << fmt::format("job {} {} attempt {} state {}\n  stdout {}\n  stderr {}\n", job.executor, job.job_id, job.attempt,
+                       job.state, job.stdout_file.string(), job.stderr_file.string());
   }
   for (const auto& upstream : lineage(connection, key, true)) out << "upstream   " << kind_and_status(connection, upstream) << '\n';
   for (const auto& downstream : lineage(connection, key, false)) out << "downstream " << kind_and_status(connection, downstream) << '\n';

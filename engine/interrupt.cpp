@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <initializer_list>
 
 namespace millflow::engine {
 namespace {
@@ -16,7 +17,16 @@ extern "C" void on_interrupt(int) {
   [[maybe_unused]] const auto written = ::write(STDERR_FILENO, kMessage, sizeof(kMessage) - 1);
 }
 
+extern "C" void on_checkpoint_request(int) { g_interrupts = g_interrupts + 1; }
+
 }  // namespace
+
+void install_checkpoint_handlers() {
+  struct sigaction action {};
+  action.sa_handler = on_checkpoint_request;
+  sigemptyset(&action.sa_mask);
+  for (const int signal : {SIGUSR1, SIGUSR2, SIGTERM, SIGINT}) sigaction(signal, &action, nullptr);
+}
 
 void install_interrupt_handlers() {
   struct sigaction action {};

@@ -5,6 +5,10 @@
 namespace millflow::engine {
 
 void install_interrupt_handlers();
+// For one attempt run as a batch job (`millflow exec`): SIGUSR1, SIGUSR2, SIGTERM and SIGINT only
+// ask it to checkpoint and stop (the scheduler's --signal before the time limit, scancel, Ctrl-C);
+// the process never exits from a handler, so it can write its marker.
+void install_checkpoint_handlers();
 bool interrupt_requested();
 
 }  // namespace millflow::engine

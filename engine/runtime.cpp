@@ -145,13 +145,6 @@ class ArenaPool {
   std::vector<std::unique_ptr<tbb::task_arena>> free_;
 };
 
-// A task claimed for launch: recorded running in the store, inputs gathered.
-struct Launch {
-  const TaskSpec* spec;
-  std::shared_ptr<const std::vector<TaskInput>> inputs;
-  int attempt;
-};
-
 // Status and artifacts of every task of the campaign, read in bulk before the run.
 struct StoredState {
   std::unordered_map<std::string, std::string> status;
@@ -187,7 +180,7 @@ class Coordinator {
         campaign_(campaign),
         options_(options),
         artifacts_(artifacts_dir(env_.store.path()), env_.files),
-        work_root_(work_dir(env_.store.path())),
+        work_root_(env_.jobs ? env_.jobs->work_root() : work_dir(env_.store.path())),
         arenas_(options.threads_per_task),
         started_(env_.clock.now()) {}
 
@@ -220,9 +213,25 @@ class Coordinator {
     if (node.state == State::pending && upstream_failed) {
       node.state = State::skipped;
       env_.store.mark_skipped({spec.key}, "an upstream task failed");
-    } else if (node.state == State::pending && node.waiting_on == 0) {
+    } else if (node.state == State::pending && node.waiting_on == 0 && !reattach(node)) {
       ready_.push_back(spec.key);
     }
+  }
+
+  // A task left running by an earlier coordinator whose batch job was recorded: followed again
+  // instead of being submitted twice (its job may still be queued, running or finished).
+  bool reattach(Node& node) {
+    if (!env_.jobs || status_of(node.spec.key) != "running") return false;
+    const auto record = find_task(env_.store.connection(), node.spec.key);
+    const auto jobs = find_jobs(env_.store.connection(), node.spec.key);
+    if (!record || jobs.empty() || jobs.back().attempt != record->attempts) return false;
+    env_.jobs->reattach(jobs.back());
+    node.state = State::running;
+    ++node.attempts_this_run;
+    ++running_;
+    board_.start(node.spec.key, node.spec.kind);
+    report(node.spec.key, fmt::format("re-attached to job {} (attempt {})", jobs.back().job_id, record->attempts));
+    return true;
   }
 
   void admit_stored(const std::string& key) {
@@ -272,16 +281,23 @@ class Coordinator {
   // --- the loop --------------------------------------------------------------------------
   void loop() {
     double last_refresh = 0.0;
+    double last_poll = 0.0;
     std::optional<Event> event;
     while (true) {
       if (!stopping_ && options_.stop_requested()) {
         stopping_ = true;
         stop_.request_stop();
-        log(std::nullopt, "warn", "stop requested: no new tasks; running tasks stop at their next checkpoint");
+        log(std::nullopt, "warn",
+            env_.jobs ? "stop requested: no new jobs; running jobs are left to `millflow resume`"
+                      : "stop requested: no new tasks; running tasks stop at their next checkpoint");
       }
-      for (const auto& launch : record_turn(event)) start(launch);
+      start(record_turn(event));
       event.reset();
-      if (running_ == 0 && (ready_.empty() || stopping_)) break;
+      if ((running_ == 0 || (stopping_ && env_.jobs)) && (ready_.empty() || stopping_)) break;
+      if (env_.jobs && env_.clock.now() - last_poll >= env_.jobs->poll_interval_s()) {
+        poll_jobs();
+        last_poll = env_.clock.now();
+      }
       event = events_.pop_for(options_.refresh_s);
       if (env_.clock.now() - last_refresh >= options_.refresh_s) {
         env_.progress.refresh(snapshot());
@@ -292,16 +308,18 @@ class Coordinator {
     env_.progress.finish();
   }
 
-  bool can_launch() const { return !stopping_ && running_ < options_.jobs && !ready_.empty(); }
+  bool can_launch() const {
+    return !stopping_ && running_ < (env_.jobs ? env_.jobs->max_in_flight() : options_.jobs) && !ready_.empty();
+  }
 
   // One write transaction per turn of the loop: the outcome that just arrived and the launches it
   // made possible. A task is recorded running (its attempt counted) in a committed transaction
   // before it starts, so a task found 'running' after a crash is known to have been interrupted.
-  std::vector<Launch> record_turn(std::optional<Event>& event) {
+  std::vector<AttemptOrder> record_turn(std::optional<Event>& event) {
     if (!event && !can_launch()) return {};
     sql::Transaction transaction(env_.store.connection());
     if (event) handle(std::move(*event));
-    std::vector<Launch> launches;
+    std::vector<AttemptOrder> launches;
     while (can_launch()) {
       launches.push_back(claim(ready_.front()));
       ready_.pop_front();
@@ -324,7 +342,7 @@ class Coordinator {
     return inputs;
   }
 
-  Launch claim(const std::string& key) {
+  AttemptOrder claim(const std::string& key) {
     Node& node = nodes_.at(key);
     node.state = State::running;
     ++node.attempts_this_run;
@@ -332,11 +350,40 @@ class Coordinator {
     const int attempt = env_.store.mark_running(key);
     board_.start(key, node.spec.kind);
     env_.progress.task_event(node.spec.kind, key, fmt::format("started (attempt {})", attempt));
-    return Launch{&node.spec, std::make_shared<const std::vector<TaskInput>>(inputs_of(node.spec)), attempt};
+    return AttemptOrder{&node.spec, std::make_shared<const std::vector<TaskInput>>(inputs_of(node.spec)), attempt};
   }
 
-  void start(const Launch& launch) {
-    env_.launcher.launch([this, launch] { attempt_task(*launch.spec, *launch.inputs, launch.attempt); });
+  void start(const std::vector<AttemptOrder>& launches) {
+    if (!env_.jobs) {
+      for (const auto& launch : launches) {
+        env_.launcher.launch([this, launch] { attempt_task(*launch.spec, *launch.inputs, launch.attempt); });
+      }
+      return;
+    }
+    if (launches.empty()) return;
+    const auto submitted = env_.jobs->submit(launches);
+    env_.store.record_jobs(submitted);
+    for (const auto& job : submitted) report(job.task_key, fmt::format("submitted as {} job {}", job.executor, job.job_id));
+  }
+
+  // Records the jobs' new states and queues their outcomes as events, as if from a worker.
+  void poll_jobs() {
+    auto poll = env_.jobs->poll();
+    env_.store.record_jobs(poll.changed);
+    for (auto& finished : poll.finished) {
+      Event event = Event::finished(finished.key, finished.attempt);
+      event.error = std::move(finished.error);
+      event.outcome = std::move(finished.outcome);
+      event.duration_s = finished.duration_s;
+      if (!event.error && !event.outcome.interrupted) {
+        try {
+          store_outputs(event.key, event);
+        } catch (const std::exception& error) {
+          event.error = error.what();
+        }
+      }
+      events_.push(std::move(event));
+    }
   }
 
   // Work directories of tasks committed done: removed once the commit is durable.
@@ -393,9 +440,7 @@ class Coordinator {
     if (event.error) {
       handle_failure(event);
     } else if (event.outcome.interrupted) {
-      nodes_.at(event.key).state = State::interrupted;
-      env_.store.mark_finished(event.key, "interrupted", event.attempt, "stopped on request", event.duration_s);
-      report(event.key, "interrupted");
+      handle_interruption(event);
     } else {
       handle_success(event);
     }
@@ -415,6 +460,24 @@ class Coordinator {
       if (--below.waiting_on == 0 && below.state == State::pending) ready_.push_back(downstream);
     }
     for (const auto& child : event.children) admit(child);
+  }
+
+  // Without a stop request only a batch job stops early: its scheduler signalled it before the
+  // time limit and it checkpointed. It goes out again (not a failed attempt) and continues.
+  void handle_interruption(const Event& event) {
+    Node& node = nodes_.at(event.key);
+    if (!stopping_) {
+      env_.store.mark_finished(event.key, "interrupted", event.attempt, "checkpointed before its time limit",
+                               event.duration_s);
+      node.state = State::pending;
+      --node.attempts_this_run;
+      ready_.push_back(event.key);
+      report(event.key, "checkpointed before its time limit; submitted again to continue");
+      return;
+    }
+    node.state = State::interrupted;
+    env_.store.mark_finished(event.key, "interrupted", event.attempt, "stopped on request", event.duration_s);
+    report(event.key, "interrupted");
   }
 
   void handle_failure(const Event& event) {
@@ -491,6 +554,7 @@ class Coordinator {
       if (node.state == State::skipped) ++summary.skipped;
       if (node.state == State::interrupted) ++summary.interrupted;
       if (node.state == State::pending) ++summary.not_started;
+      if (node.state == State::running) ++summary.detached;
     }
     return summary;
   }
@@ -529,6 +593,7 @@ std::string RunSummary::describe() const {
   if (interrupted > 0 || not_started > 0) {
     text += fmt::format(", {} interrupted, {} not started", interrupted, not_started);
   }
+  if (detached > 0) text += fmt::format(", {} left running as batch jobs (resume re-attaches)", detached);
   return text;
 }
 

@@ -10,6 +10,7 @@
 
 #include "engine/artifacts.hpp"
 #include "engine/clock.hpp"
+#include "engine/job_executor.hpp"
 #include "engine/launcher.hpp"
 #include "engine/progress.hpp"
 #include "engine/store.hpp"
@@ -33,6 +34,7 @@ struct RunSummary {
   int skipped = 0;  // below a failed task
   int interrupted = 0;
   int not_started = 0;  // left pending by an interruption
+  int detached = 0;     // left running as batch jobs by an interruption; resume re-attaches
   bool stopped = false;
 
   // 0 done, 1 some tasks failed, 130 interrupted.
@@ -48,6 +50,9 @@ struct RunEnvironment {
   const Clock& clock;
   const FileSystem& files;  // where artifacts are written and read
   std::shared_ptr<spdlog::logger> log;  // the campaign's log file (may be null)
+  // When set, attempts run as its batch jobs (the launcher stays idle); a stop leaves running jobs
+  // to be re-attached by the next run instead of waiting for them.
+  JobExecutor* jobs = nullptr;
 };
 
 // Runs the campaign's tasks (already registered in the store) until all are done, failed or

@@ -99,6 +99,21 @@ CREATE VIEW task_results AS
   JOIN tasks t ON t.key = ct.task_key
   LEFT JOIN results r ON r.task_key = t.key;
 )sql",
+      R"sql(
+CREATE TABLE jobs (
+  task_key TEXT NOT NULL REFERENCES tasks(key),
+  attempt INTEGER NOT NULL,
+  executor TEXT NOT NULL,
+  job_id TEXT NOT NULL,
+  state TEXT NOT NULL,
+  output_dir TEXT NOT NULL,
+  stdout_path TEXT NOT NULL,
+  stderr_path TEXT NOT NULL,
+  submitted_at REAL NOT NULL,
+  updated_at REAL NOT NULL,
+  PRIMARY KEY (task_key, attempt)
+);
+)sql",
   };
   return steps;
 }
@@ -141,6 +156,7 @@ fs::path beside(const fs::path& db, const std::string& suffix) {
 
 fs::path artifacts_dir(const fs::path& db) { return beside(db, ".artifacts"); }
 fs::path work_dir(const fs::path& db) { return beside(db, ".work"); }
+fs::path jobs_dir(const fs::path& db) { return beside(db, ".jobs"); }
 fs::path lock_file(const fs::path& db) { return beside(db, ".lock"); }
 fs::path logs_dir(const fs::path& db) { return beside(db, ".logs"); }
 
@@ -193,6 +209,20 @@ std::vector<std::string> child_keys(sql::Connection& db, const std::string& pare
   std::vector<std::string> keys;
   while (rows.step()) keys.push_back(rows.text(0));
   return keys;
+}
+
+std::vector<JobRecord> find_jobs(sql::Connection& db, const std::string& key) {
+  std::vector<JobRecord> jobs;
+  if (db.user_version() < 2) return jobs;
+  auto rows = db.prepare(
+      "SELECT attempt, executor, job_id, state, output_dir, stdout_path, stderr_path FROM jobs WHERE task_key = ? "
+      "ORDER BY attempt");
+  rows.bind_all(key);
+  while (rows.step()) {
+    jobs.push_back(JobRecord{key, static_cast<int>(rows.integer(0)), rows.text(1), rows.text(2), rows.text(3),
+                             rows.text(4), rows.text(5), rows.text(6)});
+  }
+  return jobs;
 }
 
 Store::Store(const fs::path& db, const std::vector<ViewDefinition>& views, const Clock& clock)
@@ -340,6 +370,22 @@ void Store::mark_pending(const std::string& key, const std::string& reason) {
   const int attempt = static_cast<int>(update.integer(0));
   update.reset();
   record_history(key, "pending", attempt, reason);
+  transaction.commit();
+}
+
+void Store::record_jobs(const std::vector<JobRecord>& jobs) {
+  if (jobs.empty()) return;
+  sql::Transaction transaction(db_);
+  auto& upsert = statement(
+      "INSERT INTO jobs (task_key, attempt, executor, job_id, state, output_dir, stdout_path, stderr_path, submitted_at, "
+      "updated_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
+      "ON CONFLICT(task_key, attempt) DO UPDATE SET state = excluded.state, updated_at = excluded.updated_at");
+  const double now = clock_.now();
+  for (const auto& job : jobs) {
+    upsert.bind_all(job.task_key, job.attempt, job.executor, job.job_id, job.state, job.output_dir.string(),
+                    job.stdout_file.string(), job.stderr_file.string(), now, now);
+    upsert.run();
+  }
   transaction.commit();
 }
 

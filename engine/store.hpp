@@ -2,7 +2,7 @@
 // The provenance store: one SQLite file, written by exactly one connection (this class), owned by
 // the coordinating thread. Readers open their own read-only connections (open_read_only).
 //
-// Schema version 1 (PRAGMA user_version = 1); times are Unix seconds (REAL), JSON is canonical text.
+// Schema version 2 (PRAGMA user_version = 2); times are Unix seconds (REAL), JSON is canonical text.
 //   campaigns      id PK, name UNIQUE, format, document (the loaded campaign JSON), submitted_at,
 //                  finished_at, outcome ('running'|'done'|'failed'|'interrupted')
 //   tasks          key PK (SHA-256 hex), kind, kind_version, params, key_text (exactly what was
@@ -19,6 +19,10 @@
 //   log_lines      id, task_key (NULL for campaign-level lines), at, level, message
 //   coordinator    the one row (id = 1) of the coordinator holding the database: pid, host,
 //                  started_at, campaign
+//   jobs           (since version 2) task_key, attempt (PK together), executor ('slurm'), job_id,
+//                  state (the scheduler's last reported state), output_dir, stdout_path,
+//                  stderr_path, submitted_at, updated_at: the batch job of each attempt run by a
+//                  JobExecutor; `resume` re-attaches to the job of a task's current attempt
 // Views: task_results (campaign, task_key, kind, status, params, result), plus the views that
 // tasks/ registers (ViewDefinition), recreated each time a writer opens the database.
 // Migrations are forward only: migration i takes user_version i to i + 1; a database with a newer
@@ -32,12 +36,13 @@
 
 #include "engine/artifacts.hpp"
 #include "engine/clock.hpp"
+#include "engine/job_executor.hpp"
 #include "engine/sqlite.hpp"
 #include "engine/task.hpp"
 
 namespace millflow::engine {
 
-inline constexpr int kSchemaVersion = 1;
+inline constexpr int kSchemaVersion = 2;
 
 class SchemaTooNew : public std::runtime_error {
  public:
@@ -58,9 +63,11 @@ struct TaskRecord {
   std::string error;
 };
 
-// Paths beside a database file: <dir>/<name>.artifacts, <name>.work, <name>.lock, <name>.logs.
+// Paths beside a database file: <dir>/<name>.artifacts, <name>.work, <name>.lock, <name>.logs,
+// <name>.jobs (the default run directory of batch jobs).
 std::filesystem::path artifacts_dir(const std::filesystem::path& db);
 std::filesystem::path work_dir(const std::filesystem::path& db);
+std::filesystem::path jobs_dir(const std::filesystem::path& db);
 std::filesystem::path lock_file(const std::filesystem::path& db);
 std::filesystem::path logs_dir(const std::filesystem::path& db);
 
@@ -72,6 +79,8 @@ std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key)
 std::optional<nlohmann::json> find_result(sql::Connection& db, const std::string& key);
 std::vector<StoredArtifact> find_artifacts(sql::Connection& db, const std::string& key);
 std::vector<std::string> child_keys(sql::Connection& db, const std::string& parent_key);
+// The batch jobs of a task, by attempt (none before schema version 2).
+std::vector<JobRecord> find_jobs(sql::Connection& db, const std::string& key);
 
 class Store {
  public:
@@ -97,6 +106,8 @@ class Store {
                      const std::string& message, double duration_s);
   void mark_skipped(const std::vector<std::string>& keys, const std::string& reason);
   void mark_pending(const std::string& key, const std::string& reason);
+  // Records newly submitted jobs, or the new state of known ones (by task and attempt).
+  void record_jobs(const std::vector<JobRecord>& jobs);
   void append_log(const std::optional<std::string>& key, const std::string& level, const std::string& message);
   void finish_campaign(std::int64_t campaign, const std::string& outcome);
   void set_coordinator(int pid, const std::string& host, const std::string& campaign);

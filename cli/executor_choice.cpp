@@ -1,0 +1,80 @@
+#include "cli/executor_choice.hpp"
+
+#include "engine/validation.hpp"
+
+namespace millflow::cli {
+namespace {
+
+using nlohmann::json;
+
+class BlockReader {
+ public:
+  explicit BlockReader(const json& block) : block_(block) {}
+
+  void text(const char* name, std::string& into) {
+    if (const json* value = member(name, json::value_t::string, "a string")) into = value->get<std::string>();
+  }
+  void count(const char* name, int& into) {
+    const json* value = member(name, json::value_t::number_unsigned, "a positive integer");
+    if (value == nullptr) return;
+    if (value->get<std::int64_t>() < 1) {
+      wrong(name, "a positive integer");
+      return;
+    }
+    into = value->get<int>();
+  }
+  void texts(const char* name, std::vector<std::string>& into) {
+    const json* value = member(name, json::value_t::array, "an array of strings");
+    if (value == nullptr) return;
+    for (const auto& item : *value) {
+      if (!item.is_string()) return wrong(name, "an array of strings");
+      into.push_back(item.get<std::string>());
+    }
+  }
+  void finish() const {
+    if (!errors_.empty()) throw engine::InvalidInput(errors_);
+  }
+
+ private:
+  const json* member(const char* name, json::value_t type, const char* expected) {
+    if (!block_.contains(name)) return nullptr;
+    const json& value = block_[name];
+    const bool integer_wanted = type == json::value_t::number_unsigned;
+    if (integer_wanted ? !value.is_number_integer() : value.type() != type) {
+      wrong(name, expected);
+      return nullptr;
+    }
+    return &value;
+  }
+  void wrong(const char* name, const char* expected) {
+    errors_.push_back({std::string("/executor/slurm/") + name, "must be " + std::string(expected) + ", got " +
+                       block_[name].dump(), "fix the campaign file's executor block"});
+  }
+
+  const json& block_;
+  std::vector<engine::ValidationError> errors_;
+};
+
+}  // namespace
+
+ExecutorChoice choose_executor(const json& campaign_document, const std::string& kind_override) {
+  ExecutorChoice choice;
+  const json executor = campaign_document.value("executor", json::object());
+  choice.kind = kind_override.empty() ? executor.value("kind", std::string("local")) : kind_override;
+  if (choice.kind != "local" && choice.kind != "slurm") {
+    throw engine::InvalidInput({{"/executor/kind", "unknown executor \"" + choice.kind + "\"", "use local or slurm"}});
+  }
+  if (!executor.contains("slurm")) return choice;
+  BlockReader slurm(executor["slurm"]);
+  slurm.text("partition", choice.slurm.partition);
+  slurm.text("account", choice.slurm.account);
+  slurm.text("time_limit", choice.slurm.time_limit);
+  slurm.text("memory", choice.slurm.memory);
+  slurm.count("cpus_per_task", choice.slurm.cpus_per_task);
+  slurm.count("max_in_flight", choice.slurm.max_in_flight);
+  slurm.texts("extra_args", choice.slurm.extra_args);
+  slurm.finish();
+  return choice;
+}
+
+}  // namespace millflow::cli

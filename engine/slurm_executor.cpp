@@ -1,0 +1,181 @@
+#include "engine/slurm_executor.hpp"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <fstream>
+#include <set>
+
+#include "engine/artifacts.hpp"
+#include "engine/attempt_files.hpp"
+
+namespace millflow::engine {
+namespace fs = std::filesystem;
+namespace {
+
+std::string shell_quoted(const std::string& text) {
+  std::string quoted = "'";
+  for (const char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+// "1234_5" -> "1234": squeue lists every element of an array asked for by its base id.
+std::string array_id_of(const std::string& job_id) { return job_id.substr(0, job_id.find('_')); }
+
+std::string state_from_marker(const AttemptOutcome& outcome) {
+  if (outcome.error) return "FAILED";
+  return outcome.outcome.interrupted ? "STOPPED" : "COMPLETED";
+}
+
+}  // namespace
+
+bool slurm_state_is_active(const std::string& state) {
+  static const std::set<std::string> kActive = {
+      "PENDING", "CONFIGURING", "RUNNING", "COMPLETING", "SUSPENDED", "REQUEUED", "REQUEUE_FED", "REQUEUE_HOLD",
+      "RESIZING", "SIGNALING", "STAGE_OUT", "STOPPED", "RESV_DEL_HOLD"};
+  return kActive.count(state) > 0;
+}
+
+SlurmExecutor::SlurmExecutor(SlurmSettings settings, SlurmCommands& commands)
+    : settings_(std::move(settings)), commands_(commands) {
+  settings_.max_in_flight = std::max(1, settings_.max_in_flight);
+}
+
+std::vector<std::string> SlurmExecutor::sbatch_options(int count, const fs::path& batch_dir) const {
+  const int throttle = std::min(count, settings_.max_in_flight);
+  std::vector<std::string> options = {
+      "--parsable",
+      fmt::format("--array=0-{}%{}", count - 1, throttle),
+      "--job-name=millflow",
+      "--output=" + (batch_dir / "%a.out").string(),
+      "--error=" + (batch_dir / "%a.err").string(),
+      "--chdir=" + settings_.run_dir.string(),
+      fmt::format("--signal=B:USR1@{}", settings_.checkpoint_signal_s),
+      fmt::format("--cpus-per-task={}", settings_.cpus_per_task),
+  };
+  const std::pair<const char*, const std::string*> optional[] = {
+      {"--partition=", &settings_.partition}, {"--account=", &settings_.account},
+      {"--time=", &settings_.time_limit}, {"--mem=", &settings_.memory}};
+  for (const auto& [flag, value] : optional) {
+    if (!value->empty()) options.push_back(flag + *value);
+  }
+  options.insert(options.end(), settings_.extra_args.begin(), settings_.extra_args.end());
+  return options;
+}
+
+fs::path SlurmExecutor::new_batch_dir() {
+  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(
+                      std::chrono::system_clock::now().time_since_epoch()).count();
+  const fs::path dir = settings_.run_dir / "batches" / fmt::format("{}-{}-{}", ms, ::getpid(), batches_++);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::vector<TaskInput> SlurmExecutor::staged(const std::vector<TaskInput>& inputs) const {
+  const ArtifactStore stage(settings_.run_dir / "inputs");
+  std::vector<TaskInput> copies = inputs;
+  for (auto& input : copies) {
+    for (auto& [name, file] : input.artifacts) file = stage.path_of(stage.put(name, file).sha256);
+  }
+  return copies;
+}
+
+void SlurmExecutor::write_batch_script(const fs::path& batch_dir) const {
+  std::ofstream script(batch_dir / "job.sh");
+  script << "#!/bin/sh\n"
+            "# millflow: array element i runs the task attempt of <i>.json; it never opens the database.\n"
+         << "exec " << shell_quoted(settings_.program.string()) << " exec "
+         << shell_quoted(batch_dir.string()) << "/\"${SLURM_ARRAY_TASK_ID}.json\"\n";
+  if (!script.flush()) throw std::runtime_error("cannot write the batch script in " + batch_dir.string());
+}
+
+std::vector<JobRecord> SlurmExecutor::submit(const std::vector<AttemptOrder>& attempts) {
+  if (attempts.empty()) return {};
+  std::vector<JobRecord> jobs;
+  try {
+    const fs::path batch = new_batch_dir();
+    for (size_t i = 0; i < attempts.size(); ++i) {
+      const TaskSpec& task = *attempts[i].spec;
+      const std::string element = std::to_string(i);
+      const AttemptSpec spec{task, staged(*attempts[i].inputs), attempts[i].attempt, settings_.cpus_per_task,
+                             work_root() / task.key, batch / element};
+      write_attempt_spec(spec, batch / (element + ".json"));
+      jobs.push_back(JobRecord{task.key, spec.attempt, "slurm", "", "PENDING", spec.output_dir,
+                               batch / (element + ".out"), batch / (element + ".err")});
+    }
+    write_batch_script(batch);
+    const std::string array_id = commands_.sbatch(sbatch_options(static_cast<int>(attempts.size()), batch), batch / "job.sh");
+    for (size_t i = 0; i < jobs.size(); ++i) {
+      jobs[i].job_id = array_id + "_" + std::to_string(i);
+      reattach(jobs[i]);
+    }
+  } catch (const std::exception& error) {
+    for (const auto& order : attempts) {
+      refused_.push_back(AttemptOutcome{order.spec->key, order.attempt,
+                                        std::string("could not submit the Slurm job: ") + error.what(), {}, 0.0});
+    }
+    return {};
+  }
+  return jobs;
+}
+
+void SlurmExecutor::reattach(const JobRecord& job) {
+  tracked_[job.job_id] = Tracked{job, std::chrono::steady_clock::now(), 0};
+}
+
+std::optional<AttemptOutcome> SlurmExecutor::settle(Tracked& tracked, const std::string& state) const {
+  JobRecord& job = tracked.job;
+  if (auto outcome = read_attempt_outcome(job.output_dir, job.task_key, job.attempt)) {
+    job.state = state_from_marker(*outcome);  // says more than FAILED for a checkpointed job
+    return outcome;
+  }
+  // A marker written just before the job ended may reach a shared filesystem late: wait one poll.
+  if (++tracked.polls_without_marker_after_end < 2) return std::nullopt;
+  const std::string how = state == "VANISHED" ? "vanished from squeue" : "ended " + state;
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tracked.since).count();
+  return AttemptOutcome{job.task_key, job.attempt,
+                        fmt::format("Slurm job {} {} without a completion marker (its stderr: {})", job.job_id, how,
+                                    job.stderr_file.string()),
+                        {}, seconds};
+}
+
+JobExecutor::Poll SlurmExecutor::poll() {
+  Poll result;
+  result.finished = std::move(refused_);
+  refused_.clear();
+  for (auto it = tracked_.begin(); it != tracked_.end();) {
+    JobRecord& job = it->second.job;
+    if (auto outcome = read_attempt_outcome(job.output_dir, job.task_key, job.attempt)) {
+      job.state = state_from_marker(*outcome);
+      result.changed.push_back(job);
+      result.finished.push_back(std::move(*outcome));
+      it = tracked_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  if (tracked_.empty()) return result;
+  std::set<std::string> arrays;
+  for (const auto& [id, tracked] : tracked_) arrays.insert(array_id_of(id));
+  const auto states = commands_.squeue({arrays.begin(), arrays.end()});
+  for (auto it = tracked_.begin(); it != tracked_.end();) {
+    const auto found = states.find(it->first);
+    const std::string state = found == states.end() ? "VANISHED" : found->second;
+    JobRecord& job = it->second.job;
+    const std::string before = job.state;
+    job.state = state;
+    std::optional<AttemptOutcome> outcome;
+    if (!slurm_state_is_active(state)) outcome = settle(it->second, state);
+    if (job.state != before) result.changed.push_back(job);
+    if (outcome) {
+      result.finished.push_back(std::move(*outcome));
+      it = tracked_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  return result;
+}
+
+}  // namespace millflow::engine
