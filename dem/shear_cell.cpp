@@ -40,6 +40,19 @@ constexpr double kWallBallJitter = 0.25;
 constexpr double kInitialBulkFraction = 0.5;
 // The wall-speed controller changes the speed by at most this factor per window.
 constexpr double kMaxSpeedChange = 2.0;
+// The barostat samples the normal stress every this many steps and averages it over its
+// interval: single collisions of stiff balls make the instantaneous stress spike.
+constexpr std::uint64_t kBarostatSamplesEvery = 4;
+// A flowing bed answers a change of its volume over a shear strain of about this much; a
+// barostat faster than that pumps energy into the cell instead of holding its stress.
+constexpr double kBarostatRelaxationStrain = 0.1;
+// The modulus of a flowing bed, dp/de ~ 2 p phi / (phi_c - phi) ~ 10 p near phi ~ 0.55 (the
+// pressure of dense flow grows as (phi_c - phi)^-2); the instantaneous contact stiffness would
+// be far too stiff, since the contacts of a flowing bed last only a collision.
+constexpr double kBarostatModulus = 10.0;
+// Once compacted, the box changes by at most this strain per relaxation time, so a bed that
+// jams for a moment (its modulus far above 10 p) cannot throw the barostat into oscillation.
+constexpr double kBarostatMaxDilation = 0.05;
 // Random sequential addition gives up after this many failed tries per particle.
 constexpr int kInsertionTries = 20000;
 
@@ -379,7 +392,6 @@ void ShearCell::configure_stress_control() {
   crossing_time_ = (gap / d) * t_c;
   servo_max_speed_ = setup_.servo_gain * d / crossing_time_;
   if (!walls()) {
-    barostat_modulus_floor_ = setup_.normal_stress;
     barostat_every_ = static_cast<std::size_t>(setup_.steps_per_collision);
     spdlog::debug("shear cell: barostat every {} steps, time constant {:.4g} s, at most {:.4g} m/s", barostat_every_,
                   crossing_time_ / setup_.servo_gain, servo_max_speed_);
@@ -404,7 +416,7 @@ void ShearCell::compact() {
     barostat_at_speed_limit_ = true;
     while (system_.time() < limit) {
       step_controlled(barostat_every_);
-      if (normal_stress_now() >= 0.5 * setup_.normal_stress) break;
+      if (last_barostat_stress_ >= 0.5 * setup_.normal_stress) break;
     }
     barostat_at_speed_limit_ = false;
     spdlog::debug("shear cell: compacted in {:.4g} s to a height of {:.4g} m", system_.time(), gap());
@@ -532,6 +544,10 @@ void ShearCell::step_controlled(std::size_t steps) {
     const double next = lees_edwards_power();
     le_work_ += 0.5 * (power + next) * system_.time_step();
     power = next;
+    if (system_.step_count() % kBarostatSamplesEvery == 0) {
+      barostat_stress_sum_ += normal_stress_now();
+      barostat_stress_samples_ += 1.0;
+    }
     if (system_.step_count() % barostat_every_ == 0) {
       apply_barostat();
       power = lees_edwards_power();
@@ -541,11 +557,17 @@ void ShearCell::step_controlled(std::size_t steps) {
 
 void ShearCell::apply_barostat() {
   const double control_interval = static_cast<double>(barostat_every_) * system_.time_step();
-  const double relaxation_time = crossing_time_ / setup_.servo_gain;
+  const double relaxation_time =
+      std::max(crossing_time_, kBarostatRelaxationStrain / setup_.shear_rate) / setup_.servo_gain;
   const double height = system_.domain().length().y();
-  const double max_strain = servo_max_speed_ * control_interval / height;
-  const double modulus = std::max(affine_modulus(), barostat_modulus_floor_);
-  const double linear = (normal_stress_now() - setup_.normal_stress) / modulus * control_interval / relaxation_time;
+  const double max_strain = barostat_at_speed_limit_ ? servo_max_speed_ * control_interval / height
+                                                    : kBarostatMaxDilation * control_interval / relaxation_time;
+  const double modulus = kBarostatModulus * setup_.normal_stress;
+  const double stress =
+      barostat_stress_samples_ > 0.0 ? barostat_stress_sum_ / barostat_stress_samples_ : normal_stress_now();
+  barostat_stress_sum_ = barostat_stress_samples_ = 0.0;
+  last_barostat_stress_ = stress;
+  const double linear = (stress - setup_.normal_stress) / modulus * control_interval / relaxation_time;
   const double strain = barostat_at_speed_limit_ ? -max_strain : std::clamp(linear, -max_strain, max_strain);
   // Particles keep their velocity relative to the imposed profile gdot (y - y_mid), which
   // stretches with the box about its lower face like the positions.
@@ -557,25 +579,8 @@ void ShearCell::apply_barostat() {
   const double springs_before = normal_spring_energy();
   system_.deform_affinely(1, 1.0 + strain);
   for (std::size_t p = 0; p < system_.size(); ++p) system_.set_velocity(static_cast<ParticleId>(p), velocities[p]);
-  le_work_ += normal_spring_energy() - springs_before;
+  barostat_work_ += normal_spring_energy() - springs_before;
   wall_speed_ = system_.domain().lees_edwards.velocity;
-}
-
-double ShearCell::affine_modulus() const {
-  // d p_yy / d e = sum k_n (d|b|/de) b_y^2 / |b| / V with d|b|/de = b_y^2 / |b|.
-  const auto pairs = system_.candidate_pairs();
-  const auto histories = system_.pair_histories();
-  const auto x = system_.positions();
-  const auto materials = system_.particle_materials();
-  double sum = 0.0;
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    if (!histories[k].touching) continue;
-    const Vec3 b = system_.domain().separation(x[pairs[k].i], x[pairs[k].j]);
-    const double by2 = b.y() * b.y();
-    sum += system_.materials().pair(materials[pairs[k].i], materials[pairs[k].j]).normal_stiffness * by2 * by2 /
-           b.squaredNorm();
-  }
-  return sum / system_.domain().length().prod();
 }
 
 double ShearCell::normal_spring_energy() const {
@@ -592,7 +597,9 @@ double ShearCell::normal_spring_energy() const {
   return energy;
 }
 
-double ShearCell::work_in() const { return walls() ? system_.energy().wall_work : le_work_; }
+double ShearCell::work_in() const { return walls() ? system_.energy().wall_work : le_work_ + barostat_work_; }
+
+double ShearCell::shear_work() const { return walls() ? system_.energy().wall_work : le_work_; }
 
 double ShearCell::motion_energy() const {
   if (!walls()) return peculiar_kinetic_energy();
@@ -688,7 +695,7 @@ ShearCellMeasurements ShearCell::measure(double strain, const MeasureOptions& op
   // Wall loads are free to read every step; the LE virial costs a pass over the contacts.
   const std::size_t stress_every = walls() ? 1 : every;
 
-  const double work0 = work_in(), motion0 = motion_energy();
+  const double work0 = work_in(), shear_work0 = shear_work(), motion0 = motion_energy();
   const EnergyBudget budget0 = system_.energy();
   const std::vector<Dissipation> dissipation0 = system_.dissipation_by_category();
   ShearCellMeasurements m;
@@ -756,7 +763,8 @@ ShearCellMeasurements ShearCell::measure(double strain, const MeasureOptions& op
 
   const EnergyBudget budget1 = system_.energy();
   m.work_in = work_in() - work0;
-  m.power_density = m.work_in / volume_time;
+  m.power_density = (shear_work() - shear_work0) / volume_time;
+  m.stress_control_work = m.work_in - (shear_work() - shear_work0);
   m.kinetic_change = motion_energy() - motion0;
   m.elastic_change = budget1.elastic - budget0.elastic;
   m.dissipated = budget1.dissipated - budget0.dissipated;

@@ -31,15 +31,20 @@
 // so the normal force relaxes to F_target = normal_stress A with time constant t_wave / g
 // (dF/dt = -k_bed v_y), and the wall never moves more than g diameters per crossing time.
 //
-// Barostat (LeesEdwards), the same law for a box: every steps_per_collision steps (interval
-// dt_c) the box and the particles are stretched affinely along y by the strain
-//   e = clamp((p_yy - p_target) / M  dt_c / (t_wave / g),  +- v_max dt_c / L_y),
-// p_yy the virial normal stress and M the bed's modulus now: the affine stiffness of the contacts
-// in force, dp_yy/de = sum k_n b_y^4 / |b|^2 / V (b the branch vector), at least p_target. A
-// flowing bed is far softer than a jammed one, so a fixed modulus would either crawl or
-// overshoot; with the measured one p_yy relaxes to the target with time constant ~ t_wave / g
-// and the box height changes by at most g diameters per crossing time. Particles keep their velocity relative to the
-// imposed profile; the energy the stretch puts into the contact springs counts as work put in.
+// Barostat (LeesEdwards). Every steps_per_collision steps (interval dt_c) the box and the
+// particles are stretched affinely along y by the strain
+//   e = clamp((p_yy - p_target) / M  dt_c / tau,  +- 0.05 dt_c / tau),
+//   tau = max(t_wave, 0.1 / gdot) / g,  M = 10 p_target,
+// p_yy the mean virial normal stress over samples every kBarostatSamplesEvery steps since the
+// last stretch (single collisions of stiff balls make it spike). M is the modulus of a flowing
+// bed (dense-flow pressure grows as (phi_c - phi)^-2, dp/de ~ 2 p phi / (phi_c - phi) ~ 10 p), not
+// the far stiffer contacts, which last only a collision there; a flowing bed answers a change of
+// volume over a strain of ~0.1, and a faster barostat pumps energy into the cell. The limit of 5%
+// per tau keeps a bed that jams for a moment from throwing the box into oscillation. Compaction
+// first shrinks the loose fill at the wall's speed limit v_max until that mean p_yy reaches half
+// the target.
+// Particles keep their velocity relative to the imposed profile; the energy the stretch puts
+// into the contact springs is counted as work put in (stress_control_work).
 //
 // Shear rate. Rough walls slip, so the bulk shear rate is measured: a least-squares line through
 // (y, v_x) of all free particles (mass-weighted) whose centres lie in the middle half of the gap,
@@ -110,14 +115,18 @@ struct ShearCellMeasurements {
   double inertial_number = 0.0;  // bulk rate x d_media / sqrt(normal stress / rho_media)
   // Solid fractions in the middle half of the gap.
   double media_solid_fraction = 0.0, powder_solid_fraction = 0.0;
-  double power_density = 0.0;  // work put in by the walls (LE: tau gdot) per volume and time, W/m^3
+  // Work put in by the walls (LE: by the sheared images, tau gdot) per volume and time, W/m^3.
+  double power_density = 0.0;
   std::array<double, kContactTypeCount> dissipation_density{};  // W/m^3, by ContactType
   double dissipation_density_total = 0.0;
   std::array<CollisionStats, kContactTypeCount> collisions;  // by ContactType
   CollisionStats media_collisions;   // media-media and wall-media
   CollisionStats powder_collisions;  // every collision involving powder
   // Energy balance over the window: work in = change of (kinetic + elastic) + dissipated, J.
+  // work_in includes stress_control_work, what the LE barostat's stretches put in (0 with walls,
+  // whose servo work is part of the walls' work).
   double work_in = 0.0, kinetic_change = 0.0, elastic_change = 0.0, dissipated = 0.0;
+  double stress_control_work = 0.0;
   double energy_balance_error = 0.0;  // |work - accounted| / work
   // Steady state: shear stress means over the two halves of the window.
   double shear_stress_first_half = 0.0, shear_stress_second_half = 0.0;
@@ -183,7 +192,6 @@ class ShearCell {
   // LE: one barostat stretch, and the spring energy of the pairs in contact (normal part), J.
   void apply_barostat();
   double normal_spring_energy() const;
-  double affine_modulus() const;  // d p_yy / d e of the contacts in force, Pa
   void set_wall_speed(double speed);
   std::size_t steps_for_strain(double strain) const;
   // Steps the system after compact(); with Lees-Edwards also integrates the boundary's work and
@@ -192,6 +200,8 @@ class ShearCell {
   void step_controlled(std::size_t steps);
   // Work put in so far (walls or LE boundary), J.
   double work_in() const;
+  // Work put in by shearing (walls or LE images) so far, J.
+  double shear_work() const;
   // Kinetic (+ gravitational) energy of the free particles; with LE the kinetic energy of the
   // motion relative to the imposed profile (lab-frame velocities jump at the LE boundary), J.
   double motion_energy() const;
@@ -212,10 +222,12 @@ class ShearCell {
   std::size_t media_count_ = 0, powder_count_ = 0, wall_ball_count_ = 0;
   double wall_speed_ = 0.0;
   double servo_mobility_ = 0.0, servo_max_speed_ = 0.0, crossing_time_ = 0.0;
-  double barostat_modulus_floor_ = 0.0;
   std::size_t barostat_every_ = 1;
   bool barostat_at_speed_limit_ = false;  // compacting: shrink at the speed limit
-  double le_work_ = 0.0;  // work put in through the LE boundary so far, J
+  double le_work_ = 0.0;        // work put in through the LE boundary so far, J
+  double barostat_work_ = 0.0;  // work put in by the barostat's stretches so far, J
+  double barostat_stress_sum_ = 0.0, barostat_stress_samples_ = 0.0;  // since the last stretch
+  double last_barostat_stress_ = 0.0;  // the mean p_yy the last stretch answered, Pa
   bool compacted_ = false;
 };
 

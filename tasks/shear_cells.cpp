@@ -57,7 +57,7 @@ SELECT c.name AS campaign,
        json_extract(r.result, '$.solid_fraction') AS solid_fraction,
        json_extract(r.result, '$.power_density_w_m3') AS power_density_w_m3,
        json_extract(r.result, '$.powder_dissipation_w_m3') AS powder_dissipation_w_m3,
-       json_extract(r.result, '$.dissipation_w_m3.media_media') AS media_media_dissipation_w_m3,
+       json_extract(r.result, '$.dissipation_w_m3."media-media"') AS media_media_dissipation_w_m3,
        json_extract(r.result, '$.energy.balance_error') AS energy_balance_error,
        json_extract(r.result, '$.steady_state.steady') AS steady
 FROM campaign_tasks ct

@@ -45,7 +45,7 @@ double powder_dissipation(const json& cell) { return cell.at("powder_dissipation
 double power_input(const json& cell) { return cell.at("power_density_w_m3").get<double>(); }
 double media_collision_dissipation(const json& cell) {
   const json& d = cell.at("dissipation_w_m3");
-  return d.at("media_media").get<double>() + d.at("wall_media").get<double>();
+  return d.at("media-media").get<double>() + d.at("wall-media").get<double>();
 }
 
 json ratio_or_null(double numerator, double denominator) {

@@ -29,7 +29,7 @@ engine::TaskInput cell(const std::string& site_id, double load, const CellValues
                  {"powder_load", load},
                  {"power_density_w_m3", v.power_density},
                  {"powder_dissipation_w_m3", v.powder_dissipation},
-                 {"dissipation_w_m3", {{"media_media", v.media_media}, {"wall_media", v.wall_media}}},
+                 {"dissipation_w_m3", {{"media-media", v.media_media}, {"wall-media", v.wall_media}}},
                  {"shear_stress_pa", v.shear_stress},
                  {"volume_m3", 1e-4},
                  {"duration_s", 2.0},
