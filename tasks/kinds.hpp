@@ -23,7 +23,7 @@ void register_shear_cells(engine::Registry& registry);
 // the macro, average and sites tasks, the cells at that load and at load 0.
 void register_upscale(engine::Registry& registry);
 // report: plots, tables and a page over every upscale of a campaign (tasks/report.hpp).
-// Upstream: the upscale tasks and the average tasks they name.
+// Upstream: the upscale tasks.
 void register_report(engine::Registry& registry);
 
 // Parameter slices of a campaign point (a validated document with the sweep applied).

@@ -76,8 +76,9 @@ nlohmann::json without_powder(nlohmann::json point) {
 }  // namespace
 
 // Per point: macro -> average -> sites, and with shear cells on: its cells (and those without
-// powder) -> upscale.
+// powder) -> upscale; one report over every upscale.
 void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
+  std::vector<std::string> upscales;
   for (const CampaignPoint& point : expand(campaign)) {
     const nlohmann::json& document = point.document;
     const std::string macro = plan.add("macro", macro_params(document));
@@ -90,8 +91,9 @@ void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
     if (load != 0.0) {
       for (const auto& cell : plan_shear_cells(plan, without_powder(document), sites)) upstream.push_back(cell);
     }
-    plan.add("upscale", {{"powder_load", load}}, std::move(upstream));
+    upscales.push_back(plan.add("upscale", {{"powder_load", load}}, std::move(upstream)));
   }
+  if (!upscales.empty()) plan.add("report", {{"campaign", campaign.at("name")}}, std::move(upscales));
 }
 
 void register_millflow(engine::Registry& registry) {
@@ -101,6 +103,7 @@ void register_millflow(engine::Registry& registry) {
   register_sites(registry);
   register_shear_cells(registry);
   register_upscale(registry);
+  register_report(registry);
 }
 
 }  // namespace millflow::tasks

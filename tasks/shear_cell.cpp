@@ -119,6 +119,7 @@ json measurements_json(const dem::ShearCellMeasurements& m) {
         {"kinetic_change_j", m.kinetic_change},
         {"elastic_change_j", m.elastic_change},
         {"dissipated_j", m.dissipated},
+        {"stress_control_work_j", m.stress_control_work},
         {"balance_error", m.energy_balance_error}}},
       {"steady_state",
        {{"shear_stress_first_half_pa", m.shear_stress_first_half},

@@ -52,7 +52,7 @@ dem::ShearCellSetup shear_cell_setup(const nlohmann::json& params, const nlohman
 // contact type, total}, powder_dissipation_w_m3 (every type involving powder), collisions {by
 // contact type, media, powder: count, rate_per_m3_s}, spectra {bin_edges_j, media, powder:
 // dissipated energy histograms}, energy {work_in_j, kinetic_change_j, elastic_change_j,
-// dissipated_j, balance_error}, steady_state {shear_stress_first_half_pa,
+// dissipated_j, stress_control_work_j (in work_in_j), balance_error}, steady_state {shear_stress_first_half_pa,
 // shear_stress_second_half_pa, deviation, steady}, wall_seconds, particle_steps_per_second.
 nlohmann::json measurements_json(const dem::ShearCellMeasurements& m);
 
