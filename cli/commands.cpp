@@ -222,6 +222,23 @@ void add_export(CLI::App& app, std::optional<int>& code) {
   });
 }
 
+void add_report(CLI::App& app, std::optional<int>& code) {
+  auto* command = app.add_subcommand("report", "Copy a campaign's report (index.md, SVG plots, CSV tables) to a folder");
+  auto name = std::make_shared<std::string>();
+  auto db = std::make_shared<std::string>("millflow.db");
+  auto out = std::make_shared<std::string>("millflow-report");
+  command->add_option("CAMPAIGN", *name, "Campaign name")->required();
+  add_db_option(command, *db);
+  command->add_option("--out", *out, "Output directory (default millflow-report)");
+  command->callback([&code, name, db, out] {
+    code = guarded([&] {
+      engine::copy_kind_artifacts(*db, *name, "report", *out);
+      std::cout << (fs::path(*out) / "index.md").string() << '\n';
+      return 0;
+    });
+  });
+}
+
 void add_task_command(CLI::App& app, std::optional<int>& code, const std::string& name, const std::string& help,
                       void (*print)(const fs::path&, const std::string&, std::ostream&)) {
   auto* command = app.add_subcommand(name, help);
@@ -279,6 +296,7 @@ void add_engine_commands(CLI::App& app, const engine::Registry& registry, std::o
   add_status(app, exit_code);
   add_query(app, exit_code);
   add_export(app, exit_code);
+  add_report(app, exit_code);
   add_task_command(app, exit_code, "show", "A task's parameters, result, artifacts and lineage", engine::print_show);
   add_task_command(app, exit_code, "explain", "The hashed text of a task and why it would run", engine::print_explain);
   add_dag(app, exit_code);

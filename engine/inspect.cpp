@@ -315,6 +315,35 @@ void print_explain(const fs::path& db, const std::string& task, std::ostream& ou
   }
 }
 
+std::vector<fs::path> copy_kind_artifacts(const fs::path& db, const std::string& campaign, const std::string& kind,
+                                          const fs::path& out_dir) {
+  auto connection = open_read_only(db);
+  const std::int64_t id = campaign_id(connection, campaign);
+  const ArtifactStore store(artifacts_dir(db));
+  auto tasks = connection.prepare(
+      "SELECT t.key FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
+      "WHERE ct.campaign_id = ? AND t.kind = ? AND t.status = 'done' ORDER BY t.key");
+  tasks.bind_all(id, kind);
+  std::vector<fs::path> copied;
+  while (tasks.step()) {
+    for (const StoredArtifact& artifact : find_artifacts(connection, tasks.text(0))) {
+      if (!store.verify(artifact)) {
+        throw InvalidInput({{"", fmt::format("artifact {} of task {} is damaged", artifact.name, tasks.text(0)),
+                             "run `millflow resume` to compute it again"}});
+      }
+      fs::create_directories(out_dir);
+      const fs::path target = out_dir / artifact.name;
+      fs::copy_file(store.path_of(artifact.sha256), target, fs::copy_options::overwrite_existing);
+      copied.push_back(target);
+    }
+  }
+  if (copied.empty()) {
+    throw InvalidInput({{"", fmt::format("campaign {} has no finished {} task", campaign, kind),
+                         "run it to the end with `millflow submit` or `millflow resume`"}});
+  }
+  return copied;
+}
+
 void print_dag_dot(const fs::path& db, const std::string& campaign, std::ostream& out) {
   auto connection = open_read_only(db);
   const std::int64_t id = campaign_id(connection, campaign);

@@ -31,6 +31,12 @@ void print_dag_dot(const std::filesystem::path& db, const std::string& campaign,
 std::vector<std::filesystem::path> export_campaign(const std::filesystem::path& db, const std::string& campaign,
                                                    TableFormat format, const std::filesystem::path& out_dir);
 
+// Copies the artifacts of the campaign's finished tasks of `kind` into out_dir under their names
+// (each verified against its digest first), e.g. a report. Throws InvalidInput when there are
+// none, or when a stored file is damaged.
+std::vector<std::filesystem::path> copy_kind_artifacts(const std::filesystem::path& db, const std::string& campaign,
+                                                       const std::string& kind, const std::filesystem::path& out_dir);
+
 // Artifact files no task references (and temporary files left by crashes); removed unless
 // dry_run. Takes the coordinator lock: never collects while a campaign runs.
 std::vector<std::string> collect_garbage(const std::filesystem::path& db, bool dry_run);
