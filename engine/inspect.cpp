@@ -365,6 +365,35 @@ std::vector<fs::path> export_campaign(const fs::path& db, const std::string& cam
   return files;
 }
 
+std::vector<TaskArtifacts> finished_task_artifacts(const fs::path& db, const std::string& campaign,
+                                                   const std::string& kind) {
+  auto connection = open_read_only(db);
+  auto rows = connection.prepare(
+      "SELECT t.key FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
+      "WHERE ct.campaign_id = ? AND t.kind = ? AND t.status = 'done' ORDER BY t.key");
+  rows.bind_all(campaign_id(connection, campaign), kind);
+  std::vector<TaskArtifacts> tasks;
+  while (rows.step()) tasks.push_back({rows.text(0), {}});
+  for (TaskArtifacts& task : tasks) task.artifacts = find_artifacts(connection, task.task_key);
+  return tasks;
+}
+
+std::vector<fs::path> copy_artifacts(const fs::path& db, const std::vector<StoredArtifact>& artifacts,
+                                     const fs::path& out_dir, const FileSystem& files) {
+  const ArtifactStore store(artifacts_dir(db), files);
+  std::vector<fs::path> copied;
+  for (const StoredArtifact& artifact : artifacts) {
+    if (!store.verify(artifact)) {
+      throw std::runtime_error(fmt::format("artifact {} ({}) is missing or corrupt in the store: re-run its task "
+                                           "(`millflow explain` on it says which)",
+                                           artifact.name, artifact.sha256));
+    }
+    copied.push_back(out_dir / artifact.name);
+    files.copy_durably(store.path_of(artifact.sha256), copied.back());
+  }
+  return copied;
+}
+
 std::vector<std::string> collect_garbage(const fs::path& db, bool dry_run) {
   CoordinatorLock lock(db);
   auto connection = open_read_only(db);

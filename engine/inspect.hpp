@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "engine/artifacts.hpp"
+#include "engine/files.hpp"
 #include "engine/sqlite.hpp"
 
 namespace millflow::engine {
@@ -30,6 +32,22 @@ void print_dag_dot(const std::filesystem::path& db, const std::string& campaign,
 // Writes <out>/<kind>.csv per task kind (params.* and result.* columns) or <out>/<campaign>.json.
 std::vector<std::filesystem::path> export_campaign(const std::filesystem::path& db, const std::string& campaign,
                                                    TableFormat format, const std::filesystem::path& out_dir);
+
+// The finished (done) tasks of one kind in a campaign, by key, each with its stored artifacts
+// (possibly none). Throws InvalidInput for an unknown campaign.
+struct TaskArtifacts {
+  std::string task_key;
+  std::vector<StoredArtifact> artifacts;
+};
+std::vector<TaskArtifacts> finished_task_artifacts(const std::filesystem::path& db, const std::string& campaign,
+                                                   const std::string& kind);
+
+// Copies stored artifacts out of the store as <out_dir>/<name>, each verified (size and SHA-256)
+// first; returns the written paths. Throws std::runtime_error for a missing or corrupt artifact.
+std::vector<std::filesystem::path> copy_artifacts(const std::filesystem::path& db,
+                                                  const std::vector<StoredArtifact>& artifacts,
+                                                  const std::filesystem::path& out_dir,
+                                                  const FileSystem& files = local_file_system());
 
 // Artifact files no task references (and temporary files left by crashes); removed unless
 // dry_run. Takes the coordinator lock: never collects while a campaign runs.
