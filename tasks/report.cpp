@@ -30,6 +30,8 @@ struct Slice {
   double fill = 0.0, speed_fraction = 0.0;
   std::vector<const UpscalePoint*> points;
 
+  // The lowest load's point: its sites, macro power draw and coupling check (the media-only cell)
+  // are those of every load of the slice.
   const UpscalePoint& first() const { return *points.front(); }
   const UpscalePoint* at_load(double load) const {
     for (const UpscalePoint* point : points) {
@@ -160,12 +162,17 @@ svg::Figure coupling_figure(const std::vector<Slice>& slices) {
       series.x.push_back(site.macro_shear_stress_pa);
       series.y.push_back(site.cell_shear_stress_pa.value_or(kNaN));
       for (double value : {site.macro_shear_stress_pa, site.cell_shear_stress_pa.value_or(kNaN)}) {
-        if (std::isfinite(value) && value > 0.0) lo = std::min(lo, value), hi = std::max(hi, value);
+        if (!std::isfinite(value) || value <= 0.0) continue;
+        lo = std::min(lo, value);
+        hi = std::max(hi, value);
       }
     }
     chart.series.push_back(std::move(series));
   }
-  if (lo <= hi) chart.series.push_back({.name = "cell = macro", .x = {lo, hi}, .y = {lo, hi}, .colour = svg::kPaletteSize - 1, .dashed = true, .markers = false});
+  if (lo <= hi) {
+    chart.series.push_back({.name = "cell = macro", .x = {lo, hi}, .y = {lo, hi}, .colour = svg::kPaletteSize - 1,
+                            .dashed = true, .markers = false});
+  }
   return svg::line_chart(chart);
 }
 
