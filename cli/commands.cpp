@@ -222,23 +222,6 @@ void add_export(CLI::App& app, std::optional<int>& code) {
   });
 }
 
-void add_report(CLI::App& app, std::optional<int>& code) {
-  auto* command = app.add_subcommand("report", "Copy a campaign's report (index.md, SVG plots, CSV tables) to a folder");
-  auto name = std::make_shared<std::string>();
-  auto db = std::make_shared<std::string>("millflow.db");
-  auto out = std::make_shared<std::string>("millflow-report");
-  command->add_option("CAMPAIGN", *name, "Campaign name")->required();
-  add_db_option(command, *db);
-  command->add_option("--out", *out, "Output directory (default millflow-report)");
-  command->callback([&code, name, db, out] {
-    code = guarded([&] {
-      engine::copy_kind_artifacts(*db, *name, "report", *out);
-      std::cout << (fs::path(*out) / "index.md").string() << '\n';
-      return 0;
-    });
-  });
-}
-
 void add_task_command(CLI::App& app, std::optional<int>& code, const std::string& name, const std::string& help,
                       void (*print)(const fs::path&, const std::string&, std::ostream&)) {
   auto* command = app.add_subcommand(name, help);
@@ -286,6 +269,30 @@ void add_gc(CLI::App& app, std::optional<int>& code) {
   });
 }
 
+// Copies the finished report task's files of a campaign out of the store.
+void add_report(CLI::App& app, std::optional<int>& code) {
+  auto* command = app.add_subcommand("report", "Copy a campaign's report (figures, tables, index.md) into a directory");
+  auto name = std::make_shared<std::string>();
+  auto db = std::make_shared<std::string>("millflow.db");
+  auto out = std::make_shared<std::string>("millflow-report");
+  command->add_option("CAMPAIGN", *name, "Campaign name (default: the latest)");
+  add_db_option(command, *db);
+  command->add_option("--out", *out, "Output directory (default ./millflow-report)");
+  command->callback([&code, name, db, out] {
+    code = guarded([&] {
+      const std::string campaign = name->empty() ? engine::stored_campaign(*db, "").name : *name;
+      const auto reports = engine::finished_task_artifacts(*db, campaign, "report");
+      if (reports.empty()) {
+        throw engine::InvalidInput({{"", "campaign \"" + campaign + "\" has no finished report task",
+                                     "run `millflow resume " + campaign + "` until its report task is done"}});
+      }
+      engine::copy_artifacts(*db, reports.front().artifacts, *out);
+      std::cout << (fs::path(*out) / "index.md").string() << '\n';
+      return 0;
+    });
+  });
+}
+
 }  // namespace
 
 void add_engine_commands(CLI::App& app, const engine::Registry& registry, std::optional<int>& exit_code) {
@@ -296,11 +303,11 @@ void add_engine_commands(CLI::App& app, const engine::Registry& registry, std::o
   add_status(app, exit_code);
   add_query(app, exit_code);
   add_export(app, exit_code);
-  add_report(app, exit_code);
   add_task_command(app, exit_code, "show", "A task's parameters, result, artifacts and lineage", engine::print_show);
   add_task_command(app, exit_code, "explain", "The hashed text of a task and why it would run", engine::print_explain);
   add_dag(app, exit_code);
   add_gc(app, exit_code);
+  add_report(app, exit_code);
 }
 
 }  // namespace millflow::cli

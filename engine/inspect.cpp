@@ -315,35 +315,6 @@ void print_explain(const fs::path& db, const std::string& task, std::ostream& ou
   }
 }
 
-std::vector<fs::path> copy_kind_artifacts(const fs::path& db, const std::string& campaign, const std::string& kind,
-                                          const fs::path& out_dir) {
-  auto connection = open_read_only(db);
-  const std::int64_t id = campaign_id(connection, campaign);
-  const ArtifactStore store(artifacts_dir(db));
-  auto tasks = connection.prepare(
-      "SELECT t.key FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
-      "WHERE ct.campaign_id = ? AND t.kind = ? AND t.status = 'done' ORDER BY t.key");
-  tasks.bind_all(id, kind);
-  std::vector<fs::path> copied;
-  while (tasks.step()) {
-    for (const StoredArtifact& artifact : find_artifacts(connection, tasks.text(0))) {
-      if (!store.verify(artifact)) {
-        throw InvalidInput({{"", fmt::format("artifact {} of task {} is damaged", artifact.name, tasks.text(0)),
-                             "run `millflow resume` to compute it again"}});
-      }
-      fs::create_directories(out_dir);
-      const fs::path target = out_dir / artifact.name;
-      fs::copy_file(store.path_of(artifact.sha256), target, fs::copy_options::overwrite_existing);
-      copied.push_back(target);
-    }
-  }
-  if (copied.empty()) {
-    throw InvalidInput({{"", fmt::format("campaign {} has no finished {} task", campaign, kind),
-                         "run it to the end with `millflow submit` or `millflow resume`"}});
-  }
-  return copied;
-}
-
 void print_dag_dot(const fs::path& db, const std::string& campaign, std::ostream& out) {
   auto connection = open_read_only(db);
   const std::int64_t id = campaign_id(connection, campaign);
@@ -412,6 +383,35 @@ std::vector<fs::path> export_campaign(const fs::path& db, const std::string& cam
     print_csv(table, out);
   }
   return files;
+}
+
+std::vector<TaskArtifacts> finished_task_artifacts(const fs::path& db, const std::string& campaign,
+                                                   const std::string& kind) {
+  auto connection = open_read_only(db);
+  auto rows = connection.prepare(
+      "SELECT t.key FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
+      "WHERE ct.campaign_id = ? AND t.kind = ? AND t.status = 'done' ORDER BY t.key");
+  rows.bind_all(campaign_id(connection, campaign), kind);
+  std::vector<TaskArtifacts> tasks;
+  while (rows.step()) tasks.push_back({rows.text(0), {}});
+  for (TaskArtifacts& task : tasks) task.artifacts = find_artifacts(connection, task.task_key);
+  return tasks;
+}
+
+std::vector<fs::path> copy_artifacts(const fs::path& db, const std::vector<StoredArtifact>& artifacts,
+                                     const fs::path& out_dir, const FileSystem& files) {
+  const ArtifactStore store(artifacts_dir(db), files);
+  std::vector<fs::path> copied;
+  for (const StoredArtifact& artifact : artifacts) {
+    if (!store.verify(artifact)) {
+      throw std::runtime_error(fmt::format("artifact {} ({}) is missing or corrupt in the store: re-run its task "
+                                           "(`millflow explain` on it says which)",
+                                           artifact.name, artifact.sha256));
+    }
+    copied.push_back(out_dir / artifact.name);
+    files.copy_durably(store.path_of(artifact.sha256), copied.back());
+  }
+  return copied;
 }
 
 std::vector<std::string> collect_garbage(const fs::path& db, bool dry_run) {

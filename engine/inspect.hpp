@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "engine/artifacts.hpp"
+#include "engine/files.hpp"
 #include "engine/sqlite.hpp"
 
 namespace millflow::engine {
@@ -31,11 +33,21 @@ void print_dag_dot(const std::filesystem::path& db, const std::string& campaign,
 std::vector<std::filesystem::path> export_campaign(const std::filesystem::path& db, const std::string& campaign,
                                                    TableFormat format, const std::filesystem::path& out_dir);
 
-// Copies the artifacts of the campaign's finished tasks of `kind` into out_dir under their names
-// (each verified against its digest first), e.g. a report. Throws InvalidInput when there are
-// none, or when a stored file is damaged.
-std::vector<std::filesystem::path> copy_kind_artifacts(const std::filesystem::path& db, const std::string& campaign,
-                                                       const std::string& kind, const std::filesystem::path& out_dir);
+// The finished (done) tasks of one kind in a campaign, by key, each with its stored artifacts
+// (possibly none). Throws InvalidInput for an unknown campaign.
+struct TaskArtifacts {
+  std::string task_key;
+  std::vector<StoredArtifact> artifacts;
+};
+std::vector<TaskArtifacts> finished_task_artifacts(const std::filesystem::path& db, const std::string& campaign,
+                                                   const std::string& kind);
+
+// Copies stored artifacts out of the store as <out_dir>/<name>, each verified (size and SHA-256)
+// first; returns the written paths. Throws std::runtime_error for a missing or corrupt artifact.
+std::vector<std::filesystem::path> copy_artifacts(const std::filesystem::path& db,
+                                                  const std::vector<StoredArtifact>& artifacts,
+                                                  const std::filesystem::path& out_dir,
+                                                  const FileSystem& files = local_file_system());
 
 // Artifact files no task references (and temporary files left by crashes); removed unless
 // dry_run. Takes the coordinator lock: never collects while a campaign runs.

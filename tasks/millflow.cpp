@@ -1,5 +1,6 @@
 #include "tasks/millflow.hpp"
 
+#include <algorithm>
 #include <set>
 
 #include "tasks/campaign.hpp"
@@ -76,9 +77,9 @@ nlohmann::json without_powder(nlohmann::json point) {
 }  // namespace
 
 // Per point: macro -> average -> sites, and with shear cells on: its cells (and those without
-// powder) -> upscale; one report over every upscale.
+// powder) -> upscale; one report over every upscale and the averages its maps are drawn from.
 void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
-  std::vector<std::string> upscales;
+  std::vector<std::string> report_inputs;
   for (const CampaignPoint& point : expand(campaign)) {
     const nlohmann::json& document = point.document;
     const std::string macro = plan.add("macro", macro_params(document));
@@ -91,9 +92,13 @@ void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
     if (load != 0.0) {
       for (const auto& cell : plan_shear_cells(plan, without_powder(document), sites)) upstream.push_back(cell);
     }
-    upscales.push_back(plan.add("upscale", {{"powder_load", load}}, std::move(upstream)));
+    report_inputs.push_back(plan.add("upscale", {{"powder_load", load}}, std::move(upstream)));
+    // The loads of a fill and speed share one average: the report needs it once.
+    if (std::find(report_inputs.begin(), report_inputs.end(), average) == report_inputs.end()) {
+      report_inputs.push_back(average);
+    }
   }
-  if (!upscales.empty()) plan.add("report", {{"campaign", campaign.at("name")}}, std::move(upscales));
+  if (!report_inputs.empty()) plan.add("report", {{"campaign", campaign.at("name")}}, std::move(report_inputs));
 }
 
 void register_millflow(engine::Registry& registry) {

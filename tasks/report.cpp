@@ -1,243 +1,398 @@
 #include "tasks/report.hpp"
 
-#include <algorithm>
-#include <fstream>
-#include <map>
-#include <tuple>
-
 #include <fmt/format.h>
 
-#include "tasks/kinds.hpp"
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <set>
+#include <stdexcept>
+
+#include "tasks/report_inputs.hpp"
+#include "tasks/sites.hpp"
 #include "tasks/svg_plot.hpp"
-#include "tasks/upscale.hpp"
 
 namespace millflow::tasks {
 namespace {
 
+namespace fs = std::filesystem;
 using nlohmann::json;
+using report::ReportInputs;
+using report::UpscalePoint;
 
-struct Point {
-  double fill, speed, load;
-  const json* result;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// The points of one fill and speed (one macro run), by powder load.
+struct Slice {
+  double fill = 0.0, speed_fraction = 0.0;
+  std::vector<const UpscalePoint*> points;
+
+  // The lowest load's point: its sites, macro power draw and coupling check (the media-only cell)
+  // are those of every load of the slice.
+  const UpscalePoint& first() const { return *points.front(); }
+  const UpscalePoint* at_load(double load) const {
+    for (const UpscalePoint* point : points) {
+      if (point->powder_load == load) return point;
+    }
+    return nullptr;
+  }
 };
 
-std::string point_name(double fill, double speed) { return fmt::format("J{:g}_N{:g}", fill, speed); }
-
-double number_or_nan(const json& value) { return value.is_number() ? value.get<double>() : std::nan(""); }
-
-std::string cell(const json& value) {
-  if (value.is_null()) return "";
-  if (value.is_number()) return fmt::format("{:.6g}", value.get<double>());
-  return value.is_string() ? value.get<std::string>() : value.dump();
-}
-
-std::vector<Point> sorted_points(const engine::TaskContext& context) {
-  std::vector<Point> points;
-  for (const auto& input : context.inputs) {
-    if (input.kind != "upscale") continue;
-    const json& r = input.result;
-    points.push_back({r.at("fill").get<double>(), r.at("speed_fraction").get<double>(), r.at("powder_load").get<double>(), &r});
+std::vector<Slice> slices_of(const std::vector<UpscalePoint>& points) {
+  std::vector<Slice> slices;
+  for (const UpscalePoint& point : points) {
+    if (slices.empty() || slices.back().fill != point.fill || slices.back().speed_fraction != point.speed_fraction) {
+      slices.push_back({point.fill, point.speed_fraction, {}});
+    }
+    slices.back().points.push_back(&point);
   }
-  if (points.empty()) throw std::invalid_argument(fmt::format("report {}: no upscale inputs", context.key));
-  std::sort(points.begin(), points.end(), [](const Point& a, const Point& b) {
-    return std::tie(a.fill, a.speed, a.load) < std::tie(b.fill, b.speed, b.load);
-  });
-  return points;
+  return slices;
 }
 
-// Points grouped by (fill, speed), loads ascending.
-std::map<std::pair<double, double>, std::vector<Point>> by_fill_and_speed(const std::vector<Point>& points) {
-  std::map<std::pair<double, double>, std::vector<Point>> groups;
-  for (const Point& p : points) groups[{p.fill, p.speed}].push_back(p);
-  return groups;
+std::string g(double value) { return fmt::format("{:g}", value); }
+std::string slice_label(const Slice& slice) { return fmt::format("J = {:g}, phi = {:g}", slice.fill, slice.speed_fraction); }
+std::string maps_file(const Slice& slice) { return fmt::format("maps_{:g}_{:g}.svg", slice.fill, slice.speed_fraction); }
+
+std::vector<double> distinct(const std::vector<UpscalePoint>& points, double UpscalePoint::*member) {
+  std::set<double> values;
+  for (const UpscalePoint& point : points) values.insert(point.*member);
+  return {values.begin(), values.end()};
 }
 
+// Panels in rows of fills and columns of speeds.
+int speed_columns(const std::vector<UpscalePoint>& points) {
+  return static_cast<int>(distinct(points, &UpscalePoint::speed_fraction).size());
+}
+
+// ---- figures ----
+
+svg::Figure power_draw_figure(const std::vector<UpscalePoint>& points, const std::vector<Slice>& slices) {
+  svg::LineChart chart{.title = "Mill power draw", .x = {"speed fraction of critical (-)"}, .y = {"power draw of the slice (W)"}};
+  for (double fill : distinct(points, &UpscalePoint::fill)) {
+    svg::Series macro{.name = fmt::format("J = {:g} macro", fill)};
+    std::map<double, svg::Series> with_powder;
+    for (const Slice& slice : slices) {
+      if (slice.fill != fill) continue;
+      macro.x.push_back(slice.speed_fraction);
+      macro.y.push_back(slice.first().power_draw_w);
+      for (const UpscalePoint* point : slice.points) {
+        if (point->powder_load <= 0.0) continue;
+        svg::Series& series = with_powder[point->powder_load];
+        series.name = fmt::format("J = {:g}, U = {:g} with powder", fill, point->powder_load);
+        series.dashed = true;
+        series.x.push_back(slice.speed_fraction);
+        series.y.push_back(point->power_draw_with_powder_w);
+      }
+    }
+    chart.series.push_back(std::move(macro));
+    for (auto& [load, series] : with_powder) chart.series.push_back(std::move(series));
+  }
+  return svg::line_chart(chart);
+}
+
+// Index of a region in region_names(), so that a region keeps its colour in every panel.
+int region_colour(const std::string& region) {
+  const auto& names = region_names();
+  return static_cast<int>(std::find(names.begin(), names.end(), region) - names.begin());
+}
+
+// One panel per slice: a quantity of each region vs powder load (NaN where a point lacks it).
+svg::Figure region_panels(const std::vector<UpscalePoint>& points, const std::vector<Slice>& slices,
+                          const std::string& title, const std::string& y_label,
+                          const std::function<double(const report::RegionResult&)>& value) {
+  std::vector<svg::Figure> panels;
+  for (const Slice& slice : slices) {
+    svg::LineChart chart{.title = slice_label(slice), .x = {"powder load U (-)"}, .y = {y_label}};
+    for (const std::string& region : region_names()) {
+      svg::Series series{.name = region, .colour = region_colour(region)};
+      bool present = false;
+      for (const UpscalePoint* point : slice.points) {
+        const auto found = std::find_if(point->regions.begin(), point->regions.end(),
+                                        [&](const report::RegionResult& r) { return r.region == region; });
+        present = present || found != point->regions.end();
+        series.x.push_back(point->powder_load);
+        series.y.push_back(found == point->regions.end() ? kNaN : value(*found));
+      }
+      if (present) chart.series.push_back(std::move(series));
+    }
+    panels.push_back(svg::line_chart(chart));
+  }
+  return svg::panel_grid(panels, speed_columns(points), title);
+}
+
+svg::Figure spectra_figure(const std::vector<UpscalePoint>& points, const std::vector<Slice>& slices) {
+  std::vector<svg::Figure> panels;
+  for (const Slice& slice : slices) {
+    svg::HistogramChart chart{.title = slice_label(slice),
+                              .x = {"dissipated energy per collision (J)", svg::Scale::log},
+                              .y = {"powder collisions per bin in the slice (1/s)", svg::Scale::log}};
+    for (const UpscalePoint* point : slice.points) {
+      chart.series.push_back(
+          {.name = fmt::format("U = {:g}", point->powder_load), .edges = point->bin_edges_j, .values = point->powder_rate_per_s});
+    }
+    panels.push_back(svg::histogram_chart(chart));
+  }
+  return svg::panel_grid(panels, speed_columns(points), "Powder collision energy spectra");
+}
+
+svg::Figure maps_figure(const Slice& slice, const FlowMap& map) {
+  std::vector<svg::MapMarker> sites;
+  for (const report::SiteResult& site : slice.first().sites) sites.push_back({site.x_m, site.y_m, site.site_id});
+  auto panel = [&](const char* title, const char* quantity, const std::vector<double>& values, svg::Scale scale) {
+    return svg::heat_map(
+        {.title = title, .quantity = quantity, .grid = map.grid, .values = values, .scale = scale, .markers = sites});
+  };
+  return svg::panel_grid({panel("Shear rate", "shear rate (1/s)", map.shear_rate, svg::Scale::linear),
+                          panel("Normal stress", "normal stress on the shear plane (Pa)", map.normal_stress, svg::Scale::linear),
+                          panel("Dissipation", "dissipation (W/m^3)", map.dissipation, svg::Scale::log)},
+                         3, "Macro flow, " + slice_label(slice) + ", with the sites");
+}
+
+svg::Figure coupling_figure(const std::vector<Slice>& slices) {
+  svg::LineChart chart{.title = "Coupling check: media-only cell vs macro shear stress",
+                       .x = {"macro shear stress at the site (Pa)", svg::Scale::log},
+                       .y = {"media-only cell shear stress (Pa)", svg::Scale::log}};
+  double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
+  for (const Slice& slice : slices) {
+    svg::Series series{.name = slice_label(slice), .line = false};
+    for (const report::SiteResult& site : slice.first().sites) {
+      series.x.push_back(site.macro_shear_stress_pa);
+      series.y.push_back(site.cell_shear_stress_pa.value_or(kNaN));
+      for (double value : {site.macro_shear_stress_pa, site.cell_shear_stress_pa.value_or(kNaN)}) {
+        if (!std::isfinite(value) || value <= 0.0) continue;
+        lo = std::min(lo, value);
+        hi = std::max(hi, value);
+      }
+    }
+    chart.series.push_back(std::move(series));
+  }
+  if (lo <= hi) {
+    chart.series.push_back({.name = "cell = macro", .x = {lo, hi}, .y = {lo, hi}, .colour = svg::kPaletteSize - 1,
+                            .dashed = true, .markers = false});
+  }
+  return svg::line_chart(chart);
+}
+
+// ---- tables ----
+
+std::string number(double value) { return fmt::format("{}", value); }
+std::string number(const std::optional<double>& value) { return value ? number(*value) : std::string(); }
+
+std::string csv_text(const std::string& text) {
+  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (const char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+std::string csv_row(const std::vector<std::string>& cells) {
+  std::string row;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    if (i > 0) row += ',';
+    row += csv_text(cells[i]);
+  }
+  return row + "\n";
+}
+
+std::vector<std::string> point_cells(const UpscalePoint& p) {
+  return {number(p.fill), number(p.speed_fraction), number(p.powder_load)};
+}
+
+template <class Rows>
+std::string csv_table(const std::vector<std::string>& header, const std::vector<UpscalePoint>& points, Rows rows_of) {
+  std::string out = csv_row(header);
+  for (const UpscalePoint& point : points) {
+    for (std::vector<std::string> cells : rows_of(point)) {
+      const auto head = point_cells(point);
+      cells.insert(cells.begin(), head.begin(), head.end());
+      cells.push_back(point.task_key);
+      out += csv_row(cells);
+    }
+  }
+  return out;
+}
+
+std::string upscaled_csv(const std::vector<UpscalePoint>& points) {
+  return csv_table({"fill", "speed_fraction", "powder_load", "region", "sites", "volume_m3", "powder_power_w",
+                    "powder_power_share", "media_power_w", "media_collision_power_w",
+                    "media_collision_power_no_powder_w", "cushioning", "power_draw_w", "power_draw_with_powder_w",
+                    "dominant_region", "upscale_task"},
+                   points, [](const UpscalePoint& p) {
+                     std::vector<std::vector<std::string>> rows;
+                     for (const report::RegionResult& r : p.regions) {
+                       rows.push_back({r.region, fmt::format("{}", r.sites), number(r.volume_m3), number(r.powder_power_w),
+                                       number(r.powder_power_share), number(r.media_power_w),
+                                       number(r.media_collision_power_w), number(r.media_collision_power_no_powder_w),
+                                       number(r.cushioning), number(p.power_draw_w), number(p.power_draw_with_powder_w),
+                                       p.dominant_region});
+                     }
+                     return rows;
+                   });
+}
+
+std::string sites_csv(const std::vector<UpscalePoint>& points) {
+  return csv_table({"fill", "speed_fraction", "powder_load", "site_id", "region", "x_m", "y_m", "weight_m3",
+                    "shear_rate_per_s", "normal_stress_pa", "macro_shear_stress_pa", "cell_shear_stress_pa",
+                    "coupling_ratio", "power_density_w_m3", "powder_dissipation_w_m3", "skipped", "upscale_task"},
+                   points, [](const UpscalePoint& p) {
+                     std::vector<std::vector<std::string>> rows;
+                     for (const report::SiteResult& s : p.sites) {
+                       rows.push_back({s.site_id, s.region, number(s.x_m), number(s.y_m), number(s.weight_m3),
+                                       number(s.shear_rate_per_s), number(s.normal_stress_pa),
+                                       number(s.macro_shear_stress_pa), number(s.cell_shear_stress_pa),
+                                       number(s.coupling_ratio), number(s.power_density_w_m3),
+                                       number(s.powder_dissipation_w_m3), s.skipped.value_or("")});
+                     }
+                     return rows;
+                   });
+}
+
+std::string spectra_csv(const std::vector<UpscalePoint>& points) {
+  return csv_table({"fill", "speed_fraction", "powder_load", "bin", "energy_low_j", "energy_high_j",
+                    "powder_rate_per_s", "media_rate_per_s", "upscale_task"},
+                   points, [](const UpscalePoint& p) {
+                     std::vector<std::vector<std::string>> rows;
+                     for (std::size_t b = 0; b < p.powder_rate_per_s.size(); ++b) {
+                       rows.push_back({fmt::format("{}", b), number(p.bin_edges_j[b]), number(p.bin_edges_j[b + 1]),
+                                       number(p.powder_rate_per_s[b]), number(p.media_rate_per_s[b])});
+                     }
+                     return rows;
+                   });
+}
+
+// ---- the page ----
+
+std::string md(double value) { return fmt::format("{:.4g}", value); }
+
+std::string points_table(const std::vector<UpscalePoint>& points) {
+  std::string out =
+      "| fill J | speed phi | powder load U | power draw (W) | with powder (W) | powder power (W) | media power (W) | "
+      "dominant region |\n|---|---|---|---|---|---|---|---|\n";
+  for (const UpscalePoint& p : points) {
+    out += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", g(p.fill), g(p.speed_fraction), g(p.powder_load),
+                       md(p.power_draw_w), md(p.power_draw_with_powder_w), md(p.powder_power_w), md(p.media_power_w),
+                       p.dominant_region);
+  }
+  return out;
+}
+
+std::string coupling_table(const std::vector<Slice>& slices) {
+  std::string out = "| fill J | speed phi | sites compared | within tolerance | median cell/macro | tolerance |\n"
+                    "|---|---|---|---|---|---|\n";
+  for (const Slice& slice : slices) {
+    const report::Coupling& c = slice.first().coupling;
+    out += fmt::format("| {} | {} | {} | {} | {} | {} |\n", g(slice.fill), g(slice.speed_fraction), c.sites,
+                       c.within_tolerance, c.median_ratio ? md(*c.median_ratio) : "n/a", md(c.tolerance));
+  }
+  return out;
+}
+
+std::string index_page(const std::string& campaign, const std::vector<UpscalePoint>& points,
+                       const std::vector<Slice>& slices) {
+  std::string out = fmt::format("# Campaign report: {}\n\n", campaign);
+  out += fmt::format("{} upscaled points: fills J = {}; speed fractions phi = {}; powder loads U = {}.\n\n", points.size(),
+                     fmt::join(distinct(points, &UpscalePoint::fill), ", "),
+                     fmt::join(distinct(points, &UpscalePoint::speed_fraction), ", "),
+                     fmt::join(distinct(points, &UpscalePoint::powder_load), ", "));
+  out += "## Power draw\n\n![power draw vs speed](power_draw.svg)\n\n"
+         "Power draw of the mill slice vs the speed as a fraction of the critical speed, one solid line per fill "
+         "(the macro DEM run, balls only) and one dashed line per fill and powder load (the draw including the "
+         "powder's effect, from the upscaled shear cells).\n\n";
+  out += "## Points\n\nThe dominant region is the region taking the largest share of the powder power; it is "
+         "computed from the shear cells, not assumed.\n\n" + points_table(points) + "\n";
+  out += "## Powder power by region\n\n![powder power shares](powder_power_shares.svg)\n\n"
+         "Each region's share of the power going into the powder (site power densities x site weights), vs the "
+         "powder load; one panel per fill (rows) and speed (columns).\n\n";
+  out += "## Cushioning\n\n![cushioning](cushioning.svg)\n\n"
+         "Media-media collision power with powder divided by the same without powder, per region: below 1 the powder "
+         "cushions the ball collisions.\n\n";
+  out += "## Powder collision energy spectra\n\n![powder spectra](powder_spectra.svg)\n\n"
+         "Powder collisions per second in the mill slice in each bin of dissipated energy per collision (log-log), one "
+         "step line per powder load.\n\n";
+  out += "## Flow maps\n\nShear rate, normal stress on the shear plane and energy dissipation density of the averaged "
+         "macro flow over the mill cross-section; the circles are the sites where the shear cells ran.\n\n";
+  for (const Slice& slice : slices) out += fmt::format("### {}\n\n![flow maps]({})\n\n", slice_label(slice), maps_file(slice));
+  out += "## Coupling check\n\n![coupling](coupling.svg)\n\n"
+         "A media-only shear cell driven by a site's shear rate and normal stress should reproduce the macro run's "
+         "shear stress there; the points should lie near the dashed 1:1 line.\n\n" + coupling_table(slices) + "\n";
+  out += "## Tables\n\n"
+         "- [upscaled.csv](upscaled.csv): one row per point and region (powers, shares, cushioning).\n"
+         "- [sites.csv](sites.csv): one row per point and site (macro state, cell results, coupling ratio).\n"
+         "- [spectra.csv](spectra.csv): one row per point and energy bin (powder and media collision rates).\n";
+  return out;
+}
+
+json result_of(const std::string& campaign, const std::vector<UpscalePoint>& points, const std::vector<Slice>& slices,
+               const std::vector<std::string>& files) {
+  json dominant = json::array();
+  for (const UpscalePoint& p : points) {
+    dominant.push_back({{"fill", p.fill}, {"speed_fraction", p.speed_fraction}, {"powder_load", p.powder_load},
+                        {"region", p.dominant_region}});
+  }
+  std::size_t sites = 0, within = 0;
+  for (const Slice& slice : slices) {
+    sites += slice.first().coupling.sites;
+    within += slice.first().coupling.within_tolerance;
+  }
+  return {{"campaign", campaign}, {"files", files}, {"points", points.size()}, {"slices", slices.size()},
+          {"dominant_regions", dominant}, {"coupling", {{"sites", sites}, {"within_tolerance", within}}}};
+}
+
+// Writes files into one directory and remembers them in order.
 class ReportWriter {
  public:
-  explicit ReportWriter(std::filesystem::path dir) : dir_(std::move(dir)) { std::filesystem::create_directories(dir_); }
+  explicit ReportWriter(fs::path dir) : dir_(std::move(dir)) { fs::create_directories(dir_); }
 
   void write(const std::string& name, const std::string& text) {
-    const auto file = dir_ / name;
-    const auto temporary = dir_ / (name + ".tmp");
-    {
-      std::ofstream out(temporary, std::ios::binary);
-      out << text;
-      if (!out.flush()) throw std::runtime_error("could not write " + temporary.string());
-    }
-    std::filesystem::rename(temporary, file);
-    files_.push_back({name, file});
+    const fs::path file = dir_ / name;
+    std::ofstream out(file, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.close();
+    if (!out) throw std::runtime_error("cannot write " + file.string() + ": check the disk and the work directory");
+    names_.push_back(name);
   }
-
-  const std::vector<engine::ProducedArtifact>& files() const { return files_; }
+  const std::vector<std::string>& names() const { return names_; }
+  const fs::path& dir() const { return dir_; }
 
  private:
-  std::filesystem::path dir_;
-  std::vector<engine::ProducedArtifact> files_;
+  fs::path dir_;
+  std::vector<std::string> names_;
 };
-
-std::string power_draw_chart(const std::vector<Point>& points) {
-  std::map<double, PlotSeries> macro;
-  std::map<std::pair<double, double>, PlotSeries> with_powder;
-  for (const Point& p : points) {
-    PlotSeries& balls = macro[p.fill];
-    if (balls.x.empty() || balls.x.back() != p.speed) {
-      balls.name = fmt::format("J = {:g}, balls only", p.fill);
-      balls.x.push_back(p.speed);
-      balls.y.push_back(p.result->at("mill").at("power_draw_w").get<double>());
-    }
-    if (p.load == 0.0) continue;
-    PlotSeries& powder = with_powder[{p.fill, p.load}];
-    powder.name = fmt::format("J = {:g}, U = {:g}", p.fill, p.load);
-    powder.dashed = true;
-    powder.x.push_back(p.speed);
-    powder.y.push_back(number_or_nan(p.result->at("power_draw_with_powder_w")));
-  }
-  std::vector<PlotSeries> series;
-  for (auto& [fill, s] : macro) series.push_back(std::move(s));
-  for (auto& [key, s] : with_powder) series.push_back(std::move(s));
-  return line_chart({"Power draw of the mill slice", "speed, fraction of critical", "power draw (W)"}, series);
-}
-
-// One series per region of `field` of the point's regions against powder load.
-std::string region_chart(const std::vector<Point>& loads, const std::string& field, const PlotAxes& axes) {
-  std::map<std::string, PlotSeries> regions;
-  for (const Point& p : loads) {
-    for (const json& region : p.result->at("regions")) {
-      PlotSeries& s = regions[region.at("region").get<std::string>()];
-      s.name = region.at("region").get<std::string>();
-      s.x.push_back(p.load);
-      s.y.push_back(number_or_nan(region.at(field)));
-    }
-  }
-  std::vector<PlotSeries> series;
-  for (auto& [name, s] : regions) series.push_back(std::move(s));
-  return line_chart(axes, series);
-}
-
-std::string spectra_chart(const std::vector<Point>& loads, const std::string& title) {
-  std::vector<PlotSeries> series;
-  for (const Point& p : loads) {
-    const json& spectra = p.result->at("spectra");
-    const auto edges = spectra.at("bin_edges_j").get<std::vector<double>>();
-    const auto rates = spectra.at("powder_rate_per_s").get<std::vector<double>>();
-    PlotSeries s{.name = fmt::format("U = {:g}", p.load), .x = {}, .y = {}};
-    for (std::size_t k = 0; k < rates.size(); ++k) {
-      s.x.push_back(std::sqrt(edges[k] * edges[k + 1]));  // the bin's geometric centre
-      s.y.push_back(rates[k]);
-    }
-    series.push_back(std::move(s));
-  }
-  return line_chart({title, "energy dissipated per collision (J)", "powder collisions per second", true, true}, series);
-}
-
-std::string upscaled_csv(const std::vector<Point>& points) {
-  std::string csv =
-      "fill,speed_fraction,powder_load,region,sites,volume_m3,powder_power_w,powder_power_share,media_power_w,"
-      "media_collision_power_w,media_collision_power_no_powder_w,cushioning,power_draw_w,power_draw_with_powder_w\n";
-  for (const Point& p : points) {
-    for (const json& r : p.result->at("regions")) {
-      csv += fmt::format("{:g},{:g},{:g},{},{},{},{},{},{},{},{},{},{},{}\n", p.fill, p.speed, p.load,
-                         cell(r.at("region")), cell(r.at("sites")), cell(r.at("volume_m3")), cell(r.at("powder_power_w")),
-                         cell(r.at("powder_power_share")), cell(r.at("media_power_w")),
-                         cell(r.at("media_collision_power_w")), cell(r.at("media_collision_power_no_powder_w")),
-                         cell(r.at("cushioning")), cell(p.result->at("mill").at("power_draw_w")),
-                         cell(p.result->at("power_draw_with_powder_w")));
-    }
-  }
-  return csv;
-}
-
-std::string sites_csv(const std::vector<Point>& points) {
-  const std::vector<std::string> columns = {"site_id",          "region",           "x_m",
-                                            "y_m",              "weight_m3",        "shear_rate_per_s",
-                                            "normal_stress_pa", "macro_shear_stress_pa", "cell_shear_stress_pa",
-                                            "coupling_ratio",   "power_density_w_m3", "powder_dissipation_w_m3",
-                                            "skipped"};
-  std::string csv = "fill,speed_fraction,powder_load," + fmt::format("{}\n", fmt::join(columns, ","));
-  for (const Point& p : points) {
-    for (const json& site : p.result->at("sites")) {
-      std::vector<std::string> row;
-      for (const auto& column : columns) row.push_back(cell(site.at(column)));
-      csv += fmt::format("{:g},{:g},{:g},{}\n", p.fill, p.speed, p.load, fmt::join(row, ","));
-    }
-  }
-  return csv;
-}
-
-std::string spectra_csv(const std::vector<Point>& points) {
-  std::string csv = "fill,speed_fraction,powder_load,bin_low_j,bin_high_j,powder_rate_per_s,media_rate_per_s\n";
-  for (const Point& p : points) {
-    const json& s = p.result->at("spectra");
-    const json& edges = s.at("bin_edges_j");
-    for (std::size_t k = 0; k + 1 < edges.size(); ++k) {
-      csv += fmt::format("{:g},{:g},{:g},{},{},{},{}\n", p.fill, p.speed, p.load, cell(edges.at(k)), cell(edges.at(k + 1)),
-                         cell(s.at("powder_rate_per_s").at(k)), cell(s.at("media_rate_per_s").at(k)));
-    }
-  }
-  return csv;
-}
-
-std::string summary_table(const std::vector<Point>& points) {
-  std::string table =
-      "| fill | speed | powder load | power draw (W) | with powder (W) | powder power (W) | dominant region | "
-      "cushioning | coupling: median cell/macro shear stress (sites within tolerance) |\n"
-      "|---|---|---|---|---|---|---|---|---|\n";
-  for (const Point& p : points) {
-    const json& r = *p.result;
-    table += fmt::format("| {:g} | {:g} | {:g} | {} | {} | {} | {} | {} | {} ({} of {}) |\n", p.fill, p.speed, p.load,
-                         cell(r.at("mill").at("power_draw_w")), cell(r.at("power_draw_with_powder_w")),
-                         cell(r.at("powder_power_w")), r.at("dominant_region").is_null() ? "-" : cell(r.at("dominant_region")),
-                         cell(r.at("cushioning")), cell(r.at("coupling").at("median_ratio")),
-                         cell(r.at("coupling").at("within_tolerance")), cell(r.at("coupling").at("sites")));
-  }
-  return table;
-}
 
 }  // namespace
 
 engine::TaskOutcome run_report(engine::TaskContext& context) {
   const std::string campaign = context.params.at("campaign").get<std::string>();
-  const std::vector<Point> points = sorted_points(context);
+  const ReportInputs inputs = report::read_report_inputs(context.inputs);
+  const std::vector<UpscalePoint>& points = inputs.points;
+  const std::vector<Slice> slices = slices_of(points);
+
   ReportWriter out(context.work_dir);
-  out.write("power_draw.svg", power_draw_chart(points));
-  std::string figures;
-  for (const auto& [fill_speed, loads] : by_fill_and_speed(points)) {
-    const auto [fill, speed] = fill_speed;
-    const std::string name = point_name(fill, speed);
-    const std::string where = fmt::format("J = {:g}, {:g} of critical speed", fill, speed);
-    out.write("shares_" + name + ".svg",
-              region_chart(loads, "powder_power_share",
-                           {"Share of the powder power by region, " + where, "powder load U", "share of powder power"}));
-    out.write("cushioning_" + name + ".svg",
-              region_chart(loads, "cushioning",
-                           {"Cushioning by region, " + where, "powder load U", "media collision power / without powder"}));
-    out.write("spectra_" + name + ".svg", spectra_chart(loads, "Powder collision energy spectra, " + where));
-    figures += fmt::format("### {}\n\n![shares](shares_{}.svg)\n![cushioning](cushioning_{}.svg)\n![spectra](spectra_{}.svg)\n\n",
-                           where, name, name, name);
-  }
+  out.write("power_draw.svg", power_draw_figure(points, slices).svg);
+  out.write("powder_power_shares.svg",
+            region_panels(points, slices, "Share of the powder power by region", "share of the powder power (-)",
+                          [](const report::RegionResult& r) { return r.powder_power_share; })
+                .svg);
+  out.write("cushioning.svg",
+            region_panels(points, slices, "Cushioning of media collisions by the powder",
+                          "media collision power with / without powder (-)",
+                          [](const report::RegionResult& r) { return r.cushioning.value_or(kNaN); })
+                .svg);
+  out.write("powder_spectra.svg", spectra_figure(points, slices).svg);
+  for (const Slice& slice : slices) out.write(maps_file(slice), maps_figure(slice, inputs.flow_maps.at(slice.first().average_task)).svg);
+  out.write("coupling.svg", coupling_figure(slices).svg);
   out.write("upscaled.csv", upscaled_csv(points));
   out.write("sites.csv", sites_csv(points));
   out.write("spectra.csv", spectra_csv(points));
-  out.write("index.md",
-            fmt::format(
-                "# millflow report: {}\n\n"
-                "{} points (fill x speed x powder load). Formulas: tasks/upscale.hpp. Tables: "
-                "[upscaled.csv](upscaled.csv) (point x region), [sites.csv](sites.csv) (point x site, with the "
-                "coupling check), [spectra.csv](spectra.csv).\n\n"
-                "## Summary\n\n"
-                "Power draw: the macro DEM run (balls only) and the same scaled by the shear cells' power input "
-                "with / without powder. Cushioning: media-media collision power with powder over without (below 1: "
-                "the powder cushions the balls). Coupling: a media-only shear cell at each site's shear rate and "
-                "normal stress against the macro flow's shear stress there (tolerance {:g} relative).\n\n{}\n"
-                "## Power draw\n\n![power draw](power_draw.svg)\n\n"
-                "## Per fill and speed: powder power by region, cushioning, powder collision spectra\n\n{}",
-                campaign, points.size(), kCouplingTolerance, summary_table(points), figures));
-  engine::TaskOutcome outcome;
-  json files = json::array();
-  for (const auto& file : out.files()) files.push_back(file.name);
-  outcome.result = {{"campaign", campaign}, {"points", points.size()}, {"files", files}};
-  outcome.artifacts = out.files();
-  context.log(fmt::format("report of {}: {} points, {} files", campaign, points.size(), files.size()));
+  out.write("index.md", index_page(campaign, points, slices));
+
+  engine::TaskOutcome outcome = engine::TaskOutcome::with_result(result_of(campaign, points, slices, out.names()));
+  for (const std::string& name : out.names()) outcome.artifacts.push_back({name, out.dir() / name});
+  context.log(fmt::format("report of {} points ({} fill/speed slices): {} files", points.size(), slices.size(),
+                          out.names().size()));
   return outcome;
 }
 

@@ -1,26 +1,40 @@
 #pragma once
-// The `report` task kind: one per campaign, over all its upscale tasks (tasks/upscale.hpp; other
-// inputs are ignored). Parameters: {"campaign": name}. Writes into its work directory, and
-// returns as artifacts:
-//   index.md                  the page: what each figure shows, the dominant region and the
-//                             coupling check per point, links to everything below;
-//   power_draw.svg            power draw vs speed fraction per fill (macro run, balls only) and,
-//                             dashed, with each powder load;
-//   shares_<point>.svg        each region's share of the powder power vs powder load;
-//   cushioning_<point>.svg    media-media collision power with / without powder vs powder load;
-//   spectra_<point>.svg       powder collisions per second per energy bin, one line per load;
-//   upscaled.csv              one row per point x region (the upscaled_results columns);
-//   sites.csv                 one row per point x site (coupling check, cell power densities);
-//   spectra.csv               one row per point x energy bin.
-// <point> is J<fill>_N<speed fraction>. Points are sorted by fill, speed, load; numbers are
-// printed with fixed formats, so the same inputs give the same bytes.
+// The `report` task kind (one per campaign): a directory of SVG figures, CSV tables and an
+// index.md page over every upscale point of the campaign.
+//
+// Parameters: {"campaign": name} (the page's title). Inputs, found by kind (never by position):
+// every "upscale" task of the campaign and the "average" tasks they name (their fields.json), see
+// tasks/report_inputs.hpp. Files, written into the work directory and returned as artifacts of
+// the same names:
+//   power_draw.svg           macro power draw vs speed fraction per fill (solid), and the draw
+//                            with powder per fill and powder load > 0 (dashed);
+//   powder_power_shares.svg  each region's share of the powder power vs powder load, a panel per
+//                            fill (row) and speed (column);
+//   cushioning.svg           media-media collision power with / without powder vs powder load,
+//                            per region, the same panels;
+//   powder_spectra.svg       powder collision rate per energy bin (log-log), a panel per fill and
+//                            speed, a step line per powder load;
+//   maps_<fill>_<speed>.svg  shear rate, normal stress and dissipation over the cross-section with
+//                            the sites marked (from the average task of that fill and speed);
+//   coupling.svg             media-only cell vs macro shear stress per site, with the 1:1 line;
+//   upscaled.csv             one row per point x region;  sites.csv  one row per point x site;
+//   spectra.csv              one row per point x energy bin;
+//   index.md                 the page: what each figure shows, the points with their dominant
+//                            region, the coupling agreement, links to the tables and figures.
+// Points are ordered by fill, speed fraction, powder load; numbers are written with fixed formats
+// (CSV: the shortest text that reads back to the same double), so the same inputs give the same
+// bytes. Result: {campaign, files, points, slices, dominant_regions: [{fill, speed_fraction,
+// powder_load, region}], coupling: {sites, within_tolerance}}.
 #include "engine/campaign.hpp"
 #include "engine/task.hpp"
 
 namespace millflow::tasks {
 
-inline constexpr const char* kReportVersion = "1";
+// Bump whenever the report's files or result change.
+inline constexpr const char* kReportVersion = "2";
 
 engine::TaskOutcome run_report(engine::TaskContext& context);
+
+void register_report(engine::Registry& registry);
 
 }  // namespace millflow::tasks

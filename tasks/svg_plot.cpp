@@ -1,148 +1,425 @@
 #include "tasks/svg_plot.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 
-#include <fmt/format.h>
-
-namespace millflow::tasks {
+namespace millflow::tasks::svg {
 namespace {
 
-constexpr double kWidth = 640, kHeight = 400;
-constexpr double kLeft = 80, kRight = 180, kTop = 40, kBottom = 60;  // margins; the legend is right
-constexpr std::array<const char*, 8> kColours = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e",
-                                                 "#9467bd", "#8c564b", "#e377c2", "#17becf"};
+// Exact for |exponent| <= 22 (every such power of ten is a double).
+double power_of_ten(int exponent) {
+  double value = 1.0;
+  for (int k = 0; k < std::abs(exponent); ++k) value *= 10.0;
+  return exponent < 0 ? 1.0 / value : value;
+}
 
-bool plottable(double value, bool log) { return std::isfinite(value) && (!log || value > 0.0); }
+// k x m x 10^e, divided rather than multiplied for e < 0 so that 0.1-steps come out exact.
+double tick_value(long long k, int m, int e) {
+  const double units = static_cast<double>(k * m);
+  return e < 0 ? units / power_of_ten(-e) : units * power_of_ten(e);
+}
 
-// Maps data values to pixels along one axis.
-struct Scale {
-  double lo, hi, pixel_lo, pixel_hi;
-  bool log;
-  double operator()(double value) const {
-    const double v = log ? std::log10(value) : value;
-    const double a = log ? std::log10(lo) : lo, b = log ? std::log10(hi) : hi;
-    return pixel_lo + (v - a) / (b - a) * (pixel_hi - pixel_lo);
-  }
-};
+// value / (m x 10^e) the same way.
+double in_steps(double value, int m, int e) {
+  return e < 0 ? value * power_of_ten(-e) / m : value / (m * power_of_ten(e));
+}
+
+// Absorbs rounding in the step counts (a tick that lands on the data's end stays the end).
+constexpr double kStepSlack = 1e-9;
+
+std::string px(double value) { return fmt::format("{:.2f}", value); }
 
 std::string tick_label(double value) { return fmt::format("{:g}", value); }
 
-std::vector<double> axis_ticks(double lo, double hi, bool log) { return log ? decade_ticks(lo, hi) : nice_ticks(lo, hi); }
+constexpr std::array<const char*, kPaletteSize> kPalette = {"#4e79a7", "#f28e2b", "#e15759", "#76b7b2", "#59a14f",
+                                                            "#edc948", "#b07aa1", "#ff9da7", "#9c755f", "#bab0ac"};
+
+const char* palette(int colour, std::size_t index) {
+  const std::size_t slot = colour >= 0 ? static_cast<std::size_t>(colour) : index;
+  return kPalette[slot % kPalette.size()];
+}
+
+std::string svg_open(double width, double height) {
+  return fmt::format(
+      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" viewBox=\"0 0 {0} {1}\" "
+      "font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"{0}\" height=\"{1}\" fill=\"white\"/>\n",
+      px(width), px(height));
+}
+
+std::string text(double x, double y, std::string_view content, std::string_view attributes = "") {
+  return fmt::format("<text x=\"{}\" y=\"{}\"{}{}>{}</text>\n", px(x), px(y), attributes.empty() ? "" : " ",
+                     attributes, escape_xml(content));
+}
+
+std::string line(double x1, double y1, double x2, double y2, std::string_view stroke) {
+  return fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{}\"/>\n", px(x1), px(y1), px(x2), px(y2),
+                     stroke);
+}
+
+bool plottable(double value, Scale scale) { return std::isfinite(value) && (scale == Scale::linear || value > 0.0); }
+
+// The smallest and largest plottable values seen.
+struct Range {
+  double lo = std::numeric_limits<double>::infinity();
+  double hi = -std::numeric_limits<double>::infinity();
+  void add(double value) {
+    lo = std::min(lo, value);
+    hi = std::max(hi, value);
+  }
+  bool empty() const { return lo > hi; }
+};
+
+// Maps data to pixels on one axis over its tick range.
+class AxisMap {
+ public:
+  AxisMap(Scale scale, const Range& range, double from_px, double to_px)
+      : scale_(scale), ticks_(axis_ticks(scale, range.lo, range.hi)), from_(from_px), to_(to_px) {}
+
+  double operator()(double value) const {
+    const double lo = transform(ticks_.front()), hi = transform(ticks_.back());
+    return from_ + (transform(value) - lo) / (hi - lo) * (to_ - from_);
+  }
+  const std::vector<double>& ticks() const { return ticks_; }
+  Scale scale() const { return scale_; }
+
+ private:
+  double transform(double value) const { return scale_ == Scale::log ? std::log10(value) : value; }
+
+  Scale scale_;
+  std::vector<double> ticks_;
+  double from_, to_;
+};
+
+// The frame of a chart: plot area, axes with ticks and labels, title, legend.
+struct ChartFrame {
+  static constexpr double kWidth = 660, kHeight = 420;
+  static constexpr double kLeft = 78, kRight = 480, kTop = 36, kBottom = 360;
+};
+
+struct LegendEntry {
+  std::string name;
+  const char* colour;
+  bool dashed;
+  bool marker;
+  bool has_data;
+};
+
+std::string dash_attribute(bool dashed) { return dashed ? " stroke-dasharray=\"6 4\"" : ""; }
+
+std::string legend(const std::vector<LegendEntry>& entries, std::size_t limit) {
+  std::string out;
+  const double x = ChartFrame::kRight + 14;
+  double y = ChartFrame::kTop + 10;
+  const std::size_t shown = entries.size() > limit ? limit - 1 : entries.size();
+  for (std::size_t i = 0; i < shown; ++i) {
+    const LegendEntry& entry = entries[i];
+    out += fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{}\" stroke-width=\"2\"{}/>\n", px(x),
+                       px(y), px(x + 22), px(y), entry.colour, dash_attribute(entry.dashed));
+    if (entry.marker) {
+      out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"6\" height=\"6\" fill=\"{}\"/>\n", px(x + 8), px(y - 3),
+                         entry.colour);
+    }
+    out += text(x + 28, y + 4, entry.has_data ? entry.name : entry.name + " (no data)", "font-size=\"11\"");
+    y += 18;
+  }
+  if (shown < entries.size()) out += text(x, y + 4, fmt::format("+ {} more", entries.size() - shown), "font-size=\"11\"");
+  return out;
+}
+
+std::string axes(const std::string& title, const Axis& x_axis, const Axis& y_axis, const AxisMap& x, const AxisMap& y) {
+  using F = ChartFrame;
+  std::string out = text(F::kWidth / 2, 22, title, "text-anchor=\"middle\" font-size=\"14\"");
+  for (double tick : x.ticks()) {
+    out += line(x(tick), F::kTop, x(tick), F::kBottom, "#dddddd");
+    out += text(x(tick), F::kBottom + 16, tick_label(tick), "text-anchor=\"middle\"");
+  }
+  for (double tick : y.ticks()) {
+    out += line(F::kLeft, y(tick), F::kRight, y(tick), "#dddddd");
+    out += text(F::kLeft - 6, y(tick) + 4, tick_label(tick), "text-anchor=\"end\"");
+  }
+  out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>\n",
+                     px(F::kLeft), px(F::kTop), px(F::kRight - F::kLeft), px(F::kBottom - F::kTop));
+  out += text((F::kLeft + F::kRight) / 2, F::kBottom + 40, x_axis.label, "text-anchor=\"middle\"");
+  const double mid_y = (F::kTop + F::kBottom) / 2;
+  out += text(18, mid_y, y_axis.label, fmt::format("text-anchor=\"middle\" transform=\"rotate(-90 18 {})\"", px(mid_y)));
+  return out;
+}
+
+std::string no_data_chart(const std::string& title) {
+  using F = ChartFrame;
+  std::string out = svg_open(F::kWidth, F::kHeight);
+  out += text(F::kWidth / 2, 22, title, "text-anchor=\"middle\" font-size=\"14\"");
+  out += text((F::kLeft + F::kRight) / 2, (F::kTop + F::kBottom) / 2, "no data", "text-anchor=\"middle\"");
+  return out + "</svg>\n";
+}
+
+std::string path_element(const std::string& d, const char* colour, bool dashed) {
+  return fmt::format("<path d=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"{}/>\n", d, colour,
+                     dash_attribute(dashed));
+}
+
+// Builds a path's d attribute, starting a new subpath after a break.
+class PathBuilder {
+ public:
+  void to(double x, double y) {
+    d_ += fmt::format("{}{} {} ", broken_ ? "M" : "L", px(x), px(y));
+    broken_ = false;
+  }
+  void lift() { broken_ = true; }
+  std::string d() const { return d_.empty() ? d_ : d_.substr(0, d_.size() - 1); }
+
+ private:
+  std::string d_;
+  bool broken_ = true;
+};
+
+void check_sizes(std::size_t a, std::size_t b, const std::string& name, const char* what) {
+  if (a != b) {
+    throw std::invalid_argument(fmt::format("series \"{}\": {} ({} vs {}): give one value per point", name, what, a, b));
+  }
+}
+
+// Colour map: linear interpolation between five samples of viridis.
+std::string colour_at(double t) {
+  static constexpr std::array<std::array<double, 3>, 5> kStops = {
+      {{68, 1, 84}, {59, 82, 139}, {33, 145, 140}, {94, 201, 98}, {253, 231, 37}}};
+  const double position = std::clamp(t, 0.0, 1.0) * (kStops.size() - 1);
+  const std::size_t k = std::min(static_cast<std::size_t>(position), kStops.size() - 2);
+  const double f = position - static_cast<double>(k);
+  std::array<int, 3> rgb{};
+  for (std::size_t c = 0; c < 3; ++c) rgb[c] = static_cast<int>(std::lround(kStops[k][c] + f * (kStops[k + 1][c] - kStops[k][c])));
+  return fmt::format("#{:02x}{:02x}{:02x}", rgb[0], rgb[1], rgb[2]);
+}
 
 }  // namespace
 
-std::vector<double> nice_ticks(double lo, double hi, int target) {
-  if (!(std::isfinite(lo) && std::isfinite(hi)) || hi < lo || target < 1) {
-    throw std::invalid_argument(fmt::format("nice_ticks: need finite lo <= hi and target >= 1, got {}, {}, {}", lo, hi, target));
+std::vector<double> nice_ticks(double lo, double hi, int max_intervals) {
+  if (!std::isfinite(lo) || !std::isfinite(hi) || lo > hi || max_intervals < 1) {
+    throw std::invalid_argument(fmt::format("axis range [{}, {}] with at most {} intervals: give finite lo <= hi and "
+                                            "at least one interval",
+                                            lo, hi, max_intervals));
   }
   if (lo == hi) {
     const double pad = lo == 0.0 ? 1.0 : 0.1 * std::abs(lo);
     lo -= pad;
     hi += pad;
   }
-  const double raw = (hi - lo) / target;
-  const double decade = std::pow(10.0, std::floor(std::log10(raw)));
-  double step = decade;
-  for (double multiple : {1.0, 2.0, 5.0, 10.0}) {
-    step = multiple * decade;
-    if (step >= raw) break;
+  int e = static_cast<int>(std::floor(std::log10((hi - lo) / max_intervals)));
+  for (int m_index = 0;; ++m_index) {
+    static constexpr std::array<int, 3> kMantissas = {1, 2, 5};
+    const int m = kMantissas[static_cast<std::size_t>(m_index) % 3];
+    if (m_index > 0 && m == 1) ++e;
+    const auto first = static_cast<long long>(std::floor(in_steps(lo, m, e) + kStepSlack));
+    const auto last = static_cast<long long>(std::ceil(in_steps(hi, m, e) - kStepSlack));
+    if (last - first > max_intervals) continue;
+    std::vector<double> ticks;
+    for (long long k = first; k <= last; ++k) ticks.push_back(tick_value(k, m, e));
+    return ticks;
   }
-  std::vector<double> ticks;
-  const long first = static_cast<long>(std::floor(lo / step + 1e-9)), last = static_cast<long>(std::ceil(hi / step - 1e-9));
-  for (long k = first; k <= last; ++k) ticks.push_back(static_cast<double>(k) * step);
-  return ticks;
 }
 
-std::vector<double> decade_ticks(double lo, double hi) {
-  if (!(lo > 0.0) || !(hi >= lo) || !std::isfinite(hi)) {
-    throw std::invalid_argument(fmt::format("decade_ticks: need 0 < lo <= hi, got {}, {}", lo, hi));
+std::vector<double> log_ticks(double lo, double hi, int max_intervals) {
+  if (!(lo > 0.0) || !std::isfinite(hi) || lo > hi || max_intervals < 1) {
+    throw std::invalid_argument(fmt::format("log axis range [{}, {}]: give 0 < lo <= hi (finite)", lo, hi));
   }
+  const int first = static_cast<int>(std::floor(std::log10(lo) + kStepSlack));
+  const int last = std::max(first + 1, static_cast<int>(std::ceil(std::log10(hi) - kStepSlack)));
+  const int stride = (last - first + max_intervals - 1) / max_intervals;
   std::vector<double> ticks;
-  const int first = static_cast<int>(std::floor(std::log10(lo) + 1e-9));
-  int last = static_cast<int>(std::ceil(std::log10(hi) - 1e-9));
-  if (last == first) ++last;
-  for (int k = first; k <= last; ++k) ticks.push_back(std::pow(10.0, k));
-  return ticks;
+  for (int decade = first;; decade += stride) {
+    ticks.push_back(power_of_ten(decade));
+    if (decade >= last) return ticks;
+  }
 }
 
-std::string xml_escape(const std::string& text) {
+std::vector<double> axis_ticks(Scale scale, double lo, double hi) {
+  return scale == Scale::log ? log_ticks(lo, hi) : nice_ticks(lo, hi);
+}
+
+std::string escape_xml(std::string_view raw) {
   std::string out;
-  for (char c : text) {
+  out.reserve(raw.size());
+  for (const char c : raw) {
     switch (c) {
       case '&': out += "&amp;"; break;
       case '<': out += "&lt;"; break;
       case '>': out += "&gt;"; break;
       case '"': out += "&quot;"; break;
+      case '\'': out += "&apos;"; break;
       default: out += c;
     }
   }
   return out;
 }
 
-std::string line_chart(const PlotAxes& axes, const std::vector<PlotSeries>& series) {
-  double x_lo = std::numeric_limits<double>::infinity(), x_hi = -x_lo, y_lo = x_lo, y_hi = -x_lo;
-  for (const PlotSeries& s : series) {
-    if (s.x.size() != s.y.size()) {
-      throw std::invalid_argument(fmt::format("plot '{}': series '{}' has {} x and {} y values", axes.title, s.name,
-                                              s.x.size(), s.y.size()));
+Figure line_chart(const LineChart& chart) {
+  using F = ChartFrame;
+  Range x_range, y_range;
+  std::vector<LegendEntry> entries;
+  for (std::size_t s = 0; s < chart.series.size(); ++s) {
+    const Series& series = chart.series[s];
+    check_sizes(series.x.size(), series.y.size(), series.name, "x and y differ in size");
+    bool has_data = false;
+    for (std::size_t i = 0; i < series.x.size(); ++i) {
+      if (!plottable(series.x[i], chart.x.scale) || !plottable(series.y[i], chart.y.scale)) continue;
+      x_range.add(series.x[i]);
+      y_range.add(series.y[i]);
+      has_data = true;
     }
-    for (std::size_t k = 0; k < s.x.size(); ++k) {
-      if (!plottable(s.x[k], axes.log_x) || !plottable(s.y[k], axes.log_y)) continue;
-      x_lo = std::min(x_lo, s.x[k]);
-      x_hi = std::max(x_hi, s.x[k]);
-      y_lo = std::min(y_lo, s.y[k]);
-      y_hi = std::max(y_hi, s.y[k]);
-    }
+    entries.push_back({series.name, palette(series.colour, s), series.dashed && series.line, series.markers, has_data});
   }
-  if (!(x_lo <= x_hi)) throw std::invalid_argument(fmt::format("plot '{}': no series has a plottable point", axes.title));
-  const std::vector<double> x_ticks = axis_ticks(x_lo, x_hi, axes.log_x), y_ticks = axis_ticks(y_lo, y_hi, axes.log_y);
-  const Scale sx{x_ticks.front(), x_ticks.back(), kLeft, kWidth - kRight, axes.log_x};
-  const Scale sy{y_ticks.front(), y_ticks.back(), kHeight - kBottom, kTop, axes.log_y};
+  if (x_range.empty()) return {F::kWidth, F::kHeight, no_data_chart(chart.title)};
 
-  std::string svg = fmt::format(
-      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" viewBox=\"0 0 {0} {1}\" "
-      "font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"{0}\" height=\"{1}\" fill=\"white\"/>\n"
-      "<text x=\"{2}\" y=\"22\" font-size=\"14\">{3}</text>\n",
-      kWidth, kHeight, kLeft, xml_escape(axes.title));
-  for (double t : x_ticks) {
-    svg += fmt::format("<line x1=\"{0:.1f}\" y1=\"{1}\" x2=\"{0:.1f}\" y2=\"{2}\" stroke=\"#ddd\"/>"
-                       "<text x=\"{0:.1f}\" y=\"{3}\" text-anchor=\"middle\">{4}</text>\n",
-                       sx(t), kTop, kHeight - kBottom, kHeight - kBottom + 16, tick_label(t));
-  }
-  for (double t : y_ticks) {
-    svg += fmt::format("<line x1=\"{0}\" y1=\"{1:.1f}\" x2=\"{2}\" y2=\"{1:.1f}\" stroke=\"#ddd\"/>"
-                       "<text x=\"{3}\" y=\"{4:.1f}\" text-anchor=\"end\">{5}</text>\n",
-                       kLeft, sy(t), kWidth - kRight, kLeft - 6, sy(t) + 4, tick_label(t));
-  }
-  svg += fmt::format("<text x=\"{:.1f}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n", 0.5 * (kLeft + kWidth - kRight),
-                     kHeight - 18, xml_escape(axes.x_label));
-  svg += fmt::format("<text transform=\"translate(18 {:.1f}) rotate(-90)\" text-anchor=\"middle\">{}</text>\n",
-                     0.5 * (kTop + kHeight - kBottom), xml_escape(axes.y_label));
-  for (std::size_t i = 0; i < series.size(); ++i) {
-    const PlotSeries& s = series[i];
-    const char* colour = kColours[i % kColours.size()];
-    std::string points;
+  const AxisMap x(chart.x.scale, x_range, F::kLeft, F::kRight), y(chart.y.scale, y_range, F::kBottom, F::kTop);
+  std::string out = svg_open(F::kWidth, F::kHeight) + axes(chart.title, chart.x, chart.y, x, y);
+  for (std::size_t s = 0; s < chart.series.size(); ++s) {
+    const Series& series = chart.series[s];
+    PathBuilder path;
     std::string markers;
-    for (std::size_t k = 0; k < s.x.size(); ++k) {
-      if (!plottable(s.x[k], axes.log_x) || !plottable(s.y[k], axes.log_y)) continue;
-      points += fmt::format("{}{:.1f},{:.1f}", points.empty() ? "" : " ", sx(s.x[k]), sy(s.y[k]));
-      markers += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"3\" fill=\"{}\"/>", sx(s.x[k]), sy(s.y[k]), colour);
+    for (std::size_t i = 0; i < series.x.size(); ++i) {
+      if (!plottable(series.x[i], chart.x.scale) || !plottable(series.y[i], chart.y.scale)) {
+        path.lift();
+        continue;
+      }
+      path.to(x(series.x[i]), y(series.y[i]));
+      if (series.markers) {
+        markers += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"3\" fill=\"{}\"/>\n", px(x(series.x[i])),
+                               px(y(series.y[i])), entries[s].colour);
+      }
     }
-    svg += fmt::format("<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"{}/>{}\n", points,
-                       colour, s.dashed ? " stroke-dasharray=\"5,3\"" : "", markers);
-    const double legend_y = kTop + 16.0 * static_cast<double>(i);
-    svg += fmt::format("<line x1=\"{0}\" y1=\"{1:.1f}\" x2=\"{2}\" y2=\"{1:.1f}\" stroke=\"{3}\" stroke-width=\"2\"{4}/>"
-                       "<text x=\"{5}\" y=\"{6:.1f}\">{7}</text>\n",
-                       kWidth - kRight + 10, legend_y, kWidth - kRight + 30, colour,
-                       s.dashed ? " stroke-dasharray=\"5,3\"" : "", kWidth - kRight + 35, legend_y + 4,
-                       xml_escape(s.name));
+    if (series.line && entries[s].has_data) out += path_element(path.d(), entries[s].colour, series.dashed);
+    out += markers;
   }
-  svg += "</svg>\n";
-  return svg;
+  out += legend(entries, chart.legend_limit);
+  return {F::kWidth, F::kHeight, out + "</svg>\n"};
 }
 
-}  // namespace millflow::tasks
+Figure histogram_chart(const HistogramChart& chart) {
+  using F = ChartFrame;
+  auto bin_plottable = [&](const Histogram& h, std::size_t i) {
+    return plottable(h.edges[i], chart.x.scale) && plottable(h.edges[i + 1], chart.x.scale) &&
+           plottable(h.values[i], chart.y.scale);
+  };
+  Range x_range, y_range;
+  std::vector<LegendEntry> entries;
+  for (std::size_t s = 0; s < chart.series.size(); ++s) {
+    const Histogram& h = chart.series[s];
+    check_sizes(h.edges.size(), h.values.size() + 1, h.name, "edges must be one more than values");
+    bool has_data = false;
+    for (std::size_t i = 0; i < h.values.size(); ++i) {
+      if (!bin_plottable(h, i)) continue;
+      x_range.add(h.edges[i]);
+      x_range.add(h.edges[i + 1]);
+      y_range.add(h.values[i]);
+      has_data = true;
+    }
+    entries.push_back({h.name, palette(h.colour, s), h.dashed, false, has_data});
+  }
+  if (x_range.empty()) return {F::kWidth, F::kHeight, no_data_chart(chart.title)};
+
+  const AxisMap x(chart.x.scale, x_range, F::kLeft, F::kRight), y(chart.y.scale, y_range, F::kBottom, F::kTop);
+  std::string out = svg_open(F::kWidth, F::kHeight) + axes(chart.title, chart.x, chart.y, x, y);
+  for (std::size_t s = 0; s < chart.series.size(); ++s) {
+    const Histogram& h = chart.series[s];
+    if (!entries[s].has_data) continue;
+    PathBuilder path;
+    for (std::size_t i = 0; i < h.values.size(); ++i) {
+      if (!bin_plottable(h, i)) {
+        path.lift();
+        continue;
+      }
+      path.to(x(h.edges[i]), y(h.values[i]));
+      path.to(x(h.edges[i + 1]), y(h.values[i]));
+    }
+    out += path_element(path.d(), entries[s].colour, h.dashed);
+  }
+  out += legend(entries, chart.legend_limit);
+  return {F::kWidth, F::kHeight, out + "</svg>\n"};
+}
+
+Figure heat_map(const HeatMap& map) {
+  constexpr double kSide = 300, kLeft = 16, kTop = 36, kBarX = kLeft + kSide + 24, kBarWidth = 16;
+  constexpr double kWidth = kBarX + kBarWidth + 90, kHeight = kTop + kSide + 24;
+  constexpr int kBarSteps = 32;
+  const CrossSectionGrid& grid = map.grid;
+  if (grid.nx < 1 || grid.ny < 1 || !(grid.half_width > 0.0) || map.values.size() != grid.size()) {
+    throw std::invalid_argument(fmt::format("heat map \"{}\": {} values for a {} x {} grid of half width {}: give one "
+                                            "value per cell over a grid of positive size",
+                                            map.title, map.values.size(), grid.nx, grid.ny, grid.half_width));
+  }
+  const double scale = kSide / (2.0 * grid.half_width);
+  auto to_x = [&](double x) { return kLeft + (x + grid.half_width) * scale; };
+  auto to_y = [&](double y) { return kTop + (grid.half_width - y) * scale; };
+  auto shown = [&](std::size_t c) { return grid.inside_mill(c) && plottable(map.values[c], map.scale); };
+
+  Range range;
+  for (std::size_t c = 0; c < grid.size(); ++c) {
+    if (shown(c)) range.add(map.values[c]);
+  }
+  std::string out = svg_open(kWidth, kHeight);
+  out += text(kWidth / 2, 22, map.title, "text-anchor=\"middle\" font-size=\"14\"");
+  if (range.empty()) {
+    out += text(kLeft + kSide / 2, kTop + kSide / 2, "no data", "text-anchor=\"middle\"");
+  } else {
+    const AxisMap colour(map.scale, range, 0.0, 1.0);
+    out += "<g shape-rendering=\"crispEdges\">\n";
+    for (std::size_t c = 0; c < grid.size(); ++c) {
+      if (!shown(c)) continue;
+      out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\"/>\n",
+                         px(to_x(grid.x_of(c) - grid.dx() / 2)), px(to_y(grid.y_of(c) + grid.dy() / 2)),
+                         px(grid.dx() * scale), px(grid.dy() * scale), colour_at(colour(map.values[c])));
+    }
+    const double step = kSide / kBarSteps;
+    for (int k = 0; k < kBarSteps; ++k) {
+      out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\"/>\n", px(kBarX),
+                         px(kTop + kSide - (k + 1) * step), px(kBarWidth), px(step), colour_at((k + 0.5) / kBarSteps));
+    }
+    out += "</g>\n";
+    for (double tick : colour.ticks()) {
+      const double y = kTop + kSide * (1.0 - colour(tick));
+      out += line(kBarX + kBarWidth, y, kBarX + kBarWidth + 4, y, "black");
+      out += text(kBarX + kBarWidth + 6, y + 4, tick_label(tick), "font-size=\"10\"");
+    }
+    const double mid_y = kTop + kSide / 2, label_x = kWidth - 8;
+    out += text(label_x, mid_y, map.quantity,
+                fmt::format("text-anchor=\"middle\" transform=\"rotate(-90 {} {})\"", px(label_x), px(mid_y)));
+  }
+  out += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"{}\" fill=\"none\" stroke=\"black\"/>\n", px(to_x(0)), px(to_y(0)),
+                     px(kSide / 2));
+  for (const MapMarker& marker : map.markers) {
+    out += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"4\" fill=\"white\" stroke=\"black\"/>\n", px(to_x(marker.x)),
+                       px(to_y(marker.y)));
+    out += text(to_x(marker.x) + 5, to_y(marker.y) - 5, marker.label, "font-size=\"9\"");
+  }
+  return {kWidth, kHeight, out + "</svg>\n"};
+}
+
+Figure panel_grid(const std::vector<Figure>& panels, int columns, const std::string& title) {
+  if (columns < 1) throw std::invalid_argument(fmt::format("{} panel columns: give at least 1", columns));
+  constexpr double kTitle = 32;
+  double cell_width = 0.0, cell_height = 0.0;
+  for (const Figure& panel : panels) {
+    cell_width = std::max(cell_width, panel.width);
+    cell_height = std::max(cell_height, panel.height);
+  }
+  const auto count = static_cast<int>(panels.size());
+  const int used_columns = std::max(1, std::min(columns, count));
+  const int rows = (count + columns - 1) / columns;
+  const double width = std::max(used_columns * cell_width, 320.0), height = kTitle + rows * cell_height;
+  std::string out = svg_open(width, height);
+  out += text(width / 2, 22, title, "text-anchor=\"middle\" font-size=\"16\"");
+  for (int k = 0; k < count; ++k) {
+    out += fmt::format("<g transform=\"translate({} {})\">\n", px((k % columns) * cell_width),
+                       px(kTitle + (k / columns) * cell_height));
+    out += panels[static_cast<std::size_t>(k)].svg;
+    out += "</g>\n";
+  }
+  return {width, height, out + "</svg>\n"};
+}
+
+}  // namespace millflow::tasks::svg

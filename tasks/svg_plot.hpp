@@ -1,34 +1,118 @@
 #pragma once
-// A small SVG line chart for the campaign report: several named series (solid or dashed) with
-// markers, linear or log axes with "nice" ticks, axis labels and a legend. Pure functions that
-// return the SVG text, so the report's bytes depend only on the data.
+// A small SVG writer for the campaign report: line/marker charts, step histograms (spectra) and
+// heat maps of a cell grid over the mill cross-section, plus a grid of such panels. Every
+// function is pure and returns the SVG text; the same input gives the same bytes (coordinates
+// with two decimals, tick labels with "{:g}").
+//
+// Element conventions (tests count them): a chart draws each series' line as one <path> (with a
+// new "M" where an unplottable point breaks it) and each plotted marker as one <circle>; axes,
+// ticks, grid lines and legend swatches are <line>/<rect>/<text>, never <path> or <circle>. A heat
+// map draws its cells and colour bar as <rect>, the mill outline as one <circle> and each site as
+// one <circle>.
+//
+// Unplottable data: a point with a NaN or infinite coordinate, or a non-positive one on a log
+// axis, is skipped (the line breaks there); a series with no plottable point is listed in the
+// legend as "<name> (no data)"; a chart with no plottable point at all says "no data" in its plot
+// area. Mismatched sizes throw std::invalid_argument naming the series.
+#include <cstddef>
 #include <string>
+#include <string_view>
 #include <vector>
 
-namespace millflow::tasks {
+#include "tasks/cross_section_grid.hpp"
 
-struct PlotSeries {
-  std::string name;
-  std::vector<double> x, y;  // same length; points with a non-finite (or, on a log axis,
-                             // non-positive) coordinate are left out
+namespace millflow::tasks::svg {
+
+enum class Scale { linear, log };
+
+// "Nice" ticks covering [lo, hi]: the step is 1, 2 or 5 x 10^k, the smallest such step that
+// gives at most `max_intervals` intervals; the first tick is <= lo and the last >= hi. Each tick
+// is an integer multiple of the step (k * m / 10^-e), so 0.1-steps print and compare exactly.
+// lo == hi widens the range by 10% of |lo| (or by 1 around 0). Throws for non-finite or lo > hi.
+std::vector<double> nice_ticks(double lo, double hi, int max_intervals = 5);
+
+// Powers of ten covering [lo, hi] (0 < lo <= hi): 10^floor(log10 lo) ... 10^ceil(log10 hi), every
+// n-th decade so that there are at most `max_intervals` intervals. Throws for lo <= 0.
+std::vector<double> log_ticks(double lo, double hi, int max_intervals = 8);
+
+// Ticks of an axis of either scale over a data range.
+std::vector<double> axis_ticks(Scale scale, double lo, double hi);
+
+// & < > " ' as XML entities.
+std::string escape_xml(std::string_view text);
+
+// A complete <svg> document of a known size.
+struct Figure {
+  double width = 0.0;
+  double height = 0.0;
+  std::string svg{};
+};
+
+struct Axis {
+  std::string label{};  // with the unit, e.g. "power draw (W)"
+  Scale scale = Scale::linear;
+};
+
+// Series colours come from a fixed palette of kPaletteSize; colour < 0 takes the series' index.
+inline constexpr int kPaletteSize = 10;
+
+struct Series {
+  std::string name{};
+  std::vector<double> x{}, y{};
+  int colour = -1;
+  bool dashed = false;
+  bool line = true;     // join the points
+  bool markers = true;  // a circle at each point
+};
+
+struct LineChart {
+  std::string title{};
+  Axis x{}, y{};
+  std::vector<Series> series{};
+  std::size_t legend_limit = 12;  // entries beyond it are summarised as "+ n more"
+};
+
+Figure line_chart(const LineChart& chart);
+
+// A histogram drawn as steps: value i spans [edges i, edges i+1).
+struct Histogram {
+  std::string name{};
+  std::vector<double> edges{};  // n + 1
+  std::vector<double> values{}; // n
+  int colour = -1;
   bool dashed = false;
 };
 
-struct PlotAxes {
-  std::string title, x_label, y_label;
-  bool log_x = false, log_y = false;
+struct HistogramChart {
+  std::string title{};
+  Axis x{"", Scale::log}, y{"", Scale::log};
+  std::vector<Histogram> series{};
+  std::size_t legend_limit = 12;
 };
 
-// Tick values covering [lo, hi]: multiples of 1, 2 or 5 x 10^k, about `target` of them, from the
-// largest multiple <= lo to the smallest >= hi. lo == hi gives a range around the value.
-std::vector<double> nice_ticks(double lo, double hi, int target = 5);
-// Powers of ten covering [lo, hi] (lo > 0): 10^floor(log10 lo) ... 10^ceil(log10 hi).
-std::vector<double> decade_ticks(double lo, double hi);
+// Each histogram is one <path>; no markers.
+Figure histogram_chart(const HistogramChart& chart);
 
-// Throws std::invalid_argument when x and y differ in length or no series has a plottable point.
-std::string line_chart(const PlotAxes& axes, const std::vector<PlotSeries>& series);
+struct MapMarker {
+  double x = 0.0, y = 0.0;  // m, in the grid's frame (y up)
+  std::string label{};
+};
 
-// Escapes &, <, >, " for SVG text and attributes.
-std::string xml_escape(const std::string& text);
+// A field over the cross-section grid; cells whose centre lies outside the mill circle (radius
+// grid.half_width) or whose value is not plottable on the colour scale stay blank.
+struct HeatMap {
+  std::string title{};
+  std::string quantity{};  // colour-bar label with unit
+  CrossSectionGrid grid{};
+  std::vector<double> values{};  // grid.size(), index j * nx + i
+  Scale scale = Scale::linear;
+  std::vector<MapMarker> markers{};
+};
 
-}  // namespace millflow::tasks
+// Throws std::invalid_argument when values do not match the grid.
+Figure heat_map(const HeatMap& map);
+
+// Panels in rows of `columns` (each cell as large as the largest panel), under a title.
+Figure panel_grid(const std::vector<Figure>& panels, int columns, const std::string& title);
+
+}  // namespace millflow::tasks::svg

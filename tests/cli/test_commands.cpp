@@ -299,5 +299,14 @@ TEST_F(Cli, ExitCodesForDoneFailedBadInputBusyAndInterrupted) {
   EXPECT_EQ(running_tasks(db()), 0);
 }
 
+TEST_F(Cli, ReportOfACampaignWithoutAReportTaskIsBadInput) {
+  ASSERT_EQ(submit_diamond().exit_code, 0);
+  const auto latest = millflow({"report", "--out", (dir_.path() / "report").string()});
+  EXPECT_EQ(latest.exit_code, 2);
+  EXPECT_NE(latest.err.find("campaign \"diamond\" has no finished report task"), std::string::npos) << latest.err;
+  EXPECT_FALSE(fs::exists(dir_.path() / "report"));
+  EXPECT_EQ(millflow({"report", "nope"}).exit_code, 2);
+}
+
 }  // namespace
 }  // namespace millflow::testing

@@ -1,84 +1,303 @@
-// The report kind over hand-made upscale results (2 fills x 2 speeds x 2 loads): every file, the
-// CSV rows, the page's links, and the same bytes on a second run.
+// The `report` task on synthetic inputs: 2 fills x 2 speeds x 2 powder loads of upscale results
+// that follow the upscale contract, and a small fields.json per fill/speed. The tables must hold
+// exactly the input values (parsed back and compared with the inputs), the page must link every
+// figure, the bytes must not depend on the run or the input order, and bad inputs must name the
+// task and the field.
+#include "tasks/report.hpp"
+
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
+#include <functional>
+#include <map>
 #include <sstream>
+#include <stdexcept>
+#include <tuple>
 
-#include "tasks/report.hpp"
 #include "tests/common/scratch_dir.hpp"
-#include "tests/tasks/upscale_inputs.hpp"
 
 namespace millflow::tasks {
 namespace {
 
-std::vector<engine::TaskInput> upscale_inputs() {
-  std::vector<engine::TaskInput> inputs;
-  for (double fill : {0.2, 0.35}) {
-    for (double speed : {0.65, 0.8}) {
-      for (double load : {0.0, 1.0}) {
-        inputs.push_back({.key = fmt::format("up-{}-{}-{}", fill, speed, load),
-                          .kind = "upscale",
-                          .result = testing::upscale(testing::point_inputs(fill, speed, fill + speed), load),
-                          .artifacts = {}});
-      }
-    }
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+const std::vector<double> kFills = {0.2, 0.3}, kSpeeds = {0.6, 0.75}, kLoads = {0.0, 0.5};
+
+std::string average_key(double fill, double speed) { return fmt::format("average-{}-{}", fill, speed); }
+std::string upscale_key(double fill, double speed, double load) { return fmt::format("upscale-{}-{}-{}", fill, speed, load); }
+
+// A toe and a bulk region; the bulk's cushioning is unknown (null) without powder, and the bulk
+// site's cell was skipped, so its cell values are null.
+json upscale_result(double fill, double speed, double load) {
+  const double draw = 2000.0 * fill + 1000.0 * speed, powder = 100.0 * load;
+  auto region = [&](const char* name, double share, json cushioning) {
+    return json{{"region", name}, {"sites", 1}, {"volume_m3", 0.001 * share}, {"powder_power_w", share * powder},
+                {"powder_power_share", share}, {"media_power_w", 300.0 * share},
+                {"media_collision_power_w", 60.0 * share * (1.0 - 0.2 * load)},
+                {"media_collision_power_no_powder_w", 60.0 * share}, {"cushioning", cushioning}};
+  };
+  const json toe_site = {{"site_id", "toe-0"}, {"region", "toe"}, {"x_m", 0.1}, {"y_m", -0.3}, {"weight_m3", 0.0006},
+                         {"shear_rate_per_s", 12.0 * speed}, {"normal_stress_pa", 4000.0 * fill},
+                         {"macro_shear_stress_pa", 1500.0 * fill}, {"cell_shear_stress_pa", 1400.0 * fill},
+                         {"coupling_ratio", 1400.0 / 1500.0}, {"power_density_w_m3", 9000.0},
+                         {"powder_dissipation_w_m3", 800.0 * load}, {"skipped", nullptr}};
+  const json bulk_site = {{"site_id", "bulk-0"}, {"region", "bulk"}, {"x_m", -0.1}, {"y_m", -0.1}, {"weight_m3", 0.0004},
+                          {"shear_rate_per_s", 2.0}, {"normal_stress_pa", 3000.0}, {"macro_shear_stress_pa", 900.0},
+                          {"cell_shear_stress_pa", nullptr}, {"coupling_ratio", nullptr}, {"power_density_w_m3", nullptr},
+                          {"powder_dissipation_w_m3", nullptr}, {"skipped", "no steady state"}};
+  return {{"fill", fill}, {"speed_fraction", speed}, {"powder_load", load}, {"average_task", average_key(fill, speed)},
+          {"mill", {{"diameter_m", 1.0}, {"slice_length_m", 0.15}, {"ball_mass_kg", 123.0}, {"power_draw_w", draw},
+                    {"specific_power_kw_per_t", draw / 123.0}}},
+          {"power_draw_with_powder_w", draw * (1.0 + 0.1 * load)}, {"powder_power_w", powder}, {"media_power_w", 300.0},
+          {"regions", {region("toe", 0.6, 1.0 - 0.2 * load), region("bulk", 0.4, load > 0 ? json(0.9) : json(nullptr))}},
+          {"dominant_region", "toe"},
+          {"spectra", {{"bin_edges_j", {1e-9, 1e-8, 1e-7, 1e-6}},
+                       {"powder_rate_per_s", {10.0 * load, 20.0 * load, 5.0 * load}},
+                       {"media_rate_per_s", {100.0, 50.0 * speed, 10.0 * fill}}}},
+          {"sites", {toe_site, bulk_site}},
+          {"coupling", {{"sites", 1}, {"median_ratio", 1400.0 / 1500.0}, {"tolerance", 0.5}, {"within_tolerance", 1}}}};
+}
+
+// A 4 x 4 grid over a mill of radius 0.5 m with made-up fields.
+json fields_document(double fill) {
+  json arrays = json::object();
+  for (const char* name : {"solid_fraction", "shear_rate_per_s", "normal_stress_pa", "shear_stress_pa", "pressure_pa",
+                           "granular_temperature_m2_s2", "collision_frequency_per_m3_s", "dissipation_w_m3"}) {
+    std::vector<double> values;
+    for (int c = 0; c < 16; ++c) values.push_back(fill * (c + 1));
+    arrays[name] = {{"components", 1}, {"values", values}};
   }
-  return inputs;
+  return {{"grid", {{"nx", 4}, {"ny", 4}, {"half_width_m", 0.5}}}, {"slice_length_m", 0.15},
+          {"media_diameter_m", 0.04}, {"angular_velocity_rad_s", 4.0}, {"arrays", arrays}};
 }
 
-engine::TaskOutcome report(const std::vector<engine::TaskInput>& inputs, const std::filesystem::path& dir) {
-  const nlohmann::json params = {{"campaign", "tiny"}};
-  engine::TaskContext context{.key = "report-key", .params = params, .inputs = inputs, .work_dir = dir, .threads = 1,
-                              .stop = {}, .progress = [](double, std::string_view) {}, .log = [](std::string_view) {}};
-  return run_report(context);
-}
-
-std::string read(const std::filesystem::path& file) {
+std::string read_text(const fs::path& file) {
   std::ifstream in(file, std::ios::binary);
   std::ostringstream text;
   text << in.rdbuf();
   return text.str();
 }
 
-std::size_t lines(const std::string& text) { return static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')); }
+std::vector<std::map<std::string, std::string>> read_csv(const fs::path& file) {
+  std::istringstream in(read_text(file));
+  auto split = [](const std::string& line) {
+    std::vector<std::string> cells;
+    std::stringstream row(line);
+    for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+    if (!line.empty() && line.back() == ',') cells.emplace_back();
+    return cells;
+  };
+  std::string line;
+  std::getline(in, line);
+  const auto header = split(line);
+  std::vector<std::map<std::string, std::string>> rows;
+  while (std::getline(in, line)) {
+    const auto cells = split(line);
+    EXPECT_EQ(cells.size(), header.size()) << line;
+    std::map<std::string, std::string> row;
+    for (std::size_t i = 0; i < std::min(cells.size(), header.size()); ++i) row[header[i]] = cells[i];
+    rows.push_back(row);
+  }
+  return rows;
+}
 
-TEST(Report, WritesEveryFigureAndTableAndLinksThemFromThePage) {
-  const millflow::testing::ScratchDir scratch;
-  const auto outcome = report(upscale_inputs(), scratch.path() / "a");
-  // power draw + 3 figures for each of 4 fill/speed points + 3 CSV + index.md
-  ASSERT_EQ(outcome.artifacts.size(), 1u + 3u * 4u + 3u + 1u);
-  const std::string page = read(scratch.path() / "a" / "index.md");
+std::size_t count_of(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+class Report : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    for (double fill : kFills) {
+      for (double speed : kSpeeds) {
+        const fs::path fields = dir_.path() / (average_key(fill, speed) + ".json");
+        std::ofstream(fields) << fields_document(fill).dump();
+        inputs_.push_back({average_key(fill, speed), "average", json::object(), {{"fields.json", fields}}});
+        for (double load : kLoads) {
+          inputs_.push_back({upscale_key(fill, speed, load), "upscale", upscale_result(fill, speed, load), {}});
+        }
+      }
+    }
+  }
+
+  engine::TaskOutcome run(const std::vector<engine::TaskInput>& inputs, const std::string& work) {
+    const json params = {{"campaign", "synthetic"}};
+    engine::TaskContext context{.key = "report",
+                                .params = params,
+                                .inputs = inputs,
+                                .work_dir = dir_.path() / work,
+                                .threads = 1,
+                                .attempt = 1,
+                                .stop = {},
+                                .progress = [](double, std::string_view) {},
+                                .log = [](std::string_view) {}};
+    return run_report(context);
+  }
+
+  // The error of a run whose input `key` has been changed by `edit`.
+  std::string error_after(const std::string& key, const std::function<void(json&)>& edit) {
+    auto inputs = inputs_;
+    for (auto& input : inputs) {
+      if (input.key == key) edit(input.result);
+    }
+    try {
+      run(inputs, "bad");
+    } catch (const std::invalid_argument& error) {
+      return error.what();
+    }
+    ADD_FAILURE() << "expected std::invalid_argument";
+    return {};
+  }
+
+  millflow::testing::ScratchDir dir_;
+  std::vector<engine::TaskInput> inputs_;
+};
+
+const std::vector<std::string> kExpectedFiles = {
+    "power_draw.svg",        "powder_power_shares.svg", "cushioning.svg",       "powder_spectra.svg",
+    "maps_0.2_0.6.svg",      "maps_0.2_0.75.svg",       "maps_0.3_0.6.svg",     "maps_0.3_0.75.svg",
+    "coupling.svg",          "upscaled.csv",            "sites.csv",            "spectra.csv",
+    "index.md"};
+
+TEST_F(Report, WritesEveryFileAsAnArtifact) {
+  const auto outcome = run(inputs_, "work");
+  std::vector<std::string> names;
   for (const auto& artifact : outcome.artifacts) {
-    EXPECT_TRUE(std::filesystem::exists(artifact.file)) << artifact.name;
-    if (artifact.name == "index.md") continue;
-    EXPECT_NE(page.find("(" + artifact.name + ")"), std::string::npos) << artifact.name;
+    names.push_back(artifact.name);
+    EXPECT_TRUE(fs::is_regular_file(artifact.file)) << artifact.file;
+    EXPECT_EQ(artifact.file.filename(), artifact.name);
   }
+  EXPECT_EQ(names, kExpectedFiles);
+  EXPECT_EQ(outcome.result.at("files"), json(kExpectedFiles));
   EXPECT_EQ(outcome.result.at("points"), 8);
-  // Rows: 2 regions per point, 3 sites per point, 2 energy bins per point, plus the header.
-  EXPECT_EQ(lines(read(scratch.path() / "a" / "upscaled.csv")), 1u + 8u * 2u);
-  EXPECT_EQ(lines(read(scratch.path() / "a" / "sites.csv")), 1u + 8u * 3u);
-  EXPECT_EQ(lines(read(scratch.path() / "a" / "spectra.csv")), 1u + 8u * 2u);
-  // Sorted by fill, speed, load; the toe dominates every loaded point of these inputs.
-  const std::string upscaled = read(scratch.path() / "a" / "upscaled.csv");
-  EXPECT_EQ(upscaled.substr(upscaled.find('\n') + 1, 20), "0.2,0.65,0,toe,1,0.0");
-  EXPECT_NE(page.find("| 0.35 | 0.8 | 1 | 1150 | 1437.5 | 1.1 | toe |"), std::string::npos) << page;
+  EXPECT_EQ(outcome.result.at("slices"), 4);
+  EXPECT_EQ(outcome.result.at("coupling"), json({{"sites", 4}, {"within_tolerance", 4}}));
 }
 
-TEST(Report, SameInputsGiveTheSameBytesInAnyOrder) {
-  const millflow::testing::ScratchDir scratch;
-  auto inputs = upscale_inputs();
-  const auto first = report(inputs, scratch.path() / "a");
-  std::reverse(inputs.begin(), inputs.end());
-  report(inputs, scratch.path() / "b");
-  for (const auto& artifact : first.artifacts) {
-    EXPECT_EQ(read(scratch.path() / "a" / artifact.name), read(scratch.path() / "b" / artifact.name)) << artifact.name;
+TEST_F(Report, UpscaledTableHoldsTheInputsInPointOrder) {
+  run(inputs_, "work");
+  const auto rows = read_csv(dir_.path() / "work" / "upscaled.csv");
+  ASSERT_EQ(rows.size(), 8u * 2u);
+  std::vector<std::tuple<double, double, double>> order;
+  for (const auto& row : rows) {
+    const double fill = std::stod(row.at("fill")), speed = std::stod(row.at("speed_fraction"));
+    const double load = std::stod(row.at("powder_load"));
+    order.emplace_back(fill, speed, load);
+    EXPECT_EQ(row.at("upscale_task"), upscale_key(fill, speed, load));
+    const json expected = upscale_result(fill, speed, load);
+    const json& region = expected.at("regions").at(row.at("region") == "toe" ? 0 : 1);
+    EXPECT_EQ(std::stod(row.at("powder_power_w")), region.at("powder_power_w").get<double>());
+    EXPECT_EQ(std::stod(row.at("media_collision_power_w")), region.at("media_collision_power_w").get<double>());
+    EXPECT_EQ(std::stod(row.at("power_draw_with_powder_w")), expected.at("power_draw_with_powder_w").get<double>());
+    if (region.at("cushioning").is_null()) EXPECT_EQ(row.at("cushioning"), "");
+    else EXPECT_EQ(std::stod(row.at("cushioning")), region.at("cushioning").get<double>());
+  }
+  EXPECT_TRUE(std::is_sorted(order.begin(), order.end()));
+}
+
+TEST_F(Report, SitesAndSpectraTablesHoldTheInputs) {
+  run(inputs_, "work");
+  const auto sites = read_csv(dir_.path() / "work" / "sites.csv");
+  ASSERT_EQ(sites.size(), 8u * 2u);
+  for (const auto& row : sites) {
+    const json expected = upscale_result(std::stod(row.at("fill")), std::stod(row.at("speed_fraction")),
+                                         std::stod(row.at("powder_load")));
+    const json& site = expected.at("sites").at(row.at("site_id") == "toe-0" ? 0 : 1);
+    EXPECT_EQ(std::stod(row.at("macro_shear_stress_pa")), site.at("macro_shear_stress_pa").get<double>());
+    if (site.at("cell_shear_stress_pa").is_null()) {
+      EXPECT_EQ(row.at("cell_shear_stress_pa"), "");
+      EXPECT_EQ(row.at("skipped"), "no steady state");
+    } else {
+      EXPECT_EQ(std::stod(row.at("cell_shear_stress_pa")), site.at("cell_shear_stress_pa").get<double>());
+    }
+  }
+  const auto spectra = read_csv(dir_.path() / "work" / "spectra.csv");
+  ASSERT_EQ(spectra.size(), 8u * 3u);
+  for (const auto& row : spectra) {
+    const json expected = upscale_result(std::stod(row.at("fill")), std::stod(row.at("speed_fraction")),
+                                         std::stod(row.at("powder_load")));
+    const std::size_t bin = std::stoul(row.at("bin"));
+    EXPECT_EQ(std::stod(row.at("energy_low_j")), expected.at("spectra").at("bin_edges_j").at(bin).get<double>());
+    EXPECT_EQ(std::stod(row.at("media_rate_per_s")), expected.at("spectra").at("media_rate_per_s").at(bin).get<double>());
   }
 }
 
-TEST(Report, RefusesACampaignWithoutUpscaleResults) {
-  const millflow::testing::ScratchDir scratch;
-  EXPECT_THROW(report({}, scratch.path() / "a"), std::invalid_argument);
+TEST_F(Report, IndexLinksEveryFigureAndTable) {
+  run(inputs_, "work");
+  const std::string index = read_text(dir_.path() / "work" / "index.md");
+  for (const std::string& file : kExpectedFiles) {
+    if (file == "index.md") continue;
+    EXPECT_NE(index.find("](" + file + ")"), std::string::npos) << file;
+  }
+  EXPECT_EQ(count_of(index, "| toe |"), 8u);  // the dominant region of every point
+}
+
+TEST_F(Report, FiguresDrawOneMarkerPerComparedSite) {
+  run(inputs_, "work");
+  // Four slices, each with one site that has a cell result; the 1:1 line has no markers.
+  EXPECT_EQ(count_of(read_text(dir_.path() / "work" / "coupling.svg"), "<circle"), 4u);
+  // Three panels, each with the mill outline and the two sites.
+  EXPECT_EQ(count_of(read_text(dir_.path() / "work" / "maps_0.3_0.75.svg"), "<circle"), 3u * 3u);
+}
+
+TEST_F(Report, SameInputsInAnyOrderGiveTheSameBytes) {
+  run(inputs_, "first");
+  auto reversed = inputs_;
+  std::reverse(reversed.begin(), reversed.end());
+  run(reversed, "second");
+  for (const std::string& file : kExpectedFiles) {
+    EXPECT_EQ(read_text(dir_.path() / "first" / file), read_text(dir_.path() / "second" / file)) << file;
+  }
+}
+
+TEST_F(Report, MissingOrIllTypedFieldNamesTheTaskAndTheField) {
+  const std::string key = upscale_key(0.3, 0.6, 0.5);
+  const std::string missing = error_after(key, [](json& r) { r["regions"][1].erase("powder_power_w"); });
+  EXPECT_NE(missing.find("upscale task " + key), std::string::npos) << missing;
+  EXPECT_NE(missing.find("/regions/1/powder_power_w is missing"), std::string::npos) << missing;
+
+  const std::string ill_typed = error_after(key, [](json& r) { r["fill"] = "high"; });
+  EXPECT_NE(ill_typed.find("/fill is \"high\", not a number"), std::string::npos) << ill_typed;
+
+  const std::string short_spectrum = error_after(key, [](json& r) { r["spectra"]["media_rate_per_s"] = {1.0}; });
+  EXPECT_NE(short_spectrum.find("/spectra/media_rate_per_s does not hold 3 bins"), std::string::npos) << short_spectrum;
+}
+
+TEST_F(Report, UnknownAverageTaskIsNamed) {
+  const std::string key = upscale_key(0.2, 0.6, 0.0);
+  const std::string error = error_after(key, [](json& r) { r["average_task"] = "nowhere"; });
+  EXPECT_NE(error.find("upscale task " + key + ": field /average_task names nowhere"), std::string::npos) << error;
+}
+
+TEST_F(Report, UnreadableFieldsNameTheAverageTask) {
+  auto inputs = inputs_;
+  const std::string key = average_key(0.2, 0.75);
+  for (auto& input : inputs) {
+    if (input.key == key) {
+      const fs::path broken = dir_.path() / "broken.json";
+      std::ofstream(broken) << json{{"grid", {{"nx", 4}, {"ny", 4}, {"half_width_m", 0.5}}}}.dump();
+      input.artifacts["fields.json"] = broken;
+    }
+  }
+  try {
+    run(inputs, "bad");
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("average task " + key + ": fields.json"), std::string::npos) << error.what();
+  }
+}
+
+TEST_F(Report, NoUpscaleInputIsRefused) {
+  std::vector<engine::TaskInput> averages;
+  for (const auto& input : inputs_) {
+    if (input.kind == "average") averages.push_back(input);
+  }
+  EXPECT_THROW(run(averages, "empty"), std::invalid_argument);
 }
 
 }  // namespace

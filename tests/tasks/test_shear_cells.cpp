@@ -81,7 +81,7 @@ TEST(ShearCellsPlan, DisabledShearCellsStopTheDagAtTheSites) {
   }
 }
 
-TEST(ShearCellsPlan, EverySlotAndLoadHasACellBelowSharedSitesAndEveryPointAnUpscale) {
+TEST(ShearCellsPlan, EverySlotAndLoadHasACellBelowSharedSitesAndEveryPointAnUpscaleAndOneReport) {
   const auto tasks = quick_plan(true);
   std::map<std::string, int> per_kind;
   std::map<std::string, const engine::TaskSpec*> by_key;
@@ -95,6 +95,7 @@ TEST(ShearCellsPlan, EverySlotAndLoadHasACellBelowSharedSitesAndEveryPointAnUpsc
   EXPECT_EQ(per_kind["sites"], 4);
   EXPECT_EQ(per_kind["shear_cell"], 4 * 10 * 3);
   EXPECT_EQ(per_kind["upscale"], 4 * 3);
+  ASSERT_EQ(per_kind["report"], 1);
 
   for (const auto& task : tasks) {
     if (task.kind == "shear_cell") {
@@ -104,6 +105,12 @@ TEST(ShearCellsPlan, EverySlotAndLoadHasACellBelowSharedSitesAndEveryPointAnUpsc
       EXPECT_EQ(task.params.at("interactions").size(), 3u);
       EXPECT_TRUE(task.params.at("slot").contains("region"));
       EXPECT_FALSE(task.params.contains("macro"));  // a macro setting must not re-key the cells
+    }
+    if (task.kind == "report") {
+      // Every upscale, and each fill and speed's average once (its maps).
+      std::map<std::string, int> upstream_kinds;
+      for (const auto& key : task.upstream) ++upstream_kinds[by_key.at(key)->kind];
+      EXPECT_EQ(upstream_kinds, (std::map<std::string, int>{{"average", 4}, {"upscale", 12}}));
     }
     if (task.kind != "upscale") continue;
     // Its macro, average and sites, its 10 cells, and the 10 without powder unless it has none.

@@ -1,0 +1,174 @@
+#include "tasks/report_inputs.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <fstream>
+#include <stdexcept>
+#include <tuple>
+
+namespace millflow::tasks::report {
+namespace {
+
+using nlohmann::json;
+
+// Typed reads from one task's JSON by JSON pointer, with errors that name the task and field.
+class FieldReader {
+ public:
+  FieldReader(std::string owner, const json& document) : owner_(std::move(owner)), document_(document) {}
+
+  const json& at(const std::string& pointer) const {
+    const json::json_pointer where(pointer);
+    if (!document_.contains(where)) refuse(pointer, "is missing");
+    return document_.at(where);
+  }
+  double number(const std::string& pointer) const {
+    const json& value = at(pointer);
+    if (!value.is_number()) refuse(pointer, "is " + value.dump() + ", not a number");
+    return value.get<double>();
+  }
+  std::optional<double> number_or_null(const std::string& pointer) const {
+    if (at(pointer).is_null()) return std::nullopt;
+    return number(pointer);
+  }
+  std::size_t count(const std::string& pointer) const {
+    const json& value = at(pointer);
+    if (!value.is_number_integer() || value.get<long long>() < 0) refuse(pointer, "is " + value.dump() + ", not a count");
+    return value.get<std::size_t>();
+  }
+  std::string text(const std::string& pointer) const {
+    const json& value = at(pointer);
+    if (!value.is_string()) refuse(pointer, "is " + value.dump() + ", not a string");
+    return value.get<std::string>();
+  }
+  std::optional<std::string> text_or_null(const std::string& pointer) const {
+    if (at(pointer).is_null()) return std::nullopt;
+    return text(pointer);
+  }
+  std::size_t array_size(const std::string& pointer) const {
+    const json& value = at(pointer);
+    if (!value.is_array()) refuse(pointer, "is not an array");
+    return value.size();
+  }
+  std::vector<double> numbers(const std::string& pointer) const {
+    std::vector<double> values;
+    for (std::size_t i = 0; i < array_size(pointer); ++i) values.push_back(number(fmt::format("{}/{}", pointer, i)));
+    return values;
+  }
+  [[noreturn]] void refuse(const std::string& pointer, const std::string& problem) const {
+    throw std::invalid_argument(fmt::format("{}: field {} {}; the report reads the upscale result contract, so re-run "
+                                            "that task with a matching version",
+                                            owner_, pointer, problem));
+  }
+
+ private:
+  std::string owner_;
+  const json& document_;
+};
+
+RegionResult read_region(const FieldReader& in, const std::string& at) {
+  return {.region = in.text(at + "/region"),
+          .sites = in.count(at + "/sites"),
+          .volume_m3 = in.number(at + "/volume_m3"),
+          .powder_power_w = in.number(at + "/powder_power_w"),
+          .powder_power_share = in.number(at + "/powder_power_share"),
+          .media_power_w = in.number(at + "/media_power_w"),
+          .media_collision_power_w = in.number(at + "/media_collision_power_w"),
+          .media_collision_power_no_powder_w = in.number(at + "/media_collision_power_no_powder_w"),
+          .cushioning = in.number_or_null(at + "/cushioning")};
+}
+
+SiteResult read_site(const FieldReader& in, const std::string& at) {
+  return {.site_id = in.text(at + "/site_id"),
+          .region = in.text(at + "/region"),
+          .x_m = in.number(at + "/x_m"),
+          .y_m = in.number(at + "/y_m"),
+          .weight_m3 = in.number(at + "/weight_m3"),
+          .shear_rate_per_s = in.number(at + "/shear_rate_per_s"),
+          .normal_stress_pa = in.number(at + "/normal_stress_pa"),
+          .macro_shear_stress_pa = in.number(at + "/macro_shear_stress_pa"),
+          .cell_shear_stress_pa = in.number_or_null(at + "/cell_shear_stress_pa"),
+          .coupling_ratio = in.number_or_null(at + "/coupling_ratio"),
+          .power_density_w_m3 = in.number_or_null(at + "/power_density_w_m3"),
+          .powder_dissipation_w_m3 = in.number_or_null(at + "/powder_dissipation_w_m3"),
+          .skipped = in.text_or_null(at + "/skipped")};
+}
+
+void read_spectra(const FieldReader& in, UpscalePoint& point) {
+  point.bin_edges_j = in.numbers("/spectra/bin_edges_j");
+  point.powder_rate_per_s = in.numbers("/spectra/powder_rate_per_s");
+  point.media_rate_per_s = in.numbers("/spectra/media_rate_per_s");
+  if (point.bin_edges_j.size() < 2) in.refuse("/spectra/bin_edges_j", "holds fewer than 2 edges");
+  const std::size_t bins = point.bin_edges_j.size() - 1;
+  if (point.powder_rate_per_s.size() != bins) in.refuse("/spectra/powder_rate_per_s", fmt::format("does not hold {} bins", bins));
+  if (point.media_rate_per_s.size() != bins) in.refuse("/spectra/media_rate_per_s", fmt::format("does not hold {} bins", bins));
+}
+
+FlowMap read_flow_map(const engine::TaskInput& average) {
+  const std::string owner = fmt::format("average task {}", average.key);
+  const auto artifact = average.artifacts.find("fields.json");
+  if (artifact == average.artifacts.end()) {
+    throw std::invalid_argument(owner + ": has no fields.json artifact; re-run the average task");
+  }
+  std::ifstream file(artifact->second);
+  if (!file) throw std::invalid_argument(fmt::format("{}: cannot read {}", owner, artifact->second.string()));
+  try {
+    return flow_map_from_document(json::parse(file));
+  } catch (const std::exception& error) {
+    throw std::invalid_argument(fmt::format("{}: fields.json: {}", owner, error.what()));
+  }
+}
+
+}  // namespace
+
+UpscalePoint read_upscale(const std::string& task_key, const json& result) {
+  const FieldReader in(fmt::format("upscale task {}", task_key), result);
+  UpscalePoint point{.task_key = task_key,
+                     .average_task = in.text("/average_task"),
+                     .fill = in.number("/fill"),
+                     .speed_fraction = in.number("/speed_fraction"),
+                     .powder_load = in.number("/powder_load"),
+                     .power_draw_w = in.number("/mill/power_draw_w"),
+                     .specific_power_kw_per_t = in.number("/mill/specific_power_kw_per_t"),
+                     .power_draw_with_powder_w = in.number("/power_draw_with_powder_w"),
+                     .powder_power_w = in.number("/powder_power_w"),
+                     .media_power_w = in.number("/media_power_w"),
+                     .dominant_region = in.text("/dominant_region"),
+                     .coupling = {.sites = in.count("/coupling/sites"),
+                                  .median_ratio = in.number_or_null("/coupling/median_ratio"),
+                                  .tolerance = in.number("/coupling/tolerance"),
+                                  .within_tolerance = in.count("/coupling/within_tolerance")}};
+  for (std::size_t r = 0; r < in.array_size("/regions"); ++r) point.regions.push_back(read_region(in, fmt::format("/regions/{}", r)));
+  for (std::size_t s = 0; s < in.array_size("/sites"); ++s) point.sites.push_back(read_site(in, fmt::format("/sites/{}", s)));
+  read_spectra(in, point);
+  return point;
+}
+
+ReportInputs read_report_inputs(const std::vector<engine::TaskInput>& inputs) {
+  ReportInputs report;
+  std::map<std::string, const engine::TaskInput*> averages;
+  for (const engine::TaskInput& input : inputs) {
+    if (input.kind == "upscale") report.points.push_back(read_upscale(input.key, input.result));
+    if (input.kind == "average") averages[input.key] = &input;
+  }
+  if (report.points.empty()) {
+    throw std::invalid_argument("the report has no upscale input: plan it below the campaign's upscale tasks");
+  }
+  for (const UpscalePoint& point : report.points) {
+    if (report.flow_maps.count(point.average_task) > 0) continue;
+    const auto average = averages.find(point.average_task);
+    if (average == averages.end()) {
+      throw std::invalid_argument(fmt::format("upscale task {}: field /average_task names {}, which is not an average "
+                                              "input of the report; plan the report below that average task",
+                                              point.task_key, point.average_task));
+    }
+    report.flow_maps.emplace(point.average_task, read_flow_map(*average->second));
+  }
+  std::sort(report.points.begin(), report.points.end(), [](const UpscalePoint& a, const UpscalePoint& b) {
+    return std::tie(a.fill, a.speed_fraction, a.powder_load, a.task_key) <
+           std::tie(b.fill, b.speed_fraction, b.powder_load, b.task_key);
+  });
+  return report;
+}
+
+}  // namespace millflow::tasks::report

@@ -1,0 +1,71 @@
+#pragma once
+// The inputs of the `report` task, read from its upstream tasks by kind: every "upscale" task's
+// result (the contract in /work/upscale-contract.md, written by tasks/upscale) and the
+// fields.json artifact of every "average" task an upscale names. Points are sorted by fill, speed
+// fraction, powder load (then task key), so the report is the same whatever the input order.
+//
+// A missing or ill-typed value throws std::invalid_argument naming the task kind and key, the
+// JSON pointer of the field and what was expected.
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "engine/task.hpp"
+#include "tasks/sites.hpp"
+
+namespace millflow::tasks::report {
+
+struct RegionResult {
+  std::string region{};
+  std::size_t sites = 0;
+  double volume_m3 = 0.0;
+  double powder_power_w = 0.0;
+  double powder_power_share = 0.0;
+  double media_power_w = 0.0;
+  double media_collision_power_w = 0.0;
+  double media_collision_power_no_powder_w = 0.0;
+  std::optional<double> cushioning;
+};
+
+struct SiteResult {
+  std::string site_id{}, region{};
+  double x_m = 0.0, y_m = 0.0, weight_m3 = 0.0;
+  double shear_rate_per_s = 0.0, normal_stress_pa = 0.0, macro_shear_stress_pa = 0.0;
+  std::optional<double> cell_shear_stress_pa, coupling_ratio, power_density_w_m3, powder_dissipation_w_m3;
+  std::optional<std::string> skipped{};  // the reason the cell was skipped
+};
+
+struct Coupling {
+  std::size_t sites = 0;
+  std::optional<double> median_ratio;
+  double tolerance = 0.0;
+  std::size_t within_tolerance = 0;
+};
+
+struct UpscalePoint {
+  std::string task_key{}, average_task{};
+  double fill = 0.0, speed_fraction = 0.0, powder_load = 0.0;
+  double power_draw_w = 0.0, specific_power_kw_per_t = 0.0, power_draw_with_powder_w = 0.0;
+  double powder_power_w = 0.0, media_power_w = 0.0;
+  std::vector<RegionResult> regions{};
+  std::string dominant_region{};
+  std::vector<double> bin_edges_j{}, powder_rate_per_s{}, media_rate_per_s{};
+  std::vector<SiteResult> sites{};
+  Coupling coupling;
+};
+
+// One upscale task's result.
+UpscalePoint read_upscale(const std::string& task_key, const nlohmann::json& result);
+
+struct ReportInputs {
+  std::vector<UpscalePoint> points{};            // sorted (see above)
+  std::map<std::string, FlowMap> flow_maps;    // by average task key
+};
+
+// Throws std::invalid_argument when there is no upscale input, an upscale names an average task
+// that is not an input, or an average input has no readable fields.json.
+ReportInputs read_report_inputs(const std::vector<engine::TaskInput>& inputs);
+
+}  // namespace millflow::tasks::report
