@@ -127,7 +127,10 @@ struct ShearCellMeasurements {
   // whose servo work is part of the walls' work).
   double work_in = 0.0, kinetic_change = 0.0, elastic_change = 0.0, dissipated = 0.0;
   double stress_control_work = 0.0;
-  double energy_balance_error = 0.0;  // |work - accounted| / work
+  // |work - accounted| / work. Each contact's dissipation is the O(dt^2) estimate C v^2 dt, so
+  // the error falls ~4x per doubling of steps_per_collision: in dense cells ~2% at 20 steps per
+  // collision, under 1% from ~40 (DissipationAccounting test, ShearCellPhysics test).
+  double energy_balance_error = 0.0;
   // Steady state: shear stress means over the two halves of the window.
   double shear_stress_first_half = 0.0, shear_stress_second_half = 0.0;
   double steady_state_deviation = 0.0;  // |first - second| / mean of both

@@ -227,7 +227,7 @@ std::string upscaled_csv(const std::vector<UpscalePoint>& points) {
                                        number(r.powder_power_share), number(r.media_power_w),
                                        number(r.media_collision_power_w), number(r.media_collision_power_no_powder_w),
                                        number(r.cushioning), number(p.power_draw_w), number(p.power_draw_with_powder_w),
-                                       p.dominant_region});
+                                       p.dominant_region.value_or("")});
                      }
                      return rows;
                    });
@@ -274,7 +274,7 @@ std::string points_table(const std::vector<UpscalePoint>& points) {
   for (const UpscalePoint& p : points) {
     out += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", g(p.fill), g(p.speed_fraction), g(p.powder_load),
                        md(p.power_draw_w), md(p.power_draw_with_powder_w), md(p.powder_power_w), md(p.media_power_w),
-                       p.dominant_region);
+                       p.dominant_region.value_or("-"));
   }
   return out;
 }
@@ -330,7 +330,7 @@ json result_of(const std::string& campaign, const std::vector<UpscalePoint>& poi
   json dominant = json::array();
   for (const UpscalePoint& p : points) {
     dominant.push_back({{"fill", p.fill}, {"speed_fraction", p.speed_fraction}, {"powder_load", p.powder_load},
-                        {"region", p.dominant_region}});
+                        {"region", p.dominant_region ? json(*p.dominant_region) : json(nullptr)}});
   }
   std::size_t sites = 0, within = 0;
   for (const Slice& slice : slices) {
@@ -374,7 +374,7 @@ engine::TaskOutcome run_report(engine::TaskContext& context) {
   out.write("power_draw.svg", power_draw_figure(points, slices).svg);
   out.write("powder_power_shares.svg",
             region_panels(points, slices, "Share of the powder power by region", "share of the powder power (-)",
-                          [](const report::RegionResult& r) { return r.powder_power_share; })
+                          [](const report::RegionResult& r) { return r.powder_power_share.value_or(kNaN); })
                 .svg);
   out.write("cushioning.svg",
             region_panels(points, slices, "Cushioning of media collisions by the powder",

@@ -22,7 +22,7 @@ struct RegionResult {
   std::size_t sites = 0;
   double volume_m3 = 0.0;
   double powder_power_w = 0.0;
-  double powder_power_share = 0.0;
+  std::optional<double> powder_power_share;  // none without powder power
   double media_power_w = 0.0;
   double media_collision_power_w = 0.0;
   double media_collision_power_no_powder_w = 0.0;
@@ -50,7 +50,7 @@ struct UpscalePoint {
   double power_draw_w = 0.0, specific_power_kw_per_t = 0.0, power_draw_with_powder_w = 0.0;
   double powder_power_w = 0.0, media_power_w = 0.0;
   std::vector<RegionResult> regions{};
-  std::string dominant_region{};
+  std::optional<std::string> dominant_region{};  // none without powder power
   std::vector<double> bin_edges_j{}, powder_rate_per_s{}, media_rate_per_s{};
   std::vector<SiteResult> sites{};
   Coupling coupling;

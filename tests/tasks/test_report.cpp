@@ -17,6 +17,7 @@
 #include <tuple>
 
 #include "tests/common/scratch_dir.hpp"
+#include "tests/tasks/upscale_inputs.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -35,7 +36,7 @@ json upscale_result(double fill, double speed, double load) {
   const double draw = 2000.0 * fill + 1000.0 * speed, powder = 100.0 * load;
   auto region = [&](const char* name, double share, json cushioning) {
     return json{{"region", name}, {"sites", 1}, {"volume_m3", 0.001 * share}, {"powder_power_w", share * powder},
-                {"powder_power_share", share}, {"media_power_w", 300.0 * share},
+                {"powder_power_share", load > 0 ? json(share) : json(nullptr)}, {"media_power_w", 300.0 * share},
                 {"media_collision_power_w", 60.0 * share * (1.0 - 0.2 * load)},
                 {"media_collision_power_no_powder_w", 60.0 * share}, {"cushioning", cushioning}};
   };
@@ -53,7 +54,7 @@ json upscale_result(double fill, double speed, double load) {
                     {"specific_power_kw_per_t", draw / 123.0}}},
           {"power_draw_with_powder_w", draw * (1.0 + 0.1 * load)}, {"powder_power_w", powder}, {"media_power_w", 300.0},
           {"regions", {region("toe", 0.6, 1.0 - 0.2 * load), region("bulk", 0.4, load > 0 ? json(0.9) : json(nullptr))}},
-          {"dominant_region", "toe"},
+          {"dominant_region", load > 0 ? json("toe") : json(nullptr)},  // none without powder
           {"spectra", {{"bin_edges_j", {1e-9, 1e-8, 1e-7, 1e-6}},
                        {"powder_rate_per_s", {10.0 * load, 20.0 * load, 5.0 * load}},
                        {"media_rate_per_s", {100.0, 50.0 * speed, 10.0 * fill}}}},
@@ -179,6 +180,27 @@ TEST_F(Report, WritesEveryFileAsAnArtifact) {
   EXPECT_EQ(outcome.result.at("coupling"), json({{"sites", 4}, {"within_tolerance", 4}}));
 }
 
+// The upscale kind's own results (not the hand-written contract above), with and without
+// powder, must read: this is the contract between the two kinds.
+TEST_F(Report, ReadsTheUpscaleKindsResultsWithAndWithoutPowder) {
+  const std::vector<engine::TaskInput> point = testing::point_inputs(0.3, 0.75);
+  const fs::path fields = dir_.path() / "point-fields.json";
+  std::ofstream(fields) << fields_document(0.3).dump();
+  std::vector<engine::TaskInput> inputs = {{"average-key", "average", json::object(), {{"fields.json", fields}}}};
+  for (double load : {0.0, 1.0}) {
+    inputs.push_back({fmt::format("upscale-{}", load), "upscale", testing::upscale(point, load), {}});
+  }
+  const auto outcome = run(inputs, "own");
+  EXPECT_EQ(outcome.result.at("points"), 2);
+  const json& dominant = outcome.result.at("dominant_regions");
+  ASSERT_EQ(dominant.size(), 2u);
+  EXPECT_TRUE(dominant.at(0).at("region").is_null()) << "no powder, no dominant region";
+  EXPECT_EQ(dominant.at(1).at("region"), "toe");
+  for (const auto& row : read_csv(dir_.path() / "own" / "upscaled.csv")) {
+    EXPECT_EQ(row.at("powder_power_share").empty(), row.at("powder_load") == "0") << row.at("region");
+  }
+}
+
 TEST_F(Report, UpscaledTableHoldsTheInputsInPointOrder) {
   run(inputs_, "work");
   const auto rows = read_csv(dir_.path() / "work" / "upscaled.csv");
@@ -234,7 +256,8 @@ TEST_F(Report, IndexLinksEveryFigureAndTable) {
     if (file == "index.md") continue;
     EXPECT_NE(index.find("](" + file + ")"), std::string::npos) << file;
   }
-  EXPECT_EQ(count_of(index, "| toe |"), 8u);  // the dominant region of every point
+  EXPECT_EQ(count_of(index, "| toe |"), 4u);  // the dominant region of every point with powder
+  EXPECT_EQ(count_of(index, "| - |"), 4u);    // and none without
 }
 
 TEST_F(Report, FiguresDrawOneMarkerPerComparedSite) {
