@@ -28,7 +28,7 @@
 
 namespace millflow::tasks {
 
-inline constexpr const char* kShearCellVersion = "2";
+inline constexpr const char* kShearCellVersion = "3";
 inline constexpr int kWarmupWindows = 4;
 
 // The site id of a slot: "<region>-<index>".
@@ -53,7 +53,8 @@ dem::ShearCellSetup shear_cell_setup(const nlohmann::json& params, const nlohman
 // contact type, media, powder: count, rate_per_m3_s}, spectra {bin_edges_j, media, powder:
 // dissipated energy histograms}, energy {work_in_j, kinetic_change_j, elastic_change_j,
 // dissipated_j, stress_control_work_j (in work_in_j), balance_error}, steady_state {shear_stress_first_half_pa,
-// shear_stress_second_half_pa, deviation, steady}, wall_seconds, particle_steps_per_second.
+// shear_stress_second_half_pa, deviation, steady}. The measured window's wall time and
+// particle-steps per second go to the task's log only.
 nlohmann::json measurements_json(const dem::ShearCellMeasurements& m);
 
 engine::TaskOutcome run_shear_cell(engine::TaskContext& context);
