@@ -1,11 +1,13 @@
 #include "tasks/shear_cell.hpp"
 
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 
 #include <fmt/format.h>
 
 #include "dem/material.hpp"
+#include "dem/vtk.hpp"
 #include "engine/validation.hpp"
 #include "tasks/macro_measure.hpp"
 #include "tasks/macro_setup.hpp"
@@ -164,7 +166,12 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
                           slot_site_id(slot), m.shear_stress, m.normal_stress, m.friction, m.inertial_number,
                           m.power_density, m.steady ? "" : " (not steady)", m.wall_seconds,
                           m.particle_steps_per_second));
-  return engine::TaskOutcome::with_result(std::move(result));
+  std::filesystem::create_directories(context.work_dir);  // the engine leaves its creation to the task
+  const auto snapshot = context.work_dir / "cell.vtp";
+  dem::write_particles_vtp(cell.system(), snapshot);
+  auto outcome = engine::TaskOutcome::with_result(std::move(result));
+  outcome.artifacts.push_back({"cell.vtp", snapshot});
+  return outcome;
 }
 
 }  // namespace millflow::tasks

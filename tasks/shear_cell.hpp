@@ -57,6 +57,8 @@ dem::ShearCellSetup shear_cell_setup(const nlohmann::json& params, const nlohman
 // particle-steps per second go to the task's log only.
 nlohmann::json measurements_json(const dem::ShearCellMeasurements& m);
 
+// A cell that ran also leaves the artifact cell.vtp: its particles at the end of the measurement
+// (dem::write_particles_vtp; media and powder told apart by "material"), for ParaView.
 engine::TaskOutcome run_shear_cell(engine::TaskContext& context);
 
 }  // namespace millflow::tasks

@@ -1,11 +1,14 @@
 // The shear_cell kind: planning per sweep point (a cell per site slot and load, an upscale per
 // point), finding a slot's site, the translation of campaign parameters into a cell, and tiny
 // cells run through the task function.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <tbb/task_arena.h>
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <set>
 
@@ -13,6 +16,7 @@
 #include "engine/campaign.hpp"
 #include "tasks/millflow.hpp"
 #include "tasks/shear_cell.hpp"
+#include "tests/common/scratch_dir.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -49,12 +53,13 @@ struct Direct {
   json params;
   std::vector<engine::TaskInput> inputs;
   std::string key = "tiny-cell";
+  millflow::testing::ScratchDir dir{};
 
   engine::TaskOutcome run(engine::RunFunction function) const {
     engine::TaskContext context{.key = key,
                                 .params = params,
                                 .inputs = inputs,
-                                .work_dir = {},
+                                .work_dir = dir.path() / "work",
                                 .threads = 2,
                                 .stop = {},
                                 .progress = [](double, std::string_view) {},
@@ -178,7 +183,8 @@ TEST(ShearCellSetup, CollisionTimesHoldForEachPairsReferenceParticles) {
 }
 
 TEST(ShearCell, TinyMediaCellGivesFiniteStressesAndNoPowderDissipation) {
-  const auto outcome = Direct{.params = tiny_cell_params(0.0), .inputs = {sites_input()}}.run(run_shear_cell);
+  const Direct direct{.params = tiny_cell_params(0.0), .inputs = {sites_input()}};
+  const auto outcome = direct.run(run_shear_cell);
   ASSERT_FALSE(outcome.interrupted);
   const json& r = outcome.result;
   EXPECT_EQ(r.at("powder_count"), 0);
@@ -192,6 +198,12 @@ TEST(ShearCell, TinyMediaCellGivesFiniteStressesAndNoPowderDissipation) {
   EXPECT_GT(r.at("dissipation_w_m3").at("total").get<double>(), 0.0);
   EXPECT_EQ(r.at("site"), tiny_site());
   EXPECT_EQ(r.at("powder_load"), 0.0);
+  // The ParaView snapshot: one point per free particle.
+  ASSERT_EQ(outcome.artifacts.size(), 1u);
+  EXPECT_EQ(outcome.artifacts[0].name, "cell.vtp");
+  std::ifstream snapshot(outcome.artifacts[0].file);
+  const std::string text((std::istreambuf_iterator<char>(snapshot)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find(fmt::format("NumberOfPoints=\"{}\"", r.at("media_count").get<int>())), std::string::npos);
 }
 
 TEST(ShearCell, PowderInTheCellDissipates) {
