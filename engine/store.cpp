@@ -165,7 +165,13 @@ sql::Connection open_read_only(const fs::path& db) {
     throw std::runtime_error("no database at " + db.string() + ": submit a campaign first, or pass --db");
   }
   sql::Connection connection(db, sql::Access::read_only);
-  refuse_newer_schema(db, connection.user_version());
+  const int version = connection.user_version();
+  if (version == 0) {  // the schema and its version are committed together
+    throw std::runtime_error("the database " + db.string() +
+                             " has no millflow tables (nothing was submitted to it, or its first submit stopped "
+                             "before creating them): submit the campaign again");
+  }
+  refuse_newer_schema(db, version);
   return connection;
 }
 

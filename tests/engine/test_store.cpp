@@ -43,6 +43,22 @@ TEST(Store, RefusesANewerSchemaWithoutTouchingIt) {
   EXPECT_EQ(raw.user_version(), 99);
 }
 
+// A first submit killed before it created the schema leaves an empty file: readers (status,
+// resume, query) say what happened instead of failing on a missing table.
+TEST(Store, ReadersOfADatabaseWithoutTablesSayToSubmitAgain) {
+  ScratchDir dir;
+  { sql::Connection raw(dir.db(), sql::Access::read_write); }
+  try {
+    open_read_only(dir.db());
+    FAIL() << "a database without tables was opened";
+  } catch (const std::runtime_error& error) {
+    EXPECT_EQ(std::string(error.what()),
+              "the database " + dir.db().string() +
+                  " has no millflow tables (nothing was submitted to it, or its first submit stopped before creating "
+                  "them): submit the campaign again");
+  }
+}
+
 TEST(Store, DomainViewsAreInstalled) {
   ScratchDir dir;
   const SystemClock clock;
