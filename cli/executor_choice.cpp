@@ -1,5 +1,9 @@
 #include "cli/executor_choice.hpp"
 
+#include <fmt/format.h>
+
+#include <limits>
+
 #include "engine/validation.hpp"
 
 namespace millflow::cli {
@@ -14,11 +18,13 @@ class BlockReader {
   void text(const char* name, std::string& into) {
     if (const json* value = member(name, json::value_t::string, "a string")) into = value->get<std::string>();
   }
-  void count(const char* name, int& into) {
-    const json* value = member(name, json::value_t::number_unsigned, "a positive integer");
+  void count(const char* name, int& into, int most = std::numeric_limits<int>::max()) {
+    const std::string expected =
+        most == std::numeric_limits<int>::max() ? "a positive integer" : fmt::format("an integer in [1, {}]", most);
+    const json* value = member(name, json::value_t::number_unsigned, expected);
     if (value == nullptr) return;
-    if (value->get<std::int64_t>() < 1) {
-      wrong(name, "a positive integer");
+    if (value->get<std::int64_t>() < 1 || value->get<std::int64_t>() > most) {
+      wrong(name, expected);
       return;
     }
     into = value->get<int>();
@@ -36,7 +42,7 @@ class BlockReader {
   }
 
  private:
-  const json* member(const char* name, json::value_t type, const char* expected) {
+  const json* member(const char* name, json::value_t type, const std::string& expected) {
     if (!block_.contains(name)) return nullptr;
     const json& value = block_[name];
     const bool integer_wanted = type == json::value_t::number_unsigned;
@@ -46,8 +52,8 @@ class BlockReader {
     }
     return &value;
   }
-  void wrong(const char* name, const char* expected) {
-    errors_.push_back({std::string("/executor/slurm/") + name, "must be " + std::string(expected) + ", got " +
+  void wrong(const char* name, const std::string& expected) {
+    errors_.push_back({std::string("/executor/slurm/") + name, "must be " + expected + ", got " +
                        block_[name].dump(), "fix the campaign file's executor block"});
   }
 
@@ -72,6 +78,8 @@ ExecutorChoice choose_executor(const json& campaign_document, const std::string&
   slurm.text("memory", choice.slurm.memory);
   slurm.count("cpus_per_task", choice.slurm.cpus_per_task);
   slurm.count("max_in_flight", choice.slurm.max_in_flight);
+  slurm.count("checkpoint_signal_s", choice.slurm.checkpoint_signal_s, engine::kSlurmMaxSignalLeadS);
+  slurm.count("max_squeue_failures", choice.slurm.max_squeue_failures);
   slurm.texts("extra_args", choice.slurm.extra_args);
   slurm.finish();
   return choice;

@@ -298,8 +298,8 @@ void print_show(const fs::path& db, const std::string& task, std::ostream& out) 
                        artifacts.path_of(artifact.sha256).string(), artifacts.verify(artifact) ? "verified" : "MISSING OR CORRUPT");
   }
   for (const auto& job : find_jobs(connection, key)) {
-    out << fmt::format("job {} {} attempt {} state {}\n  stdout {}\n  stderr {}\n", job.executor, job.job_id, job.attempt,
-                       job.state, job.stdout_file.string(), job.stderr_file.string());
+    out << fmt::format("job {} {} attempt {} state {} name {}\n  stdout {}\n  stderr {}\n", job.executor, job.job_id,
+                       job.attempt, job.state, job.job_name, job.stdout_file.string(), job.stderr_file.string());
   }
   for (const auto& upstream : lineage(connection, key, true)) out << "upstream   " << kind_and_status(connection, upstream) << '\n';
   for (const auto& downstream : lineage(connection, key, false)) out << "downstream " << kind_and_status(connection, downstream) << '\n';

@@ -5,6 +5,7 @@
 // coordinator records the JobRecords that submit/poll return and ingests every outcome itself,
 // as the store's only writer. (The in-process alternative is a Launcher: engine/launcher.hpp.)
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -26,8 +27,12 @@ struct JobRecord {
   std::string task_key;
   int attempt = 0;
   std::string executor;              // "slurm"
-  std::string job_id;                // the scheduler's id, e.g. "1234_5": element 5 of array 1234
-  std::string state;                 // last state seen, e.g. PENDING, RUNNING, COMPLETED, TIMEOUT
+  std::string job_id;                // the scheduler's id, e.g. "1234_5": element 5 of array 1234;
+                                     // empty while being submitted
+  std::string state;                 // last state seen: SUBMITTING (recorded before the scheduler has
+                                     // it), PENDING, RUNNING, COMPLETED, TIMEOUT, ... NOT_SUBMITTED
+  std::string job_name;              // the scheduler's job name, unique per submission: how a job
+                                     // recorded without id is found again
   std::filesystem::path output_dir;  // where the job writes its result, artifacts and marker
   std::filesystem::path stdout_file;
   std::filesystem::path stderr_file;
@@ -46,7 +51,11 @@ class JobExecutor {
  public:
   struct Poll {
     std::vector<AttemptOutcome> finished;
-    std::vector<JobRecord> changed;  // jobs whose state changed since the last poll
+    std::vector<JobRecord> changed;   // jobs whose state changed since the last poll
+    std::vector<std::string> warnings;  // trouble ridden out (e.g. one failed squeue): logged, polled again
+    // Set when the scheduler stayed unreachable too long: the coordinator stops, leaving the jobs
+    // running for `millflow resume` to re-attach to.
+    std::optional<std::string> unreachable;
   };
 
   virtual ~JobExecutor() = default;
@@ -54,11 +63,17 @@ class JobExecutor {
   virtual std::filesystem::path work_root() const = 0;
   virtual int max_in_flight() const = 0;
   virtual double poll_interval_s() const = 0;
-  // Sends the attempts off without waiting for them; returns the jobs to record. An attempt that
-  // could not be submitted comes back from the next poll as failed.
-  virtual std::vector<JobRecord> submit(const std::vector<AttemptOrder>& attempts) = 0;
-  // Follows a job recorded by an earlier coordinator instead of submitting its attempt again.
-  virtual void reattach(const JobRecord& job) = 0;
+  using RecordJobs = std::function<void(const std::vector<JobRecord>&)>;
+  // Sends the attempts off without waiting for them; returns the jobs to record. Before handing
+  // them to the scheduler it passes them to record_before_sending (state SUBMITTING, no id yet),
+  // so a coordinator that dies while submitting leaves records that reattach() can find the
+  // jobs by. An attempt that could not be submitted comes back from the next poll as failed.
+  virtual std::vector<JobRecord> submit(const std::vector<AttemptOrder>& attempts,
+                                        const RecordJobs& record_before_sending) = 0;
+  // Follows a job recorded by an earlier coordinator instead of submitting its attempt again, and
+  // returns it as now followed (a job recorded without id gets the id the scheduler knows it by).
+  // nullopt: the scheduler never got the job and it left no output, so its attempt never ran.
+  virtual std::optional<JobRecord> reattach(const JobRecord& job) = 0;
   virtual Poll poll() = 0;
 };
 

@@ -219,18 +219,31 @@ class Coordinator {
   }
 
   // A task left running by an earlier coordinator whose batch job was recorded: followed again
-  // instead of being submitted twice (its job may still be queued, running or finished).
+  // instead of being submitted twice (its job may still be queued, running or finished). A job
+  // recorded while being submitted is looked up first; one the scheduler never got goes out again.
   bool reattach(Node& node) {
     if (!env_.jobs || status_of(node.spec.key) != "running") return false;
     const auto record = find_task(env_.store.connection(), node.spec.key);
-    const auto jobs = find_jobs(env_.store.connection(), node.spec.key);
+    auto jobs = find_jobs(env_.store.connection(), node.spec.key);
     if (!record || jobs.empty() || jobs.back().attempt != record->attempts) return false;
-    env_.jobs->reattach(jobs.back());
+    JobRecord& recorded = jobs.back();
+    const auto followed = env_.jobs->reattach(recorded);
+    if (!followed) {
+      recorded.state = "NOT_SUBMITTED";
+      env_.store.record_jobs({recorded});
+      log(node.spec.key, "warn",
+          fmt::format("attempt {} was being submitted when its coordinator stopped, and Slurm knows no job {} "
+                      "and it left no output: submitting it again",
+                      record->attempts, recorded.job_name));
+      return false;
+    }
+    if (followed->job_id != recorded.job_id) env_.store.record_jobs({*followed});
     node.state = State::running;
     ++node.attempts_this_run;
     ++running_;
     board_.start(node.spec.key, node.spec.kind);
-    report(node.spec.key, fmt::format("re-attached to job {} (attempt {})", jobs.back().job_id, record->attempts));
+    report(node.spec.key, fmt::format("re-attached to job {} (attempt {})",
+                                      followed->job_id.empty() ? followed->job_name : followed->job_id, record->attempts));
     return true;
   }
 
@@ -361,7 +374,8 @@ class Coordinator {
       return;
     }
     if (launches.empty()) return;
-    const auto submitted = env_.jobs->submit(launches);
+    const auto submitted =
+        env_.jobs->submit(launches, [this](const std::vector<JobRecord>& jobs) { env_.store.record_jobs(jobs); });
     env_.store.record_jobs(submitted);
     for (const auto& job : submitted) report(job.task_key, fmt::format("submitted as {} job {}", job.executor, job.job_id));
   }
@@ -370,6 +384,14 @@ class Coordinator {
   void poll_jobs() {
     auto poll = env_.jobs->poll();
     env_.store.record_jobs(poll.changed);
+    for (const auto& warning : poll.warnings) log(std::nullopt, "warn", warning);
+    if (poll.unreachable && !stopping_) {
+      stop_reason_ = *poll.unreachable + ": the coordinator stops; its jobs keep running and `millflow resume` "
+                                         "re-attaches to them";
+      log(std::nullopt, "error", stop_reason_);
+      stopping_ = true;
+      stop_.request_stop();
+    }
     for (auto& finished : poll.finished) {
       Event event = Event::finished(finished.key, finished.attempt);
       event.error = std::move(finished.error);
@@ -549,6 +571,7 @@ class Coordinator {
     summary.done = done_;
     summary.failed = failed_;
     summary.stopped = stopping_;
+    summary.stop_reason = stop_reason_;
     for (const auto& [key, node] : nodes_) {
       if (node.state == State::cached) ++summary.cached;
       if (node.state == State::skipped) ++summary.skipped;
@@ -575,6 +598,7 @@ class Coordinator {
   ProgressBoard board_;
   std::stop_source stop_;
   bool stopping_ = false;
+  std::string stop_reason_;
   int running_ = 0;
   int done_ = 0;
   int failed_ = 0;
@@ -594,6 +618,7 @@ std::string RunSummary::describe() const {
     text += fmt::format(", {} interrupted, {} not started", interrupted, not_started);
   }
   if (detached > 0) text += fmt::format(", {} left running as batch jobs (resume re-attaches)", detached);
+  if (!stop_reason.empty()) text += "; stopped: " + stop_reason;
   return text;
 }
 

@@ -36,8 +36,9 @@ struct RunSummary {
   int not_started = 0;  // left pending by an interruption
   int detached = 0;     // left running as batch jobs by an interruption; resume re-attaches
   bool stopped = false;
+  std::string stop_reason;  // why the run stopped without a stop request (the scheduler was unreachable)
 
-  // 0 done, 1 some tasks failed, 130 interrupted.
+  // 0 done, 1 some tasks failed, 130 interrupted (a stop request, or the batch scheduler unreachable).
   int exit_code() const;
   std::string describe() const;
 };

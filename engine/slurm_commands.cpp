@@ -30,11 +30,21 @@ class SystemSlurmCommands final : public SlurmCommands {
   }
 
   std::map<std::string, std::string> squeue(const std::vector<std::string>& job_ids) override {
-    std::map<std::string, std::string> states;
-    if (job_ids.empty()) return states;
+    if (job_ids.empty()) return {};
     std::string list;
     for (const auto& id : job_ids) list += (list.empty() ? "" : ",") + id;
-    const auto run = run_process({"squeue", "--noheader", "--array", "--states=all", "--format=%i %T", "--jobs=" + list});
+    return states_of("--jobs=" + list);
+  }
+
+  std::map<std::string, std::string> squeue_named(const std::string& job_name) override {
+    return states_of("--name=" + job_name);
+  }
+
+ private:
+  // {"1234_5": "RUNNING", ...} of the jobs `selection` (an squeue option) picks.
+  static std::map<std::string, std::string> states_of(const std::string& selection) {
+    std::map<std::string, std::string> states;
+    const auto run = run_process({"squeue", "--noheader", "--array", "--states=all", "--format=%i %T", selection});
     if (run.exit_code != 0) {
       // squeue refuses a list in which it knows no job at all: they have all been forgotten.
       if (run.err.find("Invalid job id") != std::string::npos) return states;

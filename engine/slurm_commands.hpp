@@ -19,6 +19,9 @@ class SlurmCommands {
   // The state of each listed job that the controller still knows, array elements one by one
   // (`squeue --array --states=all`): {"1234_5": "RUNNING", ...}. Jobs it has forgotten are absent.
   virtual std::map<std::string, std::string> squeue(const std::vector<std::string>& job_ids) = 0;
+  // Likewise for the jobs named job_name (`squeue --name=NAME --array --states=all`); none when
+  // the controller knows no such job.
+  virtual std::map<std::string, std::string> squeue_named(const std::string& job_name) = 0;
 };
 
 std::unique_ptr<SlurmCommands> system_slurm_commands();

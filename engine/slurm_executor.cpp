@@ -47,7 +47,7 @@ std::vector<std::string> SlurmExecutor::sbatch_options(int count, const fs::path
   std::vector<std::string> options = {
       "--parsable",
       fmt::format("--array=0-{}%{}", count - 1, throttle),
-      "--job-name=millflow",
+      "--job-name=" + job_name_of(batch_dir),
       "--output=" + (batch_dir / "%a.out").string(),
       "--error=" + (batch_dir / "%a.err").string(),
       "--chdir=" + settings_.run_dir.string(),
@@ -63,6 +63,8 @@ std::vector<std::string> SlurmExecutor::sbatch_options(int count, const fs::path
   options.insert(options.end(), settings_.extra_args.begin(), settings_.extra_args.end());
   return options;
 }
+
+std::string SlurmExecutor::job_name_of(const fs::path& batch_dir) { return "millflow-" + batch_dir.filename().string(); }
 
 fs::path SlurmExecutor::new_batch_dir() {
   const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(
@@ -90,7 +92,8 @@ void SlurmExecutor::write_batch_script(const fs::path& batch_dir) const {
   if (!script.flush()) throw std::runtime_error("cannot write the batch script in " + batch_dir.string());
 }
 
-std::vector<JobRecord> SlurmExecutor::submit(const std::vector<AttemptOrder>& attempts) {
+std::vector<JobRecord> SlurmExecutor::submit(const std::vector<AttemptOrder>& attempts,
+                                             const RecordJobs& record_before_sending) {
   if (attempts.empty()) return {};
   std::vector<JobRecord> jobs;
   try {
@@ -101,27 +104,54 @@ std::vector<JobRecord> SlurmExecutor::submit(const std::vector<AttemptOrder>& at
       const AttemptSpec spec{task, staged(*attempts[i].inputs), attempts[i].attempt, settings_.cpus_per_task,
                              work_root() / task.key, batch / element};
       write_attempt_spec(spec, batch / (element + ".json"));
-      jobs.push_back(JobRecord{task.key, spec.attempt, "slurm", "", "PENDING", spec.output_dir,
-                               batch / (element + ".out"), batch / (element + ".err")});
+      jobs.push_back(JobRecord{task.key, spec.attempt, "slurm", "", "SUBMITTING", job_name_of(batch),
+                               spec.output_dir, batch / (element + ".out"), batch / (element + ".err")});
     }
     write_batch_script(batch);
+    record_before_sending(jobs);
     const std::string array_id = commands_.sbatch(sbatch_options(static_cast<int>(attempts.size()), batch), batch / "job.sh");
     for (size_t i = 0; i < jobs.size(); ++i) {
       jobs[i].job_id = array_id + "_" + std::to_string(i);
-      reattach(jobs[i]);
+      jobs[i].state = "PENDING";
+      track(jobs[i]);
     }
   } catch (const std::exception& error) {
+    for (auto& job : jobs) {
+      job.state = "NOT_SUBMITTED";
+      refused_.changed.push_back(job);
+    }
     for (const auto& order : attempts) {
-      refused_.push_back(AttemptOutcome{order.spec->key, order.attempt,
-                                        std::string("could not submit the Slurm job: ") + error.what(), {}, 0.0});
+      refused_.finished.push_back(AttemptOutcome{order.spec->key, order.attempt,
+                                                 std::string("could not submit the Slurm job: ") + error.what(), {}, 0.0});
     }
     return {};
   }
   return jobs;
 }
 
-void SlurmExecutor::reattach(const JobRecord& job) {
-  tracked_[job.job_id] = Tracked{job, std::chrono::steady_clock::now(), 0};
+void SlurmExecutor::track(const JobRecord& job) {
+  tracked_[job.output_dir] = Tracked{job, std::chrono::steady_clock::now(), 0};
+}
+
+std::string SlurmExecutor::find_id_by_name(const JobRecord& job) {
+  auto found = squeue_by_name_.find(job.job_name);
+  if (found == squeue_by_name_.end()) found = squeue_by_name_.emplace(job.job_name, commands_.squeue_named(job.job_name)).first;
+  const std::string element = "_" + job.output_dir.filename().string();  // output dirs are <batch>/<element>
+  for (const auto& [id, state] : found->second) {
+    if (id.size() > element.size() && id.compare(id.size() - element.size(), element.size(), element) == 0) return id;
+  }
+  return {};
+}
+
+std::optional<JobRecord> SlurmExecutor::reattach(const JobRecord& recorded) {
+  JobRecord job = recorded;
+  if (job.job_id.empty()) {
+    job.job_id = find_id_by_name(job);
+    // Without an id or a marker Slurm never got the job (or forgot it before anything was written).
+    if (job.job_id.empty() && !fs::exists(job.output_dir / "complete.json")) return std::nullopt;
+  }
+  track(job);
+  return job;
 }
 
 std::optional<AttemptOutcome> SlurmExecutor::settle(Tracked& tracked, const std::string& state) const {
@@ -140,10 +170,32 @@ std::optional<AttemptOutcome> SlurmExecutor::settle(Tracked& tracked, const std:
                         {}, seconds};
 }
 
+std::optional<std::map<std::string, std::string>> SlurmExecutor::squeue_tracked(Poll& result) {
+  std::set<std::string> arrays;
+  for (const auto& [dir, tracked] : tracked_) {
+    if (!tracked.job.job_id.empty()) arrays.insert(array_id_of(tracked.job.job_id));
+  }
+  try {
+    auto states = commands_.squeue({arrays.begin(), arrays.end()});
+    squeue_failures_ = 0;
+    return states;
+  } catch (const std::exception& error) {
+    ++squeue_failures_;
+    if (squeue_failures_ >= settings_.max_squeue_failures) {
+      result.unreachable = fmt::format("squeue failed {} times in a row (executor.slurm.max_squeue_failures), last: {}",
+                                       squeue_failures_, error.what());
+    } else {
+      result.warnings.push_back(fmt::format("squeue failed ({} of {} failures in a row before the coordinator stops), "
+                                            "polling again: {}",
+                                            squeue_failures_, settings_.max_squeue_failures, error.what()));
+    }
+    return std::nullopt;
+  }
+}
+
 JobExecutor::Poll SlurmExecutor::poll() {
-  Poll result;
-  result.finished = std::move(refused_);
-  refused_.clear();
+  Poll result = std::move(refused_);
+  refused_ = {};
   for (auto it = tracked_.begin(); it != tracked_.end();) {
     JobRecord& job = it->second.job;
     if (auto outcome = read_attempt_outcome(job.output_dir, job.task_key, job.attempt)) {
@@ -156,13 +208,12 @@ JobExecutor::Poll SlurmExecutor::poll() {
     }
   }
   if (tracked_.empty()) return result;
-  std::set<std::string> arrays;
-  for (const auto& [id, tracked] : tracked_) arrays.insert(array_id_of(id));
-  const auto states = commands_.squeue({arrays.begin(), arrays.end()});
+  const auto states = squeue_tracked(result);
+  if (!states) return result;
   for (auto it = tracked_.begin(); it != tracked_.end();) {
-    const auto found = states.find(it->first);
-    const std::string state = found == states.end() ? "VANISHED" : found->second;
     JobRecord& job = it->second.job;
+    const auto found = states->find(job.job_id);
+    const std::string state = found == states->end() ? "VANISHED" : found->second;
     const std::string before = job.state;
     job.state = state;
     std::optional<AttemptOutcome> outcome;

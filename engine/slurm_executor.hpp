@@ -1,16 +1,22 @@
 #pragma once
 // Runs task attempts as Slurm jobs. The attempts the coordinator hands over in one turn go out as
-// one job array (`sbatch --parsable --array=0-(n-1)%K`); element i runs `millflow exec` on the
-// spec file <batch>/<i>.json and writes its output, marker and Slurm stdout/stderr into the batch
-// directory. Layout of the run directory (on a filesystem the compute nodes share; never the
-// database's directory on a cluster, see README "Running on a Slurm cluster"):
+// one job array (`sbatch --parsable --array=0-(n-1)%K --job-name=millflow-<batch>`); element i
+// runs `millflow exec` on the spec file <batch>/<i>.json and writes its output, marker and Slurm
+// stdout/stderr into the batch directory. Layout of the run directory (on a filesystem the
+// compute nodes share; never the database's directory on a cluster, see README "Running on a
+// Slurm cluster"):
 //   batches/<batch>/job.sh, <i>.json, <i>/ (output), <i>.out, <i>.err
 //   inputs/<sha[0:2]>/<sha>   upstream artifacts staged for the jobs (content-addressed)
 //   work/<task key>/          task work directories, kept across attempts for checkpoints
+// The jobs are recorded (SUBMITTING, with their job name) before sbatch runs: a coordinator
+// killed before it recorded the array id leaves jobs that resume finds by name in squeue, or by
+// their completion markers, and submits again only when Slurm never got them.
 // Polling reads completion markers first and asks squeue only about jobs without one. A job that
 // ended (FAILED, CANCELLED, TIMEOUT, NODE_FAIL, ...) or vanished from squeue without a marker is
 // a failed attempt, handled by the runtime's retry policy; a marker saying "stopped" (the job
 // checkpointed on --signal before its time limit) comes back interrupted and is submitted again.
+// A failed squeue is a warning and polled again; max_squeue_failures in a row make poll() report
+// the cluster unreachable (the coordinator stops; the jobs run on for `millflow resume`).
 #include <chrono>
 #include <filesystem>
 #include <map>
@@ -22,6 +28,11 @@
 
 namespace millflow::engine {
 
+// sbatch's --signal takes a lead of at most 65535 s.
+inline constexpr int kSlurmMaxSignalLeadS = 65535;
+
+// The campaign file's executor.slurm block (README "Running on a Slurm cluster") plus what the
+// command line adds (run_dir, program, poll_interval_s).
 struct SlurmSettings {
   std::string partition;             // empty: the cluster's default
   std::string account;
@@ -31,6 +42,9 @@ struct SlurmSettings {
   std::vector<std::string> extra_args;
   int max_in_flight = 100;           // jobs queued or running at once
   int checkpoint_signal_s = 300;     // --signal=B:USR1@N: checkpoint N s before the time limit
+  // squeue failures in a row (a controller restarting, a network blip) ridden out before poll()
+  // gives up; at the default poll interval of 10 s, 30 are five minutes.
+  int max_squeue_failures = 30;
   double poll_interval_s = 10.0;
   std::filesystem::path run_dir;     // see above; shared with the compute nodes
   std::filesystem::path program;     // the millflow executable the jobs run
@@ -43,12 +57,15 @@ class SlurmExecutor final : public JobExecutor {
   std::filesystem::path work_root() const override { return settings_.run_dir / "work"; }
   int max_in_flight() const override { return settings_.max_in_flight; }
   double poll_interval_s() const override { return settings_.poll_interval_s; }
-  std::vector<JobRecord> submit(const std::vector<AttemptOrder>& attempts) override;
-  void reattach(const JobRecord& job) override;
+  std::vector<JobRecord> submit(const std::vector<AttemptOrder>& attempts,
+                                const RecordJobs& record_before_sending) override;
+  std::optional<JobRecord> reattach(const JobRecord& job) override;
   Poll poll() override;
 
   // The sbatch options of an array of `count` attempts writing into batch_dir.
   std::vector<std::string> sbatch_options(int count, const std::filesystem::path& batch_dir) const;
+  // "millflow-<batch dir name>": unique per array, so squeue finds an array by it.
+  static std::string job_name_of(const std::filesystem::path& batch_dir);
 
  private:
   struct Tracked {
@@ -60,14 +77,21 @@ class SlurmExecutor final : public JobExecutor {
   std::filesystem::path new_batch_dir();
   std::vector<TaskInput> staged(const std::vector<TaskInput>& inputs) const;
   void write_batch_script(const std::filesystem::path& batch_dir) const;
+  void track(const JobRecord& job);
+  // The Slurm id of a job recorded without one, from squeue by its job name; empty if unknown.
+  std::string find_id_by_name(const JobRecord& job);
+  // squeue's states of the tracked jobs; on failure a warning, or `unreachable` after too many.
+  std::optional<std::map<std::string, std::string>> squeue_tracked(Poll& result);
   // The outcome of a job that ended or vanished: from its marker, or a failure once the marker is
   // still missing a poll later. Sets the job's state to record.
   std::optional<AttemptOutcome> settle(Tracked& tracked, const std::string& state) const;
 
   SlurmSettings settings_;
   SlurmCommands& commands_;
-  std::map<std::string, Tracked> tracked_;  // by job id
-  std::vector<AttemptOutcome> refused_;     // attempts sbatch refused, reported by the next poll
+  std::map<std::filesystem::path, Tracked> tracked_;  // by output directory (one per attempt)
+  Poll refused_;  // attempts that could not be submitted, reported by the next poll
+  std::map<std::string, std::map<std::string, std::string>> squeue_by_name_;  // reattach's lookups
+  int squeue_failures_ = 0;  // in a row
   int batches_ = 0;
 };
 

@@ -114,6 +114,9 @@ CREATE TABLE jobs (
   PRIMARY KEY (task_key, attempt)
 );
 )sql",
+      R"sql(
+ALTER TABLE jobs ADD COLUMN job_name TEXT NOT NULL DEFAULT '';
+)sql",
   };
   return steps;
 }
@@ -219,14 +222,16 @@ std::vector<std::string> child_keys(sql::Connection& db, const std::string& pare
 
 std::vector<JobRecord> find_jobs(sql::Connection& db, const std::string& key) {
   std::vector<JobRecord> jobs;
-  if (db.user_version() < 2) return jobs;
-  auto rows = db.prepare(
-      "SELECT attempt, executor, job_id, state, output_dir, stdout_path, stderr_path FROM jobs WHERE task_key = ? "
-      "ORDER BY attempt");
+  const int version = db.user_version();
+  if (version < 2) return jobs;
+  auto rows = db.prepare(fmt::format(
+      "SELECT attempt, executor, job_id, state, {}, output_dir, stdout_path, stderr_path FROM jobs WHERE task_key = ? "
+      "ORDER BY attempt",
+      version < 3 ? "''" : "job_name"));
   rows.bind_all(key);
   while (rows.step()) {
     jobs.push_back(JobRecord{key, static_cast<int>(rows.integer(0)), rows.text(1), rows.text(2), rows.text(3),
-                             rows.text(4), rows.text(5), rows.text(6)});
+                             rows.text(4), rows.text(5), rows.text(6), rows.text(7)});
   }
   return jobs;
 }
@@ -383,13 +388,14 @@ void Store::record_jobs(const std::vector<JobRecord>& jobs) {
   if (jobs.empty()) return;
   sql::Transaction transaction(db_);
   auto& upsert = statement(
-      "INSERT INTO jobs (task_key, attempt, executor, job_id, state, output_dir, stdout_path, stderr_path, submitted_at, "
-      "updated_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
-      "ON CONFLICT(task_key, attempt) DO UPDATE SET state = excluded.state, updated_at = excluded.updated_at");
+      "INSERT INTO jobs (task_key, attempt, executor, job_id, state, job_name, output_dir, stdout_path, stderr_path, "
+      "submitted_at, updated_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
+      "ON CONFLICT(task_key, attempt) DO UPDATE SET job_id = excluded.job_id, state = excluded.state, "
+      "updated_at = excluded.updated_at");
   const double now = clock_.now();
   for (const auto& job : jobs) {
-    upsert.bind_all(job.task_key, job.attempt, job.executor, job.job_id, job.state, job.output_dir.string(),
-                    job.stdout_file.string(), job.stderr_file.string(), now, now);
+    upsert.bind_all(job.task_key, job.attempt, job.executor, job.job_id, job.state, job.job_name,
+                    job.output_dir.string(), job.stdout_file.string(), job.stderr_file.string(), now, now);
     upsert.run();
   }
   transaction.commit();

@@ -2,7 +2,7 @@
 // The provenance store: one SQLite file, written by exactly one connection (this class), owned by
 // the coordinating thread. Readers open their own read-only connections (open_read_only).
 //
-// Schema version 2 (PRAGMA user_version = 2); times are Unix seconds (REAL), JSON is canonical text.
+// Schema version 3 (PRAGMA user_version = 3); times are Unix seconds (REAL), JSON is canonical text.
 //   campaigns      id PK, name UNIQUE, format, document (the loaded campaign JSON), submitted_at,
 //                  finished_at, outcome ('running'|'done'|'failed'|'interrupted')
 //   tasks          key PK (SHA-256 hex), kind, kind_version, params, key_text (exactly what was
@@ -19,10 +19,13 @@
 //   log_lines      id, task_key (NULL for campaign-level lines), at, level, message
 //   coordinator    the one row (id = 1) of the coordinator holding the database: pid, host,
 //                  started_at, campaign
-//   jobs           (since version 2) task_key, attempt (PK together), executor ('slurm'), job_id,
+//   jobs           (since version 2) task_key, attempt (PK together), executor ('slurm'), job_id
+//                  ('' while state is SUBMITTING: recorded before the scheduler got the job),
 //                  state (the scheduler's last reported state), output_dir, stdout_path,
-//                  stderr_path, submitted_at, updated_at: the batch job of each attempt run by a
-//                  JobExecutor; `resume` re-attaches to the job of a task's current attempt
+//                  stderr_path, submitted_at, updated_at, job_name (since version 3; the
+//                  scheduler's job name, '' in rows of version 2): the batch job of each attempt run
+//                  by a JobExecutor; `resume` re-attaches to the job of a task's current attempt,
+//                  finding one recorded without id by its job name
 // Views: task_results (campaign, task_key, kind, status, params, result), plus the views that
 // tasks/ registers (ViewDefinition), recreated each time a writer opens the database.
 // Migrations are forward only: migration i takes user_version i to i + 1; a database with a newer
@@ -42,7 +45,7 @@
 
 namespace millflow::engine {
 
-inline constexpr int kSchemaVersion = 2;
+inline constexpr int kSchemaVersion = 3;
 
 class SchemaTooNew : public std::runtime_error {
  public:
@@ -79,7 +82,7 @@ std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key)
 std::optional<nlohmann::json> find_result(sql::Connection& db, const std::string& key);
 std::vector<StoredArtifact> find_artifacts(sql::Connection& db, const std::string& key);
 std::vector<std::string> child_keys(sql::Connection& db, const std::string& parent_key);
-// The batch jobs of a task, by attempt (none before schema version 2).
+// The batch jobs of a task, by attempt (none before schema version 2, no job names before 3).
 std::vector<JobRecord> find_jobs(sql::Connection& db, const std::string& key);
 
 class Store {

@@ -46,6 +46,46 @@ TaskOutcome run_sleep(TaskContext& context) {
   return TaskOutcome::with_result({{"slept_ms", ms}});
 }
 
+struct StepsCheckpoint {
+  std::int64_t step = 0;
+  std::uint64_t state = 0;
+};
+
+StepsCheckpoint read_steps_checkpoint(const std::filesystem::path& file) {
+  StepsCheckpoint checkpoint;
+  std::ifstream in(file);
+  if (in && !(in >> checkpoint.step >> checkpoint.state)) throw std::runtime_error("unreadable checkpoint " + file.string());
+  return checkpoint;
+}
+
+void write_steps_checkpoint(const std::filesystem::path& file, const StepsCheckpoint& checkpoint) {
+  const auto temporary = file.string() + ".tmp";
+  std::ofstream(temporary) << checkpoint.step << ' ' << checkpoint.state << '\n';
+  std::filesystem::rename(temporary, file);
+}
+
+// A long task in miniature: a chain of steps whose end state depends on every step, checkpointed
+// after each, so a run stopped and continued gives what one run gives only if the checkpoint works.
+TaskOutcome run_steps(TaskContext& context) {
+  const std::int64_t steps = integer_param(context.params, "steps", 1);
+  const std::int64_t step_ms = integer_param(context.params, "step_ms", 0);
+  std::filesystem::create_directories(context.work_dir);
+  const auto file = context.work_dir / "steps.checkpoint";
+  StepsCheckpoint checkpoint = read_steps_checkpoint(file);
+  if (checkpoint.step > 0) context.log(fmt::format("continuing from step {} of {}", checkpoint.step, steps));
+  while (checkpoint.step < steps) {
+    if (!sleep_unless_stopped(context, step_ms)) {
+      context.log(fmt::format("stopped at step {} of {}", checkpoint.step, steps));
+      return TaskOutcome::stopped();
+    }
+    checkpoint.state = checkpoint.state * 6364136223846793005ULL + 1442695040888963407ULL +
+                       static_cast<std::uint64_t>(checkpoint.step);
+    ++checkpoint.step;
+    write_steps_checkpoint(file, checkpoint);
+  }
+  return TaskOutcome::with_result({{"steps", steps}, {"state", fmt::format("{:016x}", checkpoint.state)}});
+}
+
 TaskOutcome run_fail(TaskContext& context) {
   const std::int64_t failures = integer_param(context.params, "failures", 0);
   if (context.attempt <= failures) {
@@ -121,7 +161,7 @@ nlohmann::json load_test_campaign(const std::filesystem::path& file) {
     if (id.empty()) errors.push_back({path + "/id", "missing or empty", "give each task a unique string id"});
     if (!kinds.contains(task.value("kind", ""))) {
       errors.push_back({path + "/kind", "unknown kind " + task.value("kind", nlohmann::json()).dump(),
-                        "use sleep, fail, sum or fanout"});
+                        "use sleep, fail, steps, sum or fanout"});
     }
     if (task.contains("params") && !task["params"].is_object()) {
       errors.push_back({path + "/params", "must be an object", ""});
@@ -152,6 +192,7 @@ void plan_test_campaign(const nlohmann::json& document, Plan& plan) {
 void add_testing_kinds(KindRegistry& kinds) {
   kinds.add({"sleep", "1", run_sleep});
   kinds.add({"fail", "1", run_fail});
+  kinds.add({"steps", "1", run_steps});
   kinds.add({"sum", "1", run_sum});
   kinds.add({"fanout", "1", run_fanout, true});
 }

@@ -7,6 +7,10 @@
 // ("after" names earlier tasks: the upstream tasks, in input order). Kinds:
 //   sleep  {"ms": N}                  sleeps N ms in 2 ms steps, polling its stop token
 //   fail   {"failures": N}            throws on its first N attempts ever (counted in the store)
+//   steps  {"steps": N, "step_ms": M} N steps of M ms, each advancing a 64-bit state; checkpoints
+//          (step, state) in its work directory after every step, stops at a stop request and
+//          continues from the checkpoint when run again (logging "continuing from step k of N");
+//          result {"steps": N, "state": "<16 hex digits>"}
 //   sum    {"value": N, "sleep_ms": M, "artifact": true}
 //          result {"sum": N + the "sum" of each input}; with "artifact" it also writes sum.txt
 //          (and checks its inputs' sum.txt); with MILLFLOW_TEST_TRACE set it appends its key to

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "engine/json_text.hpp"
+#include "engine/slurm_executor.hpp"
 #include "tasks/campaign_checks.hpp"
 
 namespace millflow::tasks {
@@ -180,6 +181,14 @@ std::vector<engine::FieldRule> executor_fields() {
       Field("/executor/slurm/extra_args", FieldType::array, "extra sbatch arguments"),
       Field("/executor/slurm/extra_args/*", FieldType::string, "one sbatch argument"),
       Field("/executor/slurm/max_in_flight", FieldType::integer, "most Slurm jobs queued or running at once")
+          .range(at_least(1), {}),
+      // 0 would signal a job at its time limit, too late to checkpoint.
+      Field("/executor/slurm/checkpoint_signal_s", FieldType::integer,
+            "lead of the checkpoint signal before a Slurm job's time limit")
+          .unit("s").range(at_least(1), at_most(engine::kSlurmMaxSignalLeadS))
+          .hint("jobs get sbatch --signal=B:USR1@N, which Slurm may send up to a minute early"),
+      Field("/executor/slurm/max_squeue_failures", FieldType::integer,
+            "failed squeue polls in a row before the coordinator stops (its jobs run on for resume)")
           .range(at_least(1), {}),
   };
 }

@@ -83,7 +83,7 @@ TEST_F(Cli, ValidateReportsEveryErrorWithExitTwoAndNothingIsWritten) {
   EXPECT_EQ(validated.out, "");
   EXPECT_EQ(validated.err,
             "millflow: invalid input:\n"
-            "/tasks/0/kind: unknown kind \"nope\"; use sleep, fail, sum or fanout\n"
+            "/tasks/0/kind: unknown kind \"nope\"; use sleep, fail, steps, sum or fanout\n"
             "/tasks/1/after: \"z\" is not the id of an earlier task; list earlier tasks only\n"
             "/tasks/1/id: duplicate id \"a\"\n");
   const auto submitted = millflow({"submit", file.string()});

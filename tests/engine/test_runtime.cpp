@@ -25,6 +25,12 @@ std::int64_t sum_of(const std::filesystem::path& db, std::int64_t value) {
                    "WHERE json_extract(t.params, '$.value') = " + std::to_string(value));
 }
 
+std::string only_result(const std::filesystem::path& db) {
+  auto connection = open_read_only(db);
+  auto row = connection.prepare("SELECT result FROM results");
+  return row.step() ? row.text(0) : std::string();
+}
+
 std::int64_t launches(const std::filesystem::path& db) {
   return count(db, "SELECT count(*) FROM status_history WHERE status = 'running'");
 }
@@ -178,6 +184,36 @@ TEST(Runtime, StopRequestInterruptsRunningTasksAndResumeFinishes) {
   EXPECT_EQ(stopped.not_started, 2);
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM tasks WHERE status = 'interrupted'"), 2);
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM campaigns WHERE outcome = 'interrupted'"), 1);
+}
+
+// The steps kind stands in for a long DEM task: stopped part-way, it continues from the checkpoint
+// in its work directory, and the result equals that of one uninterrupted run.
+TEST(Runtime, StoppedTaskContinuesFromItsCheckpointToTheSameResult) {
+  const auto campaign = test_campaign("steps", json::array({{{"id", "s"}, {"kind", "steps"},
+                                                             {"params", {{"steps", 60}, {"step_ms", 5}}}}}));
+  ScratchDir whole;
+  ASSERT_EQ(submit(campaign, whole.db()).exit_code(), 0);
+
+  ScratchDir dir;
+  SubmitOptions options;
+  options.run.refresh_s = 0.002;
+  options.run.stop_requested = [&] {  // once the task has checkpointed a few steps
+    std::error_code missing;
+    for (const auto& entry : std::filesystem::directory_iterator(work_dir(dir.db()), missing)) {
+      std::ifstream checkpoint(entry.path() / "steps.checkpoint");
+      int step = 0;
+      if (checkpoint >> step && step >= 5) return true;
+    }
+    return false;
+  };
+  EXPECT_EQ(submit_campaign(testing_registry(), campaign, dir.db(), options).interrupted, 1);
+  ASSERT_EQ(submit(campaign, dir.db()).exit_code(), 0);
+  const auto resumed = count(dir.db(), "SELECT CAST(substr(message, 22) AS INTEGER) FROM log_lines "
+                                       "WHERE message LIKE 'continuing from step % of 60'");
+  EXPECT_GE(resumed, 5);
+  EXPECT_LT(resumed, 60);
+  EXPECT_EQ(only_result(dir.db()), only_result(whole.db()));
+  EXPECT_EQ(json::parse(only_result(dir.db()))["steps"], 60);
 }
 
 }  // namespace

@@ -1,11 +1,14 @@
 // The Slurm executor against a fake cluster (FakeSlurm): the sbatch text of a job array, how
-// Slurm states map to outcomes, re-attaching on resume, rejected outputs, retries after TIMEOUT
-// and resubmission after a checkpoint. The fake runs each array element in this process exactly
-// as a job would (execute_attempt on its spec file); a real Slurm is tests/slurm/.
+// Slurm states map to outcomes, re-attaching on resume (also to jobs whose id a dying coordinator
+// never recorded), squeue failures ridden out or stopping the coordinator, rejected outputs,
+// retries after TIMEOUT and resubmission after a checkpoint. The fake runs each array element in
+// this process exactly as a job would (execute_attempt on its spec file); a real Slurm is
+// tests/slurm/.
 #include <gtest/gtest.h>
 
 #include <fstream>
 #include <sstream>
+#include <utility>
 
 #include "engine/attempt_files.hpp"
 #include "engine/slurm_executor.hpp"
@@ -23,6 +26,10 @@ const Registry& registry() {
   return instance;
 }
 
+// Thrown by the fake cluster to kill the coordinator at a chosen point: not a std::exception, so
+// nothing on the way catches it, as nothing runs after a SIGKILL.
+struct CoordinatorKilled {};
+
 // A cluster that runs a pending element when squeue is asked about it: `fate` runs it (or not)
 // and returns the state Slurm then reports. `hold` keeps every element pending.
 class FakeSlurm final : public SlurmCommands {
@@ -32,22 +39,45 @@ class FakeSlurm final : public SlurmCommands {
     fs::path script;
   };
   using Fate = std::function<std::string(const fs::path& spec_file)>;
+  enum class Kill { never, before_sbatch, after_sbatch };
 
   std::string sbatch(const std::vector<std::string>& options, const fs::path& script) override {
     if (refuse) throw std::runtime_error("Batch job submission failed: Invalid partition name specified");
+    if (kill == Kill::before_sbatch) {
+      kill = Kill::never;
+      throw CoordinatorKilled{};  // sbatch never reached the controller
+    }
     arrays.push_back({options, script});
     const std::string id = std::to_string(100 + arrays.size() - 1);
     for (int i = 0; i < elements_of(options); ++i) states[id + "_" + std::to_string(i)] = "PENDING";
+    if (std::exchange(kill, Kill::never) == Kill::after_sbatch) throw CoordinatorKilled{};  // the id is lost
     return id;
   }
 
   std::map<std::string, std::string> squeue(const std::vector<std::string>& job_ids) override {
     ++squeue_calls;
+    if (squeue_failures > 0) {
+      --squeue_failures;
+      throw std::runtime_error("squeue failed (exit 1): slurm_load_jobs error: Unable to contact slurm controller");
+    }
     if (!hold) run_pending();
+    return states_where([&](const std::string& array) {
+      return std::find(job_ids.begin(), job_ids.end(), array) != job_ids.end();
+    });
+  }
+
+  std::map<std::string, std::string> squeue_named(const std::string& job_name) override {
+    ++squeue_calls;
+    return states_where([&](const std::string& array) {
+      const auto& options = arrays.at(std::stoul(array) - 100).options;
+      return std::find(options.begin(), options.end(), "--job-name=" + job_name) != options.end();
+    });
+  }
+
+  std::map<std::string, std::string> states_where(const std::function<bool(const std::string& array)>& wanted) const {
     std::map<std::string, std::string> known;
     for (const auto& [element, state] : states) {
-      const std::string array = element.substr(0, element.find('_'));
-      if (std::find(job_ids.begin(), job_ids.end(), array) != job_ids.end()) known[element] = state;
+      if (wanted(element.substr(0, element.find('_')))) known[element] = state;
     }
     return known;
   }
@@ -79,6 +109,8 @@ class FakeSlurm final : public SlurmCommands {
   std::map<std::string, std::string> states;
   bool hold = false;
   bool refuse = false;
+  Kill kill = Kill::never;  // at the next sbatch
+  int squeue_failures = 0;  // the next squeue calls that fail
   int squeue_calls = 0;
 };
 
@@ -91,8 +123,10 @@ SlurmSettings settings_for(const ScratchDir& dir) {
 }
 
 RunSummary run_on(FakeSlurm& cluster, const ScratchDir& dir, const Campaign& campaign, int retries = 0,
-                  std::function<bool()> stop = [] { return false; }) {
-  SlurmExecutor executor(settings_for(dir), cluster);
+                  std::function<bool()> stop = [] { return false; }, int max_squeue_failures = 30) {
+  SlurmSettings settings = settings_for(dir);
+  settings.max_squeue_failures = max_squeue_failures;
+  SlurmExecutor executor(settings, cluster);
   SubmitOptions options;
   options.run.retries = retries;
   options.run.refresh_s = 0.002;
@@ -140,13 +174,19 @@ TEST(SlurmExecutor, SubmitsReadyAttemptsAsOneThrottledArray) {
                                        make_task_spec("sum", "1", {{"value", 2}}, {}),
                                        make_task_spec("sum", "1", {{"value", 3}}, {})};
   const auto no_inputs = std::make_shared<const std::vector<TaskInput>>();
-  const auto jobs = executor.submit({{&specs[0], no_inputs, 1}, {&specs[1], no_inputs, 1}, {&specs[2], no_inputs, 2}});
+  std::vector<JobRecord> recorded_before_sbatch;
+  const auto jobs = executor.submit({{&specs[0], no_inputs, 1}, {&specs[1], no_inputs, 1}, {&specs[2], no_inputs, 2}},
+                                    [&](const std::vector<JobRecord>& recorded) {
+                                      EXPECT_TRUE(cluster.arrays.empty());
+                                      recorded_before_sbatch = recorded;
+                                    });
 
   ASSERT_EQ(cluster.arrays.size(), 1u);
   const fs::path batch = cluster.arrays[0].script.parent_path();
   EXPECT_EQ(batch.parent_path(), settings.run_dir / "batches");
+  const std::string name = "millflow-" + batch.filename().string();
   const std::vector<std::string> expected = {
-      "--parsable", "--array=0-2%2", "--job-name=millflow", "--output=" + (batch / "%a.out").string(),
+      "--parsable", "--array=0-2%2", "--job-name=" + name, "--output=" + (batch / "%a.out").string(),
       "--error=" + (batch / "%a.err").string(), "--chdir=" + settings.run_dir.string(), "--signal=B:USR1@120",
       "--cpus-per-task=4", "--partition=short", "--account=mills", "--time=90", "--mem=4G", "--qos=low"};
   EXPECT_EQ(cluster.arrays[0].options, expected);
@@ -155,8 +195,15 @@ TEST(SlurmExecutor, SubmitsReadyAttemptsAsOneThrottledArray) {
             std::string::npos);
 
   ASSERT_EQ(jobs.size(), 3u);
+  ASSERT_EQ(recorded_before_sbatch.size(), 3u);
   for (size_t i = 0; i < jobs.size(); ++i) {
+    EXPECT_EQ(recorded_before_sbatch[i].job_id, "");
+    EXPECT_EQ(recorded_before_sbatch[i].state, "SUBMITTING");
+    EXPECT_EQ(recorded_before_sbatch[i].job_name, name);
+    EXPECT_EQ(recorded_before_sbatch[i].output_dir, jobs[i].output_dir);
     EXPECT_EQ(jobs[i].job_id, "100_" + std::to_string(i));
+    EXPECT_EQ(jobs[i].state, "PENDING");
+    EXPECT_EQ(jobs[i].job_name, name);
     EXPECT_EQ(jobs[i].task_key, specs[i].key);
     EXPECT_EQ(jobs[i].stdout_file, batch / (std::to_string(i) + ".out"));
     const AttemptSpec spec = read_attempt_spec(batch / (std::to_string(i) + ".json"));
@@ -185,7 +232,7 @@ TEST(SlurmExecutor, EndedOrVanishedJobsWithoutMarkerFailAfterAGracePoll) {
   const std::vector<TaskSpec> specs = {make_task_spec("sum", "1", {{"value", 1}}, {}),
                                        make_task_spec("sum", "1", {{"value", 2}}, {})};
   const auto no_inputs = std::make_shared<const std::vector<TaskInput>>();
-  executor.submit({{&specs[0], no_inputs, 1}, {&specs[1], no_inputs, 1}});
+  executor.submit({{&specs[0], no_inputs, 1}, {&specs[1], no_inputs, 1}}, [](const std::vector<JobRecord>&) {});
   EXPECT_TRUE(executor.poll().finished.empty());
   cluster.states["100_0"] = "NODE_FAIL";
   cluster.states.erase("100_1");
@@ -238,6 +285,89 @@ TEST(SlurmExecutor, ResumeReattachesToRecordedJobsInsteadOfSubmittingAgain) {
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM jobs"), 6);
   EXPECT_EQ(count(dir.db(), "SELECT max(attempts) FROM tasks"), 1);
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM log_lines WHERE message LIKE 'attempt%failed%'"), 0);
+}
+
+// The window between sbatch accepting an array and the coordinator recording its id: the jobs
+// were recorded SUBMITTING under their job name first, so resume finds a by name in squeue and b
+// (run and forgotten by squeue meanwhile) by its completion marker, and submits neither again.
+TEST(SlurmExecutor, CoordinatorKilledBeforeRecordingTheArrayIdSubmitsNothingTwice) {
+  ScratchDir dir;
+  FakeSlurm cluster;
+  cluster.kill = FakeSlurm::Kill::after_sbatch;
+  EXPECT_THROW(run_on(cluster, dir, test_campaign("chain", chain_of_sums())), CoordinatorKilled);
+  ASSERT_EQ(cluster.arrays.size(), 1u);
+  const std::string name = "millflow-" + cluster.arrays[0].script.parent_path().filename().string();
+  EXPECT_EQ(column(dir.db(), "SELECT job_id || '/' || state || '/' || job_name FROM jobs"),
+            (std::vector<std::string>{"/SUBMITTING/" + name, "/SUBMITTING/" + name}));
+  cluster.run_pending();
+  cluster.states.erase("100_1");
+
+  const auto resumed = run_on(cluster, dir, test_campaign("chain", chain_of_sums()));
+  EXPECT_EQ(resumed.exit_code(), 0);
+  EXPECT_EQ(resumed.done, 6);
+  EXPECT_EQ(cluster.arrays.size(), 4u);  // {a, b} once, then c, f and f's children, as without the kill
+  EXPECT_EQ(count(dir.db(), "SELECT max(attempts) FROM tasks"), 1);
+  EXPECT_EQ(column(dir.db(), "SELECT job_id || ' ' || state FROM jobs WHERE job_name = '" + name + "' ORDER BY job_id"),
+            (std::vector<std::string>{" COMPLETED", "100_0 COMPLETED"}));
+}
+
+// Killed while sbatch was still talking to the controller: Slurm has no such job and there is no
+// marker, so the attempt never ran and goes out again, once.
+TEST(SlurmExecutor, CoordinatorKilledBeforeSlurmGotTheArraySubmitsItAgain) {
+  ScratchDir dir;
+  FakeSlurm cluster;
+  cluster.kill = FakeSlurm::Kill::before_sbatch;
+  EXPECT_THROW(run_on(cluster, dir, test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}}))),
+               CoordinatorKilled);
+  EXPECT_TRUE(cluster.arrays.empty());
+  const auto resumed = run_on(cluster, dir, test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})));
+  EXPECT_EQ(resumed.exit_code(), 0);
+  EXPECT_EQ(cluster.arrays.size(), 1u);
+  EXPECT_EQ(column(dir.db(), "SELECT state FROM jobs ORDER BY attempt"),
+            (std::vector<std::string>{"NOT_SUBMITTED", "COMPLETED"}));
+  const auto warnings = column(dir.db(), "SELECT message FROM log_lines WHERE level = 'warn'");
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0], "attempt 1 was being submitted when its coordinator stopped, and Slurm knows no job " +
+                             column(dir.db(), "SELECT job_name FROM jobs WHERE attempt = 1")[0] +
+                             " and it left no output: submitting it again");
+}
+
+TEST(SlurmExecutor, FailedSqueueCallsAreLoggedAndPolledAgain) {
+  ScratchDir dir;
+  FakeSlurm cluster;
+  cluster.squeue_failures = 2;
+  const auto summary = run_on(cluster, dir, test_campaign("chain", chain_of_sums()), 0, [] { return false; }, 3);
+  EXPECT_EQ(summary.exit_code(), 0);
+  EXPECT_EQ(summary.done, 6);
+  EXPECT_EQ(cluster.arrays.size(), 4u);
+  const auto warnings = column(dir.db(), "SELECT message FROM log_lines WHERE level = 'warn' ORDER BY id");
+  const std::string reason = "squeue failed (exit 1): slurm_load_jobs error: Unable to contact slurm controller";
+  EXPECT_EQ(warnings, (std::vector<std::string>{
+                          "squeue failed (1 of 3 failures in a row before the coordinator stops), polling again: " + reason,
+                          "squeue failed (2 of 3 failures in a row before the coordinator stops), polling again: " + reason}));
+}
+
+TEST(SlurmExecutor, SqueueFailingTooOftenInARowStopsTheCoordinatorAndResumeReattaches) {
+  ScratchDir dir;
+  FakeSlurm cluster;
+  cluster.squeue_failures = 3;
+  const auto stopped = run_on(cluster, dir, test_campaign("chain", chain_of_sums()), 0, [] { return false; }, 3);
+  EXPECT_EQ(stopped.exit_code(), 130);
+  EXPECT_EQ(stopped.detached, 2);
+  const std::string reason =
+      "squeue failed 3 times in a row (executor.slurm.max_squeue_failures), last: squeue failed (exit 1): "
+      "slurm_load_jobs error: Unable to contact slurm controller: the coordinator stops; its jobs keep running and "
+      "`millflow resume` re-attaches to them";
+  EXPECT_EQ(stopped.stop_reason, reason);
+  EXPECT_NE(stopped.describe().find("; stopped: " + reason), std::string::npos);
+  EXPECT_EQ(column(dir.db(), "SELECT message FROM log_lines WHERE level = 'error'"), std::vector<std::string>{reason});
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM campaigns WHERE outcome = 'interrupted'"), 1);
+
+  const auto resumed = run_on(cluster, dir, test_campaign("chain", chain_of_sums()));
+  EXPECT_EQ(resumed.exit_code(), 0);
+  EXPECT_EQ(resumed.done, 6);
+  EXPECT_EQ(cluster.arrays.size(), 4u);
+  EXPECT_EQ(count(dir.db(), "SELECT max(attempts) FROM tasks"), 1);
 }
 
 TEST(SlurmExecutor, OutputNotMatchingItsMarkerIsAFailedAttempt) {

@@ -43,6 +43,38 @@ TEST(Store, RefusesANewerSchemaWithoutTouchingIt) {
   EXPECT_EQ(raw.user_version(), 99);
 }
 
+// Version 3 added jobs.job_name: a version 2 database (built here by undoing that migration) is
+// read as it is and migrated forward by the next writer, its job rows kept with an empty name.
+TEST(Store, MigratesAVersion2DatabaseForward) {
+  ScratchDir dir;
+  const SystemClock clock;
+  submit(test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})), dir.db());
+  std::string key;
+  {
+    auto reader = open_read_only(dir.db());
+    auto row = reader.prepare("SELECT key FROM tasks");
+    ASSERT_TRUE(row.step());
+    key = row.text(0);
+  }
+  {
+    sql::Connection raw(dir.db(), sql::Access::read_write);
+    raw.exec("ALTER TABLE jobs DROP COLUMN job_name");
+    raw.exec("INSERT INTO jobs VALUES ('" + key + "', 1, 'slurm', '7_0', 'COMPLETED', '/run/b/0', '/run/b/0.out', "
+             "'/run/b/0.err', 1, 2)");
+    raw.exec("PRAGMA user_version = 2");
+  }
+  auto reader = open_read_only(dir.db());
+  ASSERT_EQ(find_jobs(reader, key).size(), 1u);
+  EXPECT_EQ(find_jobs(reader, key)[0].job_name, "");
+  Store store(dir.db(), {}, clock);
+  EXPECT_EQ(store.connection().user_version(), 3);
+  const auto jobs = find_jobs(store.connection(), key);
+  ASSERT_EQ(jobs.size(), 1u);
+  EXPECT_EQ(jobs[0].job_id, "7_0");
+  EXPECT_EQ(jobs[0].job_name, "");
+  EXPECT_EQ(jobs[0].output_dir, "/run/b/0");
+}
+
 // A first submit killed before it created the schema leaves an empty file: readers (status,
 // resume, query) say what happened instead of failing on a missing table.
 TEST(Store, ReadersOfADatabaseWithoutTablesSayToSubmitAgain) {
