@@ -188,7 +188,7 @@ std::vector<engine::FieldRule> executor_fields() {
           .unit("s").range(at_least(1), at_most(engine::kSlurmMaxSignalLeadS))
           .hint("jobs get sbatch --signal=B:USR1@N, which Slurm may send up to a minute early"),
       Field("/executor/slurm/max_squeue_failures", FieldType::integer,
-            "failed squeue polls in a row before the coordinator stops (its jobs run on for resume)")
+            "failed squeue polls in a row before the coordinator stops")
           .range(at_least(1), {}),
   };
 }
