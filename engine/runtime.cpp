@@ -232,9 +232,9 @@ class Coordinator {
       recorded.state = "NOT_SUBMITTED";
       env_.store.record_jobs({recorded});
       log(node.spec.key, "warn",
-          fmt::format("attempt {} was being submitted when its coordinator stopped, and Slurm knows no job {} "
+          fmt::format("attempt {} was being submitted when its coordinator stopped, and {} knows no job {} "
                       "and it left no output: submitting it again",
-                      record->attempts, recorded.job_name));
+                      record->attempts, recorded.executor, recorded.job_name));
       return false;
     }
     if (followed->job_id != recorded.job_id) env_.store.record_jobs({*followed});

@@ -40,6 +40,8 @@ class FakeSlurm final : public SlurmCommands {
   };
   using Fate = std::function<std::string(const fs::path& spec_file)>;
   enum class Kill { never, before_sbatch, after_sbatch };
+  static constexpr const char* kSqueueError =
+      "squeue failed (exit 1): slurm_load_jobs error: Unable to contact slurm controller";
 
   std::string sbatch(const std::vector<std::string>& options, const fs::path& script) override {
     if (refuse) throw std::runtime_error("Batch job submission failed: Invalid partition name specified");
@@ -58,7 +60,7 @@ class FakeSlurm final : public SlurmCommands {
     ++squeue_calls;
     if (squeue_failures > 0) {
       --squeue_failures;
-      throw std::runtime_error("squeue failed (exit 1): slurm_load_jobs error: Unable to contact slurm controller");
+      throw std::runtime_error(kSqueueError);
     }
     if (!hold) run_pending();
     return states_where([&](const std::string& array) {
@@ -327,7 +329,7 @@ TEST(SlurmExecutor, CoordinatorKilledBeforeSlurmGotTheArraySubmitsItAgain) {
             (std::vector<std::string>{"NOT_SUBMITTED", "COMPLETED"}));
   const auto warnings = column(dir.db(), "SELECT message FROM log_lines WHERE level = 'warn'");
   ASSERT_EQ(warnings.size(), 1u);
-  EXPECT_EQ(warnings[0], "attempt 1 was being submitted when its coordinator stopped, and Slurm knows no job " +
+  EXPECT_EQ(warnings[0], "attempt 1 was being submitted when its coordinator stopped, and slurm knows no job " +
                              column(dir.db(), "SELECT job_name FROM jobs WHERE attempt = 1")[0] +
                              " and it left no output: submitting it again");
 }
@@ -341,7 +343,7 @@ TEST(SlurmExecutor, FailedSqueueCallsAreLoggedAndPolledAgain) {
   EXPECT_EQ(summary.done, 6);
   EXPECT_EQ(cluster.arrays.size(), 4u);
   const auto warnings = column(dir.db(), "SELECT message FROM log_lines WHERE level = 'warn' ORDER BY id");
-  const std::string reason = "squeue failed (exit 1): slurm_load_jobs error: Unable to contact slurm controller";
+  const std::string reason = FakeSlurm::kSqueueError;
   EXPECT_EQ(warnings, (std::vector<std::string>{
                           "squeue failed (1 of 3 failures in a row before the coordinator stops), polling again: " + reason,
                           "squeue failed (2 of 3 failures in a row before the coordinator stops), polling again: " + reason}));
@@ -354,10 +356,9 @@ TEST(SlurmExecutor, SqueueFailingTooOftenInARowStopsTheCoordinatorAndResumeReatt
   const auto stopped = run_on(cluster, dir, test_campaign("chain", chain_of_sums()), 0, [] { return false; }, 3);
   EXPECT_EQ(stopped.exit_code(), 130);
   EXPECT_EQ(stopped.detached, 2);
-  const std::string reason =
-      "squeue failed 3 times in a row (executor.slurm.max_squeue_failures), last: squeue failed (exit 1): "
-      "slurm_load_jobs error: Unable to contact slurm controller: the coordinator stops; its jobs keep running and "
-      "`millflow resume` re-attaches to them";
+  const std::string reason = "squeue failed 3 times in a row (executor.slurm.max_squeue_failures), last: " +
+                             std::string(FakeSlurm::kSqueueError) +
+                             ": the coordinator stops; its jobs keep running and `millflow resume` re-attaches to them";
   EXPECT_EQ(stopped.stop_reason, reason);
   EXPECT_NE(stopped.describe().find("; stopped: " + reason), std::string::npos);
   EXPECT_EQ(column(dir.db(), "SELECT message FROM log_lines WHERE level = 'error'"), std::vector<std::string>{reason});
