@@ -9,14 +9,17 @@
 #include <cstring>
 
 #include "engine/clock.hpp"
+#include "engine/sqlite.hpp"
 #include "engine/store.hpp"
 
 namespace millflow::engine {
 
 std::optional<std::string> describe_coordinator(const std::filesystem::path& db) {
   if (!std::filesystem::exists(db)) return std::nullopt;
-  auto connection = open_read_only(db);
-  if (connection.user_version() == 0) return std::nullopt;  // created, schema not yet written
+  // Not open_read_only: a database whose first submit died before creating the schema is one to
+  // submit to again, not an error.
+  sql::Connection connection(db, sql::Access::read_only);
+  if (connection.user_version() == 0) return std::nullopt;
   auto row = connection.prepare("SELECT pid, host, started_at, coalesce(campaign, '') FROM coordinator");
   if (!row.step()) return std::nullopt;
   return fmt::format("pid {} on {} since {} (campaign \"{}\")", row.integer(0), row.text(1), iso8601_utc(row.real(2)),

@@ -91,6 +91,15 @@ TEST(Store, ReadersOfADatabaseWithoutTablesSayToSubmitAgain) {
   }
 }
 
+// ... and a submit to it creates the schema: the coordinator lock's look at who held the database
+// before must not refuse it (it did, so a crash test round killed that early failed for good).
+TEST(Store, SubmitToADatabaseWithoutTablesCreatesThem) {
+  ScratchDir dir;
+  { sql::Connection raw(dir.db(), sql::Access::read_write); }
+  EXPECT_EQ(submit(test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})), dir.db()).exit_code(), 0);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM tasks WHERE status = 'done'"), 1);
+}
+
 TEST(Store, DomainViewsAreInstalled) {
   ScratchDir dir;
   const SystemClock clock;
