@@ -10,11 +10,13 @@
 // same D, J, phi_c), hogg_kw (Hogg-Fuerstenau's power for this slice's ball mass, repose 35 deg),
 // power_sem_kw (the standard error of power_kw from quarter-revolution means), toe/shoulder (deg,
 // see tasks/macro_measure.hpp), torque_arm_kw, wall_s (the run's wall time),
-// particle_steps_per_s (all threads; per core: divide by 2).
+// particle_steps_per_s (wall clock, 2 threads; per core: divide by 2), particle_steps_per_cpu_s
+// (per CPU-second the process used: per core on a machine shared with other work).
 #include <benchmark/benchmark.h>
 
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <fstream>
 #include <numeric>
 #include <string>
@@ -52,15 +54,18 @@ double power_standard_error_kw(const std::filesystem::path& power_csv, std::size
 void run_and_report(benchmark::State& state, const json& params) {
   testing::ScratchDir scratch("bench_macro");
   json result;
-  double seconds = 0.0;
+  double seconds = 0.0, cpu_seconds = 0.0;
   for (auto _ : state) {
     const auto start = std::chrono::steady_clock::now();
+    const std::clock_t cpu_start = std::clock();  // the process's CPU time, all threads
     result = testing::DirectRun{params, scratch.path() / "work", "bench", 2}.run().result;
+    cpu_seconds = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
     seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
   const double steps = result["measure_end_s"].get<double>() / result["dt_s"].get<double>();
   state.counters["n_balls"] = result["n_balls"].get<double>();
   state.counters["particle_steps_per_s"] = steps * result["n_balls"].get<double>() / seconds;
+  state.counters["particle_steps_per_cpu_s"] = steps * result["n_balls"].get<double>() / cpu_seconds;
   state.counters["fill"] = result["fill"].get<double>();
   state.counters["speed"] = result["speed_fraction"].get<double>();
   state.counters["power_kw"] = result["power"]["mean_kw"].get<double>();
