@@ -113,7 +113,7 @@ System build_mill(const MillSetup& setup) {
   const std::vector<double> radii = ball_radii(setup, rng);
   if (sites.size() < radii.size()) {
     throw std::invalid_argument(fmt::format(
-        "mill: fill J = {} needs {} balls but a loose lattice holds only {}; lower the fill", setup.fill, radii.size(),
+        "mill: fill J = {} needs {} balls but a close-packed lattice holds only {}; lower the fill", setup.fill, radii.size(),
         sites.size()));
   }
   for (std::size_t b = 0; b < radii.size(); ++b) {

@@ -51,7 +51,7 @@ double mean_ball_diameter(const MillSetup& setup);
 // volume fraction), rounded to whole balls.
 std::vector<std::size_t> balls_per_class(const MillSetup& setup);
 
-// Balls on a jittered lattice (spaced for the largest size), lowest first, sizes shuffled so the
+// Balls on a jittered close-packed lattice (dem/packing.hpp, spaced 1.1 x the largest size), lowest first, sizes shuffled so the
 // classes start mixed; the shell at rest (angular velocity 0): settle the bed with
 // settle_charge(), then set_mill_speed() to run. Wall 0 is the shell. When the media and liner
 // materials have the same name, the liner's material is named "<name>_liner".

@@ -105,8 +105,10 @@ TEST(AnalysisTasks, SlowMillBulkTurnsWithTheShellAndTheSurfaceShears) {
   }
   ASSERT_GT(bulk.cells, 5u);
   ASSERT_GT(cascading.cells, 0u);
-  // A weak bound: this bed is only ~8 balls deep and the 1.5-diameter kernel smears the cascade
-  // into the bulk; measured here 0.72 omega (slip 0.29). A bigger mill belongs in bench/.
+  // A weak bound: this bed is only ~8 balls deep, so the cells the region rules leave as bulk lie
+  // within a few balls of the cascading layer (the balls in them turn at 0.8 omega) and the
+  // 1.5-diameter kernel smears the cascade in further: measured here 0.67 omega (slip 0.33).
+  // bench/bench_slow_mill_flow.cpp shows the claim on a 0.5 m mill, a bed 20 balls deep.
   EXPECT_GT(spin / solid, 0.5 * omega);
   EXPECT_LT(spin / solid, 1.1 * omega);
   EXPECT_GT(cascading.mean_shear_rate, 2.0 * bulk.mean_shear_rate);

@@ -107,10 +107,17 @@ TEST(MacroParams, CorrelationsMatchTheFactsSheet) {
 
 class MacroRunTest : public ::testing::Test {
  protected:
+  // The tiny run with 1.5 revolutions of warm-up: after the fixture's default 0.5 the charge is
+  // still gaining energy, and the torque arm falls 6-12% short of the shell's power (over 4 seeds,
+  // with the cubic and the close-packed start alike); after 1.5 it agrees within 2.6%.
+  static json params() {
+    json params = tiny_macro_params();
+    params["macro"]["warmup_revolutions"] = 1.5;
+    return params;
+  }
   static void SetUpTestSuite() {
     scratch_ = new ScratchDir("macro_run");
-    outcome_ =
-        new engine::TaskOutcome(DirectRun{tiny_macro_params(), scratch_->path() / "whole"}.run());
+    outcome_ = new engine::TaskOutcome(DirectRun{params(), scratch_->path() / "whole"}.run());
   }
   static void TearDownTestSuite() {
     delete outcome_;
@@ -191,7 +198,7 @@ TEST_F(MacroRunTest, FlowSegmentsHoldEveryFrameInOrder) {
   for (const auto& a : outcome_->artifacts) files[a.name] = a.file;
   const std::uint64_t segments = r["segment_count"];
   ASSERT_GT(segments, 1u);
-  std::size_t frames = 0, events = 0;
+  std::size_t frames = 0, events = 0, contacts = 0;
   double last_time = r["measure_start_s"];
   const double interval = r["sample_interval_s"];
   for (std::uint64_t k = 0; k < segments; ++k) {
@@ -201,12 +208,17 @@ TEST_F(MacroRunTest, FlowSegmentsHoldEveryFrameInOrder) {
       EXPECT_NEAR(frame.time - last_time, interval, 1e-9);
       last_time = frame.time;
       EXPECT_EQ(frame.position.size(), r["n_balls"].get<std::size_t>());
-      EXPECT_GT(frame.contact_a.size(), frame.position.size() / 2);
+      // Contacts in force: at least a quarter of the balls' count in every frame and half of it
+      // on average (measured in this mill over 4 seeds: 0.38-0.59 per ball in the sparsest frame,
+      // 0.67-0.79 on average, with either initial placement).
+      EXPECT_GT(frame.contact_a.size(), frame.position.size() / 4);
+      contacts += frame.contact_a.size();
       events += frame.event_time.size();
       ++frames;
     }
   }
   EXPECT_EQ(frames, r["frame_count"].get<std::size_t>());
+  EXPECT_GT(contacts, frames * r["n_balls"].get<std::size_t>() / 2);
   EXPECT_NEAR(last_time, r["measure_end_s"].get<double>(), 1e-12);
   EXPECT_EQ(events, r["collisions"]["ball_ball"]["count"].get<std::size_t>() +
                         r["collisions"]["ball_liner"]["count"].get<std::size_t>());
@@ -236,7 +248,7 @@ TEST_F(MacroRunTest, WritesPowerCsvAndVtkFiles) {
 
 TEST_F(MacroRunTest, InterruptedTwiceAndResumedGivesTheSameResultAndFiles) {
   const auto dir = scratch_->path() / "interrupted";
-  const DirectRun run{tiny_macro_params(), dir};
+  const DirectRun run{params(), dir};
   // Stop once in the warm-up and once in the measurement (with frames waiting for a segment).
   for (const double stop_at : {0.25, 0.8}) {
     std::stop_source stop;
