@@ -48,11 +48,11 @@ PY
 
 now() { date +%s.%N; }
 declare -A seconds
-time_it() {  # name command...; returns 124 when the command timed out
+time_it() {  # name command...; returns 124 when timeout stopped it (its 124, or 137 after its KILL)
   local start end status=0
   start=$(now)
   "${@:2}" >"$work/$1.log" 2>&1 || status=$?
-  [ "$status" -ne 124 ] || return 124
+  [ "$status" -ne 124 ] && [ "$status" -ne 137 ] || return 124
   [ "$status" -eq 0 ] || { echo "$1 failed:" >&2; tail -20 "$work/$1.log" >&2; exit 1; }
   end=$(now)
   seconds[$1]=$(python3 -c "print($end - $start)")
@@ -61,7 +61,8 @@ time_it() {  # name command...; returns 124 when the command timed out
 time_it millflow_run "$millflow" submit "$work/trivial.json" --db "$work/millflow.db" --jobs 2
 time_it millflow_cached "$millflow" submit "$work/trivial.json" --db "$work/millflow.db" --jobs 2
 grep -q "$tasks cached" "$work/millflow_cached.log" || { echo "millflow resubmission was not fully cached" >&2; exit 1; }
-time_it snakemake_run timeout "$limit_s" snakemake --snakefile "$work/Snakefile" --directory "$work/snake" --cores 2 -q || {
+# Snakemake keeps going for minutes after SIGTERM: KILL follows after 30 s.
+time_it snakemake_run timeout -k 30 "$limit_s" snakemake --snakefile "$work/Snakefile" --directory "$work/snake" --cores 2 -q || {
   echo "$tasks trivial tasks, 2 jobs: millflow ${seconds[millflow_run]} s, re-run ${seconds[millflow_cached]} s"
   echo "snakemake stopped at the ${limit_s} s cap with $(find "$work/snake/out" -name '*.txt' | wc -l) of $tasks outputs written"
   exit 0
