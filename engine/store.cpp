@@ -439,10 +439,4 @@ void Store::set_coordinator(int pid, const std::string& host, const std::string&
 
 void Store::clear_coordinator() { db_.exec("DELETE FROM coordinator"); }
 
-sql::Statement& Store::statement(const std::string& sql) {
-  auto found = statements_.find(sql);
-  if (found == statements_.end()) found = statements_.emplace(sql, db_.prepare(sql)).first;
-  return found->second;
-}
-
 }  // namespace millflow::engine

@@ -44,7 +44,6 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 #include "engine/artifacts.hpp"
@@ -133,13 +132,12 @@ class Store {
   void insert_tasks(std::int64_t campaign, const std::vector<TaskSpec>& tasks,
                     const std::optional<std::string>& parent);
   // Prepared once per connection: a task's commit reuses the same handful of statements.
-  sql::Statement& statement(const std::string& sql);
+  sql::Statement& statement(std::string_view sql) { return db_.cached(sql); }
   void record_history(const std::string& key, const std::string& status, int attempt, const std::string& message);
 
   std::filesystem::path path_;
   const Clock& clock_;
   sql::Connection db_;
-  std::unordered_map<std::string, sql::Statement> statements_;
 };
 
 }  // namespace millflow::engine
