@@ -408,7 +408,8 @@ class Coordinator {
     }
   }
 
-  // Work directories of tasks committed done: removed once the commit is durable.
+  // Work directories of tasks committed done: removed after the commit (a power loss may still roll
+  // it back, see store.hpp; the task then runs again from the start, which is correct).
   void remove_finished_work_dirs() {
     for (const auto& key : finished_work_) {
       std::error_code ignored;

@@ -23,7 +23,10 @@ Connection::Connection(const std::filesystem::path& file, Access access) {
   if (access == Access::read_only) exec("PRAGMA query_only = ON");
 }
 
-Connection::~Connection() { sqlite3_close_v2(db_); }
+Connection::~Connection() {
+  cached_.clear();  // finalized before the connection closes
+  sqlite3_close_v2(db_);
+}
 
 void Connection::exec(std::string_view sql) {
   char* message = nullptr;
@@ -36,6 +39,12 @@ void Connection::exec(std::string_view sql) {
 }
 
 Statement Connection::prepare(std::string_view sql) { return Statement(db_, sql); }
+
+Statement& Connection::cached(std::string_view sql) {
+  auto found = cached_.find(sql);
+  if (found == cached_.end()) found = cached_.emplace(std::string(sql), prepare(sql)).first;
+  return found->second;
+}
 
 int Connection::user_version() {
   auto statement = prepare("PRAGMA user_version");
@@ -96,7 +105,7 @@ std::string Statement::text(int column) const {
 
 Transaction::Transaction(Connection& connection)
     : connection_(connection), nested_(sqlite3_get_autocommit(connection.handle()) == 0) {
-  connection_.exec(nested_ ? "SAVEPOINT nested" : "BEGIN IMMEDIATE");
+  connection_.cached(nested_ ? "SAVEPOINT nested" : "BEGIN IMMEDIATE").run();
 }
 
 Transaction::~Transaction() {
@@ -106,7 +115,7 @@ Transaction::~Transaction() {
 }
 
 void Transaction::commit() {
-  connection_.exec(nested_ ? "RELEASE nested" : "COMMIT");
+  connection_.cached(nested_ ? "RELEASE nested" : "COMMIT").run();
   done_ = true;
 }
 

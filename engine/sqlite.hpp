@@ -4,10 +4,12 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 
 namespace millflow::engine::sql {
 
@@ -17,28 +19,6 @@ class Error : public std::runtime_error {
 };
 
 enum class Access { read_only, read_write };
-
-class Statement;
-
-class Connection {
- public:
-  // read_write creates the file if missing. read_only also sets PRAGMA query_only.
-  Connection(const std::filesystem::path& file, Access access);
-  ~Connection();
-  Connection(Connection&& other) noexcept : db_(other.db_) { other.db_ = nullptr; }
-  Connection(const Connection&) = delete;
-  Connection& operator=(const Connection&) = delete;
-  Connection& operator=(Connection&&) = delete;
-
-  void exec(std::string_view sql);  // runs one or more statements without results
-  Statement prepare(std::string_view sql);
-  int user_version();
-  std::int64_t last_insert_rowid() const { return sqlite3_last_insert_rowid(db_); }
-  sqlite3* handle() const { return db_; }
-
- private:
-  sqlite3* db_ = nullptr;
-};
 
 class Statement {
  public:
@@ -81,6 +61,36 @@ class Statement {
  private:
   sqlite3* db_;
   sqlite3_stmt* stmt_ = nullptr;
+};
+
+// Heterogeneous lookup: finding a statement by its SQL text allocates nothing.
+struct SqlHash {
+  using is_transparent = void;
+  size_t operator()(std::string_view sql) const { return std::hash<std::string_view>{}(sql); }
+};
+
+class Connection {
+ public:
+  // read_write creates the file if missing. read_only also sets PRAGMA query_only.
+  Connection(const std::filesystem::path& file, Access access);
+  ~Connection();
+  Connection(Connection&& other) noexcept : db_(other.db_), cached_(std::move(other.cached_)) { other.db_ = nullptr; }
+  Connection(const Connection&) = delete;
+  Connection& operator=(const Connection&) = delete;
+  Connection& operator=(Connection&&) = delete;
+
+  void exec(std::string_view sql);  // runs one or more statements without results
+  Statement prepare(std::string_view sql);
+  // Prepared on first use and kept: statements run once per task (a commit's handful, and BEGIN,
+  // SAVEPOINT, RELEASE, COMMIT) are parsed once per connection instead of each time.
+  Statement& cached(std::string_view sql);
+  int user_version();
+  std::int64_t last_insert_rowid() const { return sqlite3_last_insert_rowid(db_); }
+  sqlite3* handle() const { return db_; }
+
+ private:
+  sqlite3* db_ = nullptr;
+  std::unordered_map<std::string, Statement, SqlHash, std::equal_to<>> cached_;
 };
 
 // BEGIN IMMEDIATE on construction; rolls back on destruction unless committed. Inside an open
