@@ -34,6 +34,7 @@ json tiny_cell_params(double powder_load) {
     "media": {"material": "steel", "diameter": 0.01},
     "shear_cell": {"boundary": "walls", "size_diameters": [4, 4, 4], "gravity": false,
                    "warmup_strain": 0.5, "measure_strain": 1.0, "stress_control": {"gain": 0.5},
+                   "checkpoint_interval_s": 60,
                    "powder": {"material": "clinker", "diameter_ratio": 0.5, "load": 0}},
     "slot": {"region": "toe", "index": 0}
   })")
@@ -214,15 +215,91 @@ TEST(ShearCell, PowderInTheCellDissipates) {
   EXPECT_TRUE(std::isfinite(r.at("friction").get<double>()));
 }
 
-TEST(ShearCell, StopsBeforeTheFirstWindowWhenAsked) {
-  const json params = tiny_cell_params(0.0);
-  std::stop_source stop;
-  stop.request_stop();
+// One attempt of a task in a work directory kept across attempts: stopped when it reports
+// progress for the `stop_at`-th time (never when 0), its log lines kept.
+struct Attempt {
+  engine::TaskOutcome outcome;
+  std::vector<std::string> log;
+};
+
+Attempt attempt(const json& params, const std::filesystem::path& work_dir, int stop_at) {
   const std::vector<engine::TaskInput> inputs = {sites_input()};
-  engine::TaskContext context{.key = "k", .params = params, .inputs = inputs, .work_dir = {}, .threads = 1,
-                              .stop = stop.get_token(), .progress = [](double, std::string_view) {},
-                              .log = [](std::string_view) {}};
-  EXPECT_TRUE(run_shear_cell(context).interrupted);
+  std::stop_source stop;
+  if (stop_at == -1) stop.request_stop();
+  int reports = 0;
+  Attempt result;
+  engine::TaskContext context{.key = "tiny-cell", .params = params, .inputs = inputs, .work_dir = work_dir,
+                              .threads = 2, .stop = stop.get_token(),
+                              .progress = [&](double, std::string_view) {
+                                if (++reports == stop_at) stop.request_stop();
+                              },
+                              .log = [&](std::string_view line) { result.log.emplace_back(line); }};
+  tbb::task_arena arena(2);
+  arena.execute([&] { result.outcome = run_shear_cell(context); });
+  return result;
+}
+
+std::string file_bytes(const std::filesystem::path& path) {
+  std::ifstream stream(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(stream)), std::istreambuf_iterator<char>());
+}
+
+TEST(ShearCell, StopsBeforeTheFirstStepWhenAskedAndKeepsACheckpoint) {
+  const millflow::testing::ScratchDir dir;
+  const Attempt stopped = attempt(tiny_cell_params(0.0), dir.path() / "work", -1);
+  EXPECT_TRUE(stopped.outcome.interrupted);
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "work" / "cell.ckpt"));
+}
+
+// Stopped three times (in the warm-up's first and third windows and in the measurement: the tiny
+// cell reports progress every 100 steps, its warm-up windows are ~250 steps), each attempt
+// continuing from the last one's checkpoint: the same result bytes and snapshot as one attempt.
+TEST(ShearCell, AnInterruptedCellContinuesFromItsCheckpointToTheSameResult) {
+  const json params = tiny_cell_params(0.1);
+  const millflow::testing::ScratchDir once, interrupted;
+  const Attempt reference = attempt(params, once.path() / "work", 0);
+  ASSERT_FALSE(reference.outcome.interrupted);
+  const std::filesystem::path work = interrupted.path() / "work";
+  std::vector<std::string> stops;
+  for (int stop_at : {1, 5, 8}) {
+    const Attempt stopped = attempt(params, work, stop_at);
+    ASSERT_TRUE(stopped.outcome.interrupted) << "stop at report " << stop_at;
+    stops.push_back(stopped.log.back());
+  }
+  EXPECT_NE(stops[0].find("(warm-up window 1/4)"), std::string::npos) << stops[0];
+  EXPECT_NE(stops[1].find("(warm-up window 3/4)"), std::string::npos) << stops[1];
+  EXPECT_NE(stops[2].find("(measuring)"), std::string::npos) << stops[2];
+  const Attempt last = attempt(params, work, 0);
+  ASSERT_FALSE(last.outcome.interrupted);
+  EXPECT_NE(last.log.front().find("shear cell: continuing from the checkpoint at step"), std::string::npos)
+      << last.log.front();
+  EXPECT_EQ(last.outcome.result.dump(), reference.outcome.result.dump());
+  ASSERT_EQ(last.outcome.artifacts.size(), 1u);
+  EXPECT_EQ(file_bytes(last.outcome.artifacts[0].file), file_bytes(reference.outcome.artifacts[0].file));
+  EXPECT_FALSE(std::filesystem::exists(work / "cell.ckpt")) << "a finished cell leaves no checkpoint";
+}
+
+TEST(ShearCell, AnUnusableCheckpointIsLoggedAndTheCellStartsAgainFromScratch) {
+  const json params = tiny_cell_params(0.0);
+  const millflow::testing::ScratchDir once, broken;
+  const Attempt reference = attempt(params, once.path() / "work", 0);
+  const std::filesystem::path work = broken.path() / "work";
+  ASSERT_TRUE(attempt(params, work, 4).outcome.interrupted);
+  const std::string saved = file_bytes(work / "cell.ckpt");
+  for (const std::string& damage : {std::string("truncated"), std::string("checksum mismatch")}) {
+    std::string bytes = saved;
+    if (damage == "truncated") bytes.resize(bytes.size() - 100);
+    if (damage == "checksum mismatch") bytes[bytes.size() / 3] ^= 0x01;
+    std::ofstream(work / "cell.ckpt", std::ios::binary | std::ios::trunc) << bytes;
+    const Attempt again = attempt(params, work, 0);
+    ASSERT_FALSE(again.log.empty());
+    EXPECT_NE(again.log.front().find("shear cell: the checkpoint " + (work / "cell.ckpt").string() + " cannot be used ("),
+              std::string::npos)
+        << again.log.front();
+    EXPECT_NE(again.log.front().find(damage), std::string::npos) << again.log.front();
+    EXPECT_NE(again.log.front().find("); starting again from scratch"), std::string::npos) << again.log.front();
+    EXPECT_EQ(again.outcome.result.dump(), reference.outcome.result.dump()) << damage;
+  }
 }
 
 }  // namespace
