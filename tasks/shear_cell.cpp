@@ -79,7 +79,7 @@ dem::ShearCellSetup shear_cell_setup(const json& params, const json& site, const
   setup.gravity = cell.at("gravity").get<bool>();
   setup.servo_gain = at(cell, "/stress_control/gain").get<double>();
   setup.seed = macro_seed(at(params, "/dem/seed").get<std::uint64_t>(), task_key);
-  setup.steps_per_collision = at(params, "/dem/steps_per_collision").get<int>();
+  setup.steps_per_collision = cell.at("steps_per_collision").get<int>();
   return setup;
 }
 

@@ -2,7 +2,7 @@
 // The `shear_cell` task kind (DESIGN.md section 1, step 3): one microscale shear cell per site
 // slot and powder load.
 //
-// Parameters: tasks::shear_cells_params (shear_cell, materials, interactions, media, dem) plus
+// Parameters: tasks::shear_cells_params (shear_cell, materials, interactions, media, dem.seed) plus
 // slot {region, index}: the site "<region>-<index>" of the sites task, the one upstream task.
 // The planner knows the regions and the sites per region but not which sites exist, so a slot may
 // be empty (a region with fewer cells than sites, or none) or its site unusable (shear rate or
@@ -15,6 +15,8 @@
 //                    balls of that diameter, powder grains of diameter_ratio x it);
 //   boundary         "walls" -> rough walls, "lees_edwards" -> Lees-Edwards;
 //   servo gain       /shear_cell/stress_control/gain;
+//   time step        t_c / /shear_cell/steps_per_collision (not /dem's: the cells' energy
+//                    balance needs finer steps than the macro runs, see campaigns/README.md);
 //   seed             tasks::macro_seed(dem.seed, task key).
 // Run: a dem::ShearCellRun of shear_cell_protocol (warm-up of warmup_strain in kWarmupWindows
 // windows, then measure_strain measured). The stop token is polled every kStepsBetweenPolls steps
@@ -35,7 +37,8 @@
 
 namespace millflow::tasks {
 
-inline constexpr const char* kShearCellVersion = "3";
+// Bump whenever the results of the same parameters change (tests/tasks/golden/shear_cell.json).
+inline constexpr const char* kShearCellVersion = "4";
 inline constexpr int kWarmupWindows = 4;
 inline constexpr std::uint64_t kStepsBetweenPolls = 100;
 

@@ -17,6 +17,7 @@
 #include "tasks/millflow.hpp"
 #include "tasks/shear_cell.hpp"
 #include "tests/common/scratch_dir.hpp"
+#include "tests/tasks/golden.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -30,11 +31,11 @@ json tiny_cell_params(double powder_load) {
       {"materials": ["steel", "steel"], "restitution": 0.5, "friction": 0.5, "stiffness": {"collision_time": 0.001}},
       {"materials": ["steel", "clinker"], "restitution": 0.4, "friction": 0.5, "stiffness": {"collision_time": 0.0008}},
       {"materials": ["clinker", "clinker"], "restitution": 0.3, "friction": 0.5, "stiffness": {"collision_time": 0.0006}}],
-    "dem": {"steps_per_collision": 20, "neighbor_skin_fraction": 0.3, "seed": 3},
+    "dem": {"seed": 3},
     "media": {"material": "steel", "diameter": 0.01},
     "shear_cell": {"boundary": "walls", "size_diameters": [4, 4, 4], "gravity": false,
                    "warmup_strain": 0.5, "measure_strain": 1.0, "stress_control": {"gain": 0.5},
-                   "checkpoint_interval_s": 60,
+                   "checkpoint_interval_s": 60, "steps_per_collision": 20,
                    "powder": {"material": "clinker", "diameter_ratio": 0.5, "load": 0}},
     "slot": {"region": "toe", "index": 0}
   })")
@@ -111,6 +112,7 @@ TEST(ShearCellsPlan, EverySlotAndLoadHasACellBelowSharedSitesAndEveryPointAnUpsc
       EXPECT_EQ(task.params.at("interactions").size(), 3u);
       EXPECT_TRUE(task.params.at("slot").contains("region"));
       EXPECT_FALSE(task.params.contains("macro"));  // a macro setting must not re-key the cells
+      EXPECT_EQ(task.params.at("dem"), json({{"seed", 1}}));  // nor the macro runs' time step
     }
     if (task.kind == "report") {
       // Every upscale, and each fill and speed's average once (its maps).
@@ -181,6 +183,9 @@ TEST(ShearCellSetup, CollisionTimesHoldForEachPairsReferenceParticles) {
   EXPECT_NEAR(duration(setup.media_powder, ball, grain), 8e-4, 1e-9);
   EXPECT_NEAR(duration(setup.powder_powder, grain, grain), 6e-4, 1e-9);
   EXPECT_NE(setup.seed, shear_cell_setup(tiny_cell_params(0.3), tiny_site(), "other key").seed);
+  json finer = tiny_cell_params(0.3);
+  finer["shear_cell"]["steps_per_collision"] = 80;
+  EXPECT_EQ(shear_cell_setup(finer, tiny_site(), "key").steps_per_collision, 80);
 }
 
 TEST(ShearCell, TinyMediaCellGivesFiniteStressesAndNoPowderDissipation) {
@@ -242,6 +247,21 @@ Attempt attempt(const json& params, const std::filesystem::path& work_dir, int s
 std::string file_bytes(const std::filesystem::path& path) {
   std::ifstream stream(path, std::ios::binary);
   return std::string((std::istreambuf_iterator<char>(stream)), std::istreambuf_iterator<char>());
+}
+
+// The tiny powder cell's results (walls, load 0.1, seed 3, key "tiny-cell") pin the kind's
+// version: tests/tasks/golden/shear_cell.json.
+TEST(ShearCell, Golden) {
+  const millflow::testing::ScratchDir dir;
+  const json r = attempt(tiny_cell_params(0.1), dir.path() / "work", 0).outcome.result;
+  json values;
+  for (const char* pointer : {"/media_count", "/powder_count", "/steps", "/bulk_shear_rate_per_s", "/gap_m",
+                              "/shear_stress_pa", "/normal_stress_pa", "/power_density_w_m3",
+                              "/dissipation_w_m3/total", "/powder_dissipation_w_m3", "/collisions/media/count",
+                              "/collisions/powder/count", "/energy/balance_error", "/media_solid_fraction"}) {
+    values[pointer] = r.at(json::json_pointer(pointer));
+  }
+  millflow::testing::check_golden("shear_cell", kShearCellVersion, values);
 }
 
 TEST(ShearCell, StopsBeforeTheFirstStepWhenAskedAndKeepsACheckpoint) {
