@@ -41,7 +41,7 @@
 namespace millflow::tasks {
 
 // Bump whenever the results of the same parameters change.
-inline constexpr const char* kMacroVersion = "1";
+inline constexpr const char* kMacroVersion = "2";
 
 engine::TaskOutcome run_macro(engine::TaskContext& context);
 

@@ -131,8 +131,9 @@ TEST_F(ShearCellPhysics, LeesEdwardsCellBalancesEnergyAndResistsShear) {
 // the step, not by the step's relative displacement, so it does not store exactly the work done
 // on it: an O(dt) loss of the integrator that no ledger entry holds, halving per doubling.
 // Frictionless contacts show the first alone (measured -1.08%, -0.26%, -0.06% at 20, 40, 80),
-// sticking ones (mu = 5) add the second (+2.96%, +2.01%, +1.01%). (Advancing the spring by the
-// displacement instead makes the sticking cell second order too: -1.69%, -0.42%, -0.05%.)
+// sticking ones (mu = 5) add the second (+2.88%, +1.93%, +0.98%). (Advancing the spring by the
+// displacement instead made the sticking cell second order too: -1.69%, -0.42%, -0.05%, before
+// the springs of contacts that let go were counted as dissipated.)
 TEST_F(ShearCellPhysics, EnergyBalanceErrorIsSecondOrderForNormalAndFirstOrderForTangentialContacts) {
   auto signed_error = [](double friction, int steps_per_collision) {
     ShearCellSetup setup = small_shear_cell(0.1);
