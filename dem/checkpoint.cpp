@@ -265,6 +265,7 @@ class CheckpointAccess {
       out.put(pairs[k].i);
       out.put(pairs[k].j);
       put(out, s.pair_history_[k]);
+      put(out, s.pair_force_[k]);
     }
     for (std::size_t p = 0; p < s.size(); ++p) {
       const System::WallSlots& current = s.current_wall_slots();
@@ -287,7 +288,7 @@ class CheckpointAccess {
     return out.bytes();
   }
 
-  static System deserialise(std::string_view bytes) {
+  static System deserialise(std::string_view bytes, std::uint32_t version) {
     BinaryReader in(bytes);
     MaterialTable materials = get_materials(in);
     const Domain domain = get_domain(in);
@@ -332,11 +333,13 @@ class CheckpointAccess {
     const auto touching = in.get<std::uint64_t>();
     std::vector<NeighborPair> pairs;
     std::vector<ContactHistory> histories;
+    std::vector<Vec3> forces;
     for (std::uint64_t k = 0; k < touching; ++k) {
       const auto i = in.get<std::uint32_t>();
       const auto j = in.get<std::uint32_t>();
       pairs.push_back({i, j});
       histories.push_back(get_history(in));
+      forces.push_back(version >= 2 ? get_vec3(in) : Vec3::Zero());
     }
     for (System::WallSlots& buffer : s.wall_slots_) buffer.resize(n);
     s.wall_current_ = 0;
@@ -363,20 +366,42 @@ class CheckpointAccess {
     if (!in.at_end()) throw CorruptData("checkpoint: trailing bytes after the last section");
 
     // Forces, loads and histories are restored; only the neighbour list is rebuilt, which does
-    // not change results (forces are summed over touching contacts in (i, j) order).
+    // not change results (forces are summed over touching contacts in (i, j) order). The pair
+    // forces go back to their pairs in the new list, so what reads the contacts in force before
+    // the next step (stress virials, flow frames) sees what the uninterrupted run saw.
     s.neighbors_ = NeighborSearch(NeighborSearchOptions{.skin = s.skin_});
     s.rebuild_neighbors(pairs, std::move(histories));
+    const auto& rebuilt = s.neighbors_.pairs();
+    std::size_t k = 0;
+    for (std::size_t c = 0; c < pairs.size(); ++c) {
+      while (k < rebuilt.size() && (rebuilt[k].i != pairs[c].i || rebuilt[k].j != pairs[c].j)) ++k;
+      if (k == rebuilt.size()) throw CorruptData("checkpoint: a touching pair is out of reach of its particles");
+      s.pair_force_[k] = forces[c];
+      s.pair_active_[k] = 1;
+    }
     s.prepared_ = prepared;
     return s;
   }
 };
 
+std::string checkpoint_payload(const System& system) { return CheckpointAccess::serialise(system); }
+
+System system_from_checkpoint_payload(std::string_view payload, std::uint32_t version) {
+  if (version < 1 || version > kCheckpointVersion) {
+    throw CorruptData(fmt::format("checkpoint: system payload version {}, this build reads 1 to {}", version,
+                                  kCheckpointVersion));
+  }
+  return CheckpointAccess::deserialise(payload, version);
+}
+
 void save_checkpoint(const System& system, const std::filesystem::path& path) {
-  write_checksummed_file(path, kMagic, kCheckpointVersion, CheckpointAccess::serialise(system));
+  write_checksummed_file(path, kMagic, kCheckpointVersion, checkpoint_payload(system));
 }
 
 System load_checkpoint(const std::filesystem::path& path) {
-  return CheckpointAccess::deserialise(read_checksummed_file(path, kMagic, kCheckpointVersion));
+  std::uint32_t version = 0;
+  const std::string payload = read_checksummed_file(path, kMagic, kCheckpointVersion, &version);
+  return system_from_checkpoint_payload(payload, version);
 }
 
 }  // namespace millflow::dem

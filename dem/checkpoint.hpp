@@ -3,7 +3,7 @@
 // the same bits as a run that never stopped.
 //
 // File: the checksummed container of dem/binary_io.hpp with magic "MFDEMCKP", payload version
-// kCheckpointVersion. Payload (version 1), in order, every Vec3 as three doubles:
+// kCheckpointVersion. Payload (version 2), in order, every Vec3 as three doubles:
 //   materials: count; per material: name, density; per pair a <= b: defined flag (uint8) and, if
 //              defined, restitution, friction, normal stiffness, tangential stiffness ratio,
 //              tangential damping ratio
@@ -20,7 +20,9 @@
 //          plane: origin, normal, velocity, servo target, servo mobility, servo max speed; or mill: radius, length,
 //          lifter count (int32), lifter height, base width, face angle, end walls (uint8),
 //          angular velocity, angle; then load (force, torque, power, work)
-//   pair contacts in force: count; per contact i, j (uint32) and its history
+//   pair contacts in force: count; per contact i, j (uint32), its history and the force on i
+//                           (the force since version 2: version 1 files restore it as zero, so
+//                           a stress read before the next step misses the pair contacts)
 //   wall contacts: per particle count (uint8) and, per contact, wall, feature (int32), history,
 //                  force on the particle, contact point
 //   dissipation of finished contacts per category: count; normal, tangential, friction each
@@ -29,12 +31,20 @@
 // Collision events not yet taken are not saved: take them before checkpointing.
 #include <cstdint>
 #include <filesystem>
+#include <string>
+#include <string_view>
 
 #include "dem/system.hpp"
 
 namespace millflow::dem {
 
-inline constexpr std::uint32_t kCheckpointVersion = 1;
+inline constexpr std::uint32_t kCheckpointVersion = 2;
+
+// The payload above, for files that keep a system beside state of their own (the shear cell's
+// checkpoint, dem/shear_cell.hpp); `version` is the payload's (kCheckpointVersion when written by
+// this build). Throws CorruptData for bytes that do not describe a system or a newer version.
+std::string checkpoint_payload(const System& system);
+System system_from_checkpoint_payload(std::string_view payload, std::uint32_t version);
 
 // Writes atomically (temp file + rename): a crash leaves the previous checkpoint intact.
 void save_checkpoint(const System& system, const std::filesystem::path& path);

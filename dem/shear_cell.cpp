@@ -9,6 +9,8 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "dem/checkpoint.hpp"
+
 namespace millflow::dem {
 namespace {
 
@@ -253,12 +255,6 @@ std::string contact_type_name(ContactType type) {
   return "unknown";
 }
 
-// Least-squares sums of v_x against y, weighted by mass, plus the solid volume in the slab.
-struct ShearCell::Profile {
-  double w = 0.0, wy = 0.0, wyy = 0.0, wv = 0.0, wyv = 0.0;
-  double media_volume = 0.0, powder_volume = 0.0, slab_volume = 0.0;
-};
-
 ShearCell::ShearCell(const ShearCellSetup& setup)
     : setup_(checked(setup)),
       system_(make_materials(setup), make_domain(setup), setup.gravity ? Vec3(0.0, -9.81, 0.0) : Vec3::Zero()) {
@@ -283,6 +279,14 @@ ShearCell::ShearCell(const ShearCellSetup& setup)
   set_wall_speed(walls() ? setup_.shear_rate * nominal_gap(setup_) / kInitialBulkFraction
                          : setup_.shear_rate * system_.domain().length().y());
   configure_stress_control();
+}
+
+ShearCell::ShearCell(const ShearCellSetup& setup, System system) : setup_(checked(setup)), system_(std::move(system)) {
+  if (walls()) {
+    bottom_ = 1;  // the groups the fresh cell added first
+    top_ = 2;
+  }
+  derive_stress_control_constants();
 }
 
 void ShearCell::place_wall_layer(GroupId group, double y) {
@@ -384,7 +388,7 @@ void ShearCell::place_powder(double y_lo, double y_hi) {
   }
 }
 
-void ShearCell::configure_stress_control() {
+void ShearCell::derive_stress_control_constants() {
   const double d = setup_.media_diameter, gap = nominal_gap(setup_);
   const PairParams& media = system_.materials().pair(media_, media_);
   const double media_mass = setup_.media.density * sphere_volume(d);
@@ -393,12 +397,19 @@ void ShearCell::configure_stress_control() {
   servo_max_speed_ = setup_.servo_gain * d / crossing_time_;
   if (!walls()) {
     barostat_every_ = static_cast<std::size_t>(setup_.steps_per_collision);
-    spdlog::debug("shear cell: barostat every {} steps, time constant {:.4g} s, at most {:.4g} m/s", barostat_every_,
-                  crossing_time_ / setup_.servo_gain, servo_max_speed_);
     return;
   }
   const double bed_stiffness = media.normal_stiffness * (wall_area() / (d * d)) * (d / gap);
   servo_mobility_ = setup_.servo_gain / (bed_stiffness * crossing_time_);
+}
+
+void ShearCell::configure_stress_control() {
+  derive_stress_control_constants();
+  if (!walls()) {
+    spdlog::debug("shear cell: barostat every {} steps, time constant {:.4g} s, at most {:.4g} m/s", barostat_every_,
+                  crossing_time_ / setup_.servo_gain, servo_max_speed_);
+    return;
+  }
   KinematicGroup& top = system_.group(top_);
   top.servo_axis = 1;
   top.servo_target_force = -setup_.normal_stress * wall_area();  // the wall pushes the bed along -y
@@ -639,25 +650,45 @@ double ShearCell::bulk_shear_rate(const Profile& profile) {
 
 void ShearCell::warm_up(double strain, int windows) {
   if (windows < 1) throw std::invalid_argument(fmt::format("shear cell: warm-up windows = {} must be >= 1", windows));
-  const std::size_t steps = steps_for_strain(strain / windows);
-  const std::size_t half = steps / 2;
-  const std::size_t every = std::max<std::size_t>(1, (steps - half) / 50);
   for (int w = 0; w < windows; ++w) {
-    // The profile takes a while to answer a new wall speed: measure over the second half only.
-    advance(half);
-    Profile profile;
-    for (std::size_t done = half; done < steps; done += every) {
-      advance(std::min(every, steps - done));
-      sample_profile(profile);
-    }
-    if (!walls()) continue;
-    const double measured = bulk_shear_rate(profile);
-    const double factor = measured > 0.0 ? std::clamp(setup_.shear_rate / measured, 1.0 / kMaxSpeedChange, kMaxSpeedChange)
-                                         : kMaxSpeedChange;
-    spdlog::debug("shear cell: warm-up window {}: bulk rate {:.4g} 1/s (target {:.4g}), wall speed {:.4g} -> {:.4g} m/s",
-                  w, measured, setup_.shear_rate, wall_speed_, wall_speed_ * factor);
-    set_wall_speed(wall_speed_ * factor);
+    WarmUpWindow window = start_window(strain / windows);
+    advance_window(window, window.steps);
+    finish_window(window, w);
   }
+}
+
+ShearCell::WarmUpWindow ShearCell::start_window(double strain) const {
+  WarmUpWindow window;
+  window.steps = steps_for_strain(strain);
+  // The profile takes a while to answer a new wall speed: measure over the second half only.
+  window.half = window.steps / 2;
+  window.every = std::max<std::uint64_t>(1, (window.steps - window.half) / 50);
+  return window;
+}
+
+void ShearCell::advance_window(WarmUpWindow& window, std::uint64_t max_steps) {
+  compact();
+  const std::uint64_t end = std::min(window.steps, window.done + max_steps);
+  while (window.done < end) {
+    // Up to the next sample: every `every` steps after `half`, and at the window's end.
+    const std::uint64_t next_sample =
+        window.done < window.half ? window.half : std::min(window.steps, window.done + window.every -
+                                                                             (window.done - window.half) % window.every);
+    const std::uint64_t until = std::min(end, next_sample);
+    advance(until - window.done);
+    window.done = until;
+    if (window.done > window.half && (window.done == next_sample)) sample_profile(window.profile);
+  }
+}
+
+void ShearCell::finish_window(const WarmUpWindow& window, int index) {
+  if (!walls()) return;
+  const double measured = bulk_shear_rate(window.profile);
+  const double factor = measured > 0.0 ? std::clamp(setup_.shear_rate / measured, 1.0 / kMaxSpeedChange, kMaxSpeedChange)
+                                       : kMaxSpeedChange;
+  spdlog::debug("shear cell: warm-up window {}: bulk rate {:.4g} 1/s (target {:.4g}), wall speed {:.4g} -> {:.4g} m/s",
+                index, measured, setup_.shear_rate, wall_speed_, wall_speed_ * factor);
+  set_wall_speed(wall_speed_ * factor);
 }
 
 namespace {
@@ -685,75 +716,94 @@ CollisionStats merged(const std::array<CollisionStats, kContactTypeCount>& stats
 }  // namespace
 
 ShearCellMeasurements ShearCell::measure(double strain, const MeasureOptions& options) {
+  Measurement measurement = start_measurement(strain, options);
+  advance_measurement(measurement, measurement.steps);
+  return finish_measurement(measurement);
+}
+
+ShearCell::Measurement ShearCell::start_measurement(double strain, const MeasureOptions& options) {
   if (options.samples < 2 || !(options.steady_tolerance > 0.0)) {
     throw std::invalid_argument(fmt::format("shear cell: measure needs samples = {} >= 2 and steady tolerance = {} > 0",
                                             options.samples, options.steady_tolerance));
   }
-  const std::size_t steps = steps_for_strain(strain);
-  if (steps < 2) throw std::invalid_argument(fmt::format("shear cell: strain = {} is less than two time steps", strain));
-  const std::size_t every = std::max<std::size_t>(1, steps / static_cast<std::size_t>(options.samples));
+  Measurement m;
+  m.options = options;
+  m.steps = steps_for_strain(strain);
+  if (m.steps < 2) throw std::invalid_argument(fmt::format("shear cell: strain = {} is less than two time steps", strain));
+  m.every = std::max<std::uint64_t>(1, m.steps / static_cast<std::uint64_t>(options.samples));
   // Wall loads are free to read every step; the LE virial costs a pass over the contacts.
-  const std::size_t stress_every = walls() ? 1 : every;
-
-  const double work0 = work_in(), shear_work0 = shear_work(), motion0 = motion_energy();
-  const EnergyBudget budget0 = system_.energy();
-  const std::vector<Dissipation> dissipation0 = system_.dissipation_by_category();
-  ShearCellMeasurements m;
+  m.stress_every = walls() ? 1 : m.every;
+  compact();  // before the window opens: compaction is no part of the measurement
+  m.work0 = work_in();
+  m.shear_work0 = shear_work();
+  m.motion0 = motion_energy();
+  m.budget0 = system_.energy();
+  m.dissipation0 = system_.dissipation_by_category();
   if (options.record_collisions) {
     system_.take_collision_events();
     system_.set_record_collisions(true);
   }
-  Profile profile;
-  std::array<double, 2> shear_sum{}, stress_count{};
-  double normal_sum = 0.0, gap_sum = 0.0;
-  const auto started = std::chrono::steady_clock::now();
-  for (std::size_t s = 1; s <= steps; ++s) {
-    advance(1);
-    if (s % stress_every == 0) {
-      const std::size_t half = 2 * s <= steps ? 0 : 1;
-      shear_sum[half] += shear_stress_now();
-      stress_count[half] += 1.0;
-      normal_sum += normal_stress_now();
-      gap_sum += gap();
-    }
-    if (s % every == 0) {
-      sample_profile(profile);
-      if (options.record_collisions) tally(system_.take_collision_events(), *this, m.collisions);
-    }
-  }
-  m.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  if (options.record_collisions) {
-    tally(system_.take_collision_events(), *this, m.collisions);
-    system_.set_record_collisions(false);
-  }
+  return m;
+}
 
-  const double samples = stress_count[0] + stress_count[1];
-  m.steps = steps;
-  m.duration = static_cast<double>(steps) * system_.time_step();
+void ShearCell::advance_measurement(Measurement& m, std::uint64_t max_steps) {
+  const auto started = std::chrono::steady_clock::now();
+  const std::uint64_t end = std::min(m.steps, m.done + max_steps);
+  while (m.done < end) {
+    advance(1);
+    const std::uint64_t s = ++m.done;
+    if (s % m.stress_every == 0) {
+      const std::size_t half = 2 * s <= m.steps ? 0 : 1;
+      m.shear_sum[half] += shear_stress_now();
+      m.stress_count[half] += 1.0;
+      m.normal_sum += normal_stress_now();
+      m.gap_sum += gap();
+    }
+    if (s % m.every == 0) {
+      sample_profile(m.profile);
+      tally_collisions(m);
+    }
+  }
+  m.wall_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+}
+
+void ShearCell::tally_collisions(Measurement& m) {
+  if (m.options.record_collisions) tally(system_.take_collision_events(), *this, m.collisions);
+}
+
+ShearCellMeasurements ShearCell::finish_measurement(Measurement& in) {
+  tally_collisions(in);
+  if (in.options.record_collisions) system_.set_record_collisions(false);
+  ShearCellMeasurements m;
+  m.collisions = in.collisions;
+  m.wall_seconds = in.wall_seconds;
+  const double samples = in.stress_count[0] + in.stress_count[1];
+  m.steps = in.steps;
+  m.duration = static_cast<double>(in.steps) * system_.time_step();
   m.strain = setup_.shear_rate * m.duration;
-  m.particle_steps_per_second = static_cast<double>(steps * system_.size()) / m.wall_seconds;
+  m.particle_steps_per_second = static_cast<double>(in.steps * system_.size()) / m.wall_seconds;
   m.target_shear_rate = setup_.shear_rate;
-  m.bulk_shear_rate = bulk_shear_rate(profile);
+  m.bulk_shear_rate = bulk_shear_rate(in.profile);
   m.wall_speed = wall_speed_;
-  m.gap = gap_sum / samples;
+  m.gap = in.gap_sum / samples;
   m.nominal_shear_rate = wall_speed_ / m.gap;
   m.volume = wall_area() * m.gap;
-  m.shear_stress_first_half = shear_sum[0] / stress_count[0];
-  m.shear_stress_second_half = shear_sum[1] / stress_count[1];
-  m.shear_stress = (shear_sum[0] + shear_sum[1]) / samples;
-  m.normal_stress = normal_sum / samples;
+  m.shear_stress_first_half = in.shear_sum[0] / in.stress_count[0];
+  m.shear_stress_second_half = in.shear_sum[1] / in.stress_count[1];
+  m.shear_stress = (in.shear_sum[0] + in.shear_sum[1]) / samples;
+  m.normal_stress = in.normal_sum / samples;
   m.friction = m.shear_stress / m.normal_stress;
   m.inertial_number = m.bulk_shear_rate * setup_.media_diameter / std::sqrt(m.normal_stress / setup_.media.density);
-  m.media_solid_fraction = profile.media_volume / profile.slab_volume;
-  m.powder_solid_fraction = profile.powder_volume / profile.slab_volume;
+  m.media_solid_fraction = in.profile.media_volume / in.profile.slab_volume;
+  m.powder_solid_fraction = in.profile.powder_volume / in.profile.slab_volume;
   m.steady_state_deviation = std::abs(m.shear_stress_first_half - m.shear_stress_second_half) /
                              (0.5 * std::abs(m.shear_stress_first_half + m.shear_stress_second_half));
-  m.steady = m.steady_state_deviation <= options.steady_tolerance;
+  m.steady = m.steady_state_deviation <= in.options.steady_tolerance;
 
   const double volume_time = m.volume * m.duration;
   const std::vector<Dissipation> dissipation1 = system_.dissipation_by_category();
   for (std::size_t c = 0; c < dissipation1.size(); ++c) {
-    const double joules = dissipation1[c].total() - dissipation0[c].total();
+    const double joules = dissipation1[c].total() - in.dissipation0[c].total();
     m.dissipation_density[static_cast<std::size_t>(contact_type(static_cast<std::uint32_t>(c)))] += joules / volume_time;
   }
   for (double d : m.dissipation_density) m.dissipation_density_total += d;
@@ -762,14 +812,263 @@ ShearCellMeasurements ShearCell::measure(double strain, const MeasureOptions& op
   m.powder_collisions = merged(m.collisions, {ContactType::MediaPowder, ContactType::PowderPowder, ContactType::WallPowder});
 
   const EnergyBudget budget1 = system_.energy();
-  m.work_in = work_in() - work0;
-  m.power_density = (shear_work() - shear_work0) / volume_time;
-  m.stress_control_work = m.work_in - (shear_work() - shear_work0);
-  m.kinetic_change = motion_energy() - motion0;
-  m.elastic_change = budget1.elastic - budget0.elastic;
-  m.dissipated = budget1.dissipated - budget0.dissipated;
+  m.work_in = work_in() - in.work0;
+  m.power_density = (shear_work() - in.shear_work0) / volume_time;
+  m.stress_control_work = m.work_in - (shear_work() - in.shear_work0);
+  m.kinetic_change = motion_energy() - in.motion0;
+  m.elastic_change = budget1.elastic - in.budget0.elastic;
+  m.dissipated = budget1.dissipated - in.budget0.dissipated;
   m.energy_balance_error = std::abs(m.work_in - (m.kinetic_change + m.elastic_change + m.dissipated)) / std::abs(m.work_in);
   return m;
+}
+
+namespace {
+
+constexpr std::string_view kRunMagic = "MFSHRCKP";
+
+void put(BinaryWriter& out, const Vec3& v) {
+  for (int a = 0; a < 3; ++a) out.put(v[a]);
+}
+
+void put(BinaryWriter& out, const Material& material) {
+  out.put_string(material.name);
+  out.put(material.density);
+}
+
+void put(BinaryWriter& out, const InteractionSpec& spec) {
+  out.put(spec.restitution);
+  out.put(spec.friction);
+  out.put(spec.normal_stiffness);
+  out.put(spec.tangential_stiffness_ratio);
+  out.put(spec.tangential_damping_ratio);
+}
+
+// Every setting that shapes the run, so a checkpoint is never continued by another cell.
+std::string run_identity(const ShearCellSetup& s, const ShearCellProtocol& protocol) {
+  BinaryWriter out;
+  out.put(s.media_diameter);
+  put(out, s.media);
+  put(out, s.powder);
+  for (const InteractionSpec* spec : {&s.media_media, &s.media_powder, &s.powder_powder}) put(out, *spec);
+  out.put(s.powder_diameter_ratio);
+  out.put(s.powder_load);
+  out.put(s.powder_bed_solid_fraction);
+  put(out, s.size_diameters);
+  out.put<std::uint8_t>(static_cast<std::uint8_t>(s.boundary));
+  out.put(s.shear_rate);
+  out.put(s.normal_stress);
+  out.put<std::uint8_t>(s.gravity);
+  out.put(s.servo_gain);
+  out.put(s.seed);
+  out.put(s.media_solid_fraction);
+  out.put<std::int32_t>(s.steps_per_collision);
+  out.put(protocol.warmup_strain);
+  out.put<std::int32_t>(protocol.warmup_windows);
+  out.put(protocol.measure_strain);
+  out.put<std::int32_t>(protocol.measure.samples);
+  out.put(protocol.measure.steady_tolerance);
+  out.put<std::uint8_t>(protocol.measure.record_collisions);
+  return out.bytes();
+}
+
+}  // namespace
+
+void ShearCell::Profile::write(BinaryWriter& out) const {
+  for (double v : {w, wy, wyy, wv, wyv, media_volume, powder_volume, slab_volume}) out.put(v);
+}
+
+void ShearCell::Profile::read(BinaryReader& in) {
+  for (double* v : {&w, &wy, &wyy, &wv, &wyv, &media_volume, &powder_volume, &slab_volume}) *v = in.get<double>();
+}
+
+void ShearCell::WarmUpWindow::write(BinaryWriter& out) const {
+  for (std::uint64_t v : {steps, half, every, done}) out.put(v);
+  profile.write(out);
+}
+
+void ShearCell::WarmUpWindow::read(BinaryReader& in) {
+  for (std::uint64_t* v : {&steps, &half, &every, &done}) *v = in.get<std::uint64_t>();
+  profile.read(in);
+  if (every == 0 || half > steps || done > steps) throw CorruptData("shear cell checkpoint: the warm-up window is out of range");
+}
+
+void ShearCell::Measurement::write(BinaryWriter& out) const {
+  for (std::uint64_t v : {steps, every, stress_every, done}) out.put(v);
+  for (double v : {work0, shear_work0, motion0, budget0.kinetic, budget0.potential, budget0.elastic,
+                   budget0.dissipated, budget0.wall_work}) {
+    out.put(v);
+  }
+  out.put<std::uint64_t>(dissipation0.size());
+  for (const Dissipation& d : dissipation0) {
+    for (double v : {d.normal, d.tangential, d.friction}) out.put(v);
+  }
+  profile.write(out);
+  for (double v : {shear_sum[0], shear_sum[1], stress_count[0], stress_count[1], normal_sum, gap_sum}) out.put(v);
+  for (const CollisionStats& stats : collisions) {
+    out.put(stats.count);
+    stats.dissipated_energy.write(out);
+  }
+  out.put(wall_seconds);
+}
+
+void ShearCell::Measurement::read(BinaryReader& in) {
+  for (std::uint64_t* v : {&steps, &every, &stress_every, &done}) *v = in.get<std::uint64_t>();
+  for (double* v : {&work0, &shear_work0, &motion0, &budget0.kinetic, &budget0.potential, &budget0.elastic,
+                    &budget0.dissipated, &budget0.wall_work}) {
+    *v = in.get<double>();
+  }
+  dissipation0.resize(in.get<std::uint64_t>());
+  for (Dissipation& d : dissipation0) {
+    for (double* v : {&d.normal, &d.tangential, &d.friction}) *v = in.get<double>();
+  }
+  profile.read(in);
+  for (double* v : {&shear_sum[0], &shear_sum[1], &stress_count[0], &stress_count[1], &normal_sum, &gap_sum}) {
+    *v = in.get<double>();
+  }
+  for (CollisionStats& stats : collisions) {
+    stats.count = in.get<double>();
+    stats.dissipated_energy = LogHistogram::read(in);
+  }
+  wall_seconds = in.get<double>();
+  if (every == 0 || stress_every == 0 || done > steps) {
+    throw CorruptData("shear cell checkpoint: the measurement is out of range");
+  }
+}
+
+void ShearCell::write_state(BinaryWriter& out) const {
+  for (std::uint64_t count : {media_count_, powder_count_, wall_ball_count_}) out.put(count);
+  for (double v : {wall_speed_, le_work_, barostat_work_, barostat_stress_sum_, barostat_stress_samples_,
+                   last_barostat_stress_}) {
+    out.put(v);
+  }
+  out.put<std::uint8_t>(compacted_);
+}
+
+void ShearCell::read_state(BinaryReader& in) {
+  for (std::size_t* count : {&media_count_, &powder_count_, &wall_ball_count_}) *count = in.get<std::uint64_t>();
+  for (double* v : {&wall_speed_, &le_work_, &barostat_work_, &barostat_stress_sum_, &barostat_stress_samples_,
+                    &last_barostat_stress_}) {
+    *v = in.get<double>();
+  }
+  compacted_ = in.get<std::uint8_t>() != 0;
+  if (media_count_ + powder_count_ + wall_ball_count_ != system_.size()) {
+    throw CorruptData("shear cell checkpoint: the particle counts do not add up to the system's");
+  }
+}
+
+ShearCellRun::ShearCellRun(const ShearCellSetup& setup, const ShearCellProtocol& protocol)
+    : ShearCellRun(ShearCell(setup), protocol) {}
+
+ShearCellRun::ShearCellRun(ShearCell cell, const ShearCellProtocol& protocol)
+    : cell_(std::move(cell)), protocol_(protocol) {
+  if (protocol_.warmup_windows < 1 || !(protocol_.warmup_strain >= 0.0)) {
+    throw std::invalid_argument(fmt::format("shear cell: warm-up of {} strain in {} windows; need strain >= 0 and "
+                                            "windows >= 1",
+                                            protocol_.warmup_strain, protocol_.warmup_windows));
+  }
+  window_steps_ = protocol_.warmup_strain > 0.0
+                      ? cell_.steps_for_strain(protocol_.warmup_strain / protocol_.warmup_windows)
+                      : 0;
+  measure_steps_ = cell_.steps_for_strain(protocol_.measure_strain);
+}
+
+ShearCellRun ShearCellRun::resume(const ShearCellSetup& setup, const ShearCellProtocol& protocol,
+                                  const std::filesystem::path& path) {
+  const std::string payload = read_checksummed_file(path, kRunMagic, kShearCellCheckpointVersion);
+  BinaryReader in(payload);
+  if (in.get_string() != run_identity(setup, protocol)) {
+    throw CorruptData(fmt::format("{}: the checkpoint is of another shear cell or protocol", path.string()));
+  }
+  const auto system_version = in.get<std::uint32_t>();
+  ShearCellRun run(ShearCell(setup, system_from_checkpoint_payload(in.get_string(), system_version)), protocol);
+  run.cell_.read_state(in);
+  const auto phase = in.get<std::uint8_t>();
+  if (phase > static_cast<std::uint8_t>(Phase::Measuring)) {
+    throw CorruptData(fmt::format("{}: unknown shear cell run phase {}", path.string(), phase));
+  }
+  run.phase_ = static_cast<Phase>(phase);
+  run.window_index_ = in.get<std::int32_t>();
+  run.window_.read(in);
+  run.measurement_.read(in);
+  run.measurement_.options = protocol.measure;
+  if (!in.at_end()) throw CorruptData(fmt::format("{}: trailing bytes after the shear cell run", path.string()));
+  return run;
+}
+
+void ShearCellRun::save(const std::filesystem::path& path) {
+  if (done()) throw std::logic_error("shear cell run: a finished run has nothing to checkpoint");
+  if (phase_ == Phase::Measuring) cell_.tally_collisions(measurement_);
+  BinaryWriter out;
+  out.put_string(run_identity(cell_.setup(), protocol_));
+  out.put(kCheckpointVersion);
+  out.put_string(checkpoint_payload(cell_.system()));
+  cell_.write_state(out);
+  out.put(static_cast<std::uint8_t>(phase_));
+  out.put<std::int32_t>(window_index_);
+  window_.write(out);
+  measurement_.write(out);
+  write_checksummed_file(path, kRunMagic, kShearCellCheckpointVersion, out.bytes());
+}
+
+bool ShearCellRun::advance(std::uint64_t max_steps) {
+  std::uint64_t left = max_steps;
+  while (!done()) {
+    const std::uint64_t before = cell_.system().step_count();
+    if (phase_ == Phase::Compacting) {
+      cell_.compact();
+    } else if (phase_ == Phase::WarmUp) {
+      cell_.advance_window(window_, left);
+    } else {
+      cell_.advance_measurement(measurement_, left);
+    }
+    left -= std::min(left, cell_.system().step_count() - before);
+    const bool piece_finished = phase_ == Phase::Compacting || (phase_ == Phase::WarmUp && window_.finished()) ||
+                                (phase_ == Phase::Measuring && measurement_.finished());
+    if (!piece_finished) break;
+    start_next_piece();
+    if (left == 0) break;
+  }
+  return done();
+}
+
+void ShearCellRun::start_next_piece() {
+  if (phase_ == Phase::WarmUp) cell_.finish_window(window_, window_index_++);
+  if (phase_ == Phase::Measuring) {
+    result_ = cell_.finish_measurement(measurement_);
+    phase_ = Phase::Done;
+    return;
+  }
+  if (window_steps_ > 0 && window_index_ < protocol_.warmup_windows) {
+    phase_ = Phase::WarmUp;
+    window_ = cell_.start_window(protocol_.warmup_strain / protocol_.warmup_windows);
+    return;
+  }
+  phase_ = Phase::Measuring;
+  measurement_ = cell_.start_measurement(protocol_.measure_strain, protocol_.measure);
+}
+
+double ShearCellRun::progress() const {
+  const std::uint64_t total = window_steps_ * static_cast<std::uint64_t>(protocol_.warmup_windows) + measure_steps_;
+  std::uint64_t done_steps = 0;
+  if (phase_ == Phase::WarmUp) done_steps = window_steps_ * static_cast<std::uint64_t>(window_index_) + window_.done;
+  if (phase_ == Phase::Measuring) done_steps = total - measure_steps_ + measurement_.done;
+  if (phase_ == Phase::Done) done_steps = total;
+  return static_cast<double>(done_steps) / static_cast<double>(total);
+}
+
+std::string ShearCellRun::phase_name() const {
+  switch (phase_) {
+    case Phase::Compacting: return "compacting";
+    case Phase::WarmUp: return fmt::format("warm-up window {}/{}", window_index_ + 1, protocol_.warmup_windows);
+    case Phase::Measuring: return "measuring";
+    case Phase::Done: return "measured";
+  }
+  return "unknown";
+}
+
+const ShearCellMeasurements& ShearCellRun::measurements() const {
+  if (!done()) throw std::logic_error("shear cell run: no measurements before the run is done");
+  return result_;
 }
 
 }  // namespace millflow::dem

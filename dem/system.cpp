@@ -554,7 +554,11 @@ void System::reduce_loads(double dt) {
 }
 
 void System::collect_finished_contacts() {
-  auto finish = [&](ContactHistory& history, std::uint32_t category, ParticleId a, std::uint32_t b, bool with_wall) {
+  auto finish = [&](ContactHistory& history, std::uint32_t category, ParticleId a, std::uint32_t b, bool with_wall,
+                    double tangential_stiffness) {
+    // A contact that lets go while its tangential spring is still loaded (pulled apart within a
+    // step, e.g. by a barostat's stretch) loses that spring's energy: friction's share.
+    history.dissipated.friction += 0.5 * tangential_stiffness * history.spring.squaredNorm();
     finished_dissipation_[category] += history.dissipated;
     if (record_collisions_) {
       events_.push_back(CollisionEvent{.category = category,
@@ -574,7 +578,8 @@ void System::collect_finished_contacts() {
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     if (!pair_finished_[k]) continue;
     const auto [i, j] = pairs[k];
-    finish(pair_history_[k], pair_category(material_[i], material_[j]), i, j, false);
+    finish(pair_history_[k], pair_category(material_[i], material_[j]), i, j, false,
+           materials_.pair(material_[i], material_[j]).tangential_stiffness);
     pair_finished_[k] = 0;
   }
   if (walls_.empty()) return;
@@ -585,7 +590,8 @@ void System::collect_finished_contacts() {
     for (int s = 0; s < kMaxWallContactsPerParticle; ++s) {
       if (!(finished_wall_mask_[p] & (1u << s))) continue;
       finish(slots[s].history, wall_category(slots[s].wall, material_[p]), static_cast<ParticleId>(p),
-             static_cast<std::uint32_t>(slots[s].wall), true);
+             static_cast<std::uint32_t>(slots[s].wall), true,
+             materials_.pair(material_[p], walls_[static_cast<std::size_t>(slots[s].wall)].material).tangential_stiffness);
     }
     finished_wall_mask_[p] = 0;
   }

@@ -52,7 +52,7 @@ struct KinematicGroup {
 struct Dissipation {
   double normal = 0.0;      // normal dashpot
   double tangential = 0.0;  // tangential dashpot
-  double friction = 0.0;    // Coulomb sliding
+  double friction = 0.0;    // Coulomb sliding, and the tangential spring a contact held as it ended
   double total() const { return normal + tangential + friction; }
   Dissipation& operator+=(const Dissipation& o) {
     normal += o.normal;

@@ -151,6 +151,12 @@ std::vector<engine::FieldRule> micro_fields() {
           .range(at_least(0), {}),
       Field("/shear_cell/measure_strain", FieldType::number, "shear strain measured").defaults(4.0)
           .range(above(0), {}),
+      Field("/shear_cell/steps_per_collision", FieldType::integer,
+            "time steps per collision time in the shear cells (dt = t_c / N; /dem/steps_per_collision is the macro "
+            "runs'): the cells' energy balance error falls as 1/N")
+          .defaults(40).range(at_least(20), {}),
+      Field("/shear_cell/checkpoint_interval_s", FieldType::number, "wall-clock interval between a cell's checkpoints")
+          .unit("s").defaults(60.0).range(above(0), {}),
       Field("/shear_cell/stress_control", FieldType::object, "the normal-stress control").defaults(json::object()),
       Field("/shear_cell/stress_control/gain", FieldType::number, "gain of the normal-stress control (wall servo or Lees-Edwards barostat)")
           .defaults(0.5).range(above(0), at_most(1)),

@@ -31,9 +31,9 @@ nlohmann::json macro_params(const nlohmann::json& point);    // materials and in
                                                              // and liner, dem, mill, media, macro
 nlohmann::json average_params(const nlohmann::json& point);  // average
 nlohmann::json sites_params(const nlohmann::json& point);    // sites
-nlohmann::json shear_cells_params(const nlohmann::json& point);  // shear_cell, dem, media, and the
-                                                                 // materials and interactions of
-                                                                 // media and powder
+nlohmann::json shear_cells_params(const nlohmann::json& point);  // shear_cell, dem.seed, media, and
+                                                                 // the materials and interactions
+                                                                 // of media and powder
 // The shear_cell tasks of a point, one per slot (region in /sites/regions x index below
 // /sites/per_region), below its sites task; returns their keys.
 std::vector<std::string> plan_shear_cells(engine::Plan& plan, const nlohmann::json& point, const std::string& sites);

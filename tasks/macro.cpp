@@ -14,6 +14,7 @@
 #include "dem/flow_sample.hpp"
 #include "dem/mill_setup.hpp"
 #include "dem/vtk.hpp"
+#include "tasks/checkpoint_cadence.hpp"
 #include "tasks/kinds.hpp"
 #include "tasks/macro_measure.hpp"
 #include "tasks/macro_setup.hpp"
@@ -129,8 +130,7 @@ class MacroRun {
 
   engine::TaskOutcome run() {
     using Clock = std::chrono::steady_clock;
-    const auto interval = std::chrono::duration<double>(settings_.checkpoint_interval_s);
-    auto last_checkpoint = Clock::now();
+    CheckpointCadence cadence(settings_.checkpoint_interval_s);
     const auto wall_start = Clock::now();
     const std::uint64_t first_step = system_.step_count();
     for (;;) {
@@ -141,9 +141,9 @@ class MacroRun {
                              system_.time()));
         return engine::TaskOutcome::stopped();
       }
-      if (s % 64 == 0 && Clock::now() - last_checkpoint > interval) {
+      if (s % 64 == 0 && cadence.due()) {
         save();
-        last_checkpoint = Clock::now();
+        cadence.saved();
       }
       act(s);
       if (s == schedule_.measure_end) break;

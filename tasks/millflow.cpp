@@ -45,7 +45,7 @@ nlohmann::json shear_cells_params(const nlohmann::json& point) {
           {"materials", materials},
           {"interactions", interactions_among(point.at("interactions"), names)},
           {"media", point.at("media")},
-          {"dem", point.at("dem")}};
+          {"dem", {{"seed", point.at("dem").at("seed")}}}};  // the cells' time step is /shear_cell's
 }
 
 nlohmann::json average_params(const nlohmann::json& point) { return {{"average", point.at("average")}}; }

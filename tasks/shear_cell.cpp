@@ -9,6 +9,7 @@
 #include "dem/material.hpp"
 #include "dem/vtk.hpp"
 #include "engine/validation.hpp"
+#include "tasks/checkpoint_cadence.hpp"
 #include "tasks/macro_measure.hpp"
 #include "tasks/macro_setup.hpp"
 
@@ -78,7 +79,7 @@ dem::ShearCellSetup shear_cell_setup(const json& params, const json& site, const
   setup.gravity = cell.at("gravity").get<bool>();
   setup.servo_gain = at(cell, "/stress_control/gain").get<double>();
   setup.seed = macro_seed(at(params, "/dem/seed").get<std::uint64_t>(), task_key);
-  setup.steps_per_collision = at(params, "/dem/steps_per_collision").get<int>();
+  setup.steps_per_collision = cell.at("steps_per_collision").get<int>();
   return setup;
 }
 
@@ -131,6 +132,39 @@ json measurements_json(const dem::ShearCellMeasurements& m) {
   };
 }
 
+namespace {
+
+// Where a cell run keeps its checkpoint in the task's work directory.
+constexpr const char* kCheckpointFile = "cell.ckpt";
+
+// The run saved by an earlier attempt, or a fresh one when there is none or it cannot be used.
+dem::ShearCellRun resume_or_start(const dem::ShearCellSetup& setup, const dem::ShearCellProtocol& protocol,
+                                  const std::filesystem::path& checkpoint, engine::TaskContext& context) {
+  if (std::filesystem::exists(checkpoint)) {
+    try {
+      dem::ShearCellRun run = dem::ShearCellRun::resume(setup, protocol, checkpoint);
+      context.log(fmt::format("shear cell: continuing from the checkpoint at step {} ({}, {:.0f}% done)",
+                              run.cell().system().step_count(), run.phase_name(), 100.0 * run.progress()));
+      return run;
+    } catch (const dem::CorruptData& error) {
+      context.log(fmt::format("shear cell: the checkpoint {} cannot be used ({}); starting again from scratch",
+                              checkpoint.string(), error.what()));
+      std::filesystem::remove(checkpoint);
+    }
+  }
+  return dem::ShearCellRun(setup, protocol);
+}
+
+}  // namespace
+
+dem::ShearCellProtocol shear_cell_protocol(const json& params) {
+  const json& cell = params.at("shear_cell");
+  return {.warmup_strain = cell.at("warmup_strain").get<double>(),
+          .warmup_windows = kWarmupWindows,
+          .measure_strain = cell.at("measure_strain").get<double>(),
+          .measure = {}};
+}
+
 engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   const json& cell_params = context.params.at("shear_cell");
   const json& slot = context.params.at("slot");
@@ -140,18 +174,26 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
     context.log(fmt::format("shear cell {} skipped: {}", slot_site_id(slot), found.skipped));
     return engine::TaskOutcome::with_result({{"skipped", found.skipped}, {"slot", slot}, {"powder_load", powder_load}});
   }
-  dem::ShearCell cell(shear_cell_setup(context.params, found.site, context.key));
-  const double warmup_strain = cell_params.at("warmup_strain").get<double>();
-  const double measure_strain = cell_params.at("measure_strain").get<double>();
-  const double total_strain = warmup_strain + measure_strain;
-  for (int window = 0; window < kWarmupWindows && warmup_strain > 0.0; ++window) {
-    if (context.stop.stop_requested()) return engine::TaskOutcome::stopped();
-    cell.warm_up(warmup_strain / kWarmupWindows, 1);
-    context.progress(warmup_strain * (window + 1) / kWarmupWindows / total_strain, "warm-up");
+  std::filesystem::create_directories(context.work_dir);  // the engine leaves its creation to the task
+  const auto checkpoint = context.work_dir / kCheckpointFile;
+  dem::ShearCellRun run = resume_or_start(shear_cell_setup(context.params, found.site, context.key),
+                                          shear_cell_protocol(context.params), checkpoint, context);
+  CheckpointCadence cadence(cell_params.at("checkpoint_interval_s").get<double>());
+  while (!run.done()) {
+    if (context.stop.stop_requested() || cadence.due()) {
+      run.save(checkpoint);
+      cadence.saved();
+      if (context.stop.stop_requested()) {
+        context.log(fmt::format("shear cell: stopped at step {} ({}); checkpoint saved",
+                                run.cell().system().step_count(), run.phase_name()));
+        return engine::TaskOutcome::stopped();
+      }
+    }
+    run.advance(kStepsBetweenPolls);
+    context.progress(run.progress(), run.phase_name());
   }
-  if (context.stop.stop_requested()) return engine::TaskOutcome::stopped();
-  const dem::ShearCellMeasurements m = cell.measure(measure_strain);
-  context.progress(1.0, "measured");
+  const dem::ShearCell& cell = run.cell();
+  const dem::ShearCellMeasurements& m = run.measurements();
 
   json result = measurements_json(m);
   result["site"] = found.site;
@@ -166,9 +208,9 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
                           slot_site_id(slot), m.shear_stress, m.normal_stress, m.friction, m.inertial_number,
                           m.power_density, m.steady ? "" : " (not steady)", m.wall_seconds,
                           m.particle_steps_per_second));
-  std::filesystem::create_directories(context.work_dir);  // the engine leaves its creation to the task
   const auto snapshot = context.work_dir / "cell.vtp";
   dem::write_particles_vtp(cell.system(), snapshot);
+  std::filesystem::remove(checkpoint);
   auto outcome = engine::TaskOutcome::with_result(std::move(result));
   outcome.artifacts.push_back({"cell.vtp", snapshot});
   return outcome;

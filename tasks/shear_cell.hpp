@@ -2,7 +2,7 @@
 // The `shear_cell` task kind (DESIGN.md section 1, step 3): one microscale shear cell per site
 // slot and powder load.
 //
-// Parameters: tasks::shear_cells_params (shear_cell, materials, interactions, media, dem) plus
+// Parameters: tasks::shear_cells_params (shear_cell, materials, interactions, media, dem.seed) plus
 // slot {region, index}: the site "<region>-<index>" of the sites task, the one upstream task.
 // The planner knows the regions and the sites per region but not which sites exist, so a slot may
 // be empty (a region with fewer cells than sites, or none) or its site unusable (shear rate or
@@ -15,21 +15,32 @@
 //                    balls of that diameter, powder grains of diameter_ratio x it);
 //   boundary         "walls" -> rough walls, "lees_edwards" -> Lees-Edwards;
 //   servo gain       /shear_cell/stress_control/gain;
+//   time step        t_c / /shear_cell/steps_per_collision (not /dem's: the cells' energy
+//                    balance needs finer steps than the macro runs, see campaigns/README.md);
 //   seed             tasks::macro_seed(dem.seed, task key).
-// Run: warm_up(warmup_strain) in kWarmupWindows windows, then measure(measure_strain). The stop
-// token is polled between windows; an interrupted cell starts again from scratch (no checkpoint).
+// Run: a dem::ShearCellRun of shear_cell_protocol (warm-up of warmup_strain in kWarmupWindows
+// windows, then measure_strain measured). The stop token is polled every kStepsBetweenPolls steps
+// (compaction runs whole); on a stop, and every /shear_cell/checkpoint_interval_s of wall time,
+// the run is saved to cell.ckpt in the work directory (the format is beside dem::ShearCellRun),
+// and the next attempt continues from it with the same bits. A checkpoint that cannot be read
+// (truncated, altered, of another cell) is logged and removed, and the cell starts again from
+// scratch. The file goes when the cell is done.
 // Result JSON: see measurements_json, plus site (the sites task's entry), slot, powder_load,
 // media_count, powder_count, wall_ball_count.
-#include <nlohmann/json.hpp>
+#include <cstdint>
 #include <string>
+
+#include <nlohmann/json.hpp>
 
 #include "dem/shear_cell.hpp"
 #include "engine/task.hpp"
 
 namespace millflow::tasks {
 
-inline constexpr const char* kShearCellVersion = "3";
+// Bump whenever the results of the same parameters change (tests/tasks/golden/shear_cell.json).
+inline constexpr const char* kShearCellVersion = "4";
 inline constexpr int kWarmupWindows = 4;
+inline constexpr std::uint64_t kStepsBetweenPolls = 100;
 
 // The site id of a slot: "<region>-<index>".
 std::string slot_site_id(const nlohmann::json& slot);
@@ -56,6 +67,9 @@ dem::ShearCellSetup shear_cell_setup(const nlohmann::json& params, const nlohman
 // shear_stress_second_half_pa, deviation, steady}. The measured window's wall time and
 // particle-steps per second go to the task's log only.
 nlohmann::json measurements_json(const dem::ShearCellMeasurements& m);
+
+// The warm-up and measurement of a shear_cell task's parameters.
+dem::ShearCellProtocol shear_cell_protocol(const nlohmann::json& params);
 
 // A cell that ran also leaves the artifact cell.vtp: its particles at the end of the measurement
 // (dem::write_particles_vtp; media and powder told apart by "material"), for ParaView.

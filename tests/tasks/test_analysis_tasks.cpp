@@ -12,6 +12,7 @@
 #include "tasks/average.hpp"
 #include "tasks/macro.hpp"
 #include "tasks/sites.hpp"
+#include "tests/tasks/golden.hpp"
 #include "tests/tasks/mill_frames.hpp"
 
 namespace millflow::tasks {
@@ -116,31 +117,6 @@ TEST(AnalysisTasks, SlowMillBulkTurnsWithTheShellAndTheSurfaceShears) {
   EXPECT_GT(surface_power, bulk.dissipation_w / bulk.volume_m3);
 }
 
-// Golden regressions: fixed input, expected values and the kind version in tests/tasks/golden.
-// When a result changes, bump the kind's version and regenerate: MILLFLOW_REGENERATE_GOLDEN=1.
-void check_golden(const std::string& kind, const std::string& version, const json& values) {
-  const fs::path file = fs::path(MILLFLOW_SOURCE_DIR) / "tests/tasks/golden" / (kind + ".json");
-  constexpr double kTolerance = 1e-9;  // relative: only rounding differences between builds
-  if (std::getenv("MILLFLOW_REGENERATE_GOLDEN")) {
-    std::ofstream(file) << json{{"kind", kind}, {"version", version}, {"relative_tolerance", kTolerance},
-                                {"values", values}}.dump(2)
-                        << "\n";
-    GTEST_SKIP() << "regenerated " << file;
-  }
-  const json golden = read_json(file);
-  ASSERT_EQ(golden.at("version").get<std::string>(), version)
-      << kind << " changed version: regenerate " << file << " with MILLFLOW_REGENERATE_GOLDEN=1";
-  for (const auto& [name, expected] : golden.at("values").items()) {
-    ASSERT_TRUE(values.contains(name)) << name;
-    if (expected.is_number()) {
-      EXPECT_NEAR(values[name].get<double>(), expected.get<double>(), kTolerance * (1e-30 + std::abs(expected.get<double>())))
-          << kind << " " << name << " changed without a version bump (now " << version << ")";
-    } else {
-      EXPECT_EQ(values[name], expected) << kind << " " << name << " changed without a version bump";
-    }
-  }
-}
-
 // Two segments of two frames: 150 balls in the lower half of a 0.1 m mill, random velocities,
 // chains of contacts and collisions (seed 11).
 std::vector<fs::path> synthetic_segments(const fs::path& dir) {
@@ -195,7 +171,7 @@ TEST(AnalysisTasks, AverageGolden) {
                            scratch.path / "average");
   const json& r = average.result;
   EXPECT_NEAR(r.at("media_density_kg_m3").get<double>(), 7800.0, 1e-3);
-  check_golden("average", kAverageVersion,
+  millflow::testing::check_golden("average", kAverageVersion,
                {{"integrated_volume_m3", r["mass_conservation"]["integrated_volume_m3"]},
                 {"max_pressure_pa", r["fields"]["pressure_pa"]["max"]},
                 {"max_shear_rate_per_s", r["fields"]["shear_rate_per_s"]["max"]},
@@ -222,7 +198,7 @@ TEST(AnalysisTasks, SitesGolden) {
     values[site["site_id"].get<std::string>() + "_shear_rate_per_s"] = site["shear_rate_per_s"];
     values[site["site_id"].get<std::string>() + "_pressure_pa"] = site["pressure_pa"];
   }
-  check_golden("sites", kSitesVersion, values);
+  millflow::testing::check_golden("sites", kSitesVersion, values);
 }
 
 TEST(AnalysisTasks, SitesViewJoinsTheMacroRunsFillAndSpeed) {

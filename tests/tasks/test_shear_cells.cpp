@@ -17,6 +17,7 @@
 #include "tasks/millflow.hpp"
 #include "tasks/shear_cell.hpp"
 #include "tests/common/scratch_dir.hpp"
+#include "tests/tasks/golden.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -30,10 +31,11 @@ json tiny_cell_params(double powder_load) {
       {"materials": ["steel", "steel"], "restitution": 0.5, "friction": 0.5, "stiffness": {"collision_time": 0.001}},
       {"materials": ["steel", "clinker"], "restitution": 0.4, "friction": 0.5, "stiffness": {"collision_time": 0.0008}},
       {"materials": ["clinker", "clinker"], "restitution": 0.3, "friction": 0.5, "stiffness": {"collision_time": 0.0006}}],
-    "dem": {"steps_per_collision": 20, "neighbor_skin_fraction": 0.3, "seed": 3},
+    "dem": {"seed": 3},
     "media": {"material": "steel", "diameter": 0.01},
     "shear_cell": {"boundary": "walls", "size_diameters": [4, 4, 4], "gravity": false,
                    "warmup_strain": 0.5, "measure_strain": 1.0, "stress_control": {"gain": 0.5},
+                   "checkpoint_interval_s": 60, "steps_per_collision": 20,
                    "powder": {"material": "clinker", "diameter_ratio": 0.5, "load": 0}},
     "slot": {"region": "toe", "index": 0}
   })")
@@ -110,6 +112,7 @@ TEST(ShearCellsPlan, EverySlotAndLoadHasACellBelowSharedSitesAndEveryPointAnUpsc
       EXPECT_EQ(task.params.at("interactions").size(), 3u);
       EXPECT_TRUE(task.params.at("slot").contains("region"));
       EXPECT_FALSE(task.params.contains("macro"));  // a macro setting must not re-key the cells
+      EXPECT_EQ(task.params.at("dem"), json({{"seed", 1}}));  // nor the macro runs' time step
     }
     if (task.kind == "report") {
       // Every upscale, and each fill and speed's average once (its maps).
@@ -180,6 +183,9 @@ TEST(ShearCellSetup, CollisionTimesHoldForEachPairsReferenceParticles) {
   EXPECT_NEAR(duration(setup.media_powder, ball, grain), 8e-4, 1e-9);
   EXPECT_NEAR(duration(setup.powder_powder, grain, grain), 6e-4, 1e-9);
   EXPECT_NE(setup.seed, shear_cell_setup(tiny_cell_params(0.3), tiny_site(), "other key").seed);
+  json finer = tiny_cell_params(0.3);
+  finer["shear_cell"]["steps_per_collision"] = 80;
+  EXPECT_EQ(shear_cell_setup(finer, tiny_site(), "key").steps_per_collision, 80);
 }
 
 TEST(ShearCell, TinyMediaCellGivesFiniteStressesAndNoPowderDissipation) {
@@ -214,15 +220,106 @@ TEST(ShearCell, PowderInTheCellDissipates) {
   EXPECT_TRUE(std::isfinite(r.at("friction").get<double>()));
 }
 
-TEST(ShearCell, StopsBeforeTheFirstWindowWhenAsked) {
-  const json params = tiny_cell_params(0.0);
-  std::stop_source stop;
-  stop.request_stop();
+// One attempt of a task in a work directory kept across attempts: stopped when it reports
+// progress for the `stop_at`-th time (never when 0), its log lines kept.
+struct Attempt {
+  engine::TaskOutcome outcome;
+  std::vector<std::string> log;
+};
+
+Attempt attempt(const json& params, const std::filesystem::path& work_dir, int stop_at) {
   const std::vector<engine::TaskInput> inputs = {sites_input()};
-  engine::TaskContext context{.key = "k", .params = params, .inputs = inputs, .work_dir = {}, .threads = 1,
-                              .stop = stop.get_token(), .progress = [](double, std::string_view) {},
-                              .log = [](std::string_view) {}};
-  EXPECT_TRUE(run_shear_cell(context).interrupted);
+  std::stop_source stop;
+  if (stop_at == -1) stop.request_stop();
+  int reports = 0;
+  Attempt result;
+  engine::TaskContext context{.key = "tiny-cell", .params = params, .inputs = inputs, .work_dir = work_dir,
+                              .threads = 2, .stop = stop.get_token(),
+                              .progress = [&](double, std::string_view) {
+                                if (++reports == stop_at) stop.request_stop();
+                              },
+                              .log = [&](std::string_view line) { result.log.emplace_back(line); }};
+  tbb::task_arena arena(2);
+  arena.execute([&] { result.outcome = run_shear_cell(context); });
+  return result;
+}
+
+std::string file_bytes(const std::filesystem::path& path) {
+  std::ifstream stream(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(stream)), std::istreambuf_iterator<char>());
+}
+
+// The tiny powder cell's results (walls, load 0.1, seed 3, key "tiny-cell") pin the kind's
+// version: tests/tasks/golden/shear_cell.json.
+TEST(ShearCell, Golden) {
+  const millflow::testing::ScratchDir dir;
+  const json r = attempt(tiny_cell_params(0.1), dir.path() / "work", 0).outcome.result;
+  json values;
+  for (const char* pointer : {"/media_count", "/powder_count", "/steps", "/bulk_shear_rate_per_s", "/gap_m",
+                              "/shear_stress_pa", "/normal_stress_pa", "/power_density_w_m3",
+                              "/dissipation_w_m3/total", "/powder_dissipation_w_m3", "/collisions/media/count",
+                              "/collisions/powder/count", "/energy/balance_error", "/media_solid_fraction"}) {
+    values[pointer] = r.at(json::json_pointer(pointer));
+  }
+  millflow::testing::check_golden("shear_cell", kShearCellVersion, values);
+}
+
+TEST(ShearCell, StopsBeforeTheFirstStepWhenAskedAndKeepsACheckpoint) {
+  const millflow::testing::ScratchDir dir;
+  const Attempt stopped = attempt(tiny_cell_params(0.0), dir.path() / "work", -1);
+  EXPECT_TRUE(stopped.outcome.interrupted);
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "work" / "cell.ckpt"));
+}
+
+// Stopped three times (in the warm-up's first and third windows and in the measurement: the tiny
+// cell reports progress every 100 steps, its warm-up windows are ~250 steps), each attempt
+// continuing from the last one's checkpoint: the same result bytes and snapshot as one attempt.
+TEST(ShearCell, AnInterruptedCellContinuesFromItsCheckpointToTheSameResult) {
+  const json params = tiny_cell_params(0.1);
+  const millflow::testing::ScratchDir once, interrupted;
+  const Attempt reference = attempt(params, once.path() / "work", 0);
+  ASSERT_FALSE(reference.outcome.interrupted);
+  const std::filesystem::path work = interrupted.path() / "work";
+  std::vector<std::string> stops;
+  for (int stop_at : {1, 5, 8}) {
+    const Attempt stopped = attempt(params, work, stop_at);
+    ASSERT_TRUE(stopped.outcome.interrupted) << "stop at report " << stop_at;
+    stops.push_back(stopped.log.back());
+  }
+  EXPECT_NE(stops[0].find("(warm-up window 1/4)"), std::string::npos) << stops[0];
+  EXPECT_NE(stops[1].find("(warm-up window 3/4)"), std::string::npos) << stops[1];
+  EXPECT_NE(stops[2].find("(measuring)"), std::string::npos) << stops[2];
+  const Attempt last = attempt(params, work, 0);
+  ASSERT_FALSE(last.outcome.interrupted);
+  EXPECT_NE(last.log.front().find("shear cell: continuing from the checkpoint at step"), std::string::npos)
+      << last.log.front();
+  EXPECT_EQ(last.outcome.result.dump(), reference.outcome.result.dump());
+  ASSERT_EQ(last.outcome.artifacts.size(), 1u);
+  EXPECT_EQ(file_bytes(last.outcome.artifacts[0].file), file_bytes(reference.outcome.artifacts[0].file));
+  EXPECT_FALSE(std::filesystem::exists(work / "cell.ckpt")) << "a finished cell leaves no checkpoint";
+}
+
+TEST(ShearCell, AnUnusableCheckpointIsLoggedAndTheCellStartsAgainFromScratch) {
+  const json params = tiny_cell_params(0.0);
+  const millflow::testing::ScratchDir once, broken;
+  const Attempt reference = attempt(params, once.path() / "work", 0);
+  const std::filesystem::path work = broken.path() / "work";
+  ASSERT_TRUE(attempt(params, work, 4).outcome.interrupted);
+  const std::string saved = file_bytes(work / "cell.ckpt");
+  for (const std::string& damage : {std::string("truncated"), std::string("checksum mismatch")}) {
+    std::string bytes = saved;
+    if (damage == "truncated") bytes.resize(bytes.size() - 100);
+    if (damage == "checksum mismatch") bytes[bytes.size() / 3] ^= 0x01;
+    std::ofstream(work / "cell.ckpt", std::ios::binary | std::ios::trunc) << bytes;
+    const Attempt again = attempt(params, work, 0);
+    ASSERT_FALSE(again.log.empty());
+    EXPECT_NE(again.log.front().find("shear cell: the checkpoint " + (work / "cell.ckpt").string() + " cannot be used ("),
+              std::string::npos)
+        << again.log.front();
+    EXPECT_NE(again.log.front().find(damage), std::string::npos) << again.log.front();
+    EXPECT_NE(again.log.front().find("); starting again from scratch"), std::string::npos) << again.log.front();
+    EXPECT_EQ(again.outcome.result.dump(), reference.outcome.result.dump()) << damage;
+  }
 }
 
 }  // namespace

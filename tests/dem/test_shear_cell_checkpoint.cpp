@@ -1,0 +1,155 @@
+// Shear cell checkpoints: a run stopped at several points of its warm-up and measurement and
+// continued from its checkpoint file gives the same bits as a run that never stopped, with both
+// boundaries; truncated, altered and foreign files are refused with a message that says so.
+#include <gtest/gtest.h>
+#include <spdlog/spdlog.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <set>
+
+#include "dem/binary_io.hpp"
+#include "dem/shear_cell.hpp"
+#include "tests/common/scratch_dir.hpp"
+#include "tests/dem/shear_cells.hpp"
+
+namespace millflow::dem {
+namespace {
+
+using testing::small_shear_cell;
+
+ShearCellSetup tiny_cell(ShearCellSetup::Boundary boundary) {
+  ShearCellSetup setup = small_shear_cell(0.1, 0.2, 0.5);
+  setup.boundary = boundary;
+  setup.size_diameters = Vec3(4, 5, 4);
+  return setup;
+}
+
+ShearCellProtocol tiny_protocol() {
+  return {.warmup_strain = 0.2, .warmup_windows = 2, .measure_strain = 0.3, .measure = {.samples = 20}};
+}
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+void expect_same_histogram(const LogHistogram& a, const LogHistogram& b, const std::string& what) {
+  ASSERT_EQ(a.bin_count(), b.bin_count()) << what;
+  for (std::size_t k = 0; k < a.bin_count(); ++k) EXPECT_TRUE(same_bits(a.count(k), b.count(k))) << what << " bin " << k;
+  EXPECT_TRUE(same_bits(a.underflow(), b.underflow())) << what;
+  EXPECT_TRUE(same_bits(a.overflow(), b.overflow())) << what;
+}
+
+// Every measured number bit for bit (the window's wall time aside), and the particles' state.
+void expect_same_bits(const ShearCellRun& a, const ShearCellRun& b) {
+  const ShearCellMeasurements& x = a.measurements();
+  const ShearCellMeasurements& y = b.measurements();
+  EXPECT_EQ(x.steps, y.steps);
+  const std::vector<std::pair<const char*, std::pair<double, double>>> values = {
+      {"bulk shear rate", {x.bulk_shear_rate, y.bulk_shear_rate}},
+      {"wall speed", {x.wall_speed, y.wall_speed}},
+      {"gap", {x.gap, y.gap}},
+      {"shear stress", {x.shear_stress, y.shear_stress}},
+      {"normal stress", {x.normal_stress, y.normal_stress}},
+      {"media solid fraction", {x.media_solid_fraction, y.media_solid_fraction}},
+      {"powder solid fraction", {x.powder_solid_fraction, y.powder_solid_fraction}},
+      {"power density", {x.power_density, y.power_density}},
+      {"dissipation", {x.dissipation_density_total, y.dissipation_density_total}},
+      {"work in", {x.work_in, y.work_in}},
+      {"kinetic change", {x.kinetic_change, y.kinetic_change}},
+      {"elastic change", {x.elastic_change, y.elastic_change}},
+      {"dissipated", {x.dissipated, y.dissipated}},
+      {"stress control work", {x.stress_control_work, y.stress_control_work}},
+      {"first half", {x.shear_stress_first_half, y.shear_stress_first_half}},
+      {"second half", {x.shear_stress_second_half, y.shear_stress_second_half}},
+  };
+  for (const auto& [name, pair] : values) EXPECT_TRUE(same_bits(pair.first, pair.second)) << name << ": " << pair.first << " vs " << pair.second;
+  for (std::size_t t = 0; t < kContactTypeCount; ++t) {
+    EXPECT_TRUE(same_bits(x.dissipation_density[t], y.dissipation_density[t])) << "dissipation of type " << t;
+    EXPECT_TRUE(same_bits(x.collisions[t].count, y.collisions[t].count)) << "collisions of type " << t;
+    expect_same_histogram(x.collisions[t].dissipated_energy, y.collisions[t].dissipated_energy, "spectrum");
+  }
+  const System& s = a.cell().system();
+  const System& t = b.cell().system();
+  ASSERT_EQ(s.step_count(), t.step_count());
+  for (std::size_t p = 0; p < s.size(); ++p) {
+    for (int axis = 0; axis < 3; ++axis) {
+      ASSERT_TRUE(same_bits(s.positions()[p][axis], t.positions()[p][axis])) << "particle " << p;
+      ASSERT_TRUE(same_bits(s.velocities()[p][axis], t.velocities()[p][axis])) << "particle " << p;
+    }
+  }
+}
+
+class ShearCellCheckpoint : public ::testing::TestWithParam<ShearCellSetup::Boundary> {
+ protected:
+  void SetUp() override { spdlog::set_level(spdlog::level::warn); }
+  millflow::testing::ScratchDir dir;
+};
+
+TEST_P(ShearCellCheckpoint, StoppingAnywhereAndContinuingGivesTheSameBits) {
+  const ShearCellSetup setup = tiny_cell(GetParam());
+  ShearCellRun uninterrupted(setup, tiny_protocol());
+  while (!uninterrupted.advance(1000)) {
+  }
+  ASSERT_GT(uninterrupted.measurements().work_in, 0.0);
+
+  // Stop before compaction, then after every few chunks of an odd size, through both warm-up
+  // windows and the measurement; each stop saves, and a new run continues from the file.
+  const std::filesystem::path file = dir.path() / "cell.ckpt";
+  ShearCellRun first(setup, tiny_protocol());
+  first.save(file);
+  ShearCellRun run = ShearCellRun::resume(setup, tiny_protocol(), file);
+  std::set<std::string> stopped_in;
+  for (int chunk = 1; !run.advance(37); ++chunk) {
+    if (chunk % 9 != 0) continue;
+    stopped_in.insert(run.phase_name());
+    run.save(file);
+    run = ShearCellRun::resume(setup, tiny_protocol(), file);
+  }
+  EXPECT_EQ(stopped_in, (std::set<std::string>{"warm-up window 1/2", "warm-up window 2/2", "measuring"}));
+  expect_same_bits(uninterrupted, run);
+}
+
+INSTANTIATE_TEST_SUITE_P(Boundaries, ShearCellCheckpoint,
+                         ::testing::Values(ShearCellSetup::Boundary::RoughWalls, ShearCellSetup::Boundary::LeesEdwards));
+
+std::string resume_error(const ShearCellSetup& setup, const std::filesystem::path& file) {
+  try {
+    ShearCellRun::resume(setup, tiny_protocol(), file);
+  } catch (const CorruptData& error) {
+    return error.what();
+  }
+  return "no error";
+}
+
+TEST(ShearCellCheckpointFile, TruncatedAlteredForeignAndMissingFilesAreRefused) {
+  spdlog::set_level(spdlog::level::warn);
+  millflow::testing::ScratchDir dir;
+  const ShearCellSetup setup = tiny_cell(ShearCellSetup::Boundary::LeesEdwards);
+  ShearCellRun run(setup, tiny_protocol());
+  run.advance(200);
+  const std::filesystem::path file = dir.path() / "cell.ckpt";
+  run.save(file);
+  std::ifstream stream(file, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(stream)), std::istreambuf_iterator<char>());
+  auto write = [&](const std::string& content) {
+    std::ofstream out(file, std::ios::binary | std::ios::trunc);
+    out << content;
+  };
+
+  write(bytes.substr(0, bytes.size() / 2));
+  EXPECT_NE(resume_error(setup, file).find("is truncated"), std::string::npos) << resume_error(setup, file);
+  std::string altered = bytes;
+  altered[altered.size() / 2] ^= 0x20;
+  write(altered);
+  EXPECT_NE(resume_error(setup, file).find("checksum mismatch"), std::string::npos) << resume_error(setup, file);
+  write(bytes);
+  ShearCellSetup other = setup;
+  other.seed += 1;
+  EXPECT_NE(resume_error(other, file).find("the checkpoint is of another shear cell or protocol"), std::string::npos);
+  EXPECT_EQ(resume_error(setup, file), "no error");
+  std::filesystem::remove(file);
+  EXPECT_NE(resume_error(setup, file).find("cannot read"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace millflow::dem
