@@ -510,6 +510,8 @@ void System::compute_pair_contact(const PeriodicImages& images, std::size_t k, d
 void System::compute_particle_forces(double dt) {
   const WallSlots& before = wall_slots_[wall_current_];
   WallSlots& after = wall_slots_[1 - wall_current_];
+  std::vector<WallPose> poses;
+  for (const Wall& wall : walls_) poses.push_back(wall_pose(wall));
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), [&](const auto& range) {
     std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
     const std::uint32_t* const entry_offset = particle_pair_offset_.data();
@@ -551,7 +553,7 @@ void System::compute_particle_forces(double dt) {
       int count = 0;
       for (std::size_t w = 0; w < walls_.size(); ++w) {
         surface.clear();
-        wall_contacts(walls_[w], position_[p], radius_[p], surface);
+        wall_contacts(walls_[w], poses[w], position_[p], radius_[p], surface);
         for (const SurfaceContact& contact : surface) {
           if (count == kMaxWallContactsPerParticle) {
             throw std::runtime_error(fmt::format("particle {} touches more than {} wall features at once at t = {} s",
