@@ -308,7 +308,7 @@ void System::step(std::size_t count) {
   if (!prepared_) prepare_first_step();
   for (std::size_t n = 0; n < count; ++n) {
     domain_.advance_shear(dt_);  // the image offset at t + dt, where drift() wraps positions
-    const bool rebuild = kick_and_drift();
+    const bool rebuild = kick_and_drift(/*finish_last_kick=*/n > 0);
     time_ += dt_;
     for (Wall& wall : walls_) advance_wall(wall, dt_);
     update_neighbors(rebuild);
@@ -316,7 +316,9 @@ void System::step(std::size_t count) {
     compute_particle_forces(dt_);
     reduce_loads(dt_);
     collect_finished_contacts();
-    kick(0.5 * dt_);
+    // The closing half kick uses only this step's forces and masses: the next step's first pass
+    // applies it, sparing a pass over the particles, except after the last step of the call.
+    if (n + 1 == count) kick(0.5 * dt_);
     apply_servos();
     ++step_count_;
   }
@@ -341,7 +343,7 @@ void System::kick(double half_dt) {
   });
 }
 
-bool System::kick_and_drift() {
+bool System::kick_and_drift(bool finish_last_kick) {
   const double half_dt = 0.5 * dt_, dt = dt_;
   const std::span<const Vec3> reference = neighbors_.reference_positions();
   const bool track_displacement = reference.size() == size();
@@ -363,8 +365,14 @@ bool System::kick_and_drift() {
         const GroupId* const group = group_.data();
         const Vec3* const reference_position = reference.data();
         for (std::size_t p = range.begin(); p != range.end(); ++p) {
-          Vec3 v = velocity[p] + force[p] * (inv_mass[p] * half_dt);
-          const Vec3 w = angular_velocity[p] + torque[p] * (inv_inertia[p] * half_dt);
+          Vec3 v = velocity[p];
+          Vec3 w = angular_velocity[p];
+          if (finish_last_kick) {  // the same two additions as kick() then this pass
+            v += force[p] * (inv_mass[p] * half_dt);
+            w += torque[p] * (inv_inertia[p] * half_dt);
+          }
+          v += force[p] * (inv_mass[p] * half_dt);
+          w += torque[p] * (inv_inertia[p] * half_dt);
           if (group[p] != kFreeParticle) v = groups_[group[p] - 1].velocity;
           Vec3 x = position[p] + v * dt;
           images.wrap(x, v);
@@ -513,7 +521,6 @@ void System::compute_particle_forces(double dt) {
   std::vector<WallPose> poses;
   for (const Wall& wall : walls_) poses.push_back(wall_pose(wall));
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), [&](const auto& range) {
-    std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
     const std::uint32_t* const entry_offset = particle_pair_offset_.data();
     const std::uint32_t* const entries = particle_pair_entry_.data();
     const std::uint8_t* const active = pair_active_.data();
@@ -521,27 +528,41 @@ void System::compute_particle_forces(double dt) {
     const Vec3* const pair_torque_a = pair_torque_a_.data();
     const Vec3* const pair_torque_b = pair_torque_b_.data();
     std::uint8_t* const in_contact = particle_in_contact_.data();
-    for (std::size_t p = range.begin(); p != range.end(); ++p) {
-      Vec3 force = is_free(p) ? Vec3(mass_[p] * gravity_) : Vec3::Zero();
-      Vec3 torque = Vec3::Zero();
-      // Only particles with a pair in force this step have anything to sum.
-      if (in_contact[p]) {
-        in_contact[p] = 0;
-        for (std::uint32_t e = entry_offset[p]; e < entry_offset[p + 1]; ++e) {
-          const std::uint32_t entry = entries[e];
-          const std::uint32_t k = entry >> 1;
-          if (!active[k]) continue;
-          if ((entry & 1) == 0) {
-            force += pair_force[k];
-            torque += pair_torque_a[k];
-          } else {
-            force -= pair_force[k];
-            torque += pair_torque_b[k];
-          }
+    // Gravity plus the pairs in force on p, in pair order.
+    const auto pair_sum = [&](std::size_t p, Vec3& force, Vec3& torque) {
+      force = is_free(p) ? Vec3(mass_[p] * gravity_) : Vec3::Zero();
+      torque = Vec3::Zero();
+      if (!in_contact[p]) return;  // only particles with a pair in force have anything to sum
+      in_contact[p] = 0;
+      for (std::uint32_t e = entry_offset[p]; e < entry_offset[p + 1]; ++e) {
+        const std::uint32_t entry = entries[e];
+        const std::uint32_t k = entry >> 1;
+        if (!active[k]) continue;
+        if ((entry & 1) == 0) {
+          force += pair_force[k];
+          torque += pair_torque_a[k];
+        } else {
+          force -= pair_force[k];
+          torque += pair_torque_b[k];
         }
       }
-
-      if (walls_.empty() || !is_free(p)) {  // no wall slots in use, in either buffer
+    };
+    if (walls_.empty()) {  // a loop of its own: without the wall code it keeps its values in registers
+      Vec3* const force = force_.data();
+      Vec3* const torque = torque_.data();
+      for (std::size_t p = range.begin(); p != range.end(); ++p) {
+        Vec3 f, t;
+        pair_sum(p, f, t);
+        force[p] = f;
+        torque[p] = t;
+      }
+      return;
+    }
+    std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
+    for (std::size_t p = range.begin(); p != range.end(); ++p) {
+      Vec3 force, torque;
+      pair_sum(p, force, torque);
+      if (!is_free(p)) {  // no wall slots in use, in either buffer
         force_[p] = force;
         torque_[p] = torque;
         continue;

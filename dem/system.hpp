@@ -213,8 +213,9 @@ class System {
   bool is_free(ParticleId p) const { return group_[p] == kFreeParticle; }
   void prepare_first_step();
   void kick(double half_dt);
-  // The first half kick and the drift in one pass; returns whether the neighbour list must be rebuilt.
-  bool kick_and_drift();
+  // The first half kick and the drift in one pass, after the previous step's closing half kick
+  // if `finish_last_kick`; returns whether the neighbour list must be rebuilt.
+  bool kick_and_drift(bool finish_last_kick);
   void update_neighbors(bool rebuild);
   // Builds a new neighbour list and carries the histories of `old_pairs` (sorted) over to it.
   void rebuild_neighbors(std::span<const NeighborPair> old_pairs, std::vector<ContactHistory> old_history);
