@@ -324,24 +324,19 @@ void System::step(std::size_t count) {
   }
 }
 
-// The hot loops below read and write through local pointers, declared inside each task: Eigen's
-// vector stores may alias anything, which would otherwise make the compiler reload every array's
-// address and the box after each store.
-
+// Once per step() call (the drift pass applies it within a call).
 void System::kick(double half_dt) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), [&](const auto& range) {
-    Vec3* const velocity = velocity_.data();
-    Vec3* const angular_velocity = angular_velocity_.data();
-    const Vec3* const force = force_.data();
-    const Vec3* const torque = torque_.data();
-    const double* const inv_mass = inv_mass_.data();
-    const double* const inv_inertia = inv_inertia_.data();
     for (std::size_t p = range.begin(); p != range.end(); ++p) {
-      velocity[p] += force[p] * (inv_mass[p] * half_dt);
-      angular_velocity[p] += torque[p] * (inv_inertia[p] * half_dt);
+      velocity_[p] += force_[p] * (inv_mass_[p] * half_dt);
+      angular_velocity_[p] += torque_[p] * (inv_inertia_[p] * half_dt);
     }
   });
 }
+
+// The hot loops below read and write through local pointers, declared inside each task: Eigen's
+// vector stores may alias anything, which would otherwise make the compiler reload every array's
+// address and the box after each store.
 
 bool System::kick_and_drift(bool finish_last_kick) {
   const double half_dt = 0.5 * dt_, dt = dt_;
