@@ -7,7 +7,12 @@
 # REPS times and the fastest kept (the machine may be shared). Builds nothing: build bench_dem
 # first (cmake --build BUILD_DIR --target bench_dem).
 #
-# Usage: bench/run_comparison.sh [BUILD_DIR] [WORK_DIR]     (env: REPS=3, LMP=lmp)
+# With BASELINE=OTHER_BUILD_DIR (e.g. a build of an earlier commit), that build's bench_dem runs
+# too, right after this one on each scene, and its figures and the ratio new / baseline are
+# printed; the warm states both export (written by each build's own steps from the same start)
+# are compared byte for byte, which shows whether a change kept the results' bits.
+#
+# Usage: bench/run_comparison.sh [BUILD_DIR] [WORK_DIR]     (env: REPS=3, LMP=lmp, BASELINE=)
 set -euo pipefail
 
 here=$(cd "$(dirname "$0")" && pwd)
@@ -18,7 +23,10 @@ lmp=${LMP:-lmp}
 bench_dem=$build/bench/bench_dem
 [[ -x $bench_dem ]] || { echo "no $bench_dem: build the bench_dem target first" >&2; exit 1; }
 command -v "$lmp" >/dev/null || { echo "no LAMMPS binary '$lmp': apt-get install -y lammps" >&2; exit 1; }
+baseline=${BASELINE:-}
+[[ -z $baseline || -x $baseline/bench/bench_dem ]] || { echo "no $baseline/bench/bench_dem: build it first" >&2; exit 1; }
 mkdir -p "$work"
+[[ -z $baseline ]] || mkdir -p "$work/baseline"
 
 # scene, LAMMPS input, steps
 cases=(
@@ -55,6 +63,19 @@ for entry in "${cases[@]}"; do
   one=$(awk -v s="$scene" '$1 == "RESULT" && $2 == s && $3 == 1' "$work/$scene.millflow.log")
   two=$(awk -v s="$scene" '$1 == "RESULT" && $2 == s && $3 == 2' "$work/$scene.millflow.log")
   particles=$(awk '{print $4}' <<<"$one")
+  if [[ -n $baseline ]]; then
+    "$baseline/bench/bench_dem" --benchmark_filter="^$scene/" --benchmark_repetitions="$reps" --dem_steps="$steps" \
+      --dem_lammps_dir="$work/baseline" >"$work/$scene.baseline.log" 2>&1
+    base_one=$(awk -v s="$scene" '$1 == "RESULT" && $2 == s && $3 == 1' "$work/$scene.baseline.log")
+    base_two=$(awk -v s="$scene" '$1 == "RESULT" && $2 == s && $3 == 2' "$work/$scene.baseline.log")
+    same=differ
+    cmp -s "$work/$scene.data" "$work/baseline/$scene.data" && same=identical
+    awk -v s="$scene" -v one="$one" -v two="$two" -v b1="$base_one" -v b2="$base_two" -v same="$same" 'BEGIN {
+      split(one, a); split(two, b); split(b1, c); split(b2, d)
+      printf "%-14s baseline %7.3gM; %5.3gM %7.3gM; %5.3gM | new / baseline 1 thread %.2f; %.2f, 2 threads %.2f; %.2f (wall; cpu) | warm state %s\n",
+        s, c[7] / 1e6, c[8] / 1e6, d[7] / 1e6, d[8] / 1e6, a[7] / c[7], a[8] / c[8], b[7] / d[7], b[8] / d[8], same
+    }'
+  fi
   read -r lmp_s lmp_cpu lmp_kib <<<"$(run_lammps "$input" "$scene" "$steps")"
   awk -v s="$scene" -v n="$particles" -v k="$steps" -v one="$one" -v two="$two" \
       -v ls="$lmp_s" -v lc="$lmp_cpu" -v lk="$lmp_kib" 'BEGIN {

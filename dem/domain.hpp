@@ -7,6 +7,7 @@
 // coordinate shifted by -offset and its flow velocity by -velocity (and the reverse).
 #include <array>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "dem/vec.hpp"
@@ -39,39 +40,115 @@ struct Domain {
   Vec3 separation(const Vec3& a, const Vec3& b, Vec3* velocity_shift = nullptr) const;
 
   // Maps a position back into [lo, hi) on periodic axes; adjusts the velocity for Lees-Edwards
-  // crossings. Returns true if the position changed.
+  // crossings. Returns true if the position changed. Inline: it runs for every particle and step.
   bool wrap(Vec3& position, Vec3& velocity) const;
 
   // Advances the Lees-Edwards offset by velocity * dt, kept in [0, L_flow).
   void advance_shear(double dt);
 };
 
-// Number of box lengths to take off a separation along one periodic axis. Most pairs are well
-// inside half a box, where the division and rounding are skipped.
-inline double image_count(double d, double length) {
-  return std::abs(d) < 0.5 * length ? 0.0 : std::round(d / length);
-}
+// Domain::separation and Domain::wrap with the box's constants worked out once, for loops over
+// many pairs or particles (construct one per loop, as a local). Domain's own functions call these,
+// so both give the same bits.
+class PeriodicImages {
+ public:
+  explicit PeriodicImages(const Domain& domain) {
+    const Vec3 len = domain.length();
+    for (int axis = 0; axis < 3; ++axis) {
+      lo_[axis] = domain.lo[axis];
+      hi_[axis] = domain.hi[axis];
+      length_[axis] = len[axis];
+      // Separations shorter than half a box need no image; an axis without images (open, or the
+      // Lees-Edwards gradient axis, which goes first) gets an infinite threshold.
+      const bool plain_periodic =
+          domain.periodic[axis] && !(domain.lees_edwards.enabled && axis == domain.lees_edwards.gradient_axis);
+      half_length_[axis] = plain_periodic ? 0.5 * len[axis] : std::numeric_limits<double>::infinity();
+      wraps_[axis] = plain_periodic;
+    }
+    lees_edwards_ = domain.lees_edwards.enabled;
+    gradient_ = domain.lees_edwards.gradient_axis;
+    flow_ = domain.lees_edwards.flow_axis;
+    offset_ = domain.lees_edwards.offset;
+    image_velocity_ = domain.lees_edwards.velocity;
+  }
+
+  // Domain::separation; `gradient_images` receives how many boxes up the gradient axis the image
+  // of b lies (0 without Lees-Edwards).
+  Vec3 separation(const Vec3& a, const Vec3& b, double& gradient_images) const {
+    Vec3 d = b - a;
+    gradient_images = 0.0;
+    if (lees_edwards_ && !(std::abs(d[gradient_]) < 0.5 * length_[gradient_])) {
+      // The gradient axis first: crossing it moves the image along the flow axis.
+      const double n = std::round(d[gradient_] / length_[gradient_]);
+      if (n != 0.0) {
+        d[gradient_] -= n * length_[gradient_];
+        d[flow_] -= n * offset_;
+        gradient_images = n;
+      }
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      // Most pairs are well inside half a box, where the division and rounding are skipped.
+      if (!(std::abs(d[axis]) < half_length_[axis])) d[axis] -= std::round(d[axis] / length_[axis]) * length_[axis];
+    }
+    return d;
+  }
+
+  // The velocity to add to b's for its image `gradient_images` boxes up the gradient axis.
+  Vec3 image_velocity(double gradient_images) const {
+    Vec3 shift = Vec3::Zero();
+    if (gradient_images != 0.0) shift[flow_] = -gradient_images * image_velocity_;
+    return shift;
+  }
+
+  // Domain::wrap.
+  bool wrap(Vec3& position, Vec3& velocity) const {
+    bool changed = false;
+    if (lees_edwards_ && !(position[gradient_] >= lo_[gradient_] && position[gradient_] < hi_[gradient_])) {
+      const int g = gradient_, f = flow_;
+      const auto cross_gradient_faces = [&](double n) {
+        position[g] -= n * length_[g];
+        position[f] -= n * offset_;
+        velocity[f] -= n * image_velocity_;
+        changed = true;
+      };
+      const double n = std::floor((position[g] - lo_[g]) / length_[g]);
+      if (n != 0.0) cross_gradient_faces(n);
+      // Rounding can leave position == hi: that point is on the lower face of the next image, so
+      // it crosses once more (flow shift included) rather than being reset to lo in place.
+      if (position[g] >= hi_[g]) {
+        cross_gradient_faces(1.0);
+        position[g] = lo_[g];
+      }
+    }
+    for (int axis = 0; axis < 3; ++axis) {
+      if (!wraps_[axis] || (position[axis] >= lo_[axis] && position[axis] < hi_[axis])) continue;
+      const double n = std::floor((position[axis] - lo_[axis]) / length_[axis]);
+      if (n != 0.0) {
+        position[axis] -= n * length_[axis];
+        changed = true;
+      }
+      // Rounding can leave position == hi; keep the half-open interval.
+      if (position[axis] >= hi_[axis]) position[axis] = lo_[axis];
+    }
+    return changed;
+  }
+
+ private:
+  std::array<double, 3> lo_{}, hi_{}, length_{}, half_length_{};
+  std::array<bool, 3> wraps_{};
+  bool lees_edwards_ = false;
+  int gradient_ = 1, flow_ = 0;
+  double offset_ = 0.0, image_velocity_ = 0.0;
+};
 
 inline Vec3 Domain::separation(const Vec3& a, const Vec3& b, Vec3* velocity_shift) const {
-  Vec3 d = b - a;
-  const Vec3 len = length();
-  if (velocity_shift) velocity_shift->setZero();
-  if (lees_edwards.enabled) {
-    // The gradient axis first: crossing it moves the image along the flow axis.
-    const int g = lees_edwards.gradient_axis, f = lees_edwards.flow_axis;
-    const double n = image_count(d[g], len[g]);
-    if (n != 0.0) {
-      d[g] -= n * len[g];
-      d[f] -= n * lees_edwards.offset;
-      if (velocity_shift) (*velocity_shift)[f] = -n * lees_edwards.velocity;
-    }
-  }
-  for (int axis = 0; axis < 3; ++axis) {
-    if (!periodic[axis]) continue;
-    if (lees_edwards.enabled && axis == lees_edwards.gradient_axis) continue;
-    d[axis] -= image_count(d[axis], len[axis]) * len[axis];
-  }
+  const PeriodicImages images(*this);
+  double gradient_images = 0.0;
+  const Vec3 d = images.separation(a, b, gradient_images);
+  if (velocity_shift) *velocity_shift = images.image_velocity(gradient_images);
   return d;
 }
+
+inline bool Domain::wrap(Vec3& position, Vec3& velocity) const { return PeriodicImages(*this).wrap(position, velocity); }
 
 }  // namespace millflow::dem

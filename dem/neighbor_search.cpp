@@ -284,12 +284,6 @@ void NeighborSearch::assemble_pairs(std::size_t particle_count) {
 
 bool NeighborSearch::needs_rebuild(const Domain& domain, std::span<const Vec3> positions) const {
   if (!built_ || positions.size() != reference_positions_.size()) return true;
-  double offset_change = 0.0;
-  if (domain.lees_edwards.enabled) {
-    const double flow_length = domain.length()[domain.lees_edwards.flow_axis];
-    offset_change = domain.lees_edwards.offset - reference_offset_;
-    offset_change -= std::round(offset_change / flow_length) * flow_length;
-  }
   // The maximum is exact and order-independent, so any split gives the same answer. Squared
   // lengths spare a square root per particle.
   const double max_displacement_sq = tbb::parallel_reduce(
@@ -301,6 +295,18 @@ bool NeighborSearch::needs_rebuild(const Domain& domain, std::span<const Vec3> p
         return running;
       },
       [](double a, double b) { return std::max(a, b); });
+  return needs_rebuild(domain, positions.size(), max_displacement_sq);
+}
+
+bool NeighborSearch::needs_rebuild(const Domain& domain, std::size_t particle_count,
+                                   double max_displacement_sq) const {
+  if (!built_ || particle_count != reference_positions_.size()) return true;
+  double offset_change = 0.0;
+  if (domain.lees_edwards.enabled) {
+    const double flow_length = domain.length()[domain.lees_edwards.flow_axis];
+    offset_change = domain.lees_edwards.offset - reference_offset_;
+    offset_change -= std::round(offset_change / flow_length) * flow_length;
+  }
   const double max_displacement = std::sqrt(max_displacement_sq);
   return 2.0 * max_displacement + std::abs(offset_change) >= options_.skin;
 }

@@ -1,7 +1,9 @@
 #include "dem/system.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -24,6 +26,24 @@ constexpr std::size_t kParticleGrain = 256;
 constexpr std::size_t kPairGrain = 1024;
 
 bool finite(const Vec3& v) { return v.allFinite(); }
+
+// Calls f(index) for each nonzero byte in increasing index order; skips zero bytes eight at a
+// time (finished contacts are few among many pairs).
+template <class F>
+void for_each_nonzero(std::span<const std::uint8_t> flags, F&& f) {
+  std::size_t k = 0;
+  for (; k + 8 <= flags.size(); k += 8) {
+    std::uint64_t word;
+    std::memcpy(&word, flags.data() + k, sizeof word);
+    if (word == 0) continue;
+    for (std::size_t b = k; b < k + 8; ++b) {
+      if (flags[b]) f(b);
+    }
+  }
+  for (; k < flags.size(); ++k) {
+    if (flags[k]) f(k);
+  }
+}
 
 // Mass of the lightest free particle of each material (infinity where there is none).
 std::vector<double> lightest_mass_per_material(std::size_t material_count, std::span<const double> mass,
@@ -275,7 +295,7 @@ void System::prepare_first_step() {
   }
   neighbors_ = NeighborSearch(NeighborSearchOptions{.skin = skin_});
   pair_history_.clear();
-  update_neighbors();
+  update_neighbors(neighbors_.needs_rebuild(domain_, position_));
   // Forces at the current time (no spring increment, no dissipation: no time passes).
   compute_pair_forces(0.0);
   compute_particle_forces(0.0);
@@ -288,20 +308,23 @@ void System::step(std::size_t count) {
   if (!prepared_) prepare_first_step();
   for (std::size_t n = 0; n < count; ++n) {
     domain_.advance_shear(dt_);  // the image offset at t + dt, where drift() wraps positions
-    kick_and_drift();
+    const bool rebuild = kick_and_drift(/*finish_last_kick=*/n > 0);
     time_ += dt_;
     for (Wall& wall : walls_) advance_wall(wall, dt_);
-    update_neighbors();
+    update_neighbors(rebuild);
     compute_pair_forces(dt_);
     compute_particle_forces(dt_);
     reduce_loads(dt_);
     collect_finished_contacts();
-    kick(0.5 * dt_);
+    // The closing half kick uses only this step's forces and masses: the next step's first pass
+    // applies it, sparing a pass over the particles, except after the last step of the call.
+    if (n + 1 == count) kick(0.5 * dt_);
     apply_servos();
     ++step_count_;
   }
 }
 
+// Once per step() call (the drift pass applies it within a call).
 void System::kick(double half_dt) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), [&](const auto& range) {
     for (std::size_t p = range.begin(); p != range.end(); ++p) {
@@ -311,24 +334,62 @@ void System::kick(double half_dt) {
   });
 }
 
-void System::kick_and_drift() {
-  const double half_dt = 0.5 * dt_;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), [&](const auto& range) {
-    for (std::size_t p = range.begin(); p != range.end(); ++p) {
-      velocity_[p] += force_[p] * (inv_mass_[p] * half_dt);
-      angular_velocity_[p] += torque_[p] * (inv_inertia_[p] * half_dt);
-      if (!is_free(p)) velocity_[p] = groups_[group_[p] - 1].velocity;
-      position_[p] += velocity_[p] * dt_;
-      domain_.wrap(position_[p], velocity_[p]);
-      // Dashpots act on the velocity at the end of the step, predicted from the last forces.
-      predicted_velocity_[p] = velocity_[p] + force_[p] * (inv_mass_[p] * half_dt);
-      predicted_angular_velocity_[p] = angular_velocity_[p] + torque_[p] * (inv_inertia_[p] * half_dt);
-    }
-  });
+// The hot loops below read and write through local pointers, declared inside each task: Eigen's
+// vector stores may alias anything, which would otherwise make the compiler reload every array's
+// address and the box after each store.
+
+bool System::kick_and_drift(bool finish_last_kick) {
+  const double half_dt = 0.5 * dt_, dt = dt_;
+  const std::span<const Vec3> reference = neighbors_.reference_positions();
+  const bool track_displacement = reference.size() == size();
+  // The largest displacement since the last neighbour-list build, found in the same pass (an exact
+  // maximum, so any split of the range gives the same answer).
+  const double max_displacement_sq = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), 0.0,
+      [&](const tbb::blocked_range<std::size_t>& range, double running) {
+        const PeriodicImages images(domain_);
+        Vec3* const position = position_.data();
+        Vec3* const velocity = velocity_.data();
+        Vec3* const angular_velocity = angular_velocity_.data();
+        Vec3* const predicted_velocity = predicted_velocity_.data();
+        Vec3* const predicted_angular_velocity = predicted_angular_velocity_.data();
+        const Vec3* const force = force_.data();
+        const Vec3* const torque = torque_.data();
+        const double* const inv_mass = inv_mass_.data();
+        const double* const inv_inertia = inv_inertia_.data();
+        const GroupId* const group = group_.data();
+        const Vec3* const reference_position = reference.data();
+        for (std::size_t p = range.begin(); p != range.end(); ++p) {
+          Vec3 v = velocity[p];
+          Vec3 w = angular_velocity[p];
+          if (finish_last_kick) {  // the same two additions as kick() then this pass
+            v += force[p] * (inv_mass[p] * half_dt);
+            w += torque[p] * (inv_inertia[p] * half_dt);
+          }
+          v += force[p] * (inv_mass[p] * half_dt);
+          w += torque[p] * (inv_inertia[p] * half_dt);
+          if (group[p] != kFreeParticle) v = groups_[group[p] - 1].velocity;
+          Vec3 x = position[p] + v * dt;
+          images.wrap(x, v);
+          // Dashpots act on the velocity at the end of the step, predicted from the last forces.
+          predicted_velocity[p] = v + force[p] * (inv_mass[p] * half_dt);
+          predicted_angular_velocity[p] = w + torque[p] * (inv_inertia[p] * half_dt);
+          position[p] = x;
+          velocity[p] = v;
+          angular_velocity[p] = w;
+          if (track_displacement) {
+            double gradient_images;
+            running = std::max(running, images.separation(reference_position[p], x, gradient_images).squaredNorm());
+          }
+        }
+        return running;
+      },
+      [](double a, double b) { return std::max(a, b); });
+  return neighbors_.needs_rebuild(domain_, size(), max_displacement_sq);
 }
 
-void System::update_neighbors() {
-  if (!neighbors_.needs_rebuild(domain_, position_)) return;
+void System::update_neighbors(bool rebuild) {
+  if (!rebuild) return;
   std::vector<NeighborPair> old_pairs = neighbors_.pairs();
   rebuild_neighbors(old_pairs, std::move(pair_history_));
 }
@@ -340,16 +401,21 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs, std::vec
   // Carry contact history over to the new list; both lists are sorted by (i, j).
   auto key = [](const NeighborPair& p) { return (std::uint64_t{p.i} << 32) | p.j; };
   pair_history_.assign(pairs.size(), ContactHistory{});
+  pair_touching_.assign(pairs.size(), 0);
   std::size_t o = 0;
   for (std::size_t k = 0; k < pairs.size() && o < old_pairs.size(); ++k) {
     while (o < old_pairs.size() && key(old_pairs[o]) < key(pairs[k])) ++o;
-    if (o < old_pairs.size() && key(old_pairs[o]) == key(pairs[k])) pair_history_[k] = old_history[o];
+    if (o < old_pairs.size() && key(old_pairs[o]) == key(pairs[k])) {
+      pair_history_[k] = old_history[o];
+      pair_touching_[k] = pair_history_[k].touching;
+    }
   }
   pair_force_.assign(pairs.size(), Vec3::Zero());
   pair_torque_a_.assign(pairs.size(), Vec3::Zero());
   pair_torque_b_.assign(pairs.size(), Vec3::Zero());
   pair_active_.assign(pairs.size(), 0);
   pair_finished_.assign(pairs.size(), 0);
+  particle_in_contact_.assign(size(), 0);
 
   // Per-particle pair lists in pair order, so force sums run in a fixed order.
   particle_pair_offset_.assign(size() + 1, 0);
@@ -367,79 +433,131 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs, std::vec
 }
 
 void System::compute_pair_forces(double dt) {
-  const auto& pairs = neighbors_.pairs();
+  const std::span<const NeighborPair> pairs = neighbors_.pairs();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.size(), kPairGrain), [&](const auto& range) {
-    for (std::size_t k = range.begin(); k != range.end(); ++k) {
-      const auto [i, j] = pairs[k];
-      ContactHistory& history = pair_history_[k];
-      pair_active_[k] = 0;
-      if (!is_free(i) && !is_free(j)) continue;  // two wall balls never interact
-
-      Vec3 image_velocity_shift;
-      const Vec3 d = domain_.separation(position_[i], position_[j], &image_velocity_shift);
-      const double reach = radius_[i] + radius_[j];
-      const double distance_sq = d.squaredNorm();
-      if (distance_sq >= reach * reach) {
-        // Separated: collect_finished_contacts() records the event and clears the history.
-        if (history.touching) pair_finished_[k] = 1;
-        continue;
+    const PeriodicImages images(domain_);
+    // Screening first, in a tight loop over blocks of pairs: most candidate pairs are apart. The
+    // touching ones of a block are queued and their contact law runs after; each pair writes
+    // only its own slots, so the order does not matter.
+    constexpr std::size_t kBlock = 512;
+    std::array<std::uint32_t, kBlock> touching;
+    const NeighborPair* const pair = pairs.data();
+    const Vec3* const x = position_.data();
+    const double* const radius = radius_.data();
+    const GroupId* const group = group_.data();
+    const std::uint8_t* const was_touching = pair_touching_.data();
+    std::uint8_t* const active = pair_active_.data();
+    std::uint8_t* const finished = pair_finished_.data();
+    for (std::size_t block = range.begin(); block < range.end(); block += kBlock) {
+      std::size_t touching_count = 0;
+      const std::size_t block_end = std::min(block + kBlock, range.end());
+      for (std::size_t k = block; k != block_end; ++k) {
+        const auto [i, j] = pair[k];
+        active[k] = 0;
+        if (group[i] != kFreeParticle && group[j] != kFreeParticle) continue;  // two wall balls never interact
+        double gradient_images;
+        const double reach = radius[i] + radius[j];
+        if (images.separation(x[i], x[j], gradient_images).squaredNorm() < reach * reach) {
+          touching[touching_count++] = static_cast<std::uint32_t>(k);
+        } else if (was_touching[k]) {
+          finished[k] = 1;  // collect_finished_contacts() records the event and clears the history
+        }
       }
-      const double distance = std::sqrt(distance_sq);
-      const Vec3 normal = -d / distance;  // from j towards i
-      const double overlap = reach - distance;
-      const Vec3 arm_i = -(radius_[i] - 0.5 * overlap) * normal;
-      const Vec3 arm_j = (radius_[j] - 0.5 * overlap) * normal;
-      const Vec3 contact_velocity_i = predicted_velocity_[i] + predicted_angular_velocity_[i].cross(arm_i);
-      const Vec3 contact_velocity_j =
-          predicted_velocity_[j] + image_velocity_shift + predicted_angular_velocity_[j].cross(arm_j);
-      const double m_eff = is_free(i) && is_free(j) ? effective_mass(mass_[i], mass_[j])
-                                                    : (is_free(i) ? mass_[i] : mass_[j]);
-      const ContactGeometry geometry{normal, overlap, contact_velocity_i - contact_velocity_j};
-      const ContactResponse response =
-          linear_spring_dashpot(materials_.pair(material_[i], material_[j]), m_eff, geometry, history.spring, dt);
-
-      if (!history.touching) {
-        history.touching = true;
-        history.start_time = time_;
-        const double v_n = geometry.relative_velocity.dot(normal);
-        history.impact_speed = std::max(-v_n, 0.0);
-        history.impact_energy = 0.5 * m_eff * v_n * v_n;
-      }
-      history.spring = response.spring;
-      history.elastic_energy = response.elastic_energy;
-      history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
-                                        response.dissipated_friction};
-      history.point = position_[i] + arm_i;
-      pair_active_[k] = 1;
-      pair_force_[k] = response.force_on_a;
-      pair_torque_a_[k] = arm_i.cross(response.force_on_a);
-      pair_torque_b_[k] = arm_j.cross(-response.force_on_a);
+      for (std::size_t t = 0; t < touching_count; ++t) compute_pair_contact(images, touching[t], dt);
     }
   });
+}
+
+void System::compute_pair_contact(const PeriodicImages& images, std::size_t k, double dt) {
+  const auto [i, j] = neighbors_.pairs()[k];
+  const bool free_i = is_free(i), free_j = is_free(j);
+  double gradient_images;
+  const Vec3 d = images.separation(position_[i], position_[j], gradient_images);
+  const double reach = radius_[i] + radius_[j];
+  const double distance = std::sqrt(d.squaredNorm());
+  const Vec3 normal = -d / distance;  // from j towards i
+  const double overlap = reach - distance;
+  const Vec3 arm_i = -(radius_[i] - 0.5 * overlap) * normal;
+  const Vec3 arm_j = (radius_[j] - 0.5 * overlap) * normal;
+  const Vec3 contact_velocity_i = predicted_velocity_[i] + predicted_angular_velocity_[i].cross(arm_i);
+  const Vec3 contact_velocity_j = predicted_velocity_[j] + images.image_velocity(gradient_images) +
+                                  predicted_angular_velocity_[j].cross(arm_j);
+  const double m_eff = free_i && free_j ? effective_mass(mass_[i], mass_[j]) : (free_i ? mass_[i] : mass_[j]);
+  const ContactGeometry geometry{normal, overlap, contact_velocity_i - contact_velocity_j};
+  ContactHistory& history = pair_history_[k];
+  const ContactResponse response =
+      linear_spring_dashpot(materials_.pair(material_[i], material_[j]), m_eff, geometry, history.spring, dt);
+
+  if (!history.touching) {
+    history.touching = true;
+    pair_touching_[k] = 1;
+    history.start_time = time_;
+    const double v_n = geometry.relative_velocity.dot(normal);
+    history.impact_speed = std::max(-v_n, 0.0);
+    history.impact_energy = 0.5 * m_eff * v_n * v_n;
+  }
+  history.spring = response.spring;
+  history.elastic_energy = response.elastic_energy;
+  history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
+                                    response.dissipated_friction};
+  history.point = position_[i] + arm_i;
+  pair_active_[k] = 1;
+  // Another task may mark the same particle: both store 1, so the order does not matter.
+  std::atomic_ref<std::uint8_t>(particle_in_contact_[i]).store(1, std::memory_order_relaxed);
+  std::atomic_ref<std::uint8_t>(particle_in_contact_[j]).store(1, std::memory_order_relaxed);
+  pair_force_[k] = response.force_on_a;
+  pair_torque_a_[k] = arm_i.cross(response.force_on_a);
+  pair_torque_b_[k] = arm_j.cross(-response.force_on_a);
 }
 
 void System::compute_particle_forces(double dt) {
   const WallSlots& before = wall_slots_[wall_current_];
   WallSlots& after = wall_slots_[1 - wall_current_];
+  std::vector<WallPose> poses;
+  for (const Wall& wall : walls_) poses.push_back(wall_pose(wall));
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), [&](const auto& range) {
-    std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
-    for (std::size_t p = range.begin(); p != range.end(); ++p) {
-      Vec3 force = is_free(p) ? Vec3(mass_[p] * gravity_) : Vec3::Zero();
-      Vec3 torque = Vec3::Zero();
-      for (std::uint32_t e = particle_pair_offset_[p]; e < particle_pair_offset_[p + 1]; ++e) {
-        const std::uint32_t entry = particle_pair_entry_[e];
+    const std::uint32_t* const entry_offset = particle_pair_offset_.data();
+    const std::uint32_t* const entries = particle_pair_entry_.data();
+    const std::uint8_t* const active = pair_active_.data();
+    const Vec3* const pair_force = pair_force_.data();
+    const Vec3* const pair_torque_a = pair_torque_a_.data();
+    const Vec3* const pair_torque_b = pair_torque_b_.data();
+    std::uint8_t* const in_contact = particle_in_contact_.data();
+    // Gravity plus the pairs in force on p, in pair order.
+    const auto pair_sum = [&](std::size_t p, Vec3& force, Vec3& torque) {
+      force = is_free(p) ? Vec3(mass_[p] * gravity_) : Vec3::Zero();
+      torque = Vec3::Zero();
+      if (!in_contact[p]) return;  // only particles with a pair in force have anything to sum
+      in_contact[p] = 0;
+      for (std::uint32_t e = entry_offset[p]; e < entry_offset[p + 1]; ++e) {
+        const std::uint32_t entry = entries[e];
         const std::uint32_t k = entry >> 1;
-        if (!pair_active_[k]) continue;
+        if (!active[k]) continue;
         if ((entry & 1) == 0) {
-          force += pair_force_[k];
-          torque += pair_torque_a_[k];
+          force += pair_force[k];
+          torque += pair_torque_a[k];
         } else {
-          force -= pair_force_[k];
-          torque += pair_torque_b_[k];
+          force -= pair_force[k];
+          torque += pair_torque_b[k];
         }
       }
-
-      if (walls_.empty() || !is_free(p)) {  // no wall slots in use, in either buffer
+    };
+    if (walls_.empty()) {  // a loop of its own: without the wall code it keeps its values in registers
+      Vec3* const force = force_.data();
+      Vec3* const torque = torque_.data();
+      for (std::size_t p = range.begin(); p != range.end(); ++p) {
+        Vec3 f, t;
+        pair_sum(p, f, t);
+        force[p] = f;
+        torque[p] = t;
+      }
+      return;
+    }
+    std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
+    for (std::size_t p = range.begin(); p != range.end(); ++p) {
+      Vec3 force, torque;
+      pair_sum(p, force, torque);
+      if (!is_free(p)) {  // no wall slots in use, in either buffer
         force_[p] = force;
         torque_[p] = torque;
         continue;
@@ -451,7 +569,7 @@ void System::compute_particle_forces(double dt) {
       int count = 0;
       for (std::size_t w = 0; w < walls_.size(); ++w) {
         surface.clear();
-        wall_contacts(walls_[w], position_[p], radius_[p], surface);
+        wall_contacts(walls_[w], poses[w], position_[p], radius_[p], surface);
         for (const SurfaceContact& contact : surface) {
           if (count == kMaxWallContactsPerParticle) {
             throw std::runtime_error(fmt::format("particle {} touches more than {} wall features at once at t = {} s",
@@ -575,17 +693,16 @@ void System::collect_finished_contacts() {
     history = ContactHistory{};
   };
   const auto& pairs = neighbors_.pairs();
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    if (!pair_finished_[k]) continue;
+  for_each_nonzero(pair_finished_, [&](std::size_t k) {
     const auto [i, j] = pairs[k];
     finish(pair_history_[k], pair_category(material_[i], material_[j]), i, j, false,
            materials_.pair(material_[i], material_[j]).tangential_stiffness);
+    pair_touching_[k] = 0;
     pair_finished_[k] = 0;
-  }
+  });
   if (walls_.empty()) return;
   WallSlots& previous = wall_slots_[1 - wall_current_];
-  for (std::size_t p = 0; p < size(); ++p) {
-    if (finished_wall_mask_[p] == 0) continue;
+  for_each_nonzero(finished_wall_mask_, [&](std::size_t p) {
     WallContactHistory* slots = previous.of(p);
     for (int s = 0; s < kMaxWallContactsPerParticle; ++s) {
       if (!(finished_wall_mask_[p] & (1u << s))) continue;
@@ -594,7 +711,7 @@ void System::collect_finished_contacts() {
              materials_.pair(material_[p], walls_[static_cast<std::size_t>(slots[s].wall)].material).tangential_stiffness);
     }
     finished_wall_mask_[p] = 0;
-  }
+  });
 }
 
 void System::apply_servos() {

@@ -213,11 +213,15 @@ class System {
   bool is_free(ParticleId p) const { return group_[p] == kFreeParticle; }
   void prepare_first_step();
   void kick(double half_dt);
-  void kick_and_drift();  // the first half kick and the drift in one pass
-  void update_neighbors();
+  // The first half kick and the drift in one pass, after the previous step's closing half kick
+  // if `finish_last_kick`; returns whether the neighbour list must be rebuilt.
+  bool kick_and_drift(bool finish_last_kick);
+  void update_neighbors(bool rebuild);
   // Builds a new neighbour list and carries the histories of `old_pairs` (sorted) over to it.
   void rebuild_neighbors(std::span<const NeighborPair> old_pairs, std::vector<ContactHistory> old_history);
   void compute_pair_forces(double dt);
+  // The contact law of candidate pair k, which touches.
+  void compute_pair_contact(const PeriodicImages& images, std::size_t k, double dt);
   void compute_particle_forces(double dt);
   void reduce_loads(double dt);
   void collect_finished_contacts();
@@ -249,12 +253,16 @@ class System {
   // Pair contacts, aligned with neighbors_.pairs().
   NeighborSearch neighbors_;
   std::vector<ContactHistory> pair_history_;
+  // pair_history_[k].touching in one byte per pair, so that screening the pairs, most of them
+  // apart, reads no history.
+  std::vector<std::uint8_t> pair_touching_;
   std::vector<Vec3> pair_force_, pair_torque_a_, pair_torque_b_;
   std::vector<std::uint8_t> pair_active_;    // the pair touches this step: its force is valid
   std::vector<std::uint8_t> pair_finished_;  // the pair separated this step
   std::vector<ContactHistory> finished_pair_history_;
   // Per particle, the pairs it belongs to (CSR): entry = pair index * 2 + (0: first, 1: second).
   std::vector<std::uint32_t> particle_pair_offset_, particle_pair_entry_;
+  std::vector<std::uint8_t> particle_in_contact_;  // has a pair in force this step (reset when summed)
 
   // Wall contacts, kMaxWallContactsPerParticle slots per particle, double-buffered: each step
   // fills one buffer from the other, so no slot is copied or cleared for particles off the walls.

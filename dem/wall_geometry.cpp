@@ -31,10 +31,9 @@ struct LifterPolygon {
 
 // `buried_depth`: how far beyond the shell (x = R) the side faces are extended; 0 gives the
 // trapezoid whose base is the tangent line of the shell at the centreline.
-LifterPolygon lifter_polygon(const MillShell& mill, double buried_depth) {
+// `s`, `c`: sine and cosine of the face angle.
+LifterPolygon lifter_polygon(const MillShell& mill, double s, double c, double buried_depth) {
   const LifterProfile& p = mill.lifter;
-  const double angle = p.face_angle_deg * kPi / 180.0;
-  const double s = std::sin(angle), c = std::cos(angle);
   const double half_base = 0.5 * p.base_width + buried_depth * (s / c);
   const double half_top = 0.5 * p.base_width - p.height * (s / c);
   const double base_x = mill.radius + buried_depth, top_x = mill.radius - p.height;
@@ -121,9 +120,21 @@ SlotRange reachable_lifter_slots(const MillShell& mill, const LifterPolygon& pol
   return {first, std::min(last, first + n - 1)};
 }
 
+double face_angle(const MillShell& mill) { return mill.lifter.face_angle_deg * kPi / 180.0; }
+
+double slot_spacing(const MillShell& mill) { return 2.0 * kPi / static_cast<double>(mill.lifter_count); }
+
+// An accumulated rotation angle reduced to one turn keeps the slot numbers small.
+double reduced_angle(double theta) { return theta - 2.0 * kPi * std::round(theta / (2.0 * kPi)); }
+
+Vec3 slot_direction(const MillShell& mill, double reduced_theta, long slot) {
+  const double phi = reduced_theta + static_cast<double>(slot) * slot_spacing(mill);
+  return Vec3(std::cos(phi), std::sin(phi), 0.0);
+}
+
 // Calls visit(contact) for each contact; stops early (returning false) when visit returns false.
 template <class Visit>
-bool visit_mill_contacts(const MillShell& mill, double theta, const Vec3& centre, double radius,
+bool visit_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec3& centre, double radius,
                          Visit&& visit) {
   if (mill.end_walls) {
     for (int end = 0; end < 2; ++end) {
@@ -147,17 +158,16 @@ bool visit_mill_contacts(const MillShell& mill, double theta, const Vec3& centre
   }
   if (mill.lifter_count == 0) return true;
 
-  // An accumulated rotation angle reduced to one turn keeps the slot numbers small.
-  theta -= 2.0 * kPi * std::round(theta / (2.0 * kPi));
   // Extending the sides by height + radius puts the buried base more than `radius` beyond the
   // shell, and farther from any centre inside the bar than its top face.
-  const LifterPolygon poly = lifter_polygon(mill, mill.lifter.height + radius);
-  const SlotRange slots = reachable_lifter_slots(mill, poly, theta, centre, rho, radius);
+  const LifterPolygon poly = lifter_polygon(mill, pose.face_sin, pose.face_cos, mill.lifter.height + radius);
+  const SlotRange slots = reachable_lifter_slots(mill, poly, pose.theta, centre, rho, radius);
   const long n = mill.lifter_count;
-  const double spacing = 2.0 * kPi / static_cast<double>(n);
+  const auto table_size = static_cast<long>(pose.slot_radial.size());
   for (long m = slots.first; m <= slots.last; ++m) {
-    const double phi = theta + static_cast<double>(m) * spacing;
-    const Vec3 radial(std::cos(phi), std::sin(phi), 0.0);
+    const long s = m - pose.first_slot;
+    const Vec3 radial = s >= 0 && s < table_size ? pose.slot_radial[static_cast<std::size_t>(s)]
+                                                 : slot_direction(mill, pose.theta, m);
     const Vec3 tangential(-radial.y(), radial.x(), 0.0);
     const Vec2 local(centre.dot(radial), centre.dot(tangential));
     const auto c = disk_polygon_contact(poly, local, radius);
@@ -243,19 +253,38 @@ void validate(const MillShell& mill) {
                       mill.lifter_count, p.base_width, widest));
 }
 
-void sphere_mill_contacts(const MillShell& mill, double theta, const Vec3& centre, double radius,
+MillPose mill_pose(const MillShell& mill, double theta) {
+  MillPose pose;
+  pose.theta = reduced_angle(theta);
+  if (mill.lifter_count == 0) return pose;
+  pose.face_sin = std::sin(face_angle(mill));
+  pose.face_cos = std::cos(face_angle(mill));
+  // With theta and the centre's direction both within half a turn, and a reach below half a
+  // turn, reachable slots lie within 1.5 turns of slot 0.
+  const long n = mill.lifter_count;
+  pose.first_slot = -(3 * n) / 2 - 1;
+  for (long m = pose.first_slot; m <= (3 * n) / 2 + 1; ++m) pose.slot_radial.push_back(slot_direction(mill, pose.theta, m));
+  return pose;
+}
+
+void sphere_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec3& centre, double radius,
                           std::vector<SurfaceContact>& out) {
-  visit_mill_contacts(mill, theta, centre, radius, [&out](const SurfaceContact& c) {
+  visit_mill_contacts(mill, pose, centre, radius, [&out](const SurfaceContact& c) {
     out.push_back(c);
     return true;
   });
+}
+
+void sphere_mill_contacts(const MillShell& mill, double theta, const Vec3& centre, double radius,
+                          std::vector<SurfaceContact>& out) {
+  sphere_mill_contacts(mill, mill_pose(mill, theta), centre, radius, out);
 }
 
 double mill_free_cross_section_area(const MillShell& mill) {
   const double disk = kPi * mill.radius * mill.radius;
   if (mill.lifter_count == 0) return disk;
   // The trapezoid on the tangent line; its part outside the disk is buried in the shell.
-  const LifterPolygon poly = lifter_polygon(mill, 0.0);
+  const LifterPolygon poly = lifter_polygon(mill, std::sin(face_angle(mill)), std::cos(face_angle(mill)), 0.0);
   double lifter_area = 0.0;
   for (std::size_t i = 0; i < 4; ++i) {
     lifter_area += triangle_disk_area(poly.vertex[i], poly.vertex[(i + 1) % 4], mill.radius);
@@ -264,7 +293,7 @@ double mill_free_cross_section_area(const MillShell& mill) {
 }
 
 bool sphere_clear_of_mill(const MillShell& mill, double theta, const Vec3& centre, double radius) {
-  return visit_mill_contacts(mill, theta, centre, radius,
+  return visit_mill_contacts(mill, mill_pose(mill, theta), centre, radius,
                              [](const SurfaceContact&) { return false; });
 }
 

@@ -84,6 +84,19 @@ inline int end_wall_feature(const MillShell& mill, int end /*0: z = 0, 1: z = le
 void sphere_mill_contacts(const MillShell& mill, double theta, const Vec3& centre, double radius,
                           std::vector<SurfaceContact>& out);
 
+// A mill at one rotation angle with what every sphere's query needs worked out once: the angle
+// reduced to one turn, the lifters' face angle and the directions of the lifter slots a sphere
+// can reach. For the many spheres of one time step; the same bits as passing theta.
+struct MillPose {
+  double theta = 0.0;  // reduced to (-pi, pi]
+  double face_sin = 0.0, face_cos = 1.0;
+  long first_slot = 0;              // slot_radial[s] is the direction of slot first_slot + s
+  std::vector<Vec3> slot_radial;    // (cos phi, sin phi, 0), phi = theta + slot * 2 pi / n
+};
+MillPose mill_pose(const MillShell& mill, double theta);
+void sphere_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec3& centre, double radius,
+                          std::vector<SurfaceContact>& out);
+
 // Free area of the mill's cross-section: the disk of the shell minus the exposed lifter areas
 // (m^2). Times the length, the volume available to the charge.
 double mill_free_cross_section_area(const MillShell& mill);

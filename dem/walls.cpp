@@ -46,13 +46,20 @@ void validate_wall(const Wall& wall) {
              wall.shape);
 }
 
-void wall_contacts(const Wall& wall, const Vec3& centre, double radius, std::vector<SurfaceContact>& out) {
+WallPose wall_pose(const Wall& wall) {
+  WallPose pose;
+  if (const auto* mill = std::get_if<MillWall>(&wall.shape)) pose.mill = mill_pose(mill->shell, mill->angle);
+  return pose;
+}
+
+void wall_contacts(const Wall& wall, const WallPose& pose, const Vec3& centre, double radius,
+                   std::vector<SurfaceContact>& out) {
   std::visit(Overloaded{[&](const PlaneWall& plane) {
                           if (auto c = sphere_plane_contact(centre, radius, plane.origin, plane.normal)) {
                             out.push_back(*c);
                           }
                         },
-                        [&](const MillWall& mill) { sphere_mill_contacts(mill.shell, mill.angle, centre, radius, out); }},
+                        [&](const MillWall& mill) { sphere_mill_contacts(mill.shell, pose.mill, centre, radius, out); }},
              wall.shape);
 }
 

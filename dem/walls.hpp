@@ -50,8 +50,15 @@ struct WallLoad {
 // Throws std::invalid_argument naming the wall and the bad value.
 void validate_wall(const Wall& wall);
 
-// Appends the contacts of a sphere with the wall.
-void wall_contacts(const Wall& wall, const Vec3& centre, double radius, std::vector<SurfaceContact>& out);
+// What contact queries need of a wall where it is now, worked out once per step: a mill's pose.
+struct WallPose {
+  MillPose mill;  // for a mill wall
+};
+WallPose wall_pose(const Wall& wall);
+
+// Appends the contacts of a sphere with the wall; `pose` is wall_pose(wall).
+void wall_contacts(const Wall& wall, const WallPose& pose, const Vec3& centre, double radius,
+                   std::vector<SurfaceContact>& out);
 
 // Velocity of the wall's surface at a point on it.
 Vec3 wall_surface_velocity(const Wall& wall, const Vec3& point);
