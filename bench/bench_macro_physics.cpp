@@ -6,6 +6,7 @@
 // repository root (it reads campaigns/*.json):
 //   build/bench/bench_macro_physics --benchmark_filter=Quick_Macro     (timing only)
 //   build/bench/bench_macro_physics --benchmark_filter=Quick_PowerVsFill   (~25 min)
+//   build/bench/bench_macro_physics --benchmark_filter=Tiny_Power          (the tiny mill: speed and fill, ~2 min)
 // Counters: power_kw, kw_per_t (per tonne of balls), bond_kw_per_t (Bond's correlation at the
 // same D, J, phi_c), hogg_kw (Hogg-Fuerstenau's power for this slice's ball mass, repose 35 deg),
 // power_sem_kw (the standard error of power_kw from quarter-revolution means), toe/shoulder (deg,
@@ -138,10 +139,10 @@ void Cement4m_Throughput(benchmark::State& state) {
 }
 BENCHMARK(Cement4m_Throughput)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
-json tiny_sweep_params(double fill, double speed) {
+json tiny_sweep_params(double fill, double speed, double warmup_revolutions = 1.5) {
   json params = testing::tiny_macro_params(fill, speed);
   params["macro"].update(
-      {{"warmup_revolutions", 1.5}, {"measure_revolutions", 2.0}, {"vtk_interval", 100.0}});
+      {{"warmup_revolutions", warmup_revolutions}, {"measure_revolutions", 2.0}, {"vtk_interval", 100.0}});
   return params;
 }
 
@@ -160,6 +161,21 @@ BENCHMARK(Tiny_PowerVsSpeed)
     ->Arg(95)
     ->Arg(110)
     ->Arg(150);
+
+// At and above critical speed the charge takes many revolutions to climb onto the shell (1.5
+// revolutions of warm-up leave it still tumbling): the same mill with 10 revolutions of warm-up.
+void Tiny_PowerAboveCritical(benchmark::State& state) {
+  run_and_report(state, tiny_sweep_params(0.3, static_cast<double>(state.range(0)) / 100.0, 10.0));
+}
+BENCHMARK(Tiny_PowerAboveCritical)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->Arg(75)
+    ->Arg(95)
+    ->Arg(110)
+    ->Arg(150)
+    ->Arg(200);
 
 void Tiny_PowerVsFill(benchmark::State& state) {
   run_and_report(state, tiny_sweep_params(static_cast<double>(state.range(0)) / 100.0, 0.75));
