@@ -7,6 +7,7 @@
 //   build/bench/bench_macro_physics --benchmark_filter=Quick_Macro     (timing only)
 //   build/bench/bench_macro_physics --benchmark_filter=Quick_PowerVsFill   (~25 min)
 //   build/bench/bench_macro_physics --benchmark_filter=Tiny_Power          (the tiny mill: speed and fill, ~2 min)
+//   build/bench/bench_macro_physics --benchmark_filter=Cement4m_PowerAtJ30 (the 4 m mill's kW/t, ~15 min)
 // Counters: power_kw, kw_per_t (per tonne of balls), bond_kw_per_t (Bond's correlation at the
 // same D, J, phi_c), hogg_kw (Hogg-Fuerstenau's power for this slice's ball mass, repose 35 deg),
 // power_sem_kw (the standard error of power_kw from quarter-revolution means), toe/shoulder (deg,
@@ -138,6 +139,19 @@ void Cement4m_Throughput(benchmark::State& state) {
   run_and_report(state, params);
 }
 BENCHMARK(Cement4m_Throughput)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
+// Specific power of the 4 m mill at J = 0.3 and 75% of critical, the reference point for
+// the classical correlations (Bond grows with D^0.3): 1 revolution of warm-up, 2 measured.
+void Cement4m_PowerAtJ30(benchmark::State& state) {
+  json params = first_point_params("cement_ball_mill.json");
+  params["macro"].update({{"fill", 0.3},
+                          {"speed_fraction", 0.75},
+                          {"warmup_revolutions", 1.0},
+                          {"measure_revolutions", 2.0},
+                          {"vtk_interval", 100.0}});
+  run_and_report(state, params);
+}
+BENCHMARK(Cement4m_PowerAtJ30)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
 json tiny_sweep_params(double fill, double speed, double warmup_revolutions = 1.5) {
   json params = testing::tiny_macro_params(fill, speed);
