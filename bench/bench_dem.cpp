@@ -58,9 +58,10 @@ double sphere_mass(double diameter, double density) {
 
 // The interaction whose contact lasts `duration` for a pair of effective mass m_eff.
 InteractionSpec contact_for(double duration, double m_eff) {
-  const double stiffness =
-      stiffness_for_collision_duration(duration, m_eff, damping_ratio_for_restitution(kRestitution));
-  return InteractionSpec{.restitution = kRestitution, .friction = kFriction, .normal_stiffness = stiffness};
+  const double stiffness = stiffness_for_collision_duration(
+      duration, m_eff, damping_ratio_for_restitution(kRestitution));
+  return InteractionSpec{
+      .restitution = kRestitution, .friction = kFriction, .normal_stiffness = stiffness};
 }
 
 template <class F>
@@ -140,16 +141,19 @@ System with_materials(const System& source, MaterialTable materials) {
 }
 
 double mill_speed(const MillSetup& setup) {
-  return setup.speed_fraction * critical_speed(2.0 * setup.shell.radius, setup.ball_diameter, setup.gravity);
+  return setup.speed_fraction *
+         critical_speed(2.0 * setup.shell.radius, setup.ball_diameter, setup.gravity);
 }
 
 // LAMMPS's gran/hooke dashpot is m_eff * gamma * v: gamma = 2 zeta sqrt(k_n / m_eff) gives our
 // C_n = 2 zeta sqrt(k_n m_eff) exactly for that one m_eff.
 double lammps_gamma(const InteractionSpec& spec, double m_eff) {
-  return 2.0 * damping_ratio_for_restitution(spec.restitution) * std::sqrt(spec.normal_stiffness / m_eff);
+  return 2.0 * damping_ratio_for_restitution(spec.restitution) *
+         std::sqrt(spec.normal_stiffness / m_eff);
 }
 
-void add_contact_params(LammpsParams& out, const std::string& prefix, const InteractionSpec& spec, double m_eff) {
+void add_contact_params(LammpsParams& out, const std::string& prefix, const InteractionSpec& spec,
+                        double m_eff) {
   const double gamma_n = lammps_gamma(spec, m_eff);
   out.set(prefix + "kn", spec.normal_stiffness);
   out.set(prefix + "kt", spec.tangential_stiffness_ratio * spec.normal_stiffness);
@@ -180,14 +184,15 @@ Scene make_mill(const MillCase& c) {
     system.step(static_cast<std::size_t>(std::ceil(c.stiff_warm_time / system.time_step())));
   });
 
-  Scene scene{.name = c.name,
-              .description = fmt::format("{} m mill, {:.3f} m slice, {} lifters, {} balls of {} mm, J = 0.3, 75% N_c",
-                                         c.mill_diameter, c.slice_length, c.lifter_count, system.size(),
-                                         1000 * c.ball_diameter),
-              .system = std::move(system),
-              .default_steps = c.default_steps,
-              .setup_seconds = 0.0,
-              .lammps = {}};
+  Scene scene{
+      .name = c.name,
+      .description = fmt::format(
+          "{} m mill, {:.3f} m slice, {} lifters, {} balls of {} mm, J = 0.3, 75% N_c",
+          c.mill_diameter, c.slice_length, c.lifter_count, system.size(), 1000 * c.ball_diameter),
+      .system = std::move(system),
+      .default_steps = c.default_steps,
+      .setup_seconds = 0.0,
+      .lammps = {}};
   LammpsParams& p = scene.lammps;
   add_contact_params(p, "", setup.ball_ball, 0.5 * ball_mass);
   add_contact_params(p, "wall_", setup.ball_liner, ball_mass);  // LAMMPS walls: m_eff = m
@@ -197,7 +202,8 @@ Scene make_mill(const MillCase& c) {
   p.set("omega", mill_speed(setup));
   p.set("gravity", setup.gravity);
   p.notes.push_back("monodisperse balls: gamma_n matches C_n = 2 zeta sqrt(k_n m_eff) exactly");
-  if (c.lifter_count > 0) p.notes.push_back("millflow has lifters here; the LAMMPS shell is a bare cylinder");
+  if (c.lifter_count > 0)
+    p.notes.push_back("millflow has lifters here; the LAMMPS shell is a bare cylinder");
   scene.setup_seconds = seconds_since(start);
   return scene;
 }
@@ -218,7 +224,11 @@ MillCase mill_4m() {
              .soft_spin_time = 0.25,
              .stiff_warm_time = 0.003,
              .default_steps = 200};
-  MillShell shell{.radius = 2.0, .length = 1.0, .lifter_count = c.lifter_count, .lifter = c.lifter, .end_walls = false};
+  MillShell shell{.radius = 2.0,
+                  .length = 1.0,
+                  .lifter_count = c.lifter_count,
+                  .lifter = c.lifter,
+                  .end_walls = false};
   const double balls_per_metre = static_cast<double>(balls_for_fill(shell, 0.3, c.ball_diameter));
   c.slice_length = 17000.0 / balls_per_metre;
   return c;
@@ -234,8 +244,8 @@ MillCase mill_4m() {
 
 constexpr double kMediaDiameter = 0.01;
 constexpr std::array<int, 3> kMediaLattice{10, 6, 5};  // 300 media balls; x flow, y gradient
-constexpr double kPowderGapFactor = 1.001;  // powder lattice spacing / powder diameter
-constexpr double kFluctuation = 0.05;      // m/s, per velocity component, uniform +-
+constexpr double kPowderGapFactor = 1.001;             // powder lattice spacing / powder diameter
+constexpr double kFluctuation = 0.05;                  // m/s, per velocity component, uniform +-
 
 struct ShearPlacement {
   Vec3 box = Vec3::Zero();
@@ -243,10 +253,10 @@ struct ShearPlacement {
   std::vector<Vec3> powder;
 };
 
-// Flags (1 = blocked) for the sites of a cubic lattice of n[0] x n[1] x n[2] sites (spacing h, site centres
-// at (i + 1/2) h) that lie within `reach` of a media centre, periodic in all axes.
-std::vector<char> sites_near_media(const std::array<int, 3>& n, const Vec3& h, const std::vector<Vec3>& media,
-                                   double reach) {
+// Flags (1 = blocked) for the sites of a cubic lattice of n[0] x n[1] x n[2] sites (spacing h, site
+// centres at (i + 1/2) h) that lie within `reach` of a media centre, periodic in all axes.
+std::vector<char> sites_near_media(const std::array<int, 3>& n, const Vec3& h,
+                                   const std::vector<Vec3>& media, double reach) {
   std::vector<char> blocked(static_cast<std::size_t>(n[0]) * n[1] * n[2], 0);
   auto wrap = [](int i, int count) { return ((i % count) + count) % count; };
   for (const Vec3& m : media) {
@@ -260,7 +270,8 @@ std::vector<char> sites_near_media(const std::array<int, 3>& n, const Vec3& h, c
         for (int k = lo[2]; k <= hi[2]; ++k) {
           const Vec3 site((i + 0.5) * h[0], (j + 0.5) * h[1], (k + 0.5) * h[2]);
           if ((site - m).norm() >= reach) continue;
-          blocked[(static_cast<std::size_t>(wrap(i, n[0])) * n[1] + wrap(j, n[1])) * n[2] + wrap(k, n[2])] = 1;
+          blocked[(static_cast<std::size_t>(wrap(i, n[0])) * n[1] + wrap(j, n[1])) * n[2] +
+                  wrap(k, n[2])] = 1;
         }
       }
     }
@@ -296,7 +307,8 @@ ShearPlacement place_shear_cell(double powder_diameter, std::size_t powder_count
         }
       }
     }
-    const double reach = 0.5 * (kMediaDiameter + powder_diameter) * kPowderGapFactor + std::sqrt(3.0) * jitter;
+    const double reach =
+        0.5 * (kMediaDiameter + powder_diameter) * kPowderGapFactor + std::sqrt(3.0) * jitter;
     const std::vector<char> blocked = sites_near_media(n, Vec3::Constant(h), out.media, reach);
     std::vector<std::size_t> free_sites;
     for (std::size_t s = 0; s < blocked.size(); ++s) {
@@ -305,29 +317,34 @@ ShearPlacement place_shear_cell(double powder_diameter, std::size_t powder_count
     if (free_sites.size() < powder_count) continue;
     // Partial Fisher-Yates: a random subset, then back in lattice order for memory locality.
     for (std::size_t s = 0; s < powder_count; ++s) {
-      const auto pick = s + static_cast<std::size_t>(rng.uniform() * static_cast<double>(free_sites.size() - s));
+      const auto pick =
+          s + static_cast<std::size_t>(rng.uniform() * static_cast<double>(free_sites.size() - s));
       std::swap(free_sites[s], free_sites[pick]);
     }
     free_sites.resize(powder_count);
     std::sort(free_sites.begin(), free_sites.end());
     for (const std::size_t s : free_sites) {
-      const std::size_t k = s % n[2], j = (s / n[2]) % n[1], i = s / (static_cast<std::size_t>(n[1]) * n[2]);
+      const std::size_t k = s % n[2], j = (s / n[2]) % n[1],
+                        i = s / (static_cast<std::size_t>(n[1]) * n[2]);
       const Vec3 shake(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
       out.powder.push_back(h * Vec3(i + 0.5, j + 0.5, k + 0.5) + jitter * shake);
     }
     return out;
   }
-  throw std::invalid_argument(fmt::format("shear cell: no media spacing below 2 d fits {} powder particles of {} m",
-                                          powder_count, powder_diameter));
+  throw std::invalid_argument(
+      fmt::format("shear cell: no media spacing below 2 d fits {} powder particles of {} m",
+                  powder_count, powder_diameter));
 }
 
-Scene make_shear_cell(const std::string& name, int size_ratio, std::size_t warm_steps, std::size_t default_steps) {
+Scene make_shear_cell(const std::string& name, int size_ratio, std::size_t warm_steps,
+                      std::size_t default_steps) {
   const auto start = Clock::now();
   const double powder_diameter = kMediaDiameter / size_ratio;
   // Powder volume = 0.5 x the voids of a media bed at solid fraction 0.6 = media volume / 3.
-  const std::size_t media_count = static_cast<std::size_t>(kMediaLattice[0] * kMediaLattice[1] * kMediaLattice[2]);
-  const auto powder_count =
-      static_cast<std::size_t>(std::llround(media_count * std::pow(static_cast<double>(size_ratio), 3) / 3.0));
+  const std::size_t media_count =
+      static_cast<std::size_t>(kMediaLattice[0] * kMediaLattice[1] * kMediaLattice[2]);
+  const auto powder_count = static_cast<std::size_t>(
+      std::llround(media_count * std::pow(static_cast<double>(size_ratio), 3) / 3.0));
   Rng rng(7);
   const ShearPlacement placement = place_shear_cell(powder_diameter, powder_count, rng);
 
@@ -345,12 +362,19 @@ Scene make_shear_cell(const std::string& name, int size_ratio, std::size_t warm_
   box.hi = placement.box;
   box.periodic = {true, true, true};
   const double shear_velocity = kShearRate * box.length().y();
-  box.lees_edwards = LeesEdwards{.enabled = true, .flow_axis = 0, .gradient_axis = 1, .offset = 0.0, .velocity = shear_velocity};
+  box.lees_edwards = LeesEdwards{.enabled = true,
+                                 .flow_axis = 0,
+                                 .gradient_axis = 1,
+                                 .offset = 0.0,
+                                 .velocity = shear_velocity};
   System system(std::move(materials), box, Vec3::Zero());
   auto add = [&](const Vec3& x, double diameter, MaterialId material) {
     const Vec3 noise(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
     const Vec3 flow(kShearRate * (x.y() - 0.5 * box.length().y()), 0.0, 0.0);
-    system.add_particle({.position = x, .velocity = flow + kFluctuation * noise, .radius = 0.5 * diameter, .material = material});
+    system.add_particle({.position = x,
+                         .velocity = flow + kFluctuation * noise,
+                         .radius = 0.5 * diameter,
+                         .material = material});
   };
   for (const Vec3& x : placement.media) add(x, kMediaDiameter, steel);
   for (const Vec3& x : placement.powder) add(x, powder_diameter, ore);
@@ -363,11 +387,12 @@ Scene make_shear_cell(const std::string& name, int size_ratio, std::size_t warm_
   const double media_fraction = media_count * kPi * std::pow(kMediaDiameter, 3) / 6.0 / volume;
   const double powder_fraction = powder_count * kPi * std::pow(powder_diameter, 3) / 6.0 / volume;
   Scene scene{.name = name,
-              .description = fmt::format("Lees-Edwards cell {:.1f}x{:.1f}x{:.1f} mm, {} media of 10 mm + {} powder of "
-                                         "{} mm (solid fraction {:.2f} + {:.2f}), shear rate {}/s, dt = {:.3g} s",
-                                         1000 * box.length().x(), 1000 * box.length().y(), 1000 * box.length().z(),
-                                         media_count, powder_count, 1000 * powder_diameter, media_fraction,
-                                         powder_fraction, kShearRate, system.time_step()),
+              .description = fmt::format(
+                  "Lees-Edwards cell {:.1f}x{:.1f}x{:.1f} mm, {} media of 10 mm + {} powder of "
+                  "{} mm (solid fraction {:.2f} + {:.2f}), shear rate {}/s, dt = {:.3g} s",
+                  1000 * box.length().x(), 1000 * box.length().y(), 1000 * box.length().z(),
+                  media_count, powder_count, 1000 * powder_diameter, media_fraction,
+                  powder_fraction, kShearRate, system.time_step()),
               .system = std::move(system),
               .default_steps = default_steps,
               .setup_seconds = 0.0,
@@ -379,7 +404,8 @@ Scene make_shear_cell(const std::string& name, int size_ratio, std::size_t warm_
   p.set("dt", scene.system.time_step());
   p.set("skin", 0.3 * powder_diameter);  // System's default: 0.6 x smallest radius
   p.set("shear_rate", kShearRate);
-  p.notes.push_back("gamma_n is exact for powder-powder pairs only; media pairs are more damped in LAMMPS");
+  p.notes.push_back(
+      "gamma_n is exact for powder-powder pairs only; media pairs are more damped in LAMMPS");
   scene.setup_seconds = seconds_since(start);
   return scene;
 }
@@ -391,10 +417,10 @@ void write_lammps_data(const Scene& scene, const std::filesystem::path& path) {
   const System& s = scene.system;
   const Domain& d = s.domain();
   std::ofstream out(path);
-  out << fmt::format("millflow scene {} (warm state, t = {} s)\n\n{} atoms\n2 atom types\n\n", scene.name, s.time(),
-                     s.size());
-  out << fmt::format("{:.17g} {:.17g} xlo xhi\n{:.17g} {:.17g} ylo yhi\n{:.17g} {:.17g} zlo zhi\n", d.lo.x(), d.hi.x(),
-                     d.lo.y(), d.hi.y(), d.lo.z(), d.hi.z());
+  out << fmt::format("millflow scene {} (warm state, t = {} s)\n\n{} atoms\n2 atom types\n\n",
+                     scene.name, s.time(), s.size());
+  out << fmt::format("{:.17g} {:.17g} xlo xhi\n{:.17g} {:.17g} ylo yhi\n{:.17g} {:.17g} zlo zhi\n",
+                     d.lo.x(), d.hi.x(), d.lo.y(), d.hi.y(), d.lo.z(), d.hi.z());
   if (d.lees_edwards.enabled) {
     // LAMMPS keeps the tilt in [-L/2, L/2]; the images are the same modulo L.
     const double length = d.length().x();
@@ -408,14 +434,15 @@ void write_lammps_data(const Scene& scene, const std::filesystem::path& path) {
     const double density = s.masses()[p] / (kPi * diameter * diameter * diameter / 6.0);
     const Vec3& x = s.positions()[p];
     out << fmt::format("{} {} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}\n", p + 1,
-                       s.particle_materials()[p] == 0 ? 1 : 2, diameter, density, x.x(), x.y(), x.z());
+                       s.particle_materials()[p] == 0 ? 1 : 2, diameter, density, x.x(), x.y(),
+                       x.z());
   }
   out << "\nVelocities\n\n";
   for (std::size_t p = 0; p < s.size(); ++p) {
     const Vec3& v = s.velocities()[p];
     const Vec3& w = s.angular_velocities()[p];
-    out << fmt::format("{} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}\n", p + 1, v.x(), v.y(), v.z(), w.x(),
-                       w.y(), w.z());
+    out << fmt::format("{} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}\n", p + 1, v.x(), v.y(),
+                       v.z(), w.x(), w.y(), w.z());
   }
   if (!out) throw std::runtime_error(fmt::format("could not write {}", path.string()));
 }
@@ -424,7 +451,8 @@ void write_lammps_params(const Scene& scene, const std::filesystem::path& path) 
   std::ofstream out(path);
   out << fmt::format("# millflow scene {}: {}\n", scene.name, scene.description);
   for (const std::string& note : scene.lammps.notes) out << "# " << note << "\n";
-  for (const auto& [name, value] : scene.lammps.values) out << fmt::format("variable {} equal {:.17g}\n", name, value);
+  for (const auto& [name, value] : scene.lammps.values)
+    out << fmt::format("variable {} equal {:.17g}\n", name, value);
   if (!out) throw std::runtime_error(fmt::format("could not write {}", path.string()));
 }
 
@@ -462,19 +490,24 @@ double peak_rss_mib() {
 double process_cpu_seconds() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
-  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  auto seconds = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
+  };
   return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
 // Scenes are built on first use, so a filtered run builds only what it times.
 class SceneCache {
  public:
-  void define(const std::string& name, std::function<Scene()> make) { makers_[name] = std::move(make); }
+  void define(const std::string& name, std::function<Scene()> make) {
+    makers_[name] = std::move(make);
+  }
   const Scene& get(const std::string& name) {
     auto it = scenes_.find(name);
     if (it == scenes_.end()) {
       Scene scene = makers_.at(name)();
-      fmt::print(stderr, "bench: scene {} ready in {:.1f} s: {}\n", name, scene.setup_seconds, scene.description);
+      fmt::print(stderr, "bench: scene {} ready in {:.1f} s: {}\n", name, scene.setup_seconds,
+                 scene.description);
       if (g_options.lammps_dir) export_for_lammps(scene);
       it = scenes_.emplace(name, std::make_unique<Scene>(std::move(scene))).first;
     }
@@ -511,7 +544,8 @@ void run_scene(benchmark::State& state, const std::string& name, int threads) {
     state.SetIterationTime(elapsed);
   }
   r.peak_mib = peak_rss_mib();
-  r.contacts_per_particle = static_cast<double>(system.active_contact_count()) / static_cast<double>(system.size());
+  r.contacts_per_particle =
+      static_cast<double>(system.active_contact_count()) / static_cast<double>(system.size());
   state.counters["particles"] = static_cast<double>(r.particles);
   state.counters["steps"] = static_cast<double>(r.steps);
   state.counters["pts_per_s_per_core"] = r.per_core();
@@ -526,8 +560,9 @@ void run_scene(benchmark::State& state, const std::string& name, int threads) {
 std::vector<Result> best_results() {
   std::vector<Result> best;
   for (const Result& r : g_results) {
-    auto same = std::find_if(best.begin(), best.end(),
-                             [&](const Result& b) { return b.scene == r.scene && b.threads == r.threads; });
+    auto same = std::find_if(best.begin(), best.end(), [&](const Result& b) {
+      return b.scene == r.scene && b.threads == r.threads;
+    });
     if (same == best.end()) {
       best.push_back(r);
     } else if (r.per_core() > same->per_core()) {
@@ -539,22 +574,29 @@ std::vector<Result> best_results() {
 
 void print_summary() {
   const std::vector<Result> best = best_results();
-  fmt::print("\nSUMMARY: fastest repetition per case; pts = particle-timesteps; peak RSS of this process so far\n");
-  fmt::print("       {:<14} {:>7} {:>9} {:>7} {:>9} {:>14} {:>12} {:>9} {:>10}\n", "scene", "threads", "particles", "steps",
-             "wall s", "pts/s/core", "pts/cpu-s", "peak MiB", "contacts/p");
+  fmt::print(
+      "\nSUMMARY: fastest repetition per case; pts = particle-timesteps; peak RSS of this process "
+      "so far\n");
+  fmt::print("       {:<14} {:>7} {:>9} {:>7} {:>9} {:>14} {:>12} {:>9} {:>10}\n", "scene",
+             "threads", "particles", "steps", "wall s", "pts/s/core", "pts/cpu-s", "peak MiB",
+             "contacts/p");
   for (const Result& r : best) {
-    fmt::print("RESULT {:<14} {:>7} {:>9} {:>7} {:>9.3f} {:>14.4g} {:>12.4g} {:>9.1f} {:>10.3f}\n", r.scene, r.threads,
-               r.particles, r.steps, r.seconds, r.per_core(), r.per_cpu_second(), r.peak_mib, r.contacts_per_particle);
+    fmt::print("RESULT {:<14} {:>7} {:>9} {:>7} {:>9.3f} {:>14.4g} {:>12.4g} {:>9.1f} {:>10.3f}\n",
+               r.scene, r.threads, r.particles, r.steps, r.seconds, r.per_core(),
+               r.per_cpu_second(), r.peak_mib, r.contacts_per_particle);
   }
   for (const Result& one : best) {
-    const auto two = std::find_if(best.begin(), best.end(), [&](const Result& r) { return r.scene == one.scene && r.threads == 2; });
+    const auto two = std::find_if(best.begin(), best.end(), [&](const Result& r) {
+      return r.scene == one.scene && r.threads == 2;
+    });
     if (one.threads == 1 && two != best.end()) {
-      fmt::print("speed-up 1 -> 2 threads on {}: {:.2f}x (wall)\n", one.scene, one.seconds / two->seconds * two->steps / one.steps);
+      fmt::print("speed-up 1 -> 2 threads on {}: {:.2f}x (wall)\n", one.scene,
+                 one.seconds / two->seconds * two->steps / one.steps);
     }
   }
   for (const auto& [name, scene] : g_scenes.built()) {
-    fmt::print("scene {}: {} (set-up {:.1f} s, dt = {:.4g} s)\n", name, scene->description, scene->setup_seconds,
-               scene->system.time_step());
+    fmt::print("scene {}: {} (set-up {:.1f} s, dt = {:.4g} s)\n", name, scene->description,
+               scene->setup_seconds, scene->system.time_step());
   }
 }
 
@@ -582,10 +624,12 @@ void register_scenes() {
   g_scenes.define("mill_4m", [] { return make_mill(mill_4m()); });
   g_scenes.define("shear_ratio5", [] { return make_shear_cell("shear_ratio5", 5, 1000, 300); });
   g_scenes.define("shear_ratio10", [] { return make_shear_cell("shear_ratio10", 10, 400, 60); });
-  for (const std::string name : {"mill_1m", "mill_1m_bare", "mill_4m", "shear_ratio5", "shear_ratio10"}) {
+  for (const std::string name :
+       {"mill_1m", "mill_1m_bare", "mill_4m", "shear_ratio5", "shear_ratio10"}) {
     for (const int threads : {1, 2}) {
-      benchmark::RegisterBenchmark(fmt::format("{}/threads:{}", name, threads).c_str(),
-                                   [name, threads](benchmark::State& state) { run_scene(state, name, threads); })
+      benchmark::RegisterBenchmark(
+          fmt::format("{}/threads:{}", name, threads).c_str(),
+          [name, threads](benchmark::State& state) { run_scene(state, name, threads); })
           ->UseManualTime()
           ->Iterations(1)
           ->Unit(benchmark::kMillisecond);

@@ -25,7 +25,8 @@ Campaign trivial_campaign() {
     if (i >= 10 && i % 10 == 0) task["after"] = {std::to_string(i - 10)};
     tasks.push_back(task);
   }
-  return Campaign{"bench", "millflow-test", {{"format", "millflow-test"}, {"name", "bench"}, {"tasks", tasks}}};
+  return Campaign{
+      "bench", "millflow-test", {{"format", "millflow-test"}, {"name", "bench"}, {"tasks", tasks}}};
 }
 
 fs::path scratch_db() {

@@ -6,8 +6,9 @@
 // repository root (it reads campaigns/*.json):
 //   build/bench/bench_macro_physics --benchmark_filter=Quick_Macro     (timing only)
 //   build/bench/bench_macro_physics --benchmark_filter=Quick_PowerVsFill   (~25 min)
-//   build/bench/bench_macro_physics --benchmark_filter=Tiny_Power          (the tiny mill: speed and fill, ~2 min)
-//   build/bench/bench_macro_physics --benchmark_filter=Cement4m_PowerAtJ30 (the 4 m mill's kW/t, ~15 min)
+//   build/bench/bench_macro_physics --benchmark_filter=Tiny_Power          (the tiny mill: speed
+//   and fill, ~2 min) build/bench/bench_macro_physics --benchmark_filter=Cement4m_PowerAtJ30 (the 4
+//   m mill's kW/t, ~15 min)
 // Counters: power_kw, kw_per_t (per tonne of balls), bond_kw_per_t (Bond's correlation at the
 // same D, J, phi_c), hogg_kw (Hogg-Fuerstenau's power for this slice's ball mass, repose 35 deg),
 // power_sem_kw (the standard error of power_kw from quarter-revolution means), toe/shoulder (deg,
@@ -34,7 +35,8 @@ using nlohmann::json;
 
 // The standard error of the mean power, kW, from the means of `groups` equal runs of consecutive
 // blocks of power.csv (a quarter revolution each: one lifter passage), taken as independent.
-double power_standard_error_kw(const std::filesystem::path& power_csv, std::size_t blocks_per_group) {
+double power_standard_error_kw(const std::filesystem::path& power_csv,
+                               std::size_t blocks_per_group) {
   std::ifstream in(power_csv);
   std::string line;
   std::getline(in, line);  // header
@@ -43,14 +45,18 @@ double power_standard_error_kw(const std::filesystem::path& power_csv, std::size
   std::vector<double> means;
   for (std::size_t g = 0; (g + 1) * blocks_per_group <= powers.size(); ++g) {
     const auto first = powers.begin() + static_cast<std::ptrdiff_t>(g * blocks_per_group);
-    means.push_back(std::accumulate(first, first + static_cast<std::ptrdiff_t>(blocks_per_group), 0.0) /
-                    static_cast<double>(blocks_per_group));
+    means.push_back(
+        std::accumulate(first, first + static_cast<std::ptrdiff_t>(blocks_per_group), 0.0) /
+        static_cast<double>(blocks_per_group));
   }
   if (means.size() < 2) return 0.0;
-  const double mean = std::accumulate(means.begin(), means.end(), 0.0) / static_cast<double>(means.size());
+  const double mean =
+      std::accumulate(means.begin(), means.end(), 0.0) / static_cast<double>(means.size());
   double square = 0.0;
   for (double m : means) square += (m - mean) * (m - mean);
-  return std::sqrt(square / static_cast<double>(means.size() - 1) / static_cast<double>(means.size())) / 1000.0;
+  return std::sqrt(square / static_cast<double>(means.size() - 1) /
+                   static_cast<double>(means.size())) /
+         1000.0;
 }
 
 void run_and_report(benchmark::State& state, const json& params) {
@@ -67,7 +73,8 @@ void run_and_report(benchmark::State& state, const json& params) {
   const double steps = result["measure_end_s"].get<double>() / result["dt_s"].get<double>();
   state.counters["n_balls"] = result["n_balls"].get<double>();
   state.counters["particle_steps_per_s"] = steps * result["n_balls"].get<double>() / seconds;
-  state.counters["particle_steps_per_cpu_s"] = steps * result["n_balls"].get<double>() / cpu_seconds;
+  state.counters["particle_steps_per_cpu_s"] =
+      steps * result["n_balls"].get<double>() / cpu_seconds;
   state.counters["fill"] = result["fill"].get<double>();
   state.counters["speed"] = result["speed_fraction"].get<double>();
   state.counters["power_kw"] = result["power"]["mean_kw"].get<double>();
@@ -78,7 +85,8 @@ void run_and_report(benchmark::State& state, const json& params) {
                               result["ball_mass_kg"].get<double>() / 1000.0;
   state.counters["wall_s"] = seconds;
   // tasks/macro.cpp closes 200 power blocks per revolution.
-  state.counters["power_sem_kw"] = power_standard_error_kw(scratch.path() / "work" / "power.csv", 50);
+  state.counters["power_sem_kw"] =
+      power_standard_error_kw(scratch.path() / "work" / "power.csv", 50);
   const json& charge = result["charge"];
   state.counters["toe"] =
       charge["toe_angle_deg"].is_number() ? charge["toe_angle_deg"].get<double>() : -999.0;
@@ -155,8 +163,9 @@ BENCHMARK(Cement4m_PowerAtJ30)->Iterations(1)->Unit(benchmark::kSecond)->UseReal
 
 json tiny_sweep_params(double fill, double speed, double warmup_revolutions = 1.5) {
   json params = testing::tiny_macro_params(fill, speed);
-  params["macro"].update(
-      {{"warmup_revolutions", warmup_revolutions}, {"measure_revolutions", 2.0}, {"vtk_interval", 100.0}});
+  params["macro"].update({{"warmup_revolutions", warmup_revolutions},
+                          {"measure_revolutions", 2.0},
+                          {"vtk_interval", 100.0}});
   return params;
 }
 

@@ -34,9 +34,11 @@ ShearCellSetup cell_setup(double inertial_number, double ratio, double load, boo
   const double k = 100.0 * s.normal_stress * s.media_diameter;
   const double d = s.media_diameter, dp = ratio * d;
   s.media_media = {.restitution = 0.5, .friction = 0.5, .normal_stiffness = k};
-  s.media_powder = {.restitution = 0.5, .friction = 0.5,
+  s.media_powder = {.restitution = 0.5,
+                    .friction = 0.5,
                     .normal_stiffness = size_scaled ? size_scaled_stiffness(k, d, d, dp) : k};
-  s.powder_powder = {.restitution = 0.5, .friction = 0.5,
+  s.powder_powder = {.restitution = 0.5,
+                     .friction = 0.5,
                      .normal_stiffness = size_scaled ? size_scaled_stiffness(k, d, dp, dp) : k};
   s.powder_diameter_ratio = ratio;
   s.powder_load = load;
@@ -44,7 +46,9 @@ ShearCellSetup cell_setup(double inertial_number, double ratio, double load, boo
   return s;
 }
 
-double jop_forterre_pouliquen(double i) { return 0.38 + (0.64 - 0.38) / (0.279 / i + 1.0); }
+double jop_forterre_pouliquen(double i) {
+  return 0.38 + (0.64 - 0.38) / (0.279 / i + 1.0);
+}
 
 void BM_MuOfI(benchmark::State& state) {
   spdlog::set_level(spdlog::level::warn);
@@ -69,20 +73,23 @@ BENCHMARK(BM_MuOfI)->Arg(10)->Arg(30)->Arg(100)->Arg(300)->Iterations(1)->Unit(b
 
 void BM_PowderCellCost(benchmark::State& state) {
   spdlog::set_level(spdlog::level::warn);
-  const ShearCellSetup setup = cell_setup(0.1, state.range(0) / 100.0, state.range(1) / 100.0, state.range(2) != 0);
+  const ShearCellSetup setup =
+      cell_setup(0.1, state.range(0) / 100.0, state.range(1) / 100.0, state.range(2) != 0);
   for (auto _ : state) {
     ShearCell cell(setup);
     const std::size_t steps = 100;
     const auto start = std::chrono::steady_clock::now();
     cell.system().step(steps);
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double rate = static_cast<double>(steps * cell.system().size()) / seconds;
     const double steps_per_strain = 1.0 / (setup.shear_rate * cell.system().time_step());
     state.counters["media"] = static_cast<double>(cell.media_count());
     state.counters["powder"] = static_cast<double>(cell.powder_count());
     state.counters["dt_us"] = cell.system().time_step() * 1e6;
     state.counters["psteps_per_s"] = rate;
-    state.counters["s_per_strain"] = steps_per_strain * static_cast<double>(cell.system().size()) / rate;
+    state.counters["s_per_strain"] =
+        steps_per_strain * static_cast<double>(cell.system().size()) / rate;
   }
 }
 BENCHMARK(BM_PowderCellCost)

@@ -58,11 +58,14 @@ const Sample& sample(int diameter_mm) {
   dem::MillSetup setup = dem::testing::small_mill(kFill, kSpeedFraction);
   setup.shell.radius = 0.0005 * diameter_mm;
   std::vector<std::filesystem::path> segments;
-  for (int s = 0; s < kSegments; ++s) segments.push_back(scratch.path() / fmt::format("{}_{}.mfs", diameter_mm, s));
-  // Spin-up: the bed turns by about 1.3 rad (75 deg) before the first frame, past its angle of repose.
+  for (int s = 0; s < kSegments; ++s)
+    segments.push_back(scratch.path() / fmt::format("{}_{}.mfs", diameter_mm, s));
+  // Spin-up: the bed turns by about 1.3 rad (75 deg) before the first frame, past its angle of
+  // repose.
   const double omega = kSpeedFraction * dem::critical_speed(2 * setup.shell.radius, kBall);
   Sample& out = samples[diameter_mm];
-  out.macro = testing::run_and_write_mill_frames(setup, 1.3 / omega, kInterval, segments, kFramesPerSegment);
+  out.macro = testing::run_and_write_mill_frames(setup, 1.3 / omega, kInterval, segments,
+                                                 kFramesPerSegment);
   for (const auto& segment : segments) {
     auto frames = dem::read_flow_segment(segment);
     out.frames.insert(out.frames.end(), frames.begin(), frames.end());
@@ -78,28 +81,33 @@ struct Bound {
   const char* counter;
   double low, high;
 };
-constexpr Bound kClaims[] = {{"bulk_spin", 0.9, 1.1},     {"bulk_slip", 0.0, 0.1},
-                             {"ball_spin", 0.9, 1.1},     {"cascade_shear", 5.0, 1e9},
-                             {"toe_shear", 5.0, 1e9},     {"surface_power", 3.0, 1e9},
+constexpr Bound kClaims[] = {{"bulk_spin", 0.9, 1.1},           {"bulk_slip", 0.0, 0.1},
+                             {"ball_spin", 0.9, 1.1},           {"cascade_shear", 5.0, 1e9},
+                             {"toe_shear", 5.0, 1e9},           {"surface_power", 3.0, 1e9},
                              {"top_power_in_surface", 0.9, 1.0}};
 
 void check_claims(benchmark::State& state) {
   for (const Bound& bound : kClaims) {
     const double value = state.counters[bound.counter];
     if (value < bound.low || value > bound.high) {
-      state.SkipWithError(fmt::format("{} = {:.3g} is outside [{}, {}]", bound.counter, value, bound.low, bound.high).c_str());
+      state.SkipWithError(fmt::format("{} = {:.3g} is outside [{}, {}]", bound.counter, value,
+                                      bound.low, bound.high)
+                              .c_str());
       return;
     }
   }
 }
 
-// Of the `fraction` of charge cells highest in `field`, the share in the cascading layer or the toe.
-double top_share_in_surface(const std::vector<double>& field, const SiteSelection& selection, double fraction) {
+// Of the `fraction` of charge cells highest in `field`, the share in the cascading layer or the
+// toe.
+double top_share_in_surface(const std::vector<double>& field, const SiteSelection& selection,
+                            double fraction) {
   std::vector<std::size_t> cells;
   for (std::size_t c = 0; c < field.size(); ++c) {
     if (selection.region_of_cell[c] >= 0) cells.push_back(c);
   }
-  std::stable_sort(cells.begin(), cells.end(), [&](std::size_t a, std::size_t b) { return field[a] > field[b]; });
+  std::stable_sort(cells.begin(), cells.end(),
+                   [&](std::size_t a, std::size_t b) { return field[a] > field[b]; });
   const auto top = std::max<std::size_t>(1, static_cast<std::size_t>(fraction * cells.size()));
   std::size_t surface = 0;
   for (std::size_t k = 0; k < top; ++k) {
@@ -113,19 +121,22 @@ void SlowMillFlow(benchmark::State& state) {
   const Sample& run = sample(static_cast<int>(state.range(0)));
   const double radius = run.macro.at("mill").at("radius_m").get<double>();
   const double omega = run.macro.at("angular_velocity_rad_s").get<double>();
-  const int cells = static_cast<int>(std::lround(2 * radius / kBall * static_cast<double>(state.range(2))));
-  CoarseGrainSettings settings{.grid = {.nx = cells, .ny = cells, .half_width = radius},
-                               .slice_length = run.macro.at("mill").at("length_m").get<double>(),
-                               .kernel_width = 0.1 * static_cast<double>(state.range(1)) * kBall,
-                               .media_density = 7800.0,
-                               .event_window = run.frames.size() * run.macro.at("sample_interval_s").get<double>(),
-                               .categories = run.macro.at("categories").get<std::vector<std::string>>()};
+  const int cells =
+      static_cast<int>(std::lround(2 * radius / kBall * static_cast<double>(state.range(2))));
+  CoarseGrainSettings settings{
+      .grid = {.nx = cells, .ny = cells, .half_width = radius},
+      .slice_length = run.macro.at("mill").at("length_m").get<double>(),
+      .kernel_width = 0.1 * static_cast<double>(state.range(1)) * kBall,
+      .media_density = 7800.0,
+      .event_window = run.frames.size() * run.macro.at("sample_interval_s").get<double>(),
+      .categories = run.macro.at("categories").get<std::vector<std::string>>()};
   CoarseFields fields;
   SiteSelection selection;
   FlowMap map;
   for (auto _ : state) {
     fields = coarse_grain(settings, 1, [&](std::size_t) { return run.frames; });
-    const json mill = {{"mill_radius_m", radius}, {"media_diameter_m", kBall}, {"angular_velocity_rad_s", omega}};
+    const json mill = {
+        {"mill_radius_m", radius}, {"media_diameter_m", kBall}, {"angular_velocity_rad_s", omega}};
     map = flow_map_from_document(fields_document(fields, mill));
     selection = select_sites(map, RegionRules{}, region_names(), 1);
   }
@@ -163,12 +174,17 @@ void SlowMillFlow(benchmark::State& state) {
   state.counters["bulk_spin"] = solid > 0 ? spin / solid / omega : 0.0;
   state.counters["bulk_slip"] = speed > 0 ? slip / speed : 0.0;
   state.counters["ball_spin"] = balls > 0 ? ball_spin / static_cast<double>(balls) / omega : 0.0;
-  state.counters["bulk_balls"] = static_cast<double>(balls) / static_cast<double>(run.frames.size());
-  state.counters["cascade_shear"] = bulk.mean_shear_rate > 0 ? cascading.mean_shear_rate / bulk.mean_shear_rate : 0.0;
-  state.counters["toe_shear"] = bulk.mean_shear_rate > 0 ? toe.mean_shear_rate / bulk.mean_shear_rate : 0.0;
+  state.counters["bulk_balls"] =
+      static_cast<double>(balls) / static_cast<double>(run.frames.size());
+  state.counters["cascade_shear"] =
+      bulk.mean_shear_rate > 0 ? cascading.mean_shear_rate / bulk.mean_shear_rate : 0.0;
+  state.counters["toe_shear"] =
+      bulk.mean_shear_rate > 0 ? toe.mean_shear_rate / bulk.mean_shear_rate : 0.0;
   const double bulk_power = bulk.volume_m3 > 0 ? bulk.dissipation_w / bulk.volume_m3 : 0.0;
-  state.counters["surface_power"] =
-      bulk_power > 0 ? (cascading.dissipation_w + toe.dissipation_w) / (cascading.volume_m3 + toe.volume_m3) / bulk_power : 0.0;
+  state.counters["surface_power"] = bulk_power > 0
+                                        ? (cascading.dissipation_w + toe.dissipation_w) /
+                                              (cascading.volume_m3 + toe.volume_m3) / bulk_power
+                                        : 0.0;
   state.counters["top_shear_in_surface"] = top_share_in_surface(map.shear_rate, selection, 0.1);
   state.counters["top_power_in_surface"] = top_share_in_surface(map.dissipation, selection, 0.1);
   state.counters["bed_depth_d"] = (surface + radius) / kBall;

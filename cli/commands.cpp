@@ -29,7 +29,7 @@ struct RunFlags {
   int retries = 0;
   std::string executor;  // overrides the campaign's executor.kind
   double poll_interval_s = 10.0;
-  std::string run_dir;   // batch jobs' run directory; default <db>.jobs
+  std::string run_dir;  // batch jobs' run directory; default <db>.jobs
 };
 
 // Runs a command body, turning errors into messages and exit codes.
@@ -58,15 +58,22 @@ void add_db_option(CLI::App* command, std::string& db) {
 void add_run_options(CLI::App* command, RunFlags& flags) {
   add_db_option(command, flags.db);
   command->add_option("--jobs", flags.jobs, "Tasks running at once")->check(CLI::PositiveNumber);
-  command->add_option("--threads-per-task", flags.threads_per_task, "Threads of each task's own arena")
+  command
+      ->add_option("--threads-per-task", flags.threads_per_task, "Threads of each task's own arena")
       ->check(CLI::PositiveNumber);
-  command->add_option("--retries", flags.retries, "Extra attempts of a failing task")->check(CLI::NonNegativeNumber);
-  command->add_option("--executor", flags.executor, "local or slurm (overrides the campaign's executor.kind)")
+  command->add_option("--retries", flags.retries, "Extra attempts of a failing task")
+      ->check(CLI::NonNegativeNumber);
+  command
+      ->add_option("--executor", flags.executor,
+                   "local or slurm (overrides the campaign's executor.kind)")
       ->check(CLI::IsMember({"local", "slurm"}));
-  command->add_option("--poll-interval", flags.poll_interval_s, "Slurm: seconds between polls of the jobs (default 10)")
+  command
+      ->add_option("--poll-interval", flags.poll_interval_s,
+                   "Slurm: seconds between polls of the jobs (default 10)")
       ->check(CLI::PositiveNumber);
-  command->add_option("--run-dir", flags.run_dir,
-                      "Slurm: run directory on a filesystem the compute nodes share (default <db>.jobs)");
+  command->add_option(
+      "--run-dir", flags.run_dir,
+      "Slurm: run directory on a filesystem the compute nodes share (default <db>.jobs)");
 }
 
 // The Slurm executor for this run, or null for the in-process launcher.
@@ -78,7 +85,8 @@ struct BatchJobs {
 BatchJobs batch_jobs(const ExecutorChoice& choice, const RunFlags& flags) {
   if (choice.kind != "slurm") return {};
   engine::SlurmSettings settings = choice.slurm;
-  settings.run_dir = fs::absolute(flags.run_dir.empty() ? engine::jobs_dir(flags.db) : fs::path(flags.run_dir));
+  settings.run_dir =
+      fs::absolute(flags.run_dir.empty() ? engine::jobs_dir(flags.db) : fs::path(flags.run_dir));
   settings.program = fs::read_symlink("/proc/self/exe");
   settings.poll_interval_s = flags.poll_interval_s;
   BatchJobs jobs;
@@ -93,7 +101,8 @@ TableFormat parse_format(const std::string& name) {
   return TableFormat::json;
 }
 
-int run_campaign(const engine::Registry& registry, engine::Campaign campaign, const RunFlags& flags) {
+int run_campaign(const engine::Registry& registry, engine::Campaign campaign,
+                 const RunFlags& flags) {
   const ExecutorChoice choice = choose_executor(campaign.document, flags.executor);
   // The stored document names the executor used, so `resume` goes on with it (and re-attaches).
   if (!flags.executor.empty()) campaign.document["executor"]["kind"] = flags.executor;
@@ -121,8 +130,8 @@ void add_validate(CLI::App& app, const engine::Registry& registry, std::optional
     code = guarded([&] {
       const auto campaign = engine::load_campaign_file(registry, *file);
       const auto tasks = engine::plan_campaign(registry, campaign);
-      std::cout << fmt::format("{}: valid {} campaign \"{}\", {} planned tasks\n", *file, campaign.format, campaign.name,
-                               tasks.size());
+      std::cout << fmt::format("{}: valid {} campaign \"{}\", {} planned tasks\n", *file,
+                               campaign.format, campaign.name, tasks.size());
       return 0;
     });
   });
@@ -135,7 +144,8 @@ void add_submit(CLI::App& app, const engine::Registry& registry, std::optional<i
   auto dry = std::make_shared<bool>(false);
   command->add_option("FILE", *file, "Campaign JSON file")->required();
   add_run_options(command, *flags);
-  command->add_flag("--dry-run", *dry, "Print the DAG size, what is cached and what would run; write nothing");
+  command->add_flag("--dry-run", *dry,
+                    "Print the DAG size, what is cached and what would run; write nothing");
   command->callback([&registry, &code, file, flags, dry] {
     code = guarded([&] {
       const auto campaign = engine::load_campaign_file(registry, *file);
@@ -155,25 +165,31 @@ void add_resume(CLI::App& app, const engine::Registry& registry, std::optional<i
   command->add_option("CAMPAIGN", *name, "Campaign name");
   add_run_options(command, *flags);
   command->callback([&registry, &code, name, flags] {
-    code = guarded([&] { return run_campaign(registry, engine::stored_campaign(flags->db, *name), *flags); });
+    code = guarded(
+        [&] { return run_campaign(registry, engine::stored_campaign(flags->db, *name), *flags); });
   });
 }
 
 void add_exec(CLI::App& app, const engine::Registry& registry, std::optional<int>& code) {
-  auto* command = app.add_subcommand(
-      "exec", "Run one task attempt from a task-spec file (what a batch job runs; never opens the database)");
+  auto* command = app.add_subcommand("exec",
+                                     "Run one task attempt from a task-spec file (what a batch job "
+                                     "runs; never opens the database)");
   command->footer(
-      "Exit codes: 0 done, 1 the task failed, 2 bad spec file, 75 stopped at a checkpoint on SIGUSR1/SIGTERM.");
+      "Exit codes: 0 done, 1 the task failed, 2 bad spec file, 75 stopped at a checkpoint on "
+      "SIGUSR1/SIGTERM.");
   auto file = std::make_shared<std::string>();
   command->add_option("SPEC_FILE", *file, "Task-spec file written by the coordinator")->required();
   command->callback([&registry, &code, file] {
     engine::install_checkpoint_handlers();
-    code = guarded([&] { return engine::execute_attempt(registry.kinds, *file, engine::interrupt_requested, std::cerr); });
+    code = guarded([&] {
+      return engine::execute_attempt(registry.kinds, *file, engine::interrupt_requested, std::cerr);
+    });
   });
 }
 
 void add_status(CLI::App& app, std::optional<int>& code) {
-  auto* command = app.add_subcommand("status", "Campaigns, or one campaign's tasks by kind and status");
+  auto* command =
+      app.add_subcommand("status", "Campaigns, or one campaign's tasks by kind and status");
   auto name = std::make_shared<std::string>();
   auto db = std::make_shared<std::string>("millflow.db");
   command->add_option("CAMPAIGN", *name, "Campaign name");
@@ -191,9 +207,11 @@ void add_query(CLI::App& app, std::optional<int>& code) {
   auto sql = std::make_shared<std::string>();
   auto db = std::make_shared<std::string>("millflow.db");
   auto format = std::make_shared<std::string>("table");
-  command->add_option("SQL", *sql, "SQL statement, e.g. \"SELECT * FROM task_results\"")->required();
+  command->add_option("SQL", *sql, "SQL statement, e.g. \"SELECT * FROM task_results\"")
+      ->required();
   add_db_option(command, *db);
-  command->add_option("--format", *format, "table, csv or json")->check(CLI::IsMember({"table", "csv", "json"}));
+  command->add_option("--format", *format, "table, csv or json")
+      ->check(CLI::IsMember({"table", "csv", "json"}));
   command->callback([&code, sql, db, format] {
     code = guarded([&] {
       engine::run_query(*db, *sql, parse_format(*format), std::cout);
@@ -203,14 +221,17 @@ void add_query(CLI::App& app, std::optional<int>& code) {
 }
 
 void add_export(CLI::App& app, std::optional<int>& code) {
-  auto* command = app.add_subcommand("export", "Write a campaign's parameters and results as CSV or JSON");
+  auto* command =
+      app.add_subcommand("export", "Write a campaign's parameters and results as CSV or JSON");
   auto name = std::make_shared<std::string>();
   auto db = std::make_shared<std::string>("millflow.db");
   auto format = std::make_shared<std::string>();
   auto out = std::make_shared<std::string>();
   command->add_option("CAMPAIGN", *name, "Campaign name")->required();
   add_db_option(command, *db);
-  command->add_option("--format", *format, "csv or json")->required()->check(CLI::IsMember({"csv", "json"}));
+  command->add_option("--format", *format, "csv or json")
+      ->required()
+      ->check(CLI::IsMember({"csv", "json"}));
   command->add_option("--out", *out, "Output directory")->required();
   command->callback([&code, name, db, format, out] {
     code = guarded([&] {
@@ -222,7 +243,8 @@ void add_export(CLI::App& app, std::optional<int>& code) {
   });
 }
 
-void add_task_command(CLI::App& app, std::optional<int>& code, const std::string& name, const std::string& help,
+void add_task_command(CLI::App& app, std::optional<int>& code, const std::string& name,
+                      const std::string& help,
                       void (*print)(const fs::path&, const std::string&, std::ostream&)) {
   auto* command = app.add_subcommand(name, help);
   auto task = std::make_shared<std::string>();
@@ -262,7 +284,8 @@ void add_gc(CLI::App& app, std::optional<int>& code) {
   command->callback([&code, db, dry] {
     code = guarded([&] {
       const auto removed = engine::collect_garbage(*db, *dry);
-      for (const auto& digest : removed) std::cout << (*dry ? "would remove " : "removed ") << digest << '\n';
+      for (const auto& digest : removed)
+        std::cout << (*dry ? "would remove " : "removed ") << digest << '\n';
       std::cout << removed.size() << " unreferenced artifact file(s)\n";
       return 0;
     });
@@ -271,7 +294,8 @@ void add_gc(CLI::App& app, std::optional<int>& code) {
 
 // Copies the finished report task's files of a campaign out of the store.
 void add_report(CLI::App& app, std::optional<int>& code) {
-  auto* command = app.add_subcommand("report", "Copy a campaign's report (figures, tables, index.md) into a directory");
+  auto* command = app.add_subcommand(
+      "report", "Copy a campaign's report (figures, tables, index.md) into a directory");
   auto name = std::make_shared<std::string>();
   auto db = std::make_shared<std::string>("millflow.db");
   auto out = std::make_shared<std::string>("millflow-report");
@@ -283,8 +307,9 @@ void add_report(CLI::App& app, std::optional<int>& code) {
       const std::string campaign = name->empty() ? engine::stored_campaign(*db, "").name : *name;
       const auto reports = engine::finished_task_artifacts(*db, campaign, "report");
       if (reports.empty()) {
-        throw engine::InvalidInput({{"", "campaign \"" + campaign + "\" has no finished report task",
-                                     "run `millflow resume " + campaign + "` until its report task is done"}});
+        throw engine::InvalidInput(
+            {{"", "campaign \"" + campaign + "\" has no finished report task",
+              "run `millflow resume " + campaign + "` until its report task is done"}});
       }
       engine::copy_artifacts(*db, reports.front().artifacts, *out);
       std::cout << (fs::path(*out) / "index.md").string() << '\n';
@@ -295,7 +320,8 @@ void add_report(CLI::App& app, std::optional<int>& code) {
 
 }  // namespace
 
-void add_engine_commands(CLI::App& app, const engine::Registry& registry, std::optional<int>& exit_code) {
+void add_engine_commands(CLI::App& app, const engine::Registry& registry,
+                         std::optional<int>& exit_code) {
   add_validate(app, registry, exit_code);
   add_submit(app, registry, exit_code);
   add_resume(app, registry, exit_code);
@@ -303,8 +329,10 @@ void add_engine_commands(CLI::App& app, const engine::Registry& registry, std::o
   add_status(app, exit_code);
   add_query(app, exit_code);
   add_export(app, exit_code);
-  add_task_command(app, exit_code, "show", "A task's parameters, result, artifacts and lineage", engine::print_show);
-  add_task_command(app, exit_code, "explain", "The hashed text of a task and why it would run", engine::print_explain);
+  add_task_command(app, exit_code, "show", "A task's parameters, result, artifacts and lineage",
+                   engine::print_show);
+  add_task_command(app, exit_code, "explain", "The hashed text of a task and why it would run",
+                   engine::print_explain);
   add_dag(app, exit_code);
   add_gc(app, exit_code);
   add_report(app, exit_code);

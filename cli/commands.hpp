@@ -1,7 +1,8 @@
 #pragma once
 // The engine's subcommands: validate, submit, resume, exec, status, query, export, show, explain,
 // dag, gc. Exit codes: 0 done, 1 some tasks failed (or an unexpected error), 2 bad input, 3 the
-// database is held by another coordinator, 130 interrupted; exec has its own (engine/attempt_files.hpp).
+// database is held by another coordinator, 130 interrupted; exec has its own
+// (engine/attempt_files.hpp).
 #include <CLI/CLI.hpp>
 #include <optional>
 
@@ -10,6 +11,7 @@
 namespace millflow::cli {
 
 // Adds the subcommands; the one that runs stores its exit code in `exit_code`.
-void add_engine_commands(CLI::App& app, const engine::Registry& registry, std::optional<int>& exit_code);
+void add_engine_commands(CLI::App& app, const engine::Registry& registry,
+                         std::optional<int>& exit_code);
 
 }  // namespace millflow::cli

@@ -23,20 +23,23 @@ struct DemoOptions {
 // A 1 m mill slice (4 ball diameters long, periodic ends) with 40 mm steel balls and four lifters.
 dem::MillSetup demo_mill(const DemoOptions& options) {
   dem::MillSetup setup;
-  setup.shell = dem::MillShell{.radius = 0.5,
-                               .length = 0.16,
-                               .lifter_count = 4,
-                               .lifter = dem::LifterProfile{.height = 0.05, .base_width = 0.08, .face_angle_deg = 15.0},
-                               .end_walls = false};
+  setup.shell = dem::MillShell{
+      .radius = 0.5,
+      .length = 0.16,
+      .lifter_count = 4,
+      .lifter = dem::LifterProfile{.height = 0.05, .base_width = 0.08, .face_angle_deg = 15.0},
+      .end_walls = false};
   setup.ball_diameter = 0.04;
   const double ball_mass = 7800.0 * std::numbers::pi * std::pow(0.04, 3) / 6.0;
   const double zeta = dem::damping_ratio_for_restitution(0.3);
-  setup.ball_ball = {.restitution = 0.3,
-                     .friction = 0.75,
-                     .normal_stiffness = dem::stiffness_for_collision_duration(5e-4, ball_mass / 2, zeta)};
-  setup.ball_liner = {.restitution = 0.3,
-                      .friction = 0.75,
-                      .normal_stiffness = dem::stiffness_for_collision_duration(5e-4, ball_mass, zeta)};
+  setup.ball_ball = {
+      .restitution = 0.3,
+      .friction = 0.75,
+      .normal_stiffness = dem::stiffness_for_collision_duration(5e-4, ball_mass / 2, zeta)};
+  setup.ball_liner = {
+      .restitution = 0.3,
+      .friction = 0.75,
+      .normal_stiffness = dem::stiffness_for_collision_duration(5e-4, ball_mass, zeta)};
   setup.fill = options.fill;
   setup.speed_fraction = options.speed_fraction;
   return setup;
@@ -46,14 +49,17 @@ void run_demo(const DemoOptions& options) {
   const dem::MillSetup setup = demo_mill(options);
   dem::System system = dem::build_mill(setup);
   system.set_time_step_from_collisions(20);
-  const double omega = options.speed_fraction * dem::critical_speed(2 * setup.shell.radius, setup.ball_diameter);
+  const double omega =
+      options.speed_fraction * dem::critical_speed(2 * setup.shell.radius, setup.ball_diameter);
   const double revolution = 2 * std::numbers::pi / omega;
   double ball_mass = 0.0;
   for (double m : system.masses()) ball_mass += m;
-  fmt::print("millflow demo: D = 1 m slice of {} m, {} balls of 40 mm ({:.1f} kg), J = {}, {:.0f}% of critical "
-             "({:.2f} rad/s), dt = {:.3g} s\n",
-             setup.shell.length, system.size(), ball_mass, setup.fill, 100 * options.speed_fraction, omega,
-             system.time_step());
+  fmt::print(
+      "millflow demo: D = 1 m slice of {} m, {} balls of 40 mm ({:.1f} kg), J = {}, {:.0f}% of "
+      "critical "
+      "({:.2f} rad/s), dt = {:.3g} s\n",
+      setup.shell.length, system.size(), ball_mass, setup.fill, 100 * options.speed_fraction, omega,
+      system.time_step());
   dem::settle_charge(system, 0.5, 1e-5);
   dem::set_mill_speed(system, omega);
   system.step(static_cast<std::size_t>(0.5 * revolution / system.time_step()));  // spin-up
@@ -64,8 +70,10 @@ void run_demo(const DemoOptions& options) {
     const double start = system.time();
     system.step(static_cast<std::size_t>(revolution / system.time_step()));
     const double power_w = (system.wall_load(0).work - work_start) / (system.time() - start);
-    fmt::print("  revolution {}: power draw {:.3f} kW = {:.2f} kW/m of mill length = {:.2f} kW/t of balls\n", rev + 1,
-               power_w / 1e3, power_w / 1e3 / setup.shell.length, power_w / ball_mass);
+    fmt::print(
+        "  revolution {}: power draw {:.3f} kW = {:.2f} kW/m of mill length = {:.2f} kW/t of "
+        "balls\n",
+        rev + 1, power_w / 1e3, power_w / 1e3 / setup.shell.length, power_w / ball_mass);
   }
 }
 
@@ -73,11 +81,16 @@ void run_demo(const DemoOptions& options) {
 
 void add_demo_command(CLI::App& app) {
   static DemoOptions options;
-  auto* demo = app.add_subcommand("demo", "Run a built-in DEM mill slice (1 m, 40 mm balls) and print its power draw");
-  demo->add_option("--fill", options.fill, "Mill filling J (fraction of mill volume)")->check(CLI::Range(0.05, 0.5));
-  demo->add_option("--speed", options.speed_fraction, "Speed as a fraction of critical speed")->check(CLI::Range(0.1, 1.5));
-  demo->add_option("--revolutions", options.revolutions, "Revolutions to measure")->check(CLI::Range(1.0, 20.0));
-  demo->add_option("--threads", options.threads, "Worker threads (0: all cores)")->check(CLI::Range(0, 256));
+  auto* demo = app.add_subcommand(
+      "demo", "Run a built-in DEM mill slice (1 m, 40 mm balls) and print its power draw");
+  demo->add_option("--fill", options.fill, "Mill filling J (fraction of mill volume)")
+      ->check(CLI::Range(0.05, 0.5));
+  demo->add_option("--speed", options.speed_fraction, "Speed as a fraction of critical speed")
+      ->check(CLI::Range(0.1, 1.5));
+  demo->add_option("--revolutions", options.revolutions, "Revolutions to measure")
+      ->check(CLI::Range(1.0, 20.0));
+  demo->add_option("--threads", options.threads, "Worker threads (0: all cores)")
+      ->check(CLI::Range(0, 256));
   demo->callback([] {
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
     arena.execute([] { run_demo(options); });
@@ -85,6 +98,8 @@ void add_demo_command(CLI::App& app) {
   });
 }
 
-int exit_code() { return g_exit_code; }
+int exit_code() {
+  return g_exit_code;
+}
 
 }  // namespace millflow::cli

@@ -16,11 +16,13 @@ class BlockReader {
   explicit BlockReader(const json& block) : block_(block) {}
 
   void text(const char* name, std::string& into) {
-    if (const json* value = member(name, json::value_t::string, "a string")) into = value->get<std::string>();
+    if (const json* value = member(name, json::value_t::string, "a string"))
+      into = value->get<std::string>();
   }
   void count(const char* name, int& into, int most = std::numeric_limits<int>::max()) {
-    const std::string expected =
-        most == std::numeric_limits<int>::max() ? "a positive integer" : fmt::format("an integer in [1, {}]", most);
+    const std::string expected = most == std::numeric_limits<int>::max()
+                                     ? "a positive integer"
+                                     : fmt::format("an integer in [1, {}]", most);
     const json* value = member(name, json::value_t::number_unsigned, expected);
     if (value == nullptr) return;
     if (value->get<std::int64_t>() < 1 || value->get<std::int64_t>() > most) {
@@ -53,8 +55,9 @@ class BlockReader {
     return &value;
   }
   void wrong(const char* name, const std::string& expected) {
-    errors_.push_back({std::string("/executor/slurm/") + name, "must be " + expected + ", got " +
-                       block_[name].dump(), "fix the campaign file's executor block"});
+    errors_.push_back({std::string("/executor/slurm/") + name,
+                       "must be " + expected + ", got " + block_[name].dump(),
+                       "fix the campaign file's executor block"});
   }
 
   const json& block_;
@@ -66,9 +69,11 @@ class BlockReader {
 ExecutorChoice choose_executor(const json& campaign_document, const std::string& kind_override) {
   ExecutorChoice choice;
   const json executor = campaign_document.value("executor", json::object());
-  choice.kind = kind_override.empty() ? executor.value("kind", std::string("local")) : kind_override;
+  choice.kind =
+      kind_override.empty() ? executor.value("kind", std::string("local")) : kind_override;
   if (choice.kind != "local" && choice.kind != "slurm") {
-    throw engine::InvalidInput({{"/executor/kind", "unknown executor \"" + choice.kind + "\"", "use local or slurm"}});
+    throw engine::InvalidInput(
+        {{"/executor/kind", "unknown executor \"" + choice.kind + "\"", "use local or slurm"}});
   }
   if (!executor.contains("slurm")) return choice;
   BlockReader slurm(executor["slurm"]);
@@ -78,7 +83,8 @@ ExecutorChoice choose_executor(const json& campaign_document, const std::string&
   slurm.text("memory", choice.slurm.memory);
   slurm.count("cpus_per_task", choice.slurm.cpus_per_task);
   slurm.count("max_in_flight", choice.slurm.max_in_flight);
-  slurm.count("checkpoint_signal_s", choice.slurm.checkpoint_signal_s, engine::kSlurmMaxSignalLeadS);
+  slurm.count("checkpoint_signal_s", choice.slurm.checkpoint_signal_s,
+              engine::kSlurmMaxSignalLeadS);
   slurm.count("max_squeue_failures", choice.slurm.max_squeue_failures);
   slurm.texts("extra_args", choice.slurm.extra_args);
   slurm.finish();

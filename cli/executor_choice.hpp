@@ -11,10 +11,12 @@ namespace millflow::cli {
 
 struct ExecutorChoice {
   std::string kind = "local";
-  engine::SlurmSettings slurm;  // the block's settings; run_dir, program and polling are the caller's
+  engine::SlurmSettings
+      slurm;  // the block's settings; run_dir, program and polling are the caller's
 };
 
 // Throws engine::InvalidInput naming a setting of the wrong type.
-ExecutorChoice choose_executor(const nlohmann::json& campaign_document, const std::string& kind_override);
+ExecutorChoice choose_executor(const nlohmann::json& campaign_document,
+                               const std::string& kind_override);
 
 }  // namespace millflow::cli

@@ -82,7 +82,8 @@ template <class T>
 void get_array(BinaryReader& in, std::vector<T>& values, std::size_t count) {
   values = in.get_vector<T>();
   if (values.size() != count) {
-    throw CorruptData(fmt::format("checkpoint: array of {} elements where {} particles were declared", values.size(), count));
+    throw CorruptData(fmt::format(
+        "checkpoint: array of {} elements where {} particles were declared", values.size(), count));
   }
 }
 
@@ -232,10 +233,12 @@ class CheckpointAccess {
     for (std::uint64_t word : s.rng_.state()) out.put(word);
 
     out.put<std::uint64_t>(s.size());
-    for (const auto* array : {&s.position_, &s.velocity_, &s.angular_velocity_, &s.force_, &s.torque_}) {
+    for (const auto* array :
+         {&s.position_, &s.velocity_, &s.angular_velocity_, &s.force_, &s.torque_}) {
       put_vec3s(out, *array);
     }
-    for (const auto* array : {&s.radius_, &s.mass_, &s.inv_mass_, &s.inv_inertia_}) put_array(out, *array);
+    for (const auto* array : {&s.radius_, &s.mass_, &s.inv_mass_, &s.inv_inertia_})
+      put_array(out, *array);
     put_array(out, s.material_);
     put_array(out, s.group_);
 
@@ -305,8 +308,10 @@ class CheckpointAccess {
     s.rng_.set_state(rng_state);
 
     const auto n = in.get<std::uint64_t>();
-    for (auto* array : {&s.position_, &s.velocity_, &s.angular_velocity_, &s.force_, &s.torque_}) get_vec3s(in, *array, n);
-    for (auto* array : {&s.radius_, &s.mass_, &s.inv_mass_, &s.inv_inertia_}) get_array(in, *array, n);
+    for (auto* array : {&s.position_, &s.velocity_, &s.angular_velocity_, &s.force_, &s.torque_})
+      get_vec3s(in, *array, n);
+    for (auto* array : {&s.radius_, &s.mass_, &s.inv_mass_, &s.inv_inertia_})
+      get_array(in, *array, n);
     get_array(in, s.material_, n);
     get_array(in, s.group_, n);
     s.predicted_velocity_ = s.velocity_;
@@ -347,7 +352,8 @@ class CheckpointAccess {
     System::WallSlots& current = s.wall_slots_[0];
     for (std::size_t p = 0; p < n; ++p) {
       current.count[p] = in.get<std::uint8_t>();
-      if (current.count[p] > kMaxWallContactsPerParticle) throw CorruptData("checkpoint: too many wall contacts");
+      if (current.count[p] > kMaxWallContactsPerParticle)
+        throw CorruptData("checkpoint: too many wall contacts");
       for (int c = 0; c < current.count[p]; ++c) {
         WallContactHistory& slot = current.of(p)[c];
         slot.wall = in.get<std::int32_t>();
@@ -375,7 +381,8 @@ class CheckpointAccess {
     std::size_t k = 0;
     for (std::size_t c = 0; c < pairs.size(); ++c) {
       while (k < rebuilt.size() && (rebuilt[k].i != pairs[c].i || rebuilt[k].j != pairs[c].j)) ++k;
-      if (k == rebuilt.size()) throw CorruptData("checkpoint: a touching pair is out of reach of its particles");
+      if (k == rebuilt.size())
+        throw CorruptData("checkpoint: a touching pair is out of reach of its particles");
       s.pair_force_[k] = forces[c];
       s.pair_active_[k] = 1;
     }
@@ -384,12 +391,14 @@ class CheckpointAccess {
   }
 };
 
-std::string checkpoint_payload(const System& system) { return CheckpointAccess::serialise(system); }
+std::string checkpoint_payload(const System& system) {
+  return CheckpointAccess::serialise(system);
+}
 
 System system_from_checkpoint_payload(std::string_view payload, std::uint32_t version) {
   if (version < 1 || version > kCheckpointVersion) {
-    throw CorruptData(fmt::format("checkpoint: system payload version {}, this build reads 1 to {}", version,
-                                  kCheckpointVersion));
+    throw CorruptData(fmt::format("checkpoint: system payload version {}, this build reads 1 to {}",
+                                  version, kCheckpointVersion));
   }
   return CheckpointAccess::deserialise(payload, version);
 }

@@ -14,12 +14,13 @@
 //   random generator state (4 x uint64)
 //   particles: count; then per particle position, velocity, angular velocity, force, torque,
 //              radius, mass, inverse mass, inverse inertia, material (uint32), group (uint32)
-//   groups: count; per group name, velocity, servo axis (int32), servo target, servo mobility, servo max speed,
+//   groups: count; per group name, velocity, servo axis (int32), servo target, servo mobility,
+//   servo max speed,
 //           load (force, torque, power, work)
 //   walls: count; per wall name, material (uint32), shape tag (uint8: 0 plane, 1 mill), then
-//          plane: origin, normal, velocity, servo target, servo mobility, servo max speed; or mill: radius, length,
-//          lifter count (int32), lifter height, base width, face angle, end walls (uint8),
-//          angular velocity, angle; then load (force, torque, power, work)
+//          plane: origin, normal, velocity, servo target, servo mobility, servo max speed; or mill:
+//          radius, length, lifter count (int32), lifter height, base width, face angle, end walls
+//          (uint8), angular velocity, angle; then load (force, torque, power, work)
 //   pair contacts in force: count; per contact i, j (uint32), its history and the force on i
 //                           (the force since version 2: version 1 files restore it as zero, so
 //                           a stress read before the next step misses the pair contacts)

@@ -14,10 +14,12 @@ Vec3 rotate_spring_into_tangent_plane(const Vec3& spring, const Vec3& normal) {
 }
 
 ContactResponse linear_spring_dashpot(const PairParams& params, double effective_mass,
-                                      const ContactGeometry& geometry, const Vec3& spring, double dt) {
+                                      const ContactGeometry& geometry, const Vec3& spring,
+                                      double dt) {
   ContactResponse out;
   const Vec3& n = geometry.normal;
-  const double damping_n = normal_damping_coefficient(params.normal_stiffness, effective_mass, params.damping_ratio);
+  const double damping_n =
+      normal_damping_coefficient(params.normal_stiffness, effective_mass, params.damping_ratio);
   const double damping_t = params.tangential_damping_ratio * damping_n;
 
   const double v_n = geometry.relative_velocity.dot(n);
@@ -39,8 +41,9 @@ ContactResponse linear_spring_dashpot(const PairParams& params, double effective
     out.spring = -tangential_force / params.tangential_stiffness;
     // Work the sliding contact absorbs minus what its spring now stores more than before.
     const Vec3 old_spring = trial_spring - v_t * dt;
-    out.dissipated_friction = -tangential_force.dot(v_t) * dt -
-                              0.5 * params.tangential_stiffness * (out.spring.squaredNorm() - old_spring.squaredNorm());
+    out.dissipated_friction =
+        -tangential_force.dot(v_t) * dt -
+        0.5 * params.tangential_stiffness * (out.spring.squaredNorm() - old_spring.squaredNorm());
   } else {
     tangential_force = trial_force;
     out.spring = trial_spring;

@@ -39,6 +39,7 @@ Vec3 rotate_spring_into_tangent_plane(const Vec3& spring, const Vec3& normal);
 
 // One step of the linear spring-dashpot law with Coulomb friction.
 ContactResponse linear_spring_dashpot(const PairParams& params, double effective_mass,
-                                      const ContactGeometry& geometry, const Vec3& spring, double dt);
+                                      const ContactGeometry& geometry, const Vec3& spring,
+                                      double dt);
 
 }  // namespace millflow::dem

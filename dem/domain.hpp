@@ -61,8 +61,10 @@ class PeriodicImages {
       // Separations shorter than half a box need no image; an axis without images (open, or the
       // Lees-Edwards gradient axis, which goes first) gets an infinite threshold.
       const bool plain_periodic =
-          domain.periodic[axis] && !(domain.lees_edwards.enabled && axis == domain.lees_edwards.gradient_axis);
-      half_length_[axis] = plain_periodic ? 0.5 * len[axis] : std::numeric_limits<double>::infinity();
+          domain.periodic[axis] &&
+          !(domain.lees_edwards.enabled && axis == domain.lees_edwards.gradient_axis);
+      half_length_[axis] =
+          plain_periodic ? 0.5 * len[axis] : std::numeric_limits<double>::infinity();
       wraps_[axis] = plain_periodic;
     }
     lees_edwards_ = domain.lees_edwards.enabled;
@@ -88,7 +90,8 @@ class PeriodicImages {
     }
     for (int axis = 0; axis < 3; ++axis) {
       // Most pairs are well inside half a box, where the division and rounding are skipped.
-      if (!(std::abs(d[axis]) < half_length_[axis])) d[axis] -= std::round(d[axis] / length_[axis]) * length_[axis];
+      if (!(std::abs(d[axis]) < half_length_[axis]))
+        d[axis] -= std::round(d[axis] / length_[axis]) * length_[axis];
     }
     return d;
   }
@@ -103,7 +106,8 @@ class PeriodicImages {
   // Domain::wrap.
   bool wrap(Vec3& position, Vec3& velocity) const {
     bool changed = false;
-    if (lees_edwards_ && !(position[gradient_] >= lo_[gradient_] && position[gradient_] < hi_[gradient_])) {
+    if (lees_edwards_ &&
+        !(position[gradient_] >= lo_[gradient_] && position[gradient_] < hi_[gradient_])) {
       const int g = gradient_, f = flow_;
       const auto cross_gradient_faces = [&](double n) {
         position[g] -= n * length_[g];
@@ -149,6 +153,8 @@ inline Vec3 Domain::separation(const Vec3& a, const Vec3& b, Vec3* velocity_shif
   return d;
 }
 
-inline bool Domain::wrap(Vec3& position, Vec3& velocity) const { return PeriodicImages(*this).wrap(position, velocity); }
+inline bool Domain::wrap(Vec3& position, Vec3& velocity) const {
+  return PeriodicImages(*this).wrap(position, velocity);
+}
 
 }  // namespace millflow::dem

@@ -47,17 +47,22 @@ void visit_arrays(Frame& f, Visit&& visit) {
 
 void check_lengths(const FlowFrame& f) {
   const std::size_t n = f.position.size(), c = f.contact_a.size(), e = f.event_time.size();
-  const bool ok = f.velocity.size() == n && f.angular_velocity.size() == n && f.radius.size() == n &&
-                  f.material.size() == n && f.contact_b.size() == c && f.contact_with_wall.size() == c &&
-                  f.contact_point.size() == c && f.contact_force.size() == c && f.contact_branch.size() == c &&
-                  f.event_point.size() == e && f.event_impact_energy.size() == e && f.event_dissipated.size() == e &&
-                  f.event_category.size() == e && f.event_with_wall.size() == e;
-  if (!ok) throw CorruptData(fmt::format("flow sample: arrays of the frame at t = {} s differ in length", f.time));
+  const bool ok = f.velocity.size() == n && f.angular_velocity.size() == n &&
+                  f.radius.size() == n && f.material.size() == n && f.contact_b.size() == c &&
+                  f.contact_with_wall.size() == c && f.contact_point.size() == c &&
+                  f.contact_force.size() == c && f.contact_branch.size() == c &&
+                  f.event_point.size() == e && f.event_impact_energy.size() == e &&
+                  f.event_dissipated.size() == e && f.event_category.size() == e &&
+                  f.event_with_wall.size() == e;
+  if (!ok)
+    throw CorruptData(
+        fmt::format("flow sample: arrays of the frame at t = {} s differ in length", f.time));
 }
 
 }  // namespace
 
-FlowFrame capture_frame(const System& system, double mill_angle, std::span<const CollisionEvent> events) {
+FlowFrame capture_frame(const System& system, double mill_angle,
+                        std::span<const CollisionEvent> events) {
   FlowFrame frame;
   frame.time = system.time();
   frame.mill_angle = mill_angle;
@@ -111,7 +116,9 @@ std::vector<FlowFrame> read_flow_segment(const std::filesystem::path& path) {
     visit_arrays(frame, [&](auto& array) { get(in, array); });
     check_lengths(frame);
   }
-  if (!in.at_end()) throw CorruptData(fmt::format("flow sample {}: trailing bytes after the last frame", path.string()));
+  if (!in.at_end())
+    throw CorruptData(
+        fmt::format("flow sample {}: trailing bytes after the last frame", path.string()));
   return frames;
 }
 

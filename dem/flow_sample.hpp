@@ -8,13 +8,14 @@
 //   uint64 frame count, then per frame, in this order:
 //     time (f64, s), mill angle (f64, rad; 0 when there is no mill)
 //     particles: each array as uint64 count + data
-//       position, velocity, angular velocity (float32 x 3 each), radius (float32), material (uint32)
+//       position, velocity, angular velocity (float32 x 3 each), radius (float32), material
+//       (uint32)
 //     contacts in force:
 //       a (uint32), b (uint32: particle, or wall index), with_wall (uint8),
 //       point, force on a, branch a -> b (float32 x 3 each)
 //     collisions finished since the previous frame:
-//       time (f64), point (float32 x 3), impact energy (float32, J), dissipated energy (float32, J),
-//       category (uint32, System::category_name), with_wall (uint8)
+//       time (f64), point (float32 x 3), impact energy (float32, J), dissipated energy (float32,
+//       J), category (uint32, System::category_name), with_wall (uint8)
 // Single precision keeps a sample near 100 bytes per particle; it is plenty for averages.
 #include <array>
 #include <cstdint>
@@ -50,7 +51,8 @@ struct FlowFrame {
 };
 
 // The free particles' state and contacts now, and the given finished collisions.
-FlowFrame capture_frame(const System& system, double mill_angle, std::span<const CollisionEvent> events);
+FlowFrame capture_frame(const System& system, double mill_angle,
+                        std::span<const CollisionEvent> events);
 
 // Atomic write (temp file + rename). Throws std::system_error on I/O failure.
 void write_flow_segment(const std::filesystem::path& path, std::span<const FlowFrame> frames);

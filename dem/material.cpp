@@ -13,7 +13,8 @@ double damping_ratio_for_restitution(double restitution) {
   return -log_e / std::sqrt(std::numbers::pi * std::numbers::pi + log_e * log_e);
 }
 
-double normal_damping_coefficient(double normal_stiffness, double effective_mass, double damping_ratio) {
+double normal_damping_coefficient(double normal_stiffness, double effective_mass,
+                                  double damping_ratio) {
   return 2.0 * damping_ratio * std::sqrt(normal_stiffness * effective_mass);
 }
 
@@ -22,12 +23,15 @@ double collision_duration(double normal_stiffness, double effective_mass, double
   return std::numbers::pi / (omega0 * std::sqrt(1.0 - damping_ratio * damping_ratio));
 }
 
-double stiffness_for_collision_duration(double duration, double effective_mass, double damping_ratio) {
-  const double omega0 = std::numbers::pi / (duration * std::sqrt(1.0 - damping_ratio * damping_ratio));
+double stiffness_for_collision_duration(double duration, double effective_mass,
+                                        double damping_ratio) {
+  const double omega0 =
+      std::numbers::pi / (duration * std::sqrt(1.0 - damping_ratio * damping_ratio));
   return effective_mass * omega0 * omega0;
 }
 
-double stable_time_step_limit(double normal_stiffness, double effective_mass, double damping_ratio) {
+double stable_time_step_limit(double normal_stiffness, double effective_mass,
+                              double damping_ratio) {
   const double omega0 = std::sqrt(normal_stiffness / effective_mass);
   return 2.0 / omega0 * (std::sqrt(1.0 + damping_ratio * damping_ratio) - damping_ratio);
 }
@@ -42,7 +46,9 @@ PairParams derive_pair_params(const InteractionSpec& spec, const std::string& pa
     throw std::invalid_argument(fmt::format("interaction {}: {}", pair_name, what));
   };
   if (!(spec.restitution > 0.0 && spec.restitution <= 1.0)) {
-    fail(fmt::format("restitution = {} is outside (0, 1]; give the ratio of rebound to impact normal speed", spec.restitution));
+    fail(fmt::format(
+        "restitution = {} is outside (0, 1]; give the ratio of rebound to impact normal speed",
+        spec.restitution));
   }
   if (!(spec.friction >= 0.0) || !std::isfinite(spec.friction)) {
     fail(fmt::format("friction = {} must be a finite number >= 0", spec.friction));
@@ -51,10 +57,12 @@ PairParams derive_pair_params(const InteractionSpec& spec, const std::string& pa
     fail(fmt::format("normal stiffness = {} N/m must be > 0", spec.normal_stiffness));
   }
   if (!(spec.tangential_stiffness_ratio > 0.0 && spec.tangential_stiffness_ratio <= 1.0)) {
-    fail(fmt::format("tangential stiffness ratio = {} is outside (0, 1]; 2/7 is usual for spheres", spec.tangential_stiffness_ratio));
+    fail(fmt::format("tangential stiffness ratio = {} is outside (0, 1]; 2/7 is usual for spheres",
+                     spec.tangential_stiffness_ratio));
   }
   if (!(spec.tangential_damping_ratio >= 0.0 && spec.tangential_damping_ratio <= 1.0)) {
-    fail(fmt::format("tangential damping ratio = {} is outside [0, 1]", spec.tangential_damping_ratio));
+    fail(fmt::format("tangential damping ratio = {} is outside [0, 1]",
+                     spec.tangential_damping_ratio));
   }
   return PairParams{.normal_stiffness = spec.normal_stiffness,
                     .tangential_stiffness = spec.tangential_stiffness_ratio * spec.normal_stiffness,
@@ -71,7 +79,8 @@ MaterialId MaterialTable::add(const Material& material) {
     }
   }
   if (!(material.density > 0.0) || !std::isfinite(material.density)) {
-    throw std::invalid_argument(fmt::format("material '{}': density = {} kg/m^3 must be > 0", material.name, material.density));
+    throw std::invalid_argument(fmt::format("material '{}': density = {} kg/m^3 must be > 0",
+                                            material.name, material.density));
   }
   const std::size_t old_size = materials_.size();
   materials_.push_back(material);
@@ -98,7 +107,8 @@ void MaterialTable::grow_pair_table(std::size_t old_size) {
 
 void MaterialTable::set_interaction(MaterialId a, MaterialId b, const InteractionSpec& spec) {
   if (a >= size() || b >= size()) {
-    throw std::invalid_argument(fmt::format("interaction: material id {} or {} is not defined ({} materials)", a, b, size()));
+    throw std::invalid_argument(fmt::format(
+        "interaction: material id {} or {} is not defined ({} materials)", a, b, size()));
   }
   const PairParams params = derive_pair_params(spec, pair_name(a, b));
   pairs_[index(a, b)] = pairs_[index(b, a)] = params;

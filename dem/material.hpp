@@ -41,13 +41,15 @@ struct PairParams {
 double damping_ratio_for_restitution(double restitution);
 
 // C_n = 2 zeta sqrt(k_n m_eff).
-double normal_damping_coefficient(double normal_stiffness, double effective_mass, double damping_ratio);
+double normal_damping_coefficient(double normal_stiffness, double effective_mass,
+                                  double damping_ratio);
 
 // Contact duration t_c = pi / (omega_0 sqrt(1 - zeta^2)), omega_0 = sqrt(k_n / m_eff).
 double collision_duration(double normal_stiffness, double effective_mass, double damping_ratio);
 
 // The k_n that gives contact duration t_c for a pair of effective mass m_eff.
-double stiffness_for_collision_duration(double duration, double effective_mass, double damping_ratio);
+double stiffness_for_collision_duration(double duration, double effective_mass,
+                                        double damping_ratio);
 
 // Largest stable explicit time step for a damped linear spring:
 // dt_max = (2 / omega_0) (sqrt(1 + zeta^2) - zeta).
@@ -72,7 +74,9 @@ class MaterialTable {
   MaterialId find(const std::string& name) const;  // throws if unknown
   bool has_interaction(MaterialId a, MaterialId b) const;
   const PairParams& pair(MaterialId a, MaterialId b) const { return pairs_[index(a, b)]; }
-  const InteractionSpec& interaction(MaterialId a, MaterialId b) const { return specs_[index(a, b)]; }
+  const InteractionSpec& interaction(MaterialId a, MaterialId b) const {
+    return specs_[index(a, b)];
+  }
   std::string pair_name(MaterialId a, MaterialId b) const;
 
  private:
@@ -80,7 +84,7 @@ class MaterialTable {
   void grow_pair_table(std::size_t old_size);
 
   std::vector<Material> materials_;
-  std::vector<PairParams> pairs_;  // size() x size(), symmetric
+  std::vector<PairParams> pairs_;       // size() x size(), symmetric
   std::vector<InteractionSpec> specs_;  // what pairs_ was derived from
   std::vector<char> defined_;
 };

@@ -27,10 +27,10 @@ struct MillSetup {
   Material liner{"liner", 7800.0};
   InteractionSpec ball_ball;
   InteractionSpec ball_liner;
-  double fill = 0.3;            // J: bed volume at rest (packing `packing`) / free mill volume
-  double packing = 0.6;         // solid fraction of the bed at rest
-  double speed_fraction = 0.75; // of critical speed
-  double gravity = 9.81;        // along -y
+  double fill = 0.3;             // J: bed volume at rest (packing `packing`) / free mill volume
+  double packing = 0.6;          // solid fraction of the bed at rest
+  double speed_fraction = 0.75;  // of critical speed
+  double gravity = 9.81;         // along -y
   std::uint64_t seed = 1;
 };
 
@@ -51,10 +51,10 @@ double mean_ball_diameter(const MillSetup& setup);
 // volume fraction), rounded to whole balls.
 std::vector<std::size_t> balls_per_class(const MillSetup& setup);
 
-// Balls on a jittered close-packed lattice (dem/packing.hpp, spaced 1.1 x the largest size), lowest first, sizes shuffled so the
-// classes start mixed; the shell at rest (angular velocity 0): settle the bed with
-// settle_charge(), then set_mill_speed() to run. Wall 0 is the shell. When the media and liner
-// materials have the same name, the liner's material is named "<name>_liner".
+// Balls on a jittered close-packed lattice (dem/packing.hpp, spaced 1.1 x the largest size), lowest
+// first, sizes shuffled so the classes start mixed; the shell at rest (angular velocity 0): settle
+// the bed with settle_charge(), then set_mill_speed() to run. Wall 0 is the shell. When the media
+// and liner materials have the same name, the liner's material is named "<name>_liner".
 System build_mill(const MillSetup& setup);
 
 // Steps until the charge's kinetic energy per ball falls below `kinetic_per_ball` J or

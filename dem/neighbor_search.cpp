@@ -290,7 +290,8 @@ bool NeighborSearch::needs_rebuild(const Domain& domain, std::span<const Vec3> p
       tbb::blocked_range<std::size_t>(0, positions.size(), 1024), 0.0,
       [&](const tbb::blocked_range<std::size_t>& range, double running) {
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
-          running = std::max(running, domain.separation(reference_positions_[i], positions[i]).squaredNorm());
+          running = std::max(
+              running, domain.separation(reference_positions_[i], positions[i]).squaredNorm());
         }
         return running;
       },

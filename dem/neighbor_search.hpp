@@ -51,9 +51,11 @@ class NeighborSearch {
   // 2 * (max minimum-image displacement since build) + |change of the Lees-Edwards offset since
   // build, taken modulo L_flow to its smallest magnitude| >= skin.
   bool needs_rebuild(const Domain& domain, std::span<const Vec3> positions) const;
-  // The same decision from the caller's own max over i of |domain.separation(reference_positions()[i],
-  // x_i)|^2, so that it can ride along another pass over the particles.
-  bool needs_rebuild(const Domain& domain, std::size_t particle_count, double max_displacement_sq) const;
+  // The same decision from the caller's own max over i of
+  // |domain.separation(reference_positions()[i], x_i)|^2, so that it can ride along another pass
+  // over the particles.
+  bool needs_rebuild(const Domain& domain, std::size_t particle_count,
+                     double max_displacement_sq) const;
   // Positions at the last build (empty before the first).
   std::span<const Vec3> reference_positions() const { return reference_positions_; }
   // Forces a rebuild at the next needs_rebuild (after the box itself changed).

@@ -17,7 +17,8 @@ struct Layer {
   int stacking = 0;
 };
 
-std::vector<Layer> axial_layers(const MillShell& mill, double radius, double clearance, double spacing) {
+std::vector<Layer> axial_layers(const MillShell& mill, double radius, double clearance,
+                                double spacing) {
   const double min_gap = spacing * std::sqrt(2.0 / 3.0);
   std::vector<Layer> layers;
   if (mill.end_walls) {
@@ -25,13 +26,15 @@ std::vector<Layer> axial_layers(const MillShell& mill, double radius, double cle
     if (span < 0.0) return layers;
     const int gaps = static_cast<int>(std::floor(span / min_gap));
     for (int k = 0; k <= gaps; ++k) {
-      layers.push_back({.z = gaps > 0 ? first + k * span / gaps : 0.5 * mill.length, .stacking = k % 2});
+      layers.push_back(
+          {.z = gaps > 0 ? first + k * span / gaps : 0.5 * mill.length, .stacking = k % 2});
     }
     return layers;
   }
   if (mill.length < spacing) {
-    throw std::invalid_argument(fmt::format(
-        "a periodic mill slice of length {} m is shorter than the lattice spacing {} m", mill.length, spacing));
+    throw std::invalid_argument(
+        fmt::format("a periodic mill slice of length {} m is shorter than the lattice spacing {} m",
+                    mill.length, spacing));
   }
   const int count = std::max(1, static_cast<int>(std::floor(mill.length / min_gap)));
   const double gap = mill.length / count;
@@ -45,10 +48,11 @@ std::vector<Layer> axial_layers(const MillShell& mill, double radius, double cle
 
 }  // namespace
 
-std::vector<Vec3> mill_lattice_sites(const MillShell& mill, double theta, double radius, double spacing,
-                                     const Vec3& down, double jitter, Rng& rng) {
+std::vector<Vec3> mill_lattice_sites(const MillShell& mill, double theta, double radius,
+                                     double spacing, const Vec3& down, double jitter, Rng& rng) {
   if (!(spacing >= 2.0 * radius)) {
-    throw std::invalid_argument(fmt::format("lattice spacing {} m is smaller than the ball diameter {} m", spacing, 2 * radius));
+    throw std::invalid_argument(fmt::format(
+        "lattice spacing {} m is smaller than the ball diameter {} m", spacing, 2 * radius));
   }
   const double clearance = 0.5 * (spacing - 2.0 * radius) * std::clamp(jitter, 0.0, 1.0);
   const double row_gap = spacing * std::sqrt(3.0) / 2.0;
@@ -57,7 +61,8 @@ std::vector<Vec3> mill_lattice_sites(const MillShell& mill, double theta, double
   std::vector<Vec3> sites;
   for (const Layer& layer : axial_layers(mill, radius, clearance, spacing)) {
     // Stacking s shifts the layer by s x (spacing / 2, spacing / (2 sqrt 3)): onto the hollows.
-    const double shift_x = 0.5 * spacing * layer.stacking, shift_y = spacing / (2.0 * std::sqrt(3.0)) * layer.stacking;
+    const double shift_x = 0.5 * spacing * layer.stacking,
+                 shift_y = spacing / (2.0 * std::sqrt(3.0)) * layer.stacking;
     for (int j = -n_rows; j <= n_rows; ++j) {
       const double row_shift = (j % 2 == 0) ? 0.0 : 0.5 * spacing;
       for (int i = -n_columns; i <= n_columns; ++i) {
@@ -66,9 +71,11 @@ std::vector<Vec3> mill_lattice_sites(const MillShell& mill, double theta, double
       }
     }
   }
-  std::stable_sort(sites.begin(), sites.end(), [&](const Vec3& a, const Vec3& b) { return a.dot(down) > b.dot(down); });
+  std::stable_sort(sites.begin(), sites.end(),
+                   [&](const Vec3& a, const Vec3& b) { return a.dot(down) > b.dot(down); });
   for (Vec3& site : sites) {
-    site += clearance * Vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)) / std::sqrt(3.0);
+    site += clearance * Vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)) /
+            std::sqrt(3.0);
   }
   return sites;
 }

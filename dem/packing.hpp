@@ -21,11 +21,12 @@ namespace millflow::dem {
 // periodic boundary. Sites are jittered by up to `jitter` x (spacing - 2 radius) / 2 so the
 // packing is not a perfect crystal; they never overlap. Throws std::invalid_argument when
 // spacing < 2 radius, or when a periodic mill is shorter than `spacing`.
-std::vector<Vec3> mill_lattice_sites(const MillShell& mill, double theta, double radius, double spacing,
-                                     const Vec3& down, double jitter, Rng& rng);
+std::vector<Vec3> mill_lattice_sites(const MillShell& mill, double theta, double radius,
+                                     double spacing, const Vec3& down, double jitter, Rng& rng);
 
 // Number of balls of diameter d whose bed, at packing fraction `packing`, fills a fraction
 // `fill` of the mill's free volume: the charge filling level J of comminution practice.
-std::size_t balls_for_fill(const MillShell& mill, double fill, double diameter, double packing = 0.6);
+std::size_t balls_for_fill(const MillShell& mill, double fill, double diameter,
+                           double packing = 0.6);
 
 }  // namespace millflow::dem

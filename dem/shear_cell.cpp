@@ -58,7 +58,9 @@ constexpr double kBarostatMaxDilation = 0.05;
 // Random sequential addition gives up after this many failed tries per particle.
 constexpr int kInsertionTries = 20000;
 
-double sphere_volume(double diameter) { return std::numbers::pi / 6.0 * diameter * diameter * diameter; }
+double sphere_volume(double diameter) {
+  return std::numbers::pi / 6.0 * diameter * diameter * diameter;
+}
 
 void require(bool ok, const std::string& message) {
   if (!ok) throw std::invalid_argument("shear cell: " + message);
@@ -68,9 +70,11 @@ void require(bool ok, const std::string& message) {
 // clamp. Cells are one member diameter wide.
 class InsertionGrid {
  public:
-  InsertionGrid(const Domain& domain, double member_radius) : domain_(domain), radius_(member_radius) {
+  InsertionGrid(const Domain& domain, double member_radius)
+      : domain_(domain), radius_(member_radius) {
     for (int a = 0; a < 3; ++a) {
-      cells_[a] = std::max(1, static_cast<int>(std::floor(domain.length()[a] / (2.0 * member_radius))));
+      cells_[a] =
+          std::max(1, static_cast<int>(std::floor(domain.length()[a] / (2.0 * member_radius))));
       cell_size_[a] = domain.length()[a] / cells_[a];
     }
     members_.resize(static_cast<std::size_t>(cells_[0]) * cells_[1] * cells_[2]);
@@ -104,7 +108,8 @@ class InsertionGrid {
     std::array<int, 3> c{};
     for (int a = 0; a < 3; ++a) {
       const int u = static_cast<int>(std::floor((x[a] - domain_.lo[a]) / cell_size_[a]));
-      c[a] = domain_.periodic[a] ? ((u % cells_[a]) + cells_[a]) % cells_[a] : std::clamp(u, 0, cells_[a] - 1);
+      c[a] = domain_.periodic[a] ? ((u % cells_[a]) + cells_[a]) % cells_[a]
+                                 : std::clamp(u, 0, cells_[a] - 1);
     }
     return c;
   }
@@ -139,26 +144,31 @@ class InsertionGrid {
   std::vector<Vec3> positions_;
 };
 
-double nominal_gap(const ShearCellSetup& s) { return s.size_diameters.y() * s.media_diameter; }
+double nominal_gap(const ShearCellSetup& s) {
+  return s.size_diameters.y() * s.media_diameter;
+}
 double cell_area(const ShearCellSetup& s) {
   return s.size_diameters.x() * s.size_diameters.z() * s.media_diameter * s.media_diameter;
 }
-double powder_diameter(const ShearCellSetup& s) { return s.powder_diameter_ratio * s.media_diameter; }
+double powder_diameter(const ShearCellSetup& s) {
+  return s.powder_diameter_ratio * s.media_diameter;
+}
 
 std::size_t media_count_for(const ShearCellSetup& s) {
-  return static_cast<std::size_t>(
-      std::llround(s.media_solid_fraction * cell_area(s) * nominal_gap(s) / sphere_volume(s.media_diameter)));
+  return static_cast<std::size_t>(std::llround(s.media_solid_fraction * cell_area(s) *
+                                               nominal_gap(s) / sphere_volume(s.media_diameter)));
 }
 
 std::size_t powder_count_for(const ShearCellSetup& s) {
-  const double solid = s.powder_load * (1.0 - s.media_solid_fraction) * cell_area(s) * nominal_gap(s) *
-                       s.powder_bed_solid_fraction;
+  const double solid = s.powder_load * (1.0 - s.media_solid_fraction) * cell_area(s) *
+                       nominal_gap(s) * s.powder_bed_solid_fraction;
   return static_cast<std::size_t>(std::llround(solid / sphere_volume(powder_diameter(s))));
 }
 
 // Height of the particle bed when it is filled at kPlacementSolidFraction.
 double placement_height(const ShearCellSetup& s) {
-  const double solid = s.media_solid_fraction + s.powder_load * (1.0 - s.media_solid_fraction) * s.powder_bed_solid_fraction;
+  const double solid = s.media_solid_fraction +
+                       s.powder_load * (1.0 - s.media_solid_fraction) * s.powder_bed_solid_fraction;
   return std::max(1.0, solid / kPlacementSolidFraction) * nominal_gap(s);
 }
 
@@ -188,7 +198,10 @@ Domain make_domain(const ShearCellSetup& s) {
     // Filled tall and loose; the barostat compresses it.
     domain.hi = Vec3(s.size_diameters.x() * d, placement_height(s), s.size_diameters.z() * d);
     domain.periodic = {true, true, true};
-    domain.lees_edwards = LeesEdwards{.enabled = true, .flow_axis = 0, .gradient_axis = 1, .offset = 0.0,
+    domain.lees_edwards = LeesEdwards{.enabled = true,
+                                      .flow_axis = 0,
+                                      .gradient_axis = 1,
+                                      .offset = 0.0,
                                       .velocity = s.shear_rate * domain.hi.y()};
     return domain;
   }
@@ -212,12 +225,15 @@ void validate(const ShearCellSetup& s) {
   require(s.powder_diameter_ratio > 0.0 && s.powder_diameter_ratio <= 1.0,
           fmt::format("powder diameter ratio = {} must be in (0, 1]", s.powder_diameter_ratio));
   require(s.powder_load >= 0.0 && s.powder_load <= 3.0,
-          fmt::format("powder load = {} must be in [0, 3] (fraction of the media bed's voids)", s.powder_load));
+          fmt::format("powder load = {} must be in [0, 3] (fraction of the media bed's voids)",
+                      s.powder_load));
   require(s.powder_bed_solid_fraction > 0.0 && s.powder_bed_solid_fraction < 0.75,
-          fmt::format("powder bed solid fraction = {} must be in (0, 0.75)", s.powder_bed_solid_fraction));
+          fmt::format("powder bed solid fraction = {} must be in (0, 0.75)",
+                      s.powder_bed_solid_fraction));
   for (int a = 0; a < 3; ++a) {
     require(s.size_diameters[a] >= 3.0 && std::isfinite(s.size_diameters[a]),
-            fmt::format("cell size along axis {} = {} media diameters must be >= 3", a, s.size_diameters[a]));
+            fmt::format("cell size along axis {} = {} media diameters must be >= 3", a,
+                        s.size_diameters[a]));
   }
   require(s.shear_rate > 0.0 && std::isfinite(s.shear_rate),
           fmt::format("shear rate = {} 1/s must be > 0", s.shear_rate));
@@ -227,18 +243,21 @@ void validate(const ShearCellSetup& s) {
           fmt::format("servo gain = {} must be in (0, 1]; 0.5 is a good start", s.servo_gain));
   require(s.media_solid_fraction > 0.05 && s.media_solid_fraction < 0.64,
           fmt::format("media solid fraction = {} must be in (0.05, 0.64)", s.media_solid_fraction));
-  require(s.steps_per_collision >= 10,
-          fmt::format("steps per collision = {} must be >= 10 (20 is usual)", s.steps_per_collision));
+  require(
+      s.steps_per_collision >= 10,
+      fmt::format("steps per collision = {} must be >= 10 (20 is usual)", s.steps_per_collision));
   require(!(s.gravity && s.boundary == ShearCellSetup::Boundary::LeesEdwards),
-          "gravity needs walls: a Lees-Edwards cell is periodic along the gradient axis; turn gravity off");
+          "gravity needs walls: a Lees-Edwards cell is periodic along the gradient axis; turn "
+          "gravity off");
 }
 
-double size_scaled_stiffness(double reference_stiffness, double reference_diameter, double diameter_a,
-                             double diameter_b) {
-  if (!(reference_stiffness > 0.0) || !(reference_diameter > 0.0) || !(diameter_a > 0.0) || !(diameter_b > 0.0)) {
+double size_scaled_stiffness(double reference_stiffness, double reference_diameter,
+                             double diameter_a, double diameter_b) {
+  if (!(reference_stiffness > 0.0) || !(reference_diameter > 0.0) || !(diameter_a > 0.0) ||
+      !(diameter_b > 0.0)) {
     throw std::invalid_argument(fmt::format(
-        "size_scaled_stiffness: stiffness {} N/m and diameters {}, {}, {} m must all be > 0", reference_stiffness,
-        reference_diameter, diameter_a, diameter_b));
+        "size_scaled_stiffness: stiffness {} N/m and diameters {}, {}, {} m must all be > 0",
+        reference_stiffness, reference_diameter, diameter_a, diameter_b));
   }
   const double effective_diameter = 2.0 * diameter_a * diameter_b / (diameter_a + diameter_b);
   return reference_stiffness * effective_diameter / reference_diameter;
@@ -246,18 +265,24 @@ double size_scaled_stiffness(double reference_stiffness, double reference_diamet
 
 std::string contact_type_name(ContactType type) {
   switch (type) {
-    case ContactType::MediaMedia: return "media-media";
-    case ContactType::MediaPowder: return "media-powder";
-    case ContactType::PowderPowder: return "powder-powder";
-    case ContactType::WallMedia: return "wall-media";
-    case ContactType::WallPowder: return "wall-powder";
+    case ContactType::MediaMedia:
+      return "media-media";
+    case ContactType::MediaPowder:
+      return "media-powder";
+    case ContactType::PowderPowder:
+      return "powder-powder";
+    case ContactType::WallMedia:
+      return "wall-media";
+    case ContactType::WallPowder:
+      return "wall-powder";
   }
   return "unknown";
 }
 
 ShearCell::ShearCell(const ShearCellSetup& setup)
     : setup_(checked(setup)),
-      system_(make_materials(setup), make_domain(setup), setup.gravity ? Vec3(0.0, -9.81, 0.0) : Vec3::Zero()) {
+      system_(make_materials(setup), make_domain(setup),
+              setup.gravity ? Vec3(0.0, -9.81, 0.0) : Vec3::Zero()) {
   const double d = setup_.media_diameter;
   media_count_ = media_count_for(setup_);
   powder_count_ = powder_count_for(setup_);
@@ -281,7 +306,8 @@ ShearCell::ShearCell(const ShearCellSetup& setup)
   configure_stress_control();
 }
 
-ShearCell::ShearCell(const ShearCellSetup& setup, System system) : setup_(checked(setup)), system_(std::move(system)) {
+ShearCell::ShearCell(const ShearCellSetup& setup, System system)
+    : setup_(checked(setup)), system_(std::move(system)) {
   if (walls()) {
     bottom_ = 1;  // the groups the fresh cell added first
     top_ = 2;
@@ -298,7 +324,8 @@ void ShearCell::place_wall_layer(GroupId group, double y) {
     for (int k = 0; k < nz; ++k) {
       const double height = y + kWallBallJitter * d * system_.rng().uniform(-1.0, 1.0);
       const Vec3 x((i + 0.5) * length.x() / nx, height, (k + 0.5) * length.z() / nz);
-      system_.add_particle({.position = x, .radius = 0.5 * d, .material = wall_material_, .group = group});
+      system_.add_particle(
+          {.position = x, .radius = 0.5 * d, .material = wall_material_, .group = group});
       ++wall_ball_count_;
     }
   }
@@ -311,12 +338,15 @@ void ShearCell::place_media_dilute(double gap0) {
   Rng& rng = system_.rng();
   for (std::size_t n = 0; n < media_count_; ++n) {
     for (int attempt = 0;; ++attempt) {
-      require(attempt < kInsertionTries,
-              fmt::format("could not place media ball {} of {} without overlaps; lower media_solid_fraction",
-                          n, media_count_));
+      require(
+          attempt < kInsertionTries,
+          fmt::format(
+              "could not place media ball {} of {} without overlaps; lower media_solid_fraction", n,
+              media_count_));
       // Centres at least r above the highest wall ball's top and below the lowest of the top layer.
       const double clear = (0.5 + kWallBallJitter) * setup_.media_diameter + r;
-      const Vec3 x(rng.uniform(lo.x(), hi.x()), rng.uniform(clear, gap0 - clear), rng.uniform(lo.z(), hi.z()));
+      const Vec3 x(rng.uniform(lo.x(), hi.x()), rng.uniform(clear, gap0 - clear),
+                   rng.uniform(lo.z(), hi.z()));
       if (grid.overlaps(x, r)) continue;
       grid.insert(x);
       system_.add_particle({.position = x, .radius = r, .material = media_});
@@ -331,32 +361,40 @@ void ShearCell::place_media_lattice() {
   const double d = setup_.media_diameter;
   const Vec3 length = system_.domain().length();
   std::array<int, 3> cells{};
-  for (int a = 0; a < 3; ++a) cells[a] = static_cast<int>(std::floor(length[a] / (std::numbers::sqrt2 * d * 1.001)));
+  for (int a = 0; a < 3; ++a)
+    cells[a] = static_cast<int>(std::floor(length[a] / (std::numbers::sqrt2 * d * 1.001)));
   std::vector<Vec3> sites;
-  const std::array<Vec3, 4> basis{Vec3(0, 0, 0), Vec3(0.5, 0.5, 0), Vec3(0.5, 0, 0.5), Vec3(0, 0.5, 0.5)};
+  const std::array<Vec3, 4> basis{Vec3(0, 0, 0), Vec3(0.5, 0.5, 0), Vec3(0.5, 0, 0.5),
+                                  Vec3(0, 0.5, 0.5)};
   for (int i = 0; i < cells[0]; ++i) {
     for (int j = 0; j < cells[1]; ++j) {
       for (int k = 0; k < cells[2]; ++k) {
         for (const Vec3& b : basis) {
           const Vec3 unit = (Vec3(i, j, k) + b + Vec3::Constant(0.25));
-          sites.push_back(system_.domain().lo + Vec3(unit.x() * length.x() / cells[0], unit.y() * length.y() / cells[1],
+          sites.push_back(system_.domain().lo + Vec3(unit.x() * length.x() / cells[0],
+                                                     unit.y() * length.y() / cells[1],
                                                      unit.z() * length.z() / cells[2]));
         }
       }
     }
   }
   require(sites.size() >= media_count_,
-          fmt::format("a Lees-Edwards cell of {} x {} x {} media diameters holds at most {} media balls on its FCC "
-                      "lattice, {} are needed for media_solid_fraction {}; lower it or enlarge the cell",
-                      setup_.size_diameters.x(), setup_.size_diameters.y(), setup_.size_diameters.z(), sites.size(),
-                      media_count_, setup_.media_solid_fraction));
+          fmt::format(
+              "a Lees-Edwards cell of {} x {} x {} media diameters holds at most {} media balls on "
+              "its FCC "
+              "lattice, {} are needed for media_solid_fraction {}; lower it or enlarge the cell",
+              setup_.size_diameters.x(), setup_.size_diameters.y(), setup_.size_diameters.z(),
+              sites.size(), media_count_, setup_.media_solid_fraction));
   Rng& rng = system_.rng();
   for (std::size_t n = 0; n < media_count_; ++n) {  // partial Fisher-Yates shuffle
-    const std::size_t pick = n + static_cast<std::size_t>(rng.uniform() * static_cast<double>(sites.size() - n));
+    const std::size_t pick =
+        n + static_cast<std::size_t>(rng.uniform() * static_cast<double>(sites.size() - n));
     std::swap(sites[n], sites[pick]);
     const double y_mid = system_.domain().lo.y() + 0.5 * length.y();
-    const Vec3 velocity(setup_.shear_rate * (sites[n].y() - y_mid), 0.0, 0.0);  // the imposed profile
-    system_.add_particle({.position = sites[n], .velocity = velocity, .radius = 0.5 * d, .material = media_});
+    const Vec3 velocity(setup_.shear_rate * (sites[n].y() - y_mid), 0.0,
+                        0.0);  // the imposed profile
+    system_.add_particle(
+        {.position = sites[n], .velocity = velocity, .radius = 0.5 * d, .material = media_});
   }
 }
 
@@ -374,8 +412,9 @@ void ShearCell::place_powder(double y_lo, double y_hi) {
   for (std::size_t n = 0; n < powder_count_; ++n) {
     for (int attempt = 0;; ++attempt) {
       require(attempt < kInsertionTries,
-              fmt::format("could not place powder particle {} of {} without overlaps; lower powder_load", n,
-                          powder_count_));
+              fmt::format(
+                  "could not place powder particle {} of {} without overlaps; lower powder_load", n,
+                  powder_count_));
       const double y = periodic_y ? rng.uniform(y_lo, y_hi) : rng.uniform(y_lo + r, y_hi - r);
       const Vec3 x(rng.uniform(lo.x(), hi.x()), y, rng.uniform(lo.z(), hi.z()));
       if (media_grid.overlaps(x, r) || powder_grid.overlaps(x, r)) continue;
@@ -392,7 +431,8 @@ void ShearCell::derive_stress_control_constants() {
   const double d = setup_.media_diameter, gap = nominal_gap(setup_);
   const PairParams& media = system_.materials().pair(media_, media_);
   const double media_mass = setup_.media.density * sphere_volume(d);
-  const double t_c = collision_duration(media.normal_stiffness, 0.5 * media_mass, media.damping_ratio);
+  const double t_c =
+      collision_duration(media.normal_stiffness, 0.5 * media_mass, media.damping_ratio);
   crossing_time_ = (gap / d) * t_c;
   servo_max_speed_ = setup_.servo_gain * d / crossing_time_;
   if (!walls()) {
@@ -406,8 +446,8 @@ void ShearCell::derive_stress_control_constants() {
 void ShearCell::configure_stress_control() {
   derive_stress_control_constants();
   if (!walls()) {
-    spdlog::debug("shear cell: barostat every {} steps, time constant {:.4g} s, at most {:.4g} m/s", barostat_every_,
-                  crossing_time_ / setup_.servo_gain, servo_max_speed_);
+    spdlog::debug("shear cell: barostat every {} steps, time constant {:.4g} s, at most {:.4g} m/s",
+                  barostat_every_, crossing_time_ / setup_.servo_gain, servo_max_speed_);
     return;
   }
   KinematicGroup& top = system_.group(top_);
@@ -430,7 +470,8 @@ void ShearCell::compact() {
       if (last_barostat_stress_ >= 0.5 * setup_.normal_stress) break;
     }
     barostat_at_speed_limit_ = false;
-    spdlog::debug("shear cell: compacted in {:.4g} s to a height of {:.4g} m", system_.time(), gap());
+    spdlog::debug("shear cell: compacted in {:.4g} s to a height of {:.4g} m", system_.time(),
+                  gap());
     return;
   }
   // The linear law moves a wall that touches nothing at only M F_target (the tiny compression
@@ -439,7 +480,8 @@ void ShearCell::compact() {
   // half the target over one crossing time, then hand over to the servo's own mobility.
   KinematicGroup& top = system_.group(top_);
   top.servo_mobility = servo_max_speed_ / std::abs(top.servo_target_force);
-  const std::size_t chunk = std::max<std::size_t>(1, static_cast<std::size_t>(crossing_time_ / system_.time_step()));
+  const std::size_t chunk =
+      std::max<std::size_t>(1, static_cast<std::size_t>(crossing_time_ / system_.time_step()));
   while (system_.time() < limit) {
     double stress = 0.0;
     for (std::size_t s = 0; s < chunk; ++s) {
@@ -460,7 +502,9 @@ void ShearCell::set_wall_speed(double speed) {
   }
 }
 
-double ShearCell::wall_area() const { return cell_area(setup_); }
+double ShearCell::wall_area() const {
+  return cell_area(setup_);
+}
 
 double ShearCell::gap() const {
   if (!walls()) return system_.domain().length().y();
@@ -470,7 +514,8 @@ double ShearCell::gap() const {
 
 double ShearCell::wall_normal_stress() const {
   // The particles push the top wall up (+y) and the bottom one down.
-  return 0.5 * (system_.group_load(top_).force.y() - system_.group_load(bottom_).force.y()) / wall_area();
+  return 0.5 * (system_.group_load(top_).force.y() - system_.group_load(bottom_).force.y()) /
+         wall_area();
 }
 
 ContactType ShearCell::contact_type(std::uint32_t category) const {
@@ -494,7 +539,8 @@ std::size_t ShearCell::steps_for_strain(double strain) const {
 double ShearCell::shear_stress_now() const {
   if (walls()) {
     // The particles drag the top wall back (-x) and the bottom one forward (+x).
-    return 0.5 * (system_.group_load(bottom_).force.x() - system_.group_load(top_).force.x()) / wall_area();
+    return 0.5 * (system_.group_load(bottom_).force.x() - system_.group_load(top_).force.x()) /
+           wall_area();
   }
   return lees_edwards_power() / (setup_.shear_rate * system_.domain().length().prod());
 }
@@ -511,7 +557,8 @@ double ShearCell::normal_stress_now() const {
 
 double ShearCell::lees_edwards_power() const {
   // P = gdot V tau, V tau = sum over contacts of F_x (on i) b_y (i to j) - sum m c_x c_y: the
-  // exact rate at which the sheared images feed (peculiar kinetic + elastic) energy and dissipation.
+  // exact rate at which the sheared images feed (peculiar kinetic + elastic) energy and
+  // dissipation.
   double shear = contact_virial(system_, 0, 1);
   const auto x = system_.positions();
   const auto v = system_.velocities();
@@ -571,25 +618,31 @@ void ShearCell::apply_barostat() {
   const double relaxation_time =
       std::max(crossing_time_, kBarostatRelaxationStrain / setup_.shear_rate) / setup_.servo_gain;
   const double height = system_.domain().length().y();
-  const double max_strain = barostat_at_speed_limit_ ? servo_max_speed_ * control_interval / height
-                                                    : kBarostatMaxDilation * control_interval / relaxation_time;
+  const double max_strain = barostat_at_speed_limit_
+                                ? servo_max_speed_ * control_interval / height
+                                : kBarostatMaxDilation * control_interval / relaxation_time;
   const double modulus = kBarostatModulus * setup_.normal_stress;
-  const double stress =
-      barostat_stress_samples_ > 0.0 ? barostat_stress_sum_ / barostat_stress_samples_ : normal_stress_now();
+  const double stress = barostat_stress_samples_ > 0.0
+                            ? barostat_stress_sum_ / barostat_stress_samples_
+                            : normal_stress_now();
   barostat_stress_sum_ = barostat_stress_samples_ = 0.0;
   last_barostat_stress_ = stress;
-  const double linear = (stress - setup_.normal_stress) / modulus * control_interval / relaxation_time;
-  const double strain = barostat_at_speed_limit_ ? -max_strain : std::clamp(linear, -max_strain, max_strain);
+  const double linear =
+      (stress - setup_.normal_stress) / modulus * control_interval / relaxation_time;
+  const double strain =
+      barostat_at_speed_limit_ ? -max_strain : std::clamp(linear, -max_strain, max_strain);
   // Particles keep their velocity relative to the imposed profile gdot (y - y_mid), which
   // stretches with the box about its lower face like the positions.
   const double y_mid = system_.domain().lo.y() + 0.5 * height;
   const auto x = system_.positions();
   const auto v = system_.velocities();
   std::vector<Vec3> velocities(v.begin(), v.end());
-  for (std::size_t p = 0; p < system_.size(); ++p) velocities[p].x() += setup_.shear_rate * strain * (x[p].y() - y_mid);
+  for (std::size_t p = 0; p < system_.size(); ++p)
+    velocities[p].x() += setup_.shear_rate * strain * (x[p].y() - y_mid);
   const double springs_before = normal_spring_energy();
   system_.deform_affinely(1, 1.0 + strain);
-  for (std::size_t p = 0; p < system_.size(); ++p) system_.set_velocity(static_cast<ParticleId>(p), velocities[p]);
+  for (std::size_t p = 0; p < system_.size(); ++p)
+    system_.set_velocity(static_cast<ParticleId>(p), velocities[p]);
   barostat_work_ += normal_spring_energy() - springs_before;
   wall_speed_ = system_.domain().lees_edwards.velocity;
 }
@@ -601,16 +654,23 @@ double ShearCell::normal_spring_energy() const {
   const auto materials = system_.particle_materials();
   double energy = 0.0;
   for (const NeighborPair& pair : pairs) {
-    const double overlap = r[pair.i] + r[pair.j] - system_.domain().separation(x[pair.i], x[pair.j]).norm();
+    const double overlap =
+        r[pair.i] + r[pair.j] - system_.domain().separation(x[pair.i], x[pair.j]).norm();
     if (overlap <= 0.0) continue;
-    energy += 0.5 * system_.materials().pair(materials[pair.i], materials[pair.j]).normal_stiffness * overlap * overlap;
+    energy += 0.5 *
+              system_.materials().pair(materials[pair.i], materials[pair.j]).normal_stiffness *
+              overlap * overlap;
   }
   return energy;
 }
 
-double ShearCell::work_in() const { return walls() ? system_.energy().wall_work : le_work_ + barostat_work_; }
+double ShearCell::work_in() const {
+  return walls() ? system_.energy().wall_work : le_work_ + barostat_work_;
+}
 
-double ShearCell::shear_work() const { return walls() ? system_.energy().wall_work : le_work_; }
+double ShearCell::shear_work() const {
+  return walls() ? system_.energy().wall_work : le_work_;
+}
 
 double ShearCell::motion_energy() const {
   if (!walls()) return peculiar_kinetic_energy();
@@ -618,7 +678,9 @@ double ShearCell::motion_energy() const {
   return budget.kinetic + budget.potential;
 }
 
-void ShearCell::run_strain(double strain) { advance(steps_for_strain(strain)); }
+void ShearCell::run_strain(double strain) {
+  advance(steps_for_strain(strain));
+}
 
 void ShearCell::sample_profile(Profile& profile) const {
   const double y0 = walls() ? system_.positions()[0].y() : system_.domain().lo.y();
@@ -645,11 +707,14 @@ void ShearCell::sample_profile(Profile& profile) const {
 
 double ShearCell::bulk_shear_rate(const Profile& profile) {
   const double denominator = profile.w * profile.wyy - profile.wy * profile.wy;
-  return denominator > 0.0 ? (profile.w * profile.wyv - profile.wy * profile.wv) / denominator : 0.0;
+  return denominator > 0.0 ? (profile.w * profile.wyv - profile.wy * profile.wv) / denominator
+                           : 0.0;
 }
 
 void ShearCell::warm_up(double strain, int windows) {
-  if (windows < 1) throw std::invalid_argument(fmt::format("shear cell: warm-up windows = {} must be >= 1", windows));
+  if (windows < 1)
+    throw std::invalid_argument(
+        fmt::format("shear cell: warm-up windows = {} must be >= 1", windows));
   for (int w = 0; w < windows; ++w) {
     WarmUpWindow window = start_window(strain / windows);
     advance_window(window, window.steps);
@@ -672,8 +737,10 @@ void ShearCell::advance_window(WarmUpWindow& window, std::uint64_t max_steps) {
   while (window.done < end) {
     // Up to the next sample: every `every` steps after `half`, and at the window's end.
     const std::uint64_t next_sample =
-        window.done < window.half ? window.half : std::min(window.steps, window.done + window.every -
-                                                                             (window.done - window.half) % window.every);
+        window.done < window.half
+            ? window.half
+            : std::min(window.steps,
+                       window.done + window.every - (window.done - window.half) % window.every);
     const std::uint64_t until = std::min(end, next_sample);
     advance(until - window.done);
     window.done = until;
@@ -684,10 +751,13 @@ void ShearCell::advance_window(WarmUpWindow& window, std::uint64_t max_steps) {
 void ShearCell::finish_window(const WarmUpWindow& window, int index) {
   if (!walls()) return;
   const double measured = bulk_shear_rate(window.profile);
-  const double factor = measured > 0.0 ? std::clamp(setup_.shear_rate / measured, 1.0 / kMaxSpeedChange, kMaxSpeedChange)
+  const double factor = measured > 0.0 ? std::clamp(setup_.shear_rate / measured,
+                                                    1.0 / kMaxSpeedChange, kMaxSpeedChange)
                                        : kMaxSpeedChange;
-  spdlog::debug("shear cell: warm-up window {}: bulk rate {:.4g} 1/s (target {:.4g}), wall speed {:.4g} -> {:.4g} m/s",
-                index, measured, setup_.shear_rate, wall_speed_, wall_speed_ * factor);
+  spdlog::debug(
+      "shear cell: warm-up window {}: bulk rate {:.4g} 1/s (target {:.4g}), wall speed {:.4g} -> "
+      "{:.4g} m/s",
+      index, measured, setup_.shear_rate, wall_speed_, wall_speed_ * factor);
   set_wall_speed(wall_speed_ * factor);
 }
 
@@ -702,7 +772,8 @@ void tally(const std::vector<CollisionEvent>& events, const ShearCell& cell,
   }
 }
 
-CollisionStats merged(const std::array<CollisionStats, kContactTypeCount>& stats, std::initializer_list<ContactType> types) {
+CollisionStats merged(const std::array<CollisionStats, kContactTypeCount>& stats,
+                      std::initializer_list<ContactType> types) {
   CollisionStats total;
   for (ContactType type : types) {
     const CollisionStats& s = stats[static_cast<std::size_t>(type)];
@@ -723,13 +794,16 @@ ShearCellMeasurements ShearCell::measure(double strain, const MeasureOptions& op
 
 ShearCell::Measurement ShearCell::start_measurement(double strain, const MeasureOptions& options) {
   if (options.samples < 2 || !(options.steady_tolerance > 0.0)) {
-    throw std::invalid_argument(fmt::format("shear cell: measure needs samples = {} >= 2 and steady tolerance = {} > 0",
-                                            options.samples, options.steady_tolerance));
+    throw std::invalid_argument(
+        fmt::format("shear cell: measure needs samples = {} >= 2 and steady tolerance = {} > 0",
+                    options.samples, options.steady_tolerance));
   }
   Measurement m;
   m.options = options;
   m.steps = steps_for_strain(strain);
-  if (m.steps < 2) throw std::invalid_argument(fmt::format("shear cell: strain = {} is less than two time steps", strain));
+  if (m.steps < 2)
+    throw std::invalid_argument(
+        fmt::format("shear cell: strain = {} is less than two time steps", strain));
   m.every = std::max<std::uint64_t>(1, m.steps / static_cast<std::uint64_t>(options.samples));
   // Wall loads are free to read every step; the LE virial costs a pass over the contacts.
   m.stress_every = walls() ? 1 : m.every;
@@ -764,7 +838,8 @@ void ShearCell::advance_measurement(Measurement& m, std::uint64_t max_steps) {
       tally_collisions(m);
     }
   }
-  m.wall_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  m.wall_seconds +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
 }
 
 void ShearCell::tally_collisions(Measurement& m) {
@@ -793,23 +868,27 @@ ShearCellMeasurements ShearCell::finish_measurement(Measurement& in) {
   m.shear_stress = (in.shear_sum[0] + in.shear_sum[1]) / samples;
   m.normal_stress = in.normal_sum / samples;
   m.friction = m.shear_stress / m.normal_stress;
-  m.inertial_number = m.bulk_shear_rate * setup_.media_diameter / std::sqrt(m.normal_stress / setup_.media.density);
+  m.inertial_number =
+      m.bulk_shear_rate * setup_.media_diameter / std::sqrt(m.normal_stress / setup_.media.density);
   m.media_solid_fraction = in.profile.media_volume / in.profile.slab_volume;
   m.powder_solid_fraction = in.profile.powder_volume / in.profile.slab_volume;
-  m.steady_state_deviation = std::abs(m.shear_stress_first_half - m.shear_stress_second_half) /
-                             (0.5 * std::abs(m.shear_stress_first_half + m.shear_stress_second_half));
+  m.steady_state_deviation =
+      std::abs(m.shear_stress_first_half - m.shear_stress_second_half) /
+      (0.5 * std::abs(m.shear_stress_first_half + m.shear_stress_second_half));
   m.steady = m.steady_state_deviation <= in.options.steady_tolerance;
 
   const double volume_time = m.volume * m.duration;
   const std::vector<Dissipation> dissipation1 = system_.dissipation_by_category();
   for (std::size_t c = 0; c < dissipation1.size(); ++c) {
     const double joules = dissipation1[c].total() - in.dissipation0[c].total();
-    m.dissipation_density[static_cast<std::size_t>(contact_type(static_cast<std::uint32_t>(c)))] += joules / volume_time;
+    m.dissipation_density[static_cast<std::size_t>(contact_type(static_cast<std::uint32_t>(c)))] +=
+        joules / volume_time;
   }
   for (double d : m.dissipation_density) m.dissipation_density_total += d;
   for (CollisionStats& s : m.collisions) s.rate_per_volume = s.count / volume_time;
   m.media_collisions = merged(m.collisions, {ContactType::MediaMedia, ContactType::WallMedia});
-  m.powder_collisions = merged(m.collisions, {ContactType::MediaPowder, ContactType::PowderPowder, ContactType::WallPowder});
+  m.powder_collisions = merged(
+      m.collisions, {ContactType::MediaPowder, ContactType::PowderPowder, ContactType::WallPowder});
 
   const EnergyBudget budget1 = system_.energy();
   m.work_in = work_in() - in.work0;
@@ -818,7 +897,9 @@ ShearCellMeasurements ShearCell::finish_measurement(Measurement& in) {
   m.kinetic_change = motion_energy() - in.motion0;
   m.elastic_change = budget1.elastic - in.budget0.elastic;
   m.dissipated = budget1.dissipated - in.budget0.dissipated;
-  m.energy_balance_error = std::abs(m.work_in - (m.kinetic_change + m.elastic_change + m.dissipated)) / std::abs(m.work_in);
+  m.energy_balance_error =
+      std::abs(m.work_in - (m.kinetic_change + m.elastic_change + m.dissipated)) /
+      std::abs(m.work_in);
   return m;
 }
 
@@ -849,7 +930,8 @@ std::string run_identity(const ShearCellSetup& s, const ShearCellProtocol& proto
   out.put(s.media_diameter);
   put(out, s.media);
   put(out, s.powder);
-  for (const InteractionSpec* spec : {&s.media_media, &s.media_powder, &s.powder_powder}) put(out, *spec);
+  for (const InteractionSpec* spec : {&s.media_media, &s.media_powder, &s.powder_powder})
+    put(out, *spec);
   out.put(s.powder_diameter_ratio);
   out.put(s.powder_load);
   out.put(s.powder_bed_solid_fraction);
@@ -878,7 +960,8 @@ void ShearCell::Profile::write(BinaryWriter& out) const {
 }
 
 void ShearCell::Profile::read(BinaryReader& in) {
-  for (double* v : {&w, &wy, &wyy, &wv, &wyv, &media_volume, &powder_volume, &slab_volume}) *v = in.get<double>();
+  for (double* v : {&w, &wy, &wyy, &wv, &wyv, &media_volume, &powder_volume, &slab_volume})
+    *v = in.get<double>();
 }
 
 void ShearCell::WarmUpWindow::write(BinaryWriter& out) const {
@@ -889,7 +972,8 @@ void ShearCell::WarmUpWindow::write(BinaryWriter& out) const {
 void ShearCell::WarmUpWindow::read(BinaryReader& in) {
   for (std::uint64_t* v : {&steps, &half, &every, &done}) *v = in.get<std::uint64_t>();
   profile.read(in);
-  if (every == 0 || half > steps || done > steps) throw CorruptData("shear cell checkpoint: the warm-up window is out of range");
+  if (every == 0 || half > steps || done > steps)
+    throw CorruptData("shear cell checkpoint: the warm-up window is out of range");
 }
 
 void ShearCell::Measurement::write(BinaryWriter& out) const {
@@ -903,7 +987,9 @@ void ShearCell::Measurement::write(BinaryWriter& out) const {
     for (double v : {d.normal, d.tangential, d.friction}) out.put(v);
   }
   profile.write(out);
-  for (double v : {shear_sum[0], shear_sum[1], stress_count[0], stress_count[1], normal_sum, gap_sum}) out.put(v);
+  for (double v :
+       {shear_sum[0], shear_sum[1], stress_count[0], stress_count[1], normal_sum, gap_sum})
+    out.put(v);
   for (const CollisionStats& stats : collisions) {
     out.put(stats.count);
     stats.dissipated_energy.write(out);
@@ -913,8 +999,8 @@ void ShearCell::Measurement::write(BinaryWriter& out) const {
 
 void ShearCell::Measurement::read(BinaryReader& in) {
   for (std::uint64_t* v : {&steps, &every, &stress_every, &done}) *v = in.get<std::uint64_t>();
-  for (double* v : {&work0, &shear_work0, &motion0, &budget0.kinetic, &budget0.potential, &budget0.elastic,
-                    &budget0.dissipated, &budget0.wall_work}) {
+  for (double* v : {&work0, &shear_work0, &motion0, &budget0.kinetic, &budget0.potential,
+                    &budget0.elastic, &budget0.dissipated, &budget0.wall_work}) {
     *v = in.get<double>();
   }
   dissipation0.resize(in.get<std::uint64_t>());
@@ -922,7 +1008,8 @@ void ShearCell::Measurement::read(BinaryReader& in) {
     for (double* v : {&d.normal, &d.tangential, &d.friction}) *v = in.get<double>();
   }
   profile.read(in);
-  for (double* v : {&shear_sum[0], &shear_sum[1], &stress_count[0], &stress_count[1], &normal_sum, &gap_sum}) {
+  for (double* v :
+       {&shear_sum[0], &shear_sum[1], &stress_count[0], &stress_count[1], &normal_sum, &gap_sum}) {
     *v = in.get<double>();
   }
   for (CollisionStats& stats : collisions) {
@@ -937,17 +1024,18 @@ void ShearCell::Measurement::read(BinaryReader& in) {
 
 void ShearCell::write_state(BinaryWriter& out) const {
   for (std::uint64_t count : {media_count_, powder_count_, wall_ball_count_}) out.put(count);
-  for (double v : {wall_speed_, le_work_, barostat_work_, barostat_stress_sum_, barostat_stress_samples_,
-                   last_barostat_stress_}) {
+  for (double v : {wall_speed_, le_work_, barostat_work_, barostat_stress_sum_,
+                   barostat_stress_samples_, last_barostat_stress_}) {
     out.put(v);
   }
   out.put<std::uint8_t>(compacted_);
 }
 
 void ShearCell::read_state(BinaryReader& in) {
-  for (std::size_t* count : {&media_count_, &powder_count_, &wall_ball_count_}) *count = in.get<std::uint64_t>();
-  for (double* v : {&wall_speed_, &le_work_, &barostat_work_, &barostat_stress_sum_, &barostat_stress_samples_,
-                    &last_barostat_stress_}) {
+  for (std::size_t* count : {&media_count_, &powder_count_, &wall_ball_count_})
+    *count = in.get<std::uint64_t>();
+  for (double* v : {&wall_speed_, &le_work_, &barostat_work_, &barostat_stress_sum_,
+                    &barostat_stress_samples_, &last_barostat_stress_}) {
     *v = in.get<double>();
   }
   compacted_ = in.get<std::uint8_t>() != 0;
@@ -962,9 +1050,10 @@ ShearCellRun::ShearCellRun(const ShearCellSetup& setup, const ShearCellProtocol&
 ShearCellRun::ShearCellRun(ShearCell cell, const ShearCellProtocol& protocol)
     : cell_(std::move(cell)), protocol_(protocol) {
   if (protocol_.warmup_windows < 1 || !(protocol_.warmup_strain >= 0.0)) {
-    throw std::invalid_argument(fmt::format("shear cell: warm-up of {} strain in {} windows; need strain >= 0 and "
-                                            "windows >= 1",
-                                            protocol_.warmup_strain, protocol_.warmup_windows));
+    throw std::invalid_argument(
+        fmt::format("shear cell: warm-up of {} strain in {} windows; need strain >= 0 and "
+                    "windows >= 1",
+                    protocol_.warmup_strain, protocol_.warmup_windows));
   }
   window_steps_ = protocol_.warmup_strain > 0.0
                       ? cell_.steps_for_strain(protocol_.warmup_strain / protocol_.warmup_windows)
@@ -977,10 +1066,12 @@ ShearCellRun ShearCellRun::resume(const ShearCellSetup& setup, const ShearCellPr
   const std::string payload = read_checksummed_file(path, kRunMagic, kShearCellCheckpointVersion);
   BinaryReader in(payload);
   if (in.get_string() != run_identity(setup, protocol)) {
-    throw CorruptData(fmt::format("{}: the checkpoint is of another shear cell or protocol", path.string()));
+    throw CorruptData(
+        fmt::format("{}: the checkpoint is of another shear cell or protocol", path.string()));
   }
   const auto system_version = in.get<std::uint32_t>();
-  ShearCellRun run(ShearCell(setup, system_from_checkpoint_payload(in.get_string(), system_version)), protocol);
+  ShearCellRun run(
+      ShearCell(setup, system_from_checkpoint_payload(in.get_string(), system_version)), protocol);
   run.cell_.read_state(in);
   const auto phase = in.get<std::uint8_t>();
   if (phase > static_cast<std::uint8_t>(Phase::Measuring)) {
@@ -991,7 +1082,8 @@ ShearCellRun ShearCellRun::resume(const ShearCellSetup& setup, const ShearCellPr
   run.window_.read(in);
   run.measurement_.read(in);
   run.measurement_.options = protocol.measure;
-  if (!in.at_end()) throw CorruptData(fmt::format("{}: trailing bytes after the shear cell run", path.string()));
+  if (!in.at_end())
+    throw CorruptData(fmt::format("{}: trailing bytes after the shear cell run", path.string()));
   return run;
 }
 
@@ -1022,7 +1114,8 @@ bool ShearCellRun::advance(std::uint64_t max_steps) {
       cell_.advance_measurement(measurement_, left);
     }
     left -= std::min(left, cell_.system().step_count() - before);
-    const bool piece_finished = phase_ == Phase::Compacting || (phase_ == Phase::WarmUp && window_.finished()) ||
+    const bool piece_finished = phase_ == Phase::Compacting ||
+                                (phase_ == Phase::WarmUp && window_.finished()) ||
                                 (phase_ == Phase::Measuring && measurement_.finished());
     if (!piece_finished) break;
     start_next_piece();
@@ -1048,9 +1141,11 @@ void ShearCellRun::start_next_piece() {
 }
 
 double ShearCellRun::progress() const {
-  const std::uint64_t total = window_steps_ * static_cast<std::uint64_t>(protocol_.warmup_windows) + measure_steps_;
+  const std::uint64_t total =
+      window_steps_ * static_cast<std::uint64_t>(protocol_.warmup_windows) + measure_steps_;
   std::uint64_t done_steps = 0;
-  if (phase_ == Phase::WarmUp) done_steps = window_steps_ * static_cast<std::uint64_t>(window_index_) + window_.done;
+  if (phase_ == Phase::WarmUp)
+    done_steps = window_steps_ * static_cast<std::uint64_t>(window_index_) + window_.done;
   if (phase_ == Phase::Measuring) done_steps = total - measure_steps_ + measurement_.done;
   if (phase_ == Phase::Done) done_steps = total;
   return static_cast<double>(done_steps) / static_cast<double>(total);
@@ -1058,10 +1153,14 @@ double ShearCellRun::progress() const {
 
 std::string ShearCellRun::phase_name() const {
   switch (phase_) {
-    case Phase::Compacting: return "compacting";
-    case Phase::WarmUp: return fmt::format("warm-up window {}/{}", window_index_ + 1, protocol_.warmup_windows);
-    case Phase::Measuring: return "measuring";
-    case Phase::Done: return "measured";
+    case Phase::Compacting:
+      return "compacting";
+    case Phase::WarmUp:
+      return fmt::format("warm-up window {}/{}", window_index_ + 1, protocol_.warmup_windows);
+    case Phase::Measuring:
+      return "measuring";
+    case Phase::Done:
+      return "measured";
   }
   return "unknown";
 }

@@ -68,14 +68,14 @@ struct ShearCellSetup {
   Material powder{"powder", 3000.0};
   InteractionSpec media_media, media_powder, powder_powder;
   double powder_diameter_ratio = 0.2;  // powder / media diameter
-  double powder_load = 0.0;            // U: fraction of the media bed's voids filled with powder bed
+  double powder_load = 0.0;  // U: fraction of the media bed's voids filled with powder bed
   double powder_bed_solid_fraction = 0.6;  // solid fraction of the powder bed filling the voids
-  Vec3 size_diameters{6, 8, 6};            // cell size in media diameters: x flow, y gradient, z spanwise
+  Vec3 size_diameters{6, 8, 6};  // cell size in media diameters: x flow, y gradient, z spanwise
   enum class Boundary { RoughWalls, LeesEdwards } boundary = Boundary::RoughWalls;
-  double shear_rate = 10.0;       // target BULK shear rate, 1/s
-  double normal_stress = 1e4;     // Pa, imposed along y (RoughWalls)
-  bool gravity = false;           // 9.81 m/s^2 along -y when on
-  double servo_gain = 0.5;        // g of the control law above, in (0, 1]
+  double shear_rate = 10.0;    // target BULK shear rate, 1/s
+  double normal_stress = 1e4;  // Pa, imposed along y (RoughWalls)
+  bool gravity = false;        // 9.81 m/s^2 along -y when on
+  double servo_gain = 0.5;     // g of the control law above, in (0, 1]
   std::uint64_t seed = 1;
   double media_solid_fraction = 0.55;  // sets the number of media balls
   int steps_per_collision = 20;        // dt = shortest contact duration / this
@@ -86,8 +86,8 @@ void validate(const ShearCellSetup& setup);
 
 // Size-scaled stiffness (k_n ~ E d, a model choice): the stiffness of a pair of diameters d_a,
 // d_b is k_ref * d_eff / d_ref with d_eff = 2 d_a d_b / (d_a + d_b) the harmonic-mean diameter.
-double size_scaled_stiffness(double reference_stiffness, double reference_diameter, double diameter_a,
-                             double diameter_b);
+double size_scaled_stiffness(double reference_stiffness, double reference_diameter,
+                             double diameter_a, double diameter_b);
 
 // Contact types of the cell. "Wall" types involve a ball glued to a rough wall.
 enum class ContactType { MediaMedia, MediaPowder, PowderPowder, WallMedia, WallPowder };
@@ -122,8 +122,8 @@ struct ShearCellMeasurements {
   std::array<double, kContactTypeCount> dissipation_density{};  // W/m^3, by ContactType
   double dissipation_density_total = 0.0;
   std::array<CollisionStats, kContactTypeCount> collisions;  // by ContactType
-  CollisionStats media_collisions;   // media-media and wall-media
-  CollisionStats powder_collisions;  // every collision involving powder
+  CollisionStats media_collisions;                           // media-media and wall-media
+  CollisionStats powder_collisions;                          // every collision involving powder
   // Energy balance over the window: work in = change of (kinetic + elastic) + dissipated, J.
   // work_in includes stress_control_work, what the LE barostat's stretches put in (0 with walls,
   // whose servo work is part of the walls' work).
@@ -146,8 +146,8 @@ struct ShearCellMeasurements {
 };
 
 struct MeasureOptions {
-  int samples = 200;                  // velocity-profile / solid-fraction samples in the window
-  double steady_tolerance = 0.15;     // on steady_state_deviation
+  int samples = 200;               // velocity-profile / solid-fraction samples in the window
+  double steady_tolerance = 0.15;  // on steady_state_deviation
   bool record_collisions = true;
 };
 
@@ -284,8 +284,8 @@ class ShearCell {
   double servo_mobility_ = 0.0, servo_max_speed_ = 0.0, crossing_time_ = 0.0;
   std::size_t barostat_every_ = 1;
   bool barostat_at_speed_limit_ = false;  // compacting: shrink at the speed limit
-  double le_work_ = 0.0;        // work put in through the LE boundary so far, J
-  double barostat_work_ = 0.0;  // work put in by the barostat's stretches so far, J
+  double le_work_ = 0.0;                  // work put in through the LE boundary so far, J
+  double barostat_work_ = 0.0;            // work put in by the barostat's stretches so far, J
   double barostat_stress_sum_ = 0.0, barostat_stress_samples_ = 0.0;  // since the last stretch
   double last_barostat_stress_ = 0.0;  // the mean p_yy the last stretch answered, Pa
   bool compacted_ = false;

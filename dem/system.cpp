@@ -25,7 +25,9 @@ constexpr std::size_t kReduceGrain = 1024;
 constexpr std::size_t kParticleGrain = 256;
 constexpr std::size_t kPairGrain = 1024;
 
-bool finite(const Vec3& v) { return v.allFinite(); }
+bool finite(const Vec3& v) {
+  return v.allFinite();
+}
 
 // Calls f(index) for each nonzero byte in increasing index order; skips zero bytes eight at a
 // time (finished contacts are few among many pairs).
@@ -46,7 +48,8 @@ void for_each_nonzero(std::span<const std::uint8_t> flags, F&& f) {
 }
 
 // Mass of the lightest free particle of each material (infinity where there is none).
-std::vector<double> lightest_mass_per_material(std::size_t material_count, std::span<const double> mass,
+std::vector<double> lightest_mass_per_material(std::size_t material_count,
+                                               std::span<const double> mass,
                                                std::span<const MaterialId> material,
                                                std::span<const GroupId> group) {
   std::vector<double> lightest(material_count, std::numeric_limits<double>::infinity());
@@ -57,13 +60,17 @@ std::vector<double> lightest_mass_per_material(std::size_t material_count, std::
 }
 
 double restitution_of(double damping_ratio) {
-  return std::exp(-damping_ratio * std::numbers::pi / std::sqrt(1.0 - damping_ratio * damping_ratio));
+  return std::exp(-damping_ratio * std::numbers::pi /
+                  std::sqrt(1.0 - damping_ratio * damping_ratio));
 }
 
 }  // namespace
 
 System::System(MaterialTable materials, Domain domain, Vec3 gravity)
-    : materials_(std::move(materials)), domain_(domain), gravity_(gravity), neighbors_(NeighborSearchOptions{}) {
+    : materials_(std::move(materials)),
+      domain_(domain),
+      gravity_(gravity),
+      neighbors_(NeighborSearchOptions{}) {
   domain_.validate();
   if (!finite(gravity_)) throw std::invalid_argument("gravity is not finite");
   finished_dissipation_.resize(category_count());
@@ -72,18 +79,20 @@ System::System(MaterialTable materials, Domain domain, Vec3 gravity)
 ParticleId System::add_particle(const ParticleSpec& spec) {
   const std::size_t id = size();
   if (!(spec.radius > 0.0) || !std::isfinite(spec.radius)) {
-    throw std::invalid_argument(fmt::format("particle {}: radius = {} m must be > 0", id, spec.radius));
+    throw std::invalid_argument(
+        fmt::format("particle {}: radius = {} m must be > 0", id, spec.radius));
   }
   if (!finite(spec.position) || !finite(spec.velocity) || !finite(spec.angular_velocity)) {
     throw std::invalid_argument(fmt::format("particle {}: position or velocity is not finite", id));
   }
   if (spec.material >= materials_.size()) {
-    throw std::invalid_argument(fmt::format("particle {}: material id {} is not defined ({} materials)", id,
-                                            spec.material, materials_.size()));
+    throw std::invalid_argument(
+        fmt::format("particle {}: material id {} is not defined ({} materials)", id, spec.material,
+                    materials_.size()));
   }
   if (spec.group > groups_.size()) {
-    throw std::invalid_argument(fmt::format("particle {}: group {} is not defined ({} groups)", id, spec.group,
-                                            groups_.size()));
+    throw std::invalid_argument(fmt::format("particle {}: group {} is not defined ({} groups)", id,
+                                            spec.group, groups_.size()));
   }
   const double volume = 4.0 / 3.0 * std::numbers::pi * spec.radius * spec.radius * spec.radius;
   const double mass = materials_.material(spec.material).density * volume;
@@ -111,16 +120,20 @@ ParticleId System::add_particle(const ParticleSpec& spec) {
 }
 
 GroupId System::add_group(const KinematicGroup& group) {
-  if (!finite(group.velocity)) throw std::invalid_argument(fmt::format("group '{}': velocity is not finite", group.name));
+  if (!finite(group.velocity))
+    throw std::invalid_argument(fmt::format("group '{}': velocity is not finite", group.name));
   if (group.servo_axis < 0 || group.servo_axis > 2) {
-    throw std::invalid_argument(fmt::format("group '{}': servo axis = {} must be 0, 1 or 2", group.name, group.servo_axis));
+    throw std::invalid_argument(
+        fmt::format("group '{}': servo axis = {} must be 0, 1 or 2", group.name, group.servo_axis));
   }
   if (!(group.servo_mobility >= 0.0)) {
-    throw std::invalid_argument(fmt::format("group '{}': servo mobility = {} must be >= 0", group.name, group.servo_mobility));
+    throw std::invalid_argument(fmt::format("group '{}': servo mobility = {} must be >= 0",
+                                            group.name, group.servo_mobility));
   }
   if (group.servo_mobility > 0.0 && !(group.servo_max_speed > 0.0)) {
-    throw std::invalid_argument(fmt::format("group '{}': servo max speed = {} m/s must be > 0 for a stress-controlled group",
-                                            group.name, group.servo_max_speed));
+    throw std::invalid_argument(fmt::format(
+        "group '{}': servo max speed = {} m/s must be > 0 for a stress-controlled group",
+        group.name, group.servo_max_speed));
   }
   groups_.push_back(group);
   group_loads_.emplace_back();
@@ -130,7 +143,8 @@ GroupId System::add_group(const KinematicGroup& group) {
 std::size_t System::add_wall(const Wall& wall) {
   validate_wall(wall);
   if (wall.material >= materials_.size()) {
-    throw std::invalid_argument(fmt::format("wall '{}': material id {} is not defined", wall.name, wall.material));
+    throw std::invalid_argument(
+        fmt::format("wall '{}': material id {} is not defined", wall.name, wall.material));
   }
   walls_.push_back(wall);
   wall_loads_.emplace_back();
@@ -156,10 +170,12 @@ std::uint32_t System::wall_category(std::size_t wall, MaterialId m) const {
 std::string System::category_name(std::uint32_t category) const {
   const std::size_t n = materials_.size();
   if (category < n * n) {
-    return materials_.pair_name(static_cast<MaterialId>(category / n), static_cast<MaterialId>(category % n));
+    return materials_.pair_name(static_cast<MaterialId>(category / n),
+                                static_cast<MaterialId>(category % n));
   }
   const std::size_t rest = category - n * n;
-  return fmt::format("{}-wall:{}", materials_.material(static_cast<MaterialId>(rest % n)).name, walls_.at(rest / n).name);
+  return fmt::format("{}-wall:{}", materials_.material(static_cast<MaterialId>(rest % n)).name,
+                     walls_.at(rest / n).name);
 }
 
 double System::min_collision_duration() const {
@@ -167,7 +183,8 @@ double System::min_collision_duration() const {
   const auto lightest = lightest_mass_per_material(materials_.size(), mass_, material_, group_);
   auto consider = [&](MaterialId a, MaterialId b, double m_eff, const std::string& what) {
     if (!materials_.has_interaction(a, b)) {
-      throw std::invalid_argument(fmt::format("no interaction is defined for {}; add one for that material pair", what));
+      throw std::invalid_argument(
+          fmt::format("no interaction is defined for {}; add one for that material pair", what));
     }
     const PairParams& p = materials_.pair(a, b);
     shortest = std::min(shortest, collision_duration(p.normal_stiffness, m_eff, p.damping_ratio));
@@ -175,20 +192,24 @@ double System::min_collision_duration() const {
   for (MaterialId a = 0; a < materials_.size(); ++a) {
     if (!std::isfinite(lightest[a])) continue;
     for (MaterialId b = a; b < materials_.size(); ++b) {
-      if (std::isfinite(lightest[b])) consider(a, b, effective_mass(lightest[a], lightest[b]), materials_.pair_name(a, b));
+      if (std::isfinite(lightest[b]))
+        consider(a, b, effective_mass(lightest[a], lightest[b]), materials_.pair_name(a, b));
     }
     for (const Wall& wall : walls_) {
-      consider(a, wall.material, lightest[a], fmt::format("{} and wall '{}'", materials_.material(a).name, wall.name));
+      consider(a, wall.material, lightest[a],
+               fmt::format("{} and wall '{}'", materials_.material(a).name, wall.name));
     }
   }
   // Kinematic particles act as infinitely heavy walls.
   for (std::size_t p = 0; p < size(); ++p) {
     if (is_free(p)) continue;
     for (MaterialId a = 0; a < materials_.size(); ++a) {
-      if (std::isfinite(lightest[a])) consider(a, material_[p], lightest[a], materials_.pair_name(a, material_[p]));
+      if (std::isfinite(lightest[a]))
+        consider(a, material_[p], lightest[a], materials_.pair_name(a, material_[p]));
     }
   }
-  if (!std::isfinite(shortest)) throw std::invalid_argument("no free particles: cannot derive a time step");
+  if (!std::isfinite(shortest))
+    throw std::invalid_argument("no free particles: cannot derive a time step");
   return shortest;
 }
 
@@ -202,7 +223,8 @@ double System::stable_time_step() const {
     for (MaterialId b = 0; b < materials_.size(); ++b) {
       if (!materials_.has_interaction(a, b)) continue;
       const PairParams& p = materials_.pair(a, b);
-      const double m_eff = std::isfinite(lightest[b]) ? effective_mass(lightest[a], lightest[b]) : lightest[a];
+      const double m_eff =
+          std::isfinite(lightest[b]) ? effective_mass(lightest[a], lightest[b]) : lightest[a];
       limit = std::min(limit, stable_time_step_limit(p.normal_stiffness, m_eff, p.damping_ratio));
     }
   }
@@ -211,7 +233,8 @@ double System::stable_time_step() const {
 
 void System::set_time_step_from_collisions(int steps_per_collision) {
   if (steps_per_collision < 1) {
-    throw std::invalid_argument(fmt::format("steps per collision = {} must be >= 1 (20 or more is usual)", steps_per_collision));
+    throw std::invalid_argument(fmt::format(
+        "steps per collision = {} must be >= 1 (20 or more is usual)", steps_per_collision));
   }
   const double t_c = min_collision_duration();
   const auto lightest = lightest_mass_per_material(materials_.size(), mass_, material_, group_);
@@ -219,18 +242,21 @@ void System::set_time_step_from_collisions(int steps_per_collision) {
     for (MaterialId b = a; b < materials_.size(); ++b) {
       if (!materials_.has_interaction(a, b) || !std::isfinite(lightest[a])) continue;
       const PairParams& p = materials_.pair(a, b);
-      const double m_eff = std::isfinite(lightest[b]) ? effective_mass(lightest[a], lightest[b]) : lightest[a];
-      spdlog::info("dem: {}: k_n = {:.4g} N/m, k_t = {:.4g} N/m, e = {:.4g} (zeta = {:.4g}), mu = {:.4g}; "
-                   "lightest pair m_eff = {:.4g} kg: C_n = {:.4g} N s/m, t_c = {:.4g} s",
-                   materials_.pair_name(a, b), p.normal_stiffness, p.tangential_stiffness,
-                   restitution_of(p.damping_ratio), p.damping_ratio, p.friction, m_eff,
-                   normal_damping_coefficient(p.normal_stiffness, m_eff, p.damping_ratio),
-                   collision_duration(p.normal_stiffness, m_eff, p.damping_ratio));
+      const double m_eff =
+          std::isfinite(lightest[b]) ? effective_mass(lightest[a], lightest[b]) : lightest[a];
+      spdlog::info(
+          "dem: {}: k_n = {:.4g} N/m, k_t = {:.4g} N/m, e = {:.4g} (zeta = {:.4g}), mu = {:.4g}; "
+          "lightest pair m_eff = {:.4g} kg: C_n = {:.4g} N s/m, t_c = {:.4g} s",
+          materials_.pair_name(a, b), p.normal_stiffness, p.tangential_stiffness,
+          restitution_of(p.damping_ratio), p.damping_ratio, p.friction, m_eff,
+          normal_damping_coefficient(p.normal_stiffness, m_eff, p.damping_ratio),
+          collision_duration(p.normal_stiffness, m_eff, p.damping_ratio));
     }
   }
   set_time_step(t_c / steps_per_collision);
-  spdlog::info("dem: dt = t_c / {} = {:.4g} s (shortest contact t_c = {:.4g} s, stability limit {:.4g} s)",
-               steps_per_collision, dt_, t_c, stable_time_step());
+  spdlog::info(
+      "dem: dt = t_c / {} = {:.4g} s (shortest contact t_c = {:.4g} s, stability limit {:.4g} s)",
+      steps_per_collision, dt_, t_c, stable_time_step());
 }
 
 void System::set_time_step(double dt) {
@@ -239,10 +265,11 @@ void System::set_time_step(double dt) {
     throw std::invalid_argument(fmt::format("time step dt = {} s must be > 0", dt));
   }
   if (dt > limit) {
-    throw std::invalid_argument(fmt::format(
-        "time step dt = {:.4g} s is above the stability limit {:.4g} s of the stiffest, lightest contact; "
-        "use dt <= {:.4g} s (e.g. t_c / 20 = {:.4g} s)",
-        dt, limit, limit, min_collision_duration() / 20.0));
+    throw std::invalid_argument(
+        fmt::format("time step dt = {:.4g} s is above the stability limit {:.4g} s of the "
+                    "stiffest, lightest contact; "
+                    "use dt <= {:.4g} s (e.g. t_c / 20 = {:.4g} s)",
+                    dt, limit, limit, min_collision_duration() / 20.0));
   }
   dt_ = dt;
 }
@@ -257,18 +284,21 @@ void System::set_neighbor_skin(double skin) {
 
 void System::deform_affinely(int axis, double factor) {
   if (axis < 0 || axis > 2 || !domain_.periodic[static_cast<std::size_t>(axis)]) {
-    throw std::invalid_argument(fmt::format("deform_affinely: axis {} must be a periodic axis (0, 1 or 2)", axis));
+    throw std::invalid_argument(
+        fmt::format("deform_affinely: axis {} must be a periodic axis (0, 1 or 2)", axis));
   }
   if (!(factor > 0.0) || !std::isfinite(factor)) {
     throw std::invalid_argument(fmt::format("deform_affinely: factor = {} must be > 0", factor));
   }
   if (!groups_.empty()) {
-    throw std::invalid_argument("deform_affinely: kinematic groups would be torn apart; use walls or no groups");
+    throw std::invalid_argument(
+        "deform_affinely: kinematic groups would be torn apart; use walls or no groups");
   }
   const double lo = domain_.lo[axis];
   for (Vec3& x : position_) x[axis] = lo + factor * (x[axis] - lo);
   domain_.hi[axis] = lo + factor * (domain_.hi[axis] - lo);
-  if (domain_.lees_edwards.enabled && domain_.lees_edwards.gradient_axis == axis) domain_.lees_edwards.velocity *= factor;
+  if (domain_.lees_edwards.enabled && domain_.lees_edwards.gradient_axis == axis)
+    domain_.lees_edwards.velocity *= factor;
   neighbors_.invalidate();
 }
 
@@ -280,10 +310,11 @@ void System::check_overlaps(double tolerance) const {
     const double overlap = radius_[i] + radius_[j] - distance;
     const double smaller = std::min(radius_[i], radius_[j]);
     if (overlap > tolerance * smaller) {
-      throw std::invalid_argument(fmt::format(
-          "particles {} and {} overlap by {:.4g} m ({:.3g}% of the smaller radius; tolerance {:.3g}%); "
-          "move them apart or place them on a coarser lattice",
-          i, j, overlap, 100.0 * overlap / smaller, 100.0 * tolerance));
+      throw std::invalid_argument(
+          fmt::format("particles {} and {} overlap by {:.4g} m ({:.3g}% of the smaller radius; "
+                      "tolerance {:.3g}%); "
+                      "move them apart or place them on a coarser lattice",
+                      i, j, overlap, 100.0 * overlap / smaller, 100.0 * tolerance));
     }
   }
 }
@@ -326,12 +357,13 @@ void System::step(std::size_t count) {
 
 // Once per step() call (the drift pass applies it within a call).
 void System::kick(double half_dt) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), [&](const auto& range) {
-    for (std::size_t p = range.begin(); p != range.end(); ++p) {
-      velocity_[p] += force_[p] * (inv_mass_[p] * half_dt);
-      angular_velocity_[p] += torque_[p] * (inv_inertia_[p] * half_dt);
-    }
-  });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain),
+                    [&](const auto& range) {
+                      for (std::size_t p = range.begin(); p != range.end(); ++p) {
+                        velocity_[p] += force_[p] * (inv_mass_[p] * half_dt);
+                        angular_velocity_[p] += torque_[p] * (inv_inertia_[p] * half_dt);
+                      }
+                    });
 }
 
 // The hot loops below read and write through local pointers, declared inside each task: Eigen's
@@ -379,7 +411,9 @@ bool System::kick_and_drift(bool finish_last_kick) {
           angular_velocity[p] = w;
           if (track_displacement) {
             double gradient_images;
-            running = std::max(running, images.separation(reference_position[p], x, gradient_images).squaredNorm());
+            running = std::max(
+                running,
+                images.separation(reference_position[p], x, gradient_images).squaredNorm());
           }
         }
         return running;
@@ -394,7 +428,8 @@ void System::update_neighbors(bool rebuild) {
   rebuild_neighbors(old_pairs, std::move(pair_history_));
 }
 
-void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs, std::vector<ContactHistory> old_history) {
+void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
+                               std::vector<ContactHistory> old_history) {
   neighbors_.build(domain_, position_, radius_);
   const auto& pairs = neighbors_.pairs();
 
@@ -434,38 +469,42 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs, std::vec
 
 void System::compute_pair_forces(double dt) {
   const std::span<const NeighborPair> pairs = neighbors_.pairs();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.size(), kPairGrain), [&](const auto& range) {
-    const PeriodicImages images(domain_);
-    // Screening first, in a tight loop over blocks of pairs: most candidate pairs are apart. The
-    // touching ones of a block are queued and their contact law runs after; each pair writes
-    // only its own slots, so the order does not matter.
-    constexpr std::size_t kBlock = 512;
-    std::array<std::uint32_t, kBlock> touching;
-    const NeighborPair* const pair = pairs.data();
-    const Vec3* const x = position_.data();
-    const double* const radius = radius_.data();
-    const GroupId* const group = group_.data();
-    const std::uint8_t* const was_touching = pair_touching_.data();
-    std::uint8_t* const active = pair_active_.data();
-    std::uint8_t* const finished = pair_finished_.data();
-    for (std::size_t block = range.begin(); block < range.end(); block += kBlock) {
-      std::size_t touching_count = 0;
-      const std::size_t block_end = std::min(block + kBlock, range.end());
-      for (std::size_t k = block; k != block_end; ++k) {
-        const auto [i, j] = pair[k];
-        active[k] = 0;
-        if (group[i] != kFreeParticle && group[j] != kFreeParticle) continue;  // two wall balls never interact
-        double gradient_images;
-        const double reach = radius[i] + radius[j];
-        if (images.separation(x[i], x[j], gradient_images).squaredNorm() < reach * reach) {
-          touching[touching_count++] = static_cast<std::uint32_t>(k);
-        } else if (was_touching[k]) {
-          finished[k] = 1;  // collect_finished_contacts() records the event and clears the history
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, pairs.size(), kPairGrain), [&](const auto& range) {
+        const PeriodicImages images(domain_);
+        // Screening first, in a tight loop over blocks of pairs: most candidate pairs are apart.
+        // The touching ones of a block are queued and their contact law runs after; each pair
+        // writes only its own slots, so the order does not matter.
+        constexpr std::size_t kBlock = 512;
+        std::array<std::uint32_t, kBlock> touching;
+        const NeighborPair* const pair = pairs.data();
+        const Vec3* const x = position_.data();
+        const double* const radius = radius_.data();
+        const GroupId* const group = group_.data();
+        const std::uint8_t* const was_touching = pair_touching_.data();
+        std::uint8_t* const active = pair_active_.data();
+        std::uint8_t* const finished = pair_finished_.data();
+        for (std::size_t block = range.begin(); block < range.end(); block += kBlock) {
+          std::size_t touching_count = 0;
+          const std::size_t block_end = std::min(block + kBlock, range.end());
+          for (std::size_t k = block; k != block_end; ++k) {
+            const auto [i, j] = pair[k];
+            active[k] = 0;
+            if (group[i] != kFreeParticle && group[j] != kFreeParticle)
+              continue;  // two wall balls never interact
+            double gradient_images;
+            const double reach = radius[i] + radius[j];
+            if (images.separation(x[i], x[j], gradient_images).squaredNorm() < reach * reach) {
+              touching[touching_count++] = static_cast<std::uint32_t>(k);
+            } else if (was_touching[k]) {
+              finished[k] =
+                  1;  // collect_finished_contacts() records the event and clears the history
+            }
+          }
+          for (std::size_t t = 0; t < touching_count; ++t)
+            compute_pair_contact(images, touching[t], dt);
         }
-      }
-      for (std::size_t t = 0; t < touching_count; ++t) compute_pair_contact(images, touching[t], dt);
-    }
-  });
+      });
 }
 
 void System::compute_pair_contact(const PeriodicImages& images, std::size_t k, double dt) {
@@ -479,14 +518,16 @@ void System::compute_pair_contact(const PeriodicImages& images, std::size_t k, d
   const double overlap = reach - distance;
   const Vec3 arm_i = -(radius_[i] - 0.5 * overlap) * normal;
   const Vec3 arm_j = (radius_[j] - 0.5 * overlap) * normal;
-  const Vec3 contact_velocity_i = predicted_velocity_[i] + predicted_angular_velocity_[i].cross(arm_i);
+  const Vec3 contact_velocity_i =
+      predicted_velocity_[i] + predicted_angular_velocity_[i].cross(arm_i);
   const Vec3 contact_velocity_j = predicted_velocity_[j] + images.image_velocity(gradient_images) +
                                   predicted_angular_velocity_[j].cross(arm_j);
-  const double m_eff = free_i && free_j ? effective_mass(mass_[i], mass_[j]) : (free_i ? mass_[i] : mass_[j]);
+  const double m_eff =
+      free_i && free_j ? effective_mass(mass_[i], mass_[j]) : (free_i ? mass_[i] : mass_[j]);
   const ContactGeometry geometry{normal, overlap, contact_velocity_i - contact_velocity_j};
   ContactHistory& history = pair_history_[k];
-  const ContactResponse response =
-      linear_spring_dashpot(materials_.pair(material_[i], material_[j]), m_eff, geometry, history.spring, dt);
+  const ContactResponse response = linear_spring_dashpot(
+      materials_.pair(material_[i], material_[j]), m_eff, geometry, history.spring, dt);
 
   if (!history.touching) {
     history.touching = true;
@@ -515,108 +556,115 @@ void System::compute_particle_forces(double dt) {
   WallSlots& after = wall_slots_[1 - wall_current_];
   std::vector<WallPose> poses;
   for (const Wall& wall : walls_) poses.push_back(wall_pose(wall));
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), [&](const auto& range) {
-    const std::uint32_t* const entry_offset = particle_pair_offset_.data();
-    const std::uint32_t* const entries = particle_pair_entry_.data();
-    const std::uint8_t* const active = pair_active_.data();
-    const Vec3* const pair_force = pair_force_.data();
-    const Vec3* const pair_torque_a = pair_torque_a_.data();
-    const Vec3* const pair_torque_b = pair_torque_b_.data();
-    std::uint8_t* const in_contact = particle_in_contact_.data();
-    // Gravity plus the pairs in force on p, in pair order.
-    const auto pair_sum = [&](std::size_t p, Vec3& force, Vec3& torque) {
-      force = is_free(p) ? Vec3(mass_[p] * gravity_) : Vec3::Zero();
-      torque = Vec3::Zero();
-      if (!in_contact[p]) return;  // only particles with a pair in force have anything to sum
-      in_contact[p] = 0;
-      for (std::uint32_t e = entry_offset[p]; e < entry_offset[p + 1]; ++e) {
-        const std::uint32_t entry = entries[e];
-        const std::uint32_t k = entry >> 1;
-        if (!active[k]) continue;
-        if ((entry & 1) == 0) {
-          force += pair_force[k];
-          torque += pair_torque_a[k];
-        } else {
-          force -= pair_force[k];
-          torque += pair_torque_b[k];
-        }
-      }
-    };
-    if (walls_.empty()) {  // a loop of its own: without the wall code it keeps its values in registers
-      Vec3* const force = force_.data();
-      Vec3* const torque = torque_.data();
-      for (std::size_t p = range.begin(); p != range.end(); ++p) {
-        Vec3 f, t;
-        pair_sum(p, f, t);
-        force[p] = f;
-        torque[p] = t;
-      }
-      return;
-    }
-    std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
-    for (std::size_t p = range.begin(); p != range.end(); ++p) {
-      Vec3 force, torque;
-      pair_sum(p, force, torque);
-      if (!is_free(p)) {  // no wall slots in use, in either buffer
-        force_[p] = force;
-        torque_[p] = torque;
-        continue;
-      }
-      const int old_count = before.count[p];
-      const WallContactHistory* old_slots = before.of(p);
-      WallContactHistory* slots = after.of(p);
-      std::uint8_t matched = 0;
-      int count = 0;
-      for (std::size_t w = 0; w < walls_.size(); ++w) {
-        surface.clear();
-        wall_contacts(walls_[w], poses[w], position_[p], radius_[p], surface);
-        for (const SurfaceContact& contact : surface) {
-          if (count == kMaxWallContactsPerParticle) {
-            throw std::runtime_error(fmt::format("particle {} touches more than {} wall features at once at t = {} s",
-                                                 p, kMaxWallContactsPerParticle, time_));
-          }
-          WallContactHistory& slot = slots[count++];
-          slot.wall = static_cast<std::int32_t>(w);
-          slot.feature = contact.feature;
-          slot.history = ContactHistory{};
-          for (int o = 0; o < old_count; ++o) {
-            if (!(matched & (1u << o)) && old_slots[o].wall == slot.wall && old_slots[o].feature == slot.feature) {
-              slot.history = old_slots[o].history;
-              matched |= static_cast<std::uint8_t>(1u << o);
-              break;
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), [&](const auto& range) {
+        const std::uint32_t* const entry_offset = particle_pair_offset_.data();
+        const std::uint32_t* const entries = particle_pair_entry_.data();
+        const std::uint8_t* const active = pair_active_.data();
+        const Vec3* const pair_force = pair_force_.data();
+        const Vec3* const pair_torque_a = pair_torque_a_.data();
+        const Vec3* const pair_torque_b = pair_torque_b_.data();
+        std::uint8_t* const in_contact = particle_in_contact_.data();
+        // Gravity plus the pairs in force on p, in pair order.
+        const auto pair_sum = [&](std::size_t p, Vec3& force, Vec3& torque) {
+          force = is_free(p) ? Vec3(mass_[p] * gravity_) : Vec3::Zero();
+          torque = Vec3::Zero();
+          if (!in_contact[p]) return;  // only particles with a pair in force have anything to sum
+          in_contact[p] = 0;
+          for (std::uint32_t e = entry_offset[p]; e < entry_offset[p + 1]; ++e) {
+            const std::uint32_t entry = entries[e];
+            const std::uint32_t k = entry >> 1;
+            if (!active[k]) continue;
+            if ((entry & 1) == 0) {
+              force += pair_force[k];
+              torque += pair_torque_a[k];
+            } else {
+              force -= pair_force[k];
+              torque += pair_torque_b[k];
             }
           }
-          const Vec3 arm = -(radius_[p] - 0.5 * contact.overlap) * contact.normal;
-          const Vec3 relative_velocity = predicted_velocity_[p] + predicted_angular_velocity_[p].cross(arm) -
-                                         wall_surface_velocity(walls_[w], contact.point);
-          const ContactGeometry geometry{contact.normal, contact.overlap, relative_velocity};
-          const ContactResponse response = linear_spring_dashpot(
-              materials_.pair(material_[p], walls_[w].material), mass_[p], geometry, slot.history.spring, dt);
-          ContactHistory& history = slot.history;
-          if (!history.touching) {
-            history.touching = true;
-            history.start_time = time_;
-            const double v_n = relative_velocity.dot(contact.normal);
-            history.impact_speed = std::max(-v_n, 0.0);
-            history.impact_energy = 0.5 * mass_[p] * v_n * v_n;
+        };
+        if (walls_.empty()) {  // a loop of its own: without the wall code it keeps its values in
+                               // registers
+          Vec3* const force = force_.data();
+          Vec3* const torque = torque_.data();
+          for (std::size_t p = range.begin(); p != range.end(); ++p) {
+            Vec3 f, t;
+            pair_sum(p, f, t);
+            force[p] = f;
+            torque[p] = t;
           }
-          history.spring = response.spring;
-          history.elastic_energy = response.elastic_energy;
-          history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
-                                            response.dissipated_friction};
-          history.point = contact.point;
-          slot.force_on_particle = response.force_on_a;
-          slot.point = contact.point;
-          force += response.force_on_a;
-          torque += arm.cross(response.force_on_a);
+          return;
         }
-      }
-      after.count[p] = static_cast<std::uint8_t>(count);
-      finished_wall_mask_[p] = static_cast<std::uint8_t>(~matched & ((1u << old_count) - 1u));
-      force_[p] = force;
-      torque_[p] = torque;
-    }
-  });
+        std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
+        for (std::size_t p = range.begin(); p != range.end(); ++p) {
+          Vec3 force, torque;
+          pair_sum(p, force, torque);
+          if (!is_free(p)) {  // no wall slots in use, in either buffer
+            force_[p] = force;
+            torque_[p] = torque;
+            continue;
+          }
+          const int old_count = before.count[p];
+          const WallContactHistory* old_slots = before.of(p);
+          WallContactHistory* slots = after.of(p);
+          std::uint8_t matched = 0;
+          int count = 0;
+          for (std::size_t w = 0; w < walls_.size(); ++w) {
+            surface.clear();
+            wall_contacts(walls_[w], poses[w], position_[p], radius_[p], surface);
+            for (const SurfaceContact& contact : surface) {
+              if (count == kMaxWallContactsPerParticle) {
+                throw std::runtime_error(fmt::format(
+                    "particle {} touches more than {} wall features at once at t = {} s", p,
+                    kMaxWallContactsPerParticle, time_));
+              }
+              WallContactHistory& slot = slots[count++];
+              slot.wall = static_cast<std::int32_t>(w);
+              slot.feature = contact.feature;
+              slot.history = ContactHistory{};
+              for (int o = 0; o < old_count; ++o) {
+                if (!(matched & (1u << o)) && old_slots[o].wall == slot.wall &&
+                    old_slots[o].feature == slot.feature) {
+                  slot.history = old_slots[o].history;
+                  matched |= static_cast<std::uint8_t>(1u << o);
+                  break;
+                }
+              }
+              const Vec3 arm = -(radius_[p] - 0.5 * contact.overlap) * contact.normal;
+              const Vec3 relative_velocity = predicted_velocity_[p] +
+                                             predicted_angular_velocity_[p].cross(arm) -
+                                             wall_surface_velocity(walls_[w], contact.point);
+              const ContactGeometry geometry{contact.normal, contact.overlap, relative_velocity};
+              const ContactResponse response =
+                  linear_spring_dashpot(materials_.pair(material_[p], walls_[w].material), mass_[p],
+                                        geometry, slot.history.spring, dt);
+              ContactHistory& history = slot.history;
+              if (!history.touching) {
+                history.touching = true;
+                history.start_time = time_;
+                const double v_n = relative_velocity.dot(contact.normal);
+                history.impact_speed = std::max(-v_n, 0.0);
+                history.impact_energy = 0.5 * mass_[p] * v_n * v_n;
+              }
+              history.spring = response.spring;
+              history.elastic_energy = response.elastic_energy;
+              history.dissipated +=
+                  Dissipation{response.dissipated_normal, response.dissipated_tangential,
+                              response.dissipated_friction};
+              history.point = contact.point;
+              slot.force_on_particle = response.force_on_a;
+              slot.point = contact.point;
+              force += response.force_on_a;
+              torque += arm.cross(response.force_on_a);
+            }
+          }
+          after.count[p] = static_cast<std::uint8_t>(count);
+          finished_wall_mask_[p] = static_cast<std::uint8_t>(~matched & ((1u << old_count) - 1u));
+          force_[p] = force;
+          torque_[p] = torque;
+        }
+      });
   wall_current_ = 1 - wall_current_;
 }
 
@@ -663,17 +711,19 @@ void System::reduce_loads(double dt) {
     load.power = power;
   };
   for (std::size_t w = 0; w < wall_n; ++w) {
-    store(wall_loads_[w], totals[w], [&](const WallLoad& load) { return wall_power(walls_[w], load); });
+    store(wall_loads_[w], totals[w],
+          [&](const WallLoad& load) { return wall_power(walls_[w], load); });
   }
   for (std::size_t g = 0; g < groups_.size(); ++g) {
     const Vec3& velocity = groups_[g].velocity;
-    store(group_loads_[g], totals[wall_n + g], [&](const WallLoad& load) { return -load.force.dot(velocity); });
+    store(group_loads_[g], totals[wall_n + g],
+          [&](const WallLoad& load) { return -load.force.dot(velocity); });
   }
 }
 
 void System::collect_finished_contacts() {
-  auto finish = [&](ContactHistory& history, std::uint32_t category, ParticleId a, std::uint32_t b, bool with_wall,
-                    double tangential_stiffness) {
+  auto finish = [&](ContactHistory& history, std::uint32_t category, ParticleId a, std::uint32_t b,
+                    bool with_wall, double tangential_stiffness) {
     // A contact that lets go while its tangential spring is still loaded (pulled apart within a
     // step, e.g. by a barostat's stretch) loses that spring's energy: friction's share.
     history.dissipated.friction += 0.5 * tangential_stiffness * history.spring.squaredNorm();
@@ -706,9 +756,10 @@ void System::collect_finished_contacts() {
     WallContactHistory* slots = previous.of(p);
     for (int s = 0; s < kMaxWallContactsPerParticle; ++s) {
       if (!(finished_wall_mask_[p] & (1u << s))) continue;
-      finish(slots[s].history, wall_category(slots[s].wall, material_[p]), static_cast<ParticleId>(p),
-             static_cast<std::uint32_t>(slots[s].wall), true,
-             materials_.pair(material_[p], walls_[static_cast<std::size_t>(slots[s].wall)].material).tangential_stiffness);
+      finish(slots[s].history, wall_category(slots[s].wall, material_[p]),
+             static_cast<ParticleId>(p), static_cast<std::uint32_t>(slots[s].wall), true,
+             materials_.pair(material_[p], walls_[static_cast<std::size_t>(slots[s].wall)].material)
+                 .tangential_stiffness);
     }
     finished_wall_mask_[p] = 0;
   });
@@ -721,8 +772,9 @@ void System::apply_servos() {
     if (group.servo_mobility <= 0.0) continue;
     // The group pushes the free particles with minus the force they exert on it.
     const double pushing = -group_loads_[g].force[group.servo_axis];
-    group.velocity[group.servo_axis] = std::clamp(group.servo_mobility * (group.servo_target_force - pushing),
-                                                  -group.servo_max_speed, group.servo_max_speed);
+    group.velocity[group.servo_axis] =
+        std::clamp(group.servo_mobility * (group.servo_target_force - pushing),
+                   -group.servo_max_speed, group.servo_max_speed);
   }
 }
 
@@ -765,7 +817,8 @@ std::vector<Dissipation> System::dissipation_by_category() const {
   const auto& pairs = neighbors_.pairs();
   for (std::size_t k = 0; k < pair_history_.size() && k < pairs.size(); ++k) {
     if (pair_history_[k].touching) {
-      total[pair_category(material_[pairs[k].i], material_[pairs[k].j])] += pair_history_[k].dissipated;
+      total[pair_category(material_[pairs[k].i], material_[pairs[k].j])] +=
+          pair_history_[k].dissipated;
     }
   }
   for (std::size_t p = 0; p < size(); ++p) {
@@ -782,7 +835,8 @@ EnergyBudget System::energy() const {
   for (std::size_t p = 0; p < size(); ++p) {
     if (!is_free(p)) continue;
     const double inertia = 0.4 * mass_[p] * radius_[p] * radius_[p];
-    budget.kinetic += 0.5 * mass_[p] * velocity_[p].squaredNorm() + 0.5 * inertia * angular_velocity_[p].squaredNorm();
+    budget.kinetic += 0.5 * mass_[p] * velocity_[p].squaredNorm() +
+                      0.5 * inertia * angular_velocity_[p].squaredNorm();
     budget.potential -= mass_[p] * gravity_.dot(position_[p]);
   }
   for (const auto& history : pair_history_) {
@@ -790,7 +844,8 @@ EnergyBudget System::energy() const {
   }
   for (std::size_t p = 0; p < size(); ++p) {
     const WallContactHistory* slots = current_wall_slots().of(p);
-    for (int s = 0; s < current_wall_slots().count[p]; ++s) budget.elastic += slots[s].history.elastic_energy;
+    for (int s = 0; s < current_wall_slots().count[p]; ++s)
+      budget.elastic += slots[s].history.elastic_energy;
   }
   for (const Dissipation& d : dissipation_by_category()) budget.dissipated += d.total();
   for (const WallLoad& load : wall_loads_) budget.wall_work += load.work;
@@ -798,6 +853,8 @@ EnergyBudget System::energy() const {
   return budget;
 }
 
-std::vector<CollisionEvent> System::take_collision_events() { return std::exchange(events_, {}); }
+std::vector<CollisionEvent> System::take_collision_events() {
+  return std::exchange(events_, {});
+}
 
 }  // namespace millflow::dem

@@ -218,7 +218,8 @@ class System {
   bool kick_and_drift(bool finish_last_kick);
   void update_neighbors(bool rebuild);
   // Builds a new neighbour list and carries the histories of `old_pairs` (sorted) over to it.
-  void rebuild_neighbors(std::span<const NeighborPair> old_pairs, std::vector<ContactHistory> old_history);
+  void rebuild_neighbors(std::span<const NeighborPair> old_pairs,
+                         std::vector<ContactHistory> old_history);
   void compute_pair_forces(double dt);
   // The contact law of candidate pair k, which touches.
   void compute_pair_contact(const PeriodicImages& images, std::size_t k, double dt);
@@ -262,7 +263,8 @@ class System {
   std::vector<ContactHistory> finished_pair_history_;
   // Per particle, the pairs it belongs to (CSR): entry = pair index * 2 + (0: first, 1: second).
   std::vector<std::uint32_t> particle_pair_offset_, particle_pair_entry_;
-  std::vector<std::uint8_t> particle_in_contact_;  // has a pair in force this step (reset when summed)
+  std::vector<std::uint8_t>
+      particle_in_contact_;  // has a pair in force this step (reset when summed)
 
   // Wall contacts, kMaxWallContactsPerParticle slots per particle, double-buffered: each step
   // fills one buffer from the other, so no slot is copied or cleared for particles off the walls.
@@ -270,7 +272,9 @@ class System {
     std::vector<WallContactHistory> slot;
     std::vector<std::uint8_t> count;
     WallContactHistory* of(std::size_t p) { return &slot[p * kMaxWallContactsPerParticle]; }
-    const WallContactHistory* of(std::size_t p) const { return &slot[p * kMaxWallContactsPerParticle]; }
+    const WallContactHistory* of(std::size_t p) const {
+      return &slot[p * kMaxWallContactsPerParticle];
+    }
     void resize(std::size_t n) {
       slot.resize(n * kMaxWallContactsPerParticle);
       count.resize(n, 0);

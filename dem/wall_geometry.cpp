@@ -120,12 +120,18 @@ SlotRange reachable_lifter_slots(const MillShell& mill, const LifterPolygon& pol
   return {first, std::min(last, first + n - 1)};
 }
 
-double face_angle(const MillShell& mill) { return mill.lifter.face_angle_deg * kPi / 180.0; }
+double face_angle(const MillShell& mill) {
+  return mill.lifter.face_angle_deg * kPi / 180.0;
+}
 
-double slot_spacing(const MillShell& mill) { return 2.0 * kPi / static_cast<double>(mill.lifter_count); }
+double slot_spacing(const MillShell& mill) {
+  return 2.0 * kPi / static_cast<double>(mill.lifter_count);
+}
 
 // An accumulated rotation angle reduced to one turn keeps the slot numbers small.
-double reduced_angle(double theta) { return theta - 2.0 * kPi * std::round(theta / (2.0 * kPi)); }
+double reduced_angle(double theta) {
+  return theta - 2.0 * kPi * std::round(theta / (2.0 * kPi));
+}
 
 Vec3 slot_direction(const MillShell& mill, double reduced_theta, long slot) {
   const double phi = reduced_theta + static_cast<double>(slot) * slot_spacing(mill);
@@ -134,8 +140,8 @@ Vec3 slot_direction(const MillShell& mill, double reduced_theta, long slot) {
 
 // Calls visit(contact) for each contact; stops early (returning false) when visit returns false.
 template <class Visit>
-bool visit_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec3& centre, double radius,
-                         Visit&& visit) {
+bool visit_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec3& centre,
+                         double radius, Visit&& visit) {
   if (mill.end_walls) {
     for (int end = 0; end < 2; ++end) {
       const Vec3 origin(0.0, 0.0, end == 0 ? 0.0 : mill.length);
@@ -160,7 +166,8 @@ bool visit_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec3
 
   // Extending the sides by height + radius puts the buried base more than `radius` beyond the
   // shell, and farther from any centre inside the bar than its top face.
-  const LifterPolygon poly = lifter_polygon(mill, pose.face_sin, pose.face_cos, mill.lifter.height + radius);
+  const LifterPolygon poly =
+      lifter_polygon(mill, pose.face_sin, pose.face_cos, mill.lifter.height + radius);
   const SlotRange slots = reachable_lifter_slots(mill, poly, pose.theta, centre, rho, radius);
   const long n = mill.lifter_count;
   const auto table_size = static_cast<long>(pose.slot_radial.size());
@@ -263,12 +270,13 @@ MillPose mill_pose(const MillShell& mill, double theta) {
   // turn, reachable slots lie within 1.5 turns of slot 0.
   const long n = mill.lifter_count;
   pose.first_slot = -(3 * n) / 2 - 1;
-  for (long m = pose.first_slot; m <= (3 * n) / 2 + 1; ++m) pose.slot_radial.push_back(slot_direction(mill, pose.theta, m));
+  for (long m = pose.first_slot; m <= (3 * n) / 2 + 1; ++m)
+    pose.slot_radial.push_back(slot_direction(mill, pose.theta, m));
   return pose;
 }
 
-void sphere_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec3& centre, double radius,
-                          std::vector<SurfaceContact>& out) {
+void sphere_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec3& centre,
+                          double radius, std::vector<SurfaceContact>& out) {
   visit_mill_contacts(mill, pose, centre, radius, [&out](const SurfaceContact& c) {
     out.push_back(c);
     return true;
@@ -284,7 +292,8 @@ double mill_free_cross_section_area(const MillShell& mill) {
   const double disk = kPi * mill.radius * mill.radius;
   if (mill.lifter_count == 0) return disk;
   // The trapezoid on the tangent line; its part outside the disk is buried in the shell.
-  const LifterPolygon poly = lifter_polygon(mill, std::sin(face_angle(mill)), std::cos(face_angle(mill)), 0.0);
+  const LifterPolygon poly =
+      lifter_polygon(mill, std::sin(face_angle(mill)), std::cos(face_angle(mill)), 0.0);
   double lifter_area = 0.0;
   for (std::size_t i = 0; i < 4; ++i) {
     lifter_area += triangle_disk_area(poly.vertex[i], poly.vertex[(i + 1) % 4], mill.radius);

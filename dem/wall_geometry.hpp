@@ -90,12 +90,12 @@ void sphere_mill_contacts(const MillShell& mill, double theta, const Vec3& centr
 struct MillPose {
   double theta = 0.0;  // reduced to (-pi, pi]
   double face_sin = 0.0, face_cos = 1.0;
-  long first_slot = 0;              // slot_radial[s] is the direction of slot first_slot + s
-  std::vector<Vec3> slot_radial;    // (cos phi, sin phi, 0), phi = theta + slot * 2 pi / n
+  long first_slot = 0;            // slot_radial[s] is the direction of slot first_slot + s
+  std::vector<Vec3> slot_radial;  // (cos phi, sin phi, 0), phi = theta + slot * 2 pi / n
 };
 MillPose mill_pose(const MillShell& mill, double theta);
-void sphere_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec3& centre, double radius,
-                          std::vector<SurfaceContact>& out);
+void sphere_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec3& centre,
+                          double radius, std::vector<SurfaceContact>& out);
 
 // Free area of the mill's cross-section: the disk of the shell minus the exposed lifter areas
 // (m^2). Times the length, the volume available to the charge.

@@ -22,7 +22,8 @@ fs::path ArtifactStore::path_of(const std::string& sha256) const {
 
 StoredArtifact ArtifactStore::put(const std::string& name, const fs::path& file) const {
   const auto size = files_->file_size(file);
-  if (!size) throw std::runtime_error("artifact " + name + ": the task did not write " + file.string());
+  if (!size)
+    throw std::runtime_error("artifact " + name + ": the task did not write " + file.string());
   StoredArtifact artifact{name, files_->sha256(file), *size};
   if (verify(artifact)) return artifact;
   const fs::path target = path_of(artifact.sha256);
@@ -34,7 +35,8 @@ StoredArtifact ArtifactStore::put(const std::string& name, const fs::path& file)
     files_->remove(temporary);
     throw;
   }
-  if (!verify(artifact)) throw std::runtime_error("artifact " + name + " changed while it was being stored");
+  if (!verify(artifact))
+    throw std::runtime_error("artifact " + name + " changed while it was being stored");
   return artifact;
 }
 
@@ -54,6 +56,8 @@ std::vector<std::string> ArtifactStore::stored_digests() const {
   return digests;
 }
 
-void ArtifactStore::remove(const std::string& sha256) const { files_->remove(path_of(sha256)); }
+void ArtifactStore::remove(const std::string& sha256) const {
+  files_->remove(path_of(sha256));
+}
 
 }  // namespace millflow::engine

@@ -30,7 +30,9 @@ std::string read_text(const fs::path& file) {
   return text.str();
 }
 
-fs::path temporary_beside(const fs::path& file) { return file.string() + ".tmp." + std::to_string(::getpid()); }
+fs::path temporary_beside(const fs::path& file) {
+  return file.string() + ".tmp." + std::to_string(::getpid());
+}
 
 // Temp-then-rename, flushed first: after a crash the file is whole or absent.
 void write_file_atomically(const fs::path& file, const std::string& text) {
@@ -52,19 +54,25 @@ void write_file_atomically(const fs::path& file, const std::string& text) {
 json input_json(const TaskInput& input) {
   json artifacts = json::object();
   for (const auto& [name, file] : input.artifacts) artifacts[name] = file.string();
-  return {{"key", input.key}, {"kind", input.kind}, {"result", input.result}, {"artifacts", artifacts}};
+  return {
+      {"key", input.key}, {"kind", input.kind}, {"result", input.result}, {"artifacts", artifacts}};
 }
 
 TaskInput input_from(const json& value) {
-  TaskInput input{value.at("key").get<std::string>(), value.at("kind").get<std::string>(), value.at("result"), {}};
-  for (const auto& [name, file] : value.at("artifacts").items()) input.artifacts[name] = file.get<std::string>();
+  TaskInput input{value.at("key").get<std::string>(),
+                  value.at("kind").get<std::string>(),
+                  value.at("result"),
+                  {}};
+  for (const auto& [name, file] : value.at("artifacts").items())
+    input.artifacts[name] = file.get<std::string>();
   return input;
 }
 
 json children_json(const std::vector<ChildTask>& children) {
   json list = json::array();
   for (const auto& child : children) {
-    list.push_back({{"kind", child.kind}, {"params", child.params}, {"extra_upstream", child.extra_upstream}});
+    list.push_back(
+        {{"kind", child.kind}, {"params", child.params}, {"extra_upstream", child.extra_upstream}});
   }
   return list;
 }
@@ -80,8 +88,8 @@ std::vector<ChildTask> children_from(const json& list) {
 
 // Writes result.json and the artifact copies; returns the completion marker naming them.
 json write_outputs(const fs::path& output_dir, const TaskOutcome& outcome) {
-  const std::string result_text =
-      canonical_json(json{{"result", outcome.result}, {"children", children_json(outcome.children)}});
+  const std::string result_text = canonical_json(
+      json{{"result", outcome.result}, {"children", children_json(outcome.children)}});
   write_file_atomically(output_dir / "result.json", result_text);
   json artifacts = json::array();
   for (size_t i = 0; i < outcome.artifacts.size(); ++i) {
@@ -90,7 +98,9 @@ json write_outputs(const fs::path& output_dir, const TaskOutcome& outcome) {
     const fs::path temporary = temporary_beside(target);
     local_file_system().copy_durably(outcome.artifacts[i].file, temporary);
     fs::rename(temporary, target);
-    artifacts.push_back({{"name", outcome.artifacts[i].name}, {"file", file}, {"sha256", sha256_file_hex(target)},
+    artifacts.push_back({{"name", outcome.artifacts[i].name},
+                         {"file", file},
+                         {"sha256", sha256_file_hex(target)},
                          {"size", static_cast<std::int64_t>(fs::file_size(target))}});
   }
   return {{"status", "done"}, {"result_sha256", sha256_hex(result_text)}, {"artifacts", artifacts}};
@@ -121,10 +131,17 @@ class StopWatcher {
 void write_attempt_spec(const AttemptSpec& spec, const fs::path& file) {
   json inputs = json::array();
   for (const auto& input : spec.inputs) inputs.push_back(input_json(input));
-  const json document = {{"millflow_attempt", kSpecFormat}, {"key", spec.task.key}, {"kind", spec.task.kind},
-                         {"version", spec.task.version}, {"params", spec.task.params}, {"upstream", spec.task.upstream},
-                         {"inputs", inputs}, {"attempt", spec.attempt}, {"threads", spec.threads},
-                         {"work_dir", spec.work_dir.string()}, {"output_dir", spec.output_dir.string()}};
+  const json document = {{"millflow_attempt", kSpecFormat},
+                         {"key", spec.task.key},
+                         {"kind", spec.task.kind},
+                         {"version", spec.task.version},
+                         {"params", spec.task.params},
+                         {"upstream", spec.task.upstream},
+                         {"inputs", inputs},
+                         {"attempt", spec.attempt},
+                         {"threads", spec.threads},
+                         {"work_dir", spec.work_dir.string()},
+                         {"output_dir", spec.output_dir.string()}};
   write_file_atomically(file, document.dump());
 }
 
@@ -137,15 +154,19 @@ AttemptSpec read_attempt_spec(const fs::path& file) {
                          "pass a spec file written by the millflow coordinator"}});
   }
   if (document.value("millflow_attempt", 0) != kSpecFormat) {
-    throw InvalidInput({{"/millflow_attempt", file.string() + " is not a version " + std::to_string(kSpecFormat) +
-                                                  " task-spec file",
-                         "run the millflow that wrote it"}});
+    throw InvalidInput(
+        {{"/millflow_attempt",
+          file.string() + " is not a version " + std::to_string(kSpecFormat) + " task-spec file",
+          "run the millflow that wrote it"}});
   }
   try {
     AttemptSpec spec;
-    spec.task = TaskSpec{document.at("key").get<std::string>(), document.at("kind").get<std::string>(),
-                         document.at("version").get<std::string>(), document.at("params"),
-                         document.at("upstream").get<std::vector<std::string>>(), {}};
+    spec.task = TaskSpec{document.at("key").get<std::string>(),
+                         document.at("kind").get<std::string>(),
+                         document.at("version").get<std::string>(),
+                         document.at("params"),
+                         document.at("upstream").get<std::vector<std::string>>(),
+                         {}};
     for (const auto& input : document.at("inputs")) spec.inputs.push_back(input_from(input));
     spec.attempt = document.at("attempt").get<int>();
     spec.threads = document.at("threads").get<int>();
@@ -158,8 +179,8 @@ AttemptSpec read_attempt_spec(const fs::path& file) {
   }
 }
 
-int execute_attempt(const KindRegistry& kinds, const fs::path& spec_file, const std::function<bool()>& stop_requested,
-                    std::ostream& log) {
+int execute_attempt(const KindRegistry& kinds, const fs::path& spec_file,
+                    const std::function<bool()>& stop_requested, std::ostream& log) {
   std::mutex log_mutex;
   auto log_line = [&](std::string_view message) {
     std::lock_guard lock(log_mutex);
@@ -171,8 +192,9 @@ int execute_attempt(const KindRegistry& kinds, const fs::path& spec_file, const 
     spec = read_attempt_spec(spec_file);
     kind = &kinds.get(spec.task.kind);
     if (kind->version != spec.task.version) {
-      throw InvalidInput({{"/version", "task kind " + kind->name + " is version " + kind->version +
-                                           " in this millflow, the spec wants " + spec.task.version,
+      throw InvalidInput({{"/version",
+                           "task kind " + kind->name + " is version " + kind->version +
+                               " in this millflow, the spec wants " + spec.task.version,
                            "run jobs with the same millflow build as the coordinator"}});
     }
   } catch (const std::exception& error) {
@@ -184,9 +206,15 @@ int execute_attempt(const KindRegistry& kinds, const fs::path& spec_file, const 
   int code = kExecDone;
   try {
     StopWatcher watcher(stop_requested);
-    TaskContext context{.key = spec.task.key, .params = spec.task.params, .inputs = spec.inputs,
-                        .work_dir = spec.work_dir, .threads = spec.threads, .attempt = spec.attempt,
-                        .stop = watcher.token(), .progress = [](double, std::string_view) {}, .log = log_line};
+    TaskContext context{.key = spec.task.key,
+                        .params = spec.task.params,
+                        .inputs = spec.inputs,
+                        .work_dir = spec.work_dir,
+                        .threads = spec.threads,
+                        .attempt = spec.attempt,
+                        .stop = watcher.token(),
+                        .progress = [](double, std::string_view) {},
+                        .log = log_line};
     TaskOutcome outcome;
     tbb::task_arena arena(spec.threads);
     arena.execute([&] { outcome = kind->run(context); });
@@ -201,12 +229,14 @@ int execute_attempt(const KindRegistry& kinds, const fs::path& spec_file, const 
     marker = {{"status", "failed"}, {"error", error.what()}};
     code = kExecFailed;
   }
-  marker["duration_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  marker["duration_s"] =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   write_file_atomically(spec.output_dir / "complete.json", marker.dump());
   return code;
 }
 
-std::optional<AttemptOutcome> read_attempt_outcome(const fs::path& output_dir, const std::string& key, int attempt) {
+std::optional<AttemptOutcome> read_attempt_outcome(const fs::path& output_dir,
+                                                   const std::string& key, int attempt) {
   const fs::path marker_file = output_dir / "complete.json";
   if (!fs::exists(marker_file)) return std::nullopt;
   AttemptOutcome finished{key, attempt, std::nullopt, {}, 0.0};
@@ -229,7 +259,8 @@ std::optional<AttemptOutcome> read_attempt_outcome(const fs::path& output_dir, c
       for (const auto& artifact : marker.at("artifacts")) {
         const fs::path file = output_dir / artifact.at("file").get<std::string>();
         if (sha256_file_hex(file) != artifact.at("sha256").get<std::string>()) {
-          throw std::runtime_error("artifact " + file.string() + " does not match the SHA-256 of its completion marker");
+          throw std::runtime_error("artifact " + file.string() +
+                                   " does not match the SHA-256 of its completion marker");
         }
         finished.outcome.artifacts.push_back({artifact.at("name").get<std::string>(), file});
       }

@@ -5,9 +5,9 @@
 //     {"millflow_attempt": 1, "key", "kind", "version", "params", "upstream": [keys],
 //      "inputs": [{"key", "kind", "result", "artifacts": {name: file}}], "attempt", "threads",
 //      "work_dir", "output_dir"}
-//   <output_dir>/result.json     {"result": ..., "children": [{"kind", "params", "extra_upstream"}]}
-//   <output_dir>/artifacts/<i>   copies of the produced files, in the order of the marker's list
-//   <output_dir>/complete.json   the completion marker, written last:
+//   <output_dir>/result.json     {"result": ..., "children": [{"kind", "params",
+//   "extra_upstream"}]} <output_dir>/artifacts/<i>   copies of the produced files, in the order of
+//   the marker's list <output_dir>/complete.json   the completion marker, written last:
 //     {"status": "done"|"failed"|"stopped", "error", "duration_s", "result_sha256",
 //      "artifacts": [{"name", "file", "sha256", "size"}]}
 // Each file is written under a temporary name and renamed into place: a reader sees a whole file
@@ -24,9 +24,10 @@ namespace millflow::engine {
 
 // Exit codes of `millflow exec`.
 inline constexpr int kExecDone = 0;
-inline constexpr int kExecFailed = 1;    // the task threw; the marker holds the error
-inline constexpr int kExecBadSpec = 2;   // the spec file is unreadable or names an unknown kind
-inline constexpr int kExecStopped = 75;  // a signal asked it to checkpoint; it stopped and runs again
+inline constexpr int kExecFailed = 1;   // the task threw; the marker holds the error
+inline constexpr int kExecBadSpec = 2;  // the spec file is unreadable or names an unknown kind
+inline constexpr int kExecStopped =
+    75;  // a signal asked it to checkpoint; it stopped and runs again
 
 struct AttemptSpec {
   TaskSpec task;
@@ -49,7 +50,7 @@ int execute_attempt(const KindRegistry& kinds, const std::filesystem::path& spec
 
 // The outcome written to output_dir, or nullopt while there is no completion marker. A marker
 // whose files do not match their recorded SHA-256 gives a failed outcome.
-std::optional<AttemptOutcome> read_attempt_outcome(const std::filesystem::path& output_dir, const std::string& key,
-                                                   int attempt);
+std::optional<AttemptOutcome> read_attempt_outcome(const std::filesystem::path& output_dir,
+                                                   const std::string& key, int attempt);
 
 }  // namespace millflow::engine

@@ -18,7 +18,8 @@ namespace {
 
 nlohmann::json read_json_file(const fs::path& file) {
   std::ifstream in(file);
-  if (!in) throw InvalidInput({{"", "cannot read campaign file " + file.string(), "check the path"}});
+  if (!in)
+    throw InvalidInput({{"", "cannot read campaign file " + file.string(), "check the path"}});
   std::stringstream text;
   text << in.rdbuf();
   try {
@@ -34,8 +35,9 @@ std::string detect_format(const nlohmann::json& document) {
     return document["format"].get<std::string>();
   }
   if (document.is_object() && document.contains("millflow_campaign")) return "millflow_campaign";
-  throw InvalidInput({{"", "the campaign format is not recognisable",
-                       "add \"millflow_campaign\": 1 for a mill campaign, or \"format\": \"millflow-test\""}});
+  throw InvalidInput(
+      {{"", "the campaign format is not recognisable",
+        "add \"millflow_campaign\": 1 for a mill campaign, or \"format\": \"millflow-test\""}});
 }
 
 std::string file_safe(const std::string& name) {
@@ -57,7 +59,8 @@ std::shared_ptr<spdlog::logger> campaign_logger(const fs::path& db, const std::s
 // Counts tasks of the dry run from what the store already holds (nothing is written).
 class DryRunCounter {
  public:
-  DryRunCounter(const Registry& registry, std::optional<sql::Connection> db, ArtifactStore artifacts)
+  DryRunCounter(const Registry& registry, std::optional<sql::Connection> db,
+                ArtifactStore artifacts)
       : registry_(registry), db_(std::move(db)), artifacts_(std::move(artifacts)) {}
 
   void count(const TaskSpec& spec, bool declared_child) {
@@ -66,11 +69,13 @@ class DryRunCounter {
     if (declared_child) ++result_.known_expansions;
     if (is_cached(spec.key)) {
       ++result_.cached;
-      for (const auto& child : child_keys(*db_, spec.key)) count(find_task(*db_, child)->spec, true);
+      for (const auto& child : child_keys(*db_, spec.key))
+        count(find_task(*db_, child)->spec, true);
       return;
     }
     ++result_.would_run;
-    if (registry_.kinds.contains(spec.kind) && registry_.kinds.get(spec.kind).may_expand) ++result_.may_expand;
+    if (registry_.kinds.contains(spec.kind) && registry_.kinds.get(spec.kind).may_expand)
+      ++result_.may_expand;
   }
   const DryRun& result() const { return result_; }
 
@@ -96,16 +101,19 @@ class DryRunCounter {
 
 void Registry::add_format(CampaignFormat format) {
   const std::string name = format.name;
-  if (!formats.emplace(name, std::move(format)).second) throw std::logic_error("campaign format registered twice: " + name);
+  if (!formats.emplace(name, std::move(format)).second)
+    throw std::logic_error("campaign format registered twice: " + name);
 }
 
 const CampaignFormat& Registry::format(const std::string& name) const {
   const auto found = formats.find(name);
   if (found == formats.end()) {
     std::string known;
-    for (const auto& [format_name, format] : formats) known += (known.empty() ? "" : ", ") + format_name;
-    throw InvalidInput({{"", "no loader is registered for campaign format \"" + name + "\" in this build",
-                         "formats this build reads: " + known}});
+    for (const auto& [format_name, format] : formats)
+      known += (known.empty() ? "" : ", ") + format_name;
+    throw InvalidInput(
+        {{"", "no loader is registered for campaign format \"" + name + "\" in this build",
+          "formats this build reads: " + known}});
   }
   return found->second;
 }
@@ -113,7 +121,8 @@ const CampaignFormat& Registry::format(const std::string& name) const {
 Campaign load_campaign_file(const Registry& registry, const fs::path& file) {
   const std::string format = detect_format(read_json_file(file));
   nlohmann::json document = registry.format(format).load(file);
-  if (!document.contains("name") || !document["name"].is_string() || document["name"].get<std::string>().empty()) {
+  if (!document.contains("name") || !document["name"].is_string() ||
+      document["name"].get<std::string>().empty()) {
     throw InvalidInput({{"/name", "the campaign has no name", "add a non-empty string \"name\""}});
   }
   return Campaign{document["name"].get<std::string>(), format, std::move(document)};
@@ -127,7 +136,8 @@ std::vector<TaskSpec> plan_campaign(const Registry& registry, const Campaign& ca
 
 std::string DryRun::describe() const {
   return fmt::format(
-      "dry run: {} tasks in the DAG, {} cached, {} would run; {} of those may add tasks when they finish "
+      "dry run: {} tasks in the DAG, {} cached, {} would run; {} of those may add tasks when they "
+      "finish "
       "(pending expansions); {} tasks come from expansions already recorded",
       total, cached, would_run, may_expand, known_expansions);
 }
@@ -143,7 +153,8 @@ DryRun dry_run(const Registry& registry, const Campaign& campaign, const fs::pat
 
 RunSummary submit_campaign(const Registry& registry, const Campaign& campaign, const fs::path& db,
                            const SubmitOptions& options) {
-  const auto planned = plan_campaign(registry, campaign);  // bad input fails before anything is written
+  const auto planned =
+      plan_campaign(registry, campaign);  // bad input fails before anything is written
   if (!db.parent_path().empty()) fs::create_directories(db.parent_path());
   CoordinatorLock lock(db);
   const SystemClock system_clock;
@@ -152,21 +163,33 @@ RunSummary submit_campaign(const Registry& registry, const Campaign& campaign, c
   fs::create_directories(logs_dir(db));
   auto logger = campaign_logger(db, campaign.name);
   if (lock.stale_holder()) {
-    logger->warn("took over the database from a coordinator that is gone: {}", *lock.stale_holder());
+    logger->warn("took over the database from a coordinator that is gone: {}",
+                 *lock.stale_holder());
   }
   store.set_coordinator(static_cast<int>(::getpid()), host_name(), campaign.name);
-  const std::int64_t id = store.register_campaign(campaign.name, campaign.format, campaign.document, planned);
-  logger->info("campaign \"{}\": {} planned tasks, code version {}", campaign.name, planned.size(), code_version());
+  const std::int64_t id =
+      store.register_campaign(campaign.name, campaign.format, campaign.document, planned);
+  logger->info("campaign \"{}\": {} planned tasks, code version {}", campaign.name, planned.size(),
+               code_version());
 
   QuietProgress quiet;
   std::unique_ptr<Launcher> own_launcher;
-  if (options.jobs) own_launcher = std::make_unique<InlineLauncher>();  // idle: the jobs run elsewhere
-  else if (!options.launcher) own_launcher = std::make_unique<TbbLauncher>(options.run.jobs, options.run.threads_per_task);
-  RunEnvironment environment{store, registry.kinds, options.launcher ? *options.launcher : *own_launcher,
-                             options.progress ? *options.progress : quiet, clock,
-                             options.files ? *options.files : local_file_system(), logger, options.jobs};
+  if (options.jobs)
+    own_launcher = std::make_unique<InlineLauncher>();  // idle: the jobs run elsewhere
+  else if (!options.launcher)
+    own_launcher = std::make_unique<TbbLauncher>(options.run.jobs, options.run.threads_per_task);
+  RunEnvironment environment{store,
+                             registry.kinds,
+                             options.launcher ? *options.launcher : *own_launcher,
+                             options.progress ? *options.progress : quiet,
+                             clock,
+                             options.files ? *options.files : local_file_system(),
+                             logger,
+                             options.jobs};
   const RunSummary summary = run_campaign(environment, id, planned, options.run);
-  const std::string outcome = summary.stopped ? "interrupted" : summary.failed > 0 ? "failed" : "done";
+  const std::string outcome = summary.stopped      ? "interrupted"
+                              : summary.failed > 0 ? "failed"
+                                                   : "done";
   store.finish_campaign(id, outcome);
   store.clear_coordinator();
   logger->info("campaign \"{}\" {}: {}", campaign.name, outcome, summary.describe());
@@ -176,12 +199,14 @@ RunSummary submit_campaign(const Registry& registry, const Campaign& campaign, c
 Campaign stored_campaign(const fs::path& db, const std::string& name) {
   auto connection = open_read_only(db);
   auto row = connection.prepare(
-      name.empty() ? "SELECT name, format, document FROM campaigns ORDER BY submitted_at DESC, id DESC LIMIT 1"
+      name.empty() ? "SELECT name, format, document FROM campaigns ORDER BY submitted_at DESC, id "
+                     "DESC LIMIT 1"
                    : "SELECT name, format, document FROM campaigns WHERE name = ?");
   if (!name.empty()) row.bind_all(name);
   if (!row.step()) {
-    throw InvalidInput({{"", name.empty() ? "the database " + db.string() + " holds no campaign"
-                                          : "no campaign named \"" + name + "\" in " + db.string(),
+    throw InvalidInput({{"",
+                         name.empty() ? "the database " + db.string() + " holds no campaign"
+                                      : "no campaign named \"" + name + "\" in " + db.string(),
                          "run `millflow status` to list the campaigns"}});
   }
   return Campaign{row.text(0), row.text(1), nlohmann::json::parse(row.text(2))};

@@ -52,24 +52,24 @@ struct DryRun {
   int total = 0;
   int cached = 0;
   int would_run = 0;
-  int may_expand = 0;          // would-run tasks whose results may add tasks below them
-  int known_expansions = 0;    // children already declared by cached tasks (counted in total)
+  int may_expand = 0;        // would-run tasks whose results may add tasks below them
+  int known_expansions = 0;  // children already declared by cached tasks (counted in total)
   std::string describe() const;
 };
 DryRun dry_run(const Registry& registry, const Campaign& campaign, const std::filesystem::path& db);
 
 struct SubmitOptions {
   RunOptions run;
-  ProgressView* progress = nullptr;  // default: quiet
-  const Clock* clock = nullptr;      // default: the system clock
-  Launcher* launcher = nullptr;      // default: TbbLauncher(jobs, threads_per_task)
-  const FileSystem* files = nullptr; // default: the local disk
-  JobExecutor* jobs = nullptr;       // run attempts as batch jobs (Slurm); default: in this process
+  ProgressView* progress = nullptr;   // default: quiet
+  const Clock* clock = nullptr;       // default: the system clock
+  Launcher* launcher = nullptr;       // default: TbbLauncher(jobs, threads_per_task)
+  const FileSystem* files = nullptr;  // default: the local disk
+  JobExecutor* jobs = nullptr;  // run attempts as batch jobs (Slurm); default: in this process
 };
 
 // Takes the coordinator lock (CoordinatorBusy), registers the campaign and runs it.
-RunSummary submit_campaign(const Registry& registry, const Campaign& campaign, const std::filesystem::path& db,
-                           const SubmitOptions& options);
+RunSummary submit_campaign(const Registry& registry, const Campaign& campaign,
+                           const std::filesystem::path& db, const SubmitOptions& options);
 // The stored campaign by name, or the most recently submitted one when name is empty.
 Campaign stored_campaign(const std::filesystem::path& db, const std::string& name);
 

@@ -13,13 +13,27 @@ void append_string(std::string& out, const std::string& text) {
   out += '"';
   for (const char c : text) {
     switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\r': out += "\\r"; break;
-      case '\t': out += "\\t"; break;
-      case '\b': out += "\\b"; break;
-      case '\f': out += "\\f"; break;
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
+      case '\b':
+        out += "\\b";
+        break;
+      case '\f':
+        out += "\\f";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20) {
           out += fmt::format("\\u{:04x}", static_cast<unsigned char>(c));
@@ -36,7 +50,7 @@ void append_float(std::string& out, double value, const std::string& path) {
     throw InvalidInput({{path, fmt::format("{} is not a finite number", value),
                          "use a finite number (JSON has no NaN or infinity)"}});
   }
-  if (value == 0.0) value = 0.0;  // folds -0.0 into 0.0
+  if (value == 0.0) value = 0.0;                // folds -0.0 into 0.0
   std::string text = fmt::format("{}", value);  // shortest representation that round-trips
   if (text.find_first_of(".e") == std::string::npos) text += ".0";
   out += text;
@@ -45,12 +59,24 @@ void append_float(std::string& out, double value, const std::string& path) {
 void append_value(std::string& out, const nlohmann::json& value, const std::string& path) {
   using Type = nlohmann::json::value_t;
   switch (value.type()) {
-    case Type::null: out += "null"; return;
-    case Type::boolean: out += value.get<bool>() ? "true" : "false"; return;
-    case Type::number_integer: out += fmt::format("{}", value.get<std::int64_t>()); return;
-    case Type::number_unsigned: out += fmt::format("{}", value.get<std::uint64_t>()); return;
-    case Type::number_float: append_float(out, value.get<double>(), path); return;
-    case Type::string: append_string(out, value.get_ref<const std::string&>()); return;
+    case Type::null:
+      out += "null";
+      return;
+    case Type::boolean:
+      out += value.get<bool>() ? "true" : "false";
+      return;
+    case Type::number_integer:
+      out += fmt::format("{}", value.get<std::int64_t>());
+      return;
+    case Type::number_unsigned:
+      out += fmt::format("{}", value.get<std::uint64_t>());
+      return;
+    case Type::number_float:
+      append_float(out, value.get<double>(), path);
+      return;
+    case Type::string:
+      append_string(out, value.get_ref<const std::string&>());
+      return;
     case Type::array: {
       out += '[';
       for (std::size_t i = 0; i < value.size(); ++i) {

@@ -14,7 +14,8 @@ class Clock {
 class SystemClock final : public Clock {
  public:
   double now() const override {
-    return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+        .count();
   }
 };
 

@@ -20,22 +20,26 @@ std::optional<std::string> describe_coordinator(const std::filesystem::path& db)
   // submit to again, not an error.
   sql::Connection connection(db, sql::Access::read_only);
   if (connection.user_version() == 0) return std::nullopt;
-  auto row = connection.prepare("SELECT pid, host, started_at, coalesce(campaign, '') FROM coordinator");
+  auto row =
+      connection.prepare("SELECT pid, host, started_at, coalesce(campaign, '') FROM coordinator");
   if (!row.step()) return std::nullopt;
-  return fmt::format("pid {} on {} since {} (campaign \"{}\")", row.integer(0), row.text(1), iso8601_utc(row.real(2)),
-                     row.text(3));
+  return fmt::format("pid {} on {} since {} (campaign \"{}\")", row.integer(0), row.text(1),
+                     iso8601_utc(row.real(2)), row.text(3));
 }
 
 CoordinatorLock::CoordinatorLock(const std::filesystem::path& db) {
   const auto file = lock_file(db);
   fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (fd_ < 0) throw std::runtime_error("cannot open lock file " + file.string() + ": " + std::strerror(errno));
+  if (fd_ < 0)
+    throw std::runtime_error("cannot open lock file " + file.string() + ": " +
+                             std::strerror(errno));
   if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     ::close(fd_);
     fd_ = -1;
     const auto holder = describe_coordinator(db);
-    throw CoordinatorBusy("database " + db.string() + " is in use by another millflow coordinator: " +
-                          holder.value_or("(starting up)") + "; wait for it, or interrupt it with Ctrl-C");
+    throw CoordinatorBusy(
+        "database " + db.string() + " is in use by another millflow coordinator: " +
+        holder.value_or("(starting up)") + "; wait for it, or interrupt it with Ctrl-C");
   }
   stale_holder_ = describe_coordinator(db);
 }

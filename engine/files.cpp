@@ -26,7 +26,9 @@ std::optional<std::int64_t> LocalFileSystem::file_size(const fs::path& file) con
   return static_cast<std::int64_t>(size);
 }
 
-std::string LocalFileSystem::sha256(const fs::path& file) const { return sha256_file_hex(file); }
+std::string LocalFileSystem::sha256(const fs::path& file) const {
+  return sha256_file_hex(file);
+}
 
 void LocalFileSystem::copy_durably(const fs::path& from, const fs::path& to) const {
   fs::create_directories(to.parent_path());
@@ -34,7 +36,9 @@ void LocalFileSystem::copy_durably(const fs::path& from, const fs::path& to) con
   flush_to_disk(to);
 }
 
-void LocalFileSystem::rename(const fs::path& from, const fs::path& to) const { fs::rename(from, to); }
+void LocalFileSystem::rename(const fs::path& from, const fs::path& to) const {
+  fs::rename(from, to);
+}
 
 void LocalFileSystem::remove(const fs::path& file) const {
   std::error_code ignored;

@@ -17,19 +17,22 @@ class FileSystem {
   // SHA-256 (hex) of the file's bytes; throws std::runtime_error when it cannot be read.
   virtual std::string sha256(const std::filesystem::path& file) const = 0;
   // Copies `from` to `to` (creating the directory of `to`) and flushes `to` to the disk.
-  virtual void copy_durably(const std::filesystem::path& from, const std::filesystem::path& to) const = 0;
+  virtual void copy_durably(const std::filesystem::path& from,
+                            const std::filesystem::path& to) const = 0;
   virtual void rename(const std::filesystem::path& from, const std::filesystem::path& to) const = 0;
   // Removes a file; nothing happens when it does not exist.
   virtual void remove(const std::filesystem::path& file) const = 0;
   // Regular files anywhere below `root`; none when `root` does not exist.
-  virtual std::vector<std::filesystem::path> files_under(const std::filesystem::path& root) const = 0;
+  virtual std::vector<std::filesystem::path> files_under(
+      const std::filesystem::path& root) const = 0;
 };
 
 class LocalFileSystem final : public FileSystem {
  public:
   std::optional<std::int64_t> file_size(const std::filesystem::path& file) const override;
   std::string sha256(const std::filesystem::path& file) const override;
-  void copy_durably(const std::filesystem::path& from, const std::filesystem::path& to) const override;
+  void copy_durably(const std::filesystem::path& from,
+                    const std::filesystem::path& to) const override;
   void rename(const std::filesystem::path& from, const std::filesystem::path& to) const override;
   void remove(const std::filesystem::path& file) const override;
   std::vector<std::filesystem::path> files_under(const std::filesystem::path& root) const override;

@@ -28,10 +28,12 @@ struct Table {
 
 Table read_table(sql::Statement& statement) {
   Table table;
-  for (int column = 0; column < statement.columns(); ++column) table.header.push_back(statement.column_name(column));
+  for (int column = 0; column < statement.columns(); ++column)
+    table.header.push_back(statement.column_name(column));
   while (statement.step()) {
     Row row;
-    for (int column = 0; column < statement.columns(); ++column) row.push_back(statement.text(column));
+    for (int column = 0; column < statement.columns(); ++column)
+      row.push_back(statement.text(column));
     table.rows.push_back(std::move(row));
   }
   return table;
@@ -60,7 +62,8 @@ void print_aligned(const Table& table, std::ostream& out) {
     for (size_t i = 0; i < row.size(); ++i) widths[i] = std::max(widths[i], row[i].size());
   }
   auto print_row = [&](const Row& row) {
-    for (size_t i = 0; i < row.size(); ++i) out << (i ? "  " : "") << fmt::format("{:<{}}", row[i], widths[i]);
+    for (size_t i = 0; i < row.size(); ++i)
+      out << (i ? "  " : "") << fmt::format("{:<{}}", row[i], widths[i]);
     out << '\n';
   };
   print_row(table.header);
@@ -71,15 +74,20 @@ void print_aligned(const Table& table, std::ostream& out) {
 
 nlohmann::json cell_json(sql::Statement& statement, int column) {
   switch (statement.column_type(column)) {
-    case SQLITE_NULL: return nullptr;
-    case SQLITE_INTEGER: return statement.integer(column);
-    case SQLITE_FLOAT: return statement.real(column);
-    default: return statement.text(column);
+    case SQLITE_NULL:
+      return nullptr;
+    case SQLITE_INTEGER:
+      return statement.integer(column);
+    case SQLITE_FLOAT:
+      return statement.real(column);
+    default:
+      return statement.text(column);
   }
 }
 
 // Leaves of a JSON value by path ("/a/b"); arrays count as one leaf.
-void flatten(const nlohmann::json& value, const std::string& path, std::map<std::string, std::string>& leaves) {
+void flatten(const nlohmann::json& value, const std::string& path,
+             std::map<std::string, std::string>& leaves) {
   if (value.is_object() && !value.empty()) {
     for (const auto& [key, member] : value.items()) flatten(member, path + "/" + key, leaves);
   } else {
@@ -103,7 +111,8 @@ std::vector<std::string> param_diff(const nlohmann::json& before, const nlohmann
   for (const auto& path : paths) {
     const auto old_value = old_leaves.count(path) ? old_leaves.at(path) : "(absent)";
     const auto new_value = new_leaves.count(path) ? new_leaves.at(path) : "(absent)";
-    if (old_value != new_value) lines.push_back(fmt::format("{}: {} -> {}", path, old_value, new_value));
+    if (old_value != new_value)
+      lines.push_back(fmt::format("{}: {} -> {}", path, old_value, new_value));
   }
   return lines;
 }
@@ -112,14 +121,16 @@ std::int64_t campaign_id(sql::Connection& db, const std::string& name) {
   auto row = db.prepare("SELECT id FROM campaigns WHERE name = ?");
   row.bind_all(name);
   if (!row.step()) {
-    throw InvalidInput({{"", "no campaign named \"" + name + "\"", "run `millflow status` to list the campaigns"}});
+    throw InvalidInput({{"", "no campaign named \"" + name + "\"",
+                         "run `millflow status` to list the campaigns"}});
   }
   return row.integer(0);
 }
 
 std::vector<std::string> lineage(sql::Connection& db, const std::string& key, bool upward) {
-  auto next = db.prepare(upward ? "SELECT upstream FROM edges WHERE downstream = ? ORDER BY position"
-                                : "SELECT downstream FROM edges WHERE upstream = ? ORDER BY downstream");
+  auto next =
+      db.prepare(upward ? "SELECT upstream FROM edges WHERE downstream = ? ORDER BY position"
+                        : "SELECT downstream FROM edges WHERE upstream = ? ORDER BY downstream");
   std::vector<std::string> found;
   std::set<std::string> seen{key};
   std::vector<std::string> frontier{key};
@@ -140,36 +151,45 @@ std::vector<std::string> lineage(sql::Connection& db, const std::string& key, bo
 
 std::string kind_and_status(sql::Connection& db, const std::string& key) {
   const auto record = find_task(db, key);
-  return record ? fmt::format("{} {} [{}]", key.substr(0, 16), record->spec.kind, record->status) : key;
+  return record ? fmt::format("{} {} [{}]", key.substr(0, 16), record->spec.kind, record->status)
+                : key;
 }
 
 // Why a stored task would (or would not) run at the next submission.
-std::vector<std::string> run_reasons(sql::Connection& db, const ArtifactStore& artifacts, const TaskRecord& task) {
+std::vector<std::string> run_reasons(sql::Connection& db, const ArtifactStore& artifacts,
+                                     const TaskRecord& task) {
   if (task.status == "done") {
     for (const auto& artifact : find_artifacts(db, task.spec.key)) {
       if (!artifacts.verify(artifact)) {
-        return {fmt::format("would run: artifact {} ({}) is missing or corrupt", artifact.name, artifact.sha256)};
+        return {fmt::format("would run: artifact {} ({}) is missing or corrupt", artifact.name,
+                            artifact.sha256)};
       }
     }
     return {"would not run: done, result and artifacts intact (cached)"};
   }
   if (task.status == "failed") return {"would run: the previous attempt failed: " + task.error};
   if (task.status == "interrupted") return {"would run: the previous attempt was interrupted"};
-  if (task.status == "running") return {"would run: its last attempt never finished (coordinator stopped or still running)"};
+  if (task.status == "running")
+    return {"would run: its last attempt never finished (coordinator stopped or still running)"};
   if (task.status == "skipped") return {"would run: it was skipped because " + task.error};
-  if (task.attempts > 0) return {"would run: " + (task.error.empty() ? std::string("not finished yet") : task.error)};
+  if (task.attempts > 0)
+    return {"would run: " + (task.error.empty() ? std::string("not finished yet") : task.error)};
   return {"would run: new (never attempted)"};
 }
 
-size_t upstream_differences(const std::vector<std::string>& before, const std::vector<std::string>& after) {
-  size_t differences = std::max(before.size(), after.size()) - std::min(before.size(), after.size());
-  for (size_t i = 0; i < std::min(before.size(), after.size()); ++i) differences += before[i] != after[i];
+size_t upstream_differences(const std::vector<std::string>& before,
+                            const std::vector<std::string>& after) {
+  size_t differences =
+      std::max(before.size(), after.size()) - std::min(before.size(), after.size());
+  for (size_t i = 0; i < std::min(before.size(), after.size()); ++i)
+    differences += before[i] != after[i];
   return differences;
 }
 
 // Compares with the cached task of the same kind whose parameters differ least (then its inputs).
 std::vector<std::string> compare_with_nearest(sql::Connection& db, const TaskRecord& task) {
-  auto candidates = db.prepare("SELECT key FROM tasks WHERE kind = ? AND status = 'done' AND key <> ? ORDER BY key");
+  auto candidates = db.prepare(
+      "SELECT key FROM tasks WHERE kind = ? AND status = 'done' AND key <> ? ORDER BY key");
   candidates.bind_all(task.spec.kind, task.spec.key);
   std::optional<TaskRecord> nearest;
   std::pair<size_t, size_t> fewest{std::numeric_limits<size_t>::max(), 0};
@@ -183,20 +203,23 @@ std::vector<std::string> compare_with_nearest(sql::Connection& db, const TaskRec
     }
   }
   if (!nearest) return {"no cached task of kind " + task.spec.kind + " to compare with"};
-  std::vector<std::string> lines{"nearest cached " + task.spec.kind + " task: " + nearest->spec.key};
+  std::vector<std::string> lines{"nearest cached " + task.spec.kind +
+                                 " task: " + nearest->spec.key};
   const auto diff = param_diff(nearest->spec.params, task.spec.params);
   if (!diff.empty()) lines.push_back("parameters changed:");
   for (const auto& line : diff) lines.push_back("  " + line);
   if (nearest->spec.upstream != task.spec.upstream) {
     lines.push_back("upstream changed:");
-    for (size_t i = 0; i < std::max(nearest->spec.upstream.size(), task.spec.upstream.size()); ++i) {
+    for (size_t i = 0; i < std::max(nearest->spec.upstream.size(), task.spec.upstream.size());
+         ++i) {
       const auto before = i < nearest->spec.upstream.size() ? nearest->spec.upstream[i] : "(none)";
       const auto after = i < task.spec.upstream.size() ? task.spec.upstream[i] : "(none)";
       if (before != after) lines.push_back(fmt::format("  input {}: {} -> {}", i, before, after));
     }
   }
   if (nearest->spec.version != task.spec.version) {
-    lines.push_back(fmt::format("kind version changed: {} -> {}", nearest->spec.version, task.spec.version));
+    lines.push_back(
+        fmt::format("kind version changed: {} -> {}", nearest->spec.version, task.spec.version));
   }
   return lines;
 }
@@ -205,8 +228,10 @@ std::vector<std::string> compare_with_nearest(sql::Connection& db, const TaskRec
 void print_unfinished_jobs(sql::Connection& db, std::int64_t campaign, std::ostream& out) {
   if (db.user_version() < 2) return;
   auto rows = db.prepare(
-      "SELECT t.kind, substr(t.key, 1, 16) AS task, j.attempt, j.executor, j.job_id, j.state FROM campaign_tasks ct "
-      "JOIN tasks t ON t.key = ct.task_key JOIN jobs j ON j.task_key = t.key AND j.attempt = t.attempts "
+      "SELECT t.kind, substr(t.key, 1, 16) AS task, j.attempt, j.executor, j.job_id, j.state FROM "
+      "campaign_tasks ct "
+      "JOIN tasks t ON t.key = ct.task_key JOIN jobs j ON j.task_key = t.key AND j.attempt = "
+      "t.attempts "
       "WHERE ct.campaign_id = ? AND t.status = 'running' ORDER BY j.job_id");
   rows.bind_all(campaign);
   const Table jobs = read_table(rows);
@@ -222,15 +247,19 @@ void print_status(const fs::path& db, const std::string& campaign, std::ostream&
   if (const auto holder = describe_coordinator(db)) out << "coordinator: " << *holder << '\n';
   if (campaign.empty()) {
     auto rows = connection.prepare(
-        "SELECT c.name AS campaign, c.outcome, count(t.key) AS tasks, sum(t.status = 'done') AS done, "
-        "sum(t.status = 'failed') AS failed, sum(t.status IN ('pending', 'running', 'interrupted')) AS to_run "
-        "FROM campaigns c LEFT JOIN campaign_tasks ct ON ct.campaign_id = c.id LEFT JOIN tasks t ON t.key = ct.task_key "
+        "SELECT c.name AS campaign, c.outcome, count(t.key) AS tasks, sum(t.status = 'done') AS "
+        "done, "
+        "sum(t.status = 'failed') AS failed, sum(t.status IN ('pending', 'running', "
+        "'interrupted')) AS to_run "
+        "FROM campaigns c LEFT JOIN campaign_tasks ct ON ct.campaign_id = c.id LEFT JOIN tasks t "
+        "ON t.key = ct.task_key "
         "GROUP BY c.id ORDER BY c.submitted_at");
     print_aligned(read_table(rows), out);
     return;
   }
   auto rows = connection.prepare(
-      "SELECT t.kind, t.status, count(*) AS tasks FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
+      "SELECT t.kind, t.status, count(*) AS tasks FROM campaign_tasks ct JOIN tasks t ON t.key = "
+      "ct.task_key "
       "WHERE ct.campaign_id = ? GROUP BY t.kind, t.status ORDER BY t.kind, t.status");
   const std::int64_t id = campaign_id(connection, campaign);
   rows.bind_all(id);
@@ -238,42 +267,53 @@ void print_status(const fs::path& db, const std::string& campaign, std::ostream&
   print_unfinished_jobs(connection, id, out);
 }
 
-void run_query(const fs::path& db, const std::string& sql_text, TableFormat format, std::ostream& out) {
+void run_query(const fs::path& db, const std::string& sql_text, TableFormat format,
+               std::ostream& out) {
   auto connection = open_read_only(db);
   std::optional<sql::Statement> statement;
   try {
     statement.emplace(connection.prepare(sql_text));
   } catch (const sql::Error& error) {
-    throw InvalidInput({{"", error.what(), "check the SQL; `millflow query \"SELECT name FROM sqlite_master\"` lists tables"}});
+    throw InvalidInput(
+        {{"", error.what(),
+          "check the SQL; `millflow query \"SELECT name FROM sqlite_master\"` lists tables"}});
   }
   if (!statement->read_only()) {
-    throw InvalidInput({{"", "refused: the statement would modify the database",
-                         "millflow query only reads; the store is written by millflow submit/resume alone"}});
+    throw InvalidInput(
+        {{"", "refused: the statement would modify the database",
+          "millflow query only reads; the store is written by millflow submit/resume alone"}});
   }
   if (format == TableFormat::json) {
     nlohmann::json rows = nlohmann::json::array();
     while (statement->step()) {
       nlohmann::json row = nlohmann::json::object();
-      for (int column = 0; column < statement->columns(); ++column) row[statement->column_name(column)] = cell_json(*statement, column);
+      for (int column = 0; column < statement->columns(); ++column)
+        row[statement->column_name(column)] = cell_json(*statement, column);
       rows.push_back(std::move(row));
     }
     out << rows.dump(2) << '\n';
     return;
   }
   const Table table = read_table(*statement);
-  if (format == TableFormat::csv) print_csv(table, out);
-  else print_aligned(table, out);
+  if (format == TableFormat::csv)
+    print_csv(table, out);
+  else
+    print_aligned(table, out);
 }
 
 std::string resolve_task(sql::Connection& db, const std::string& prefix) {
-  auto rows = db.prepare("SELECT key FROM tasks WHERE key >= ? AND key < ? || 'g' ORDER BY key LIMIT 2");
+  auto rows =
+      db.prepare("SELECT key FROM tasks WHERE key >= ? AND key < ? || 'g' ORDER BY key LIMIT 2");
   rows.bind_all(prefix, prefix);
   std::vector<std::string> keys;
   while (rows.step()) keys.push_back(rows.text(0));
   if (prefix.empty() || keys.empty()) {
-    throw InvalidInput({{"", "no task key starts with \"" + prefix + "\"", "copy a key from `millflow status` or `millflow query`"}});
+    throw InvalidInput({{"", "no task key starts with \"" + prefix + "\"",
+                         "copy a key from `millflow status` or `millflow query`"}});
   }
-  if (keys.size() > 1) throw InvalidInput({{"", "task prefix \"" + prefix + "\" is ambiguous", "give more characters of the key"}});
+  if (keys.size() > 1)
+    throw InvalidInput(
+        {{"", "task prefix \"" + prefix + "\" is ambiguous", "give more characters of the key"}});
   return keys.front();
 }
 
@@ -282,34 +322,42 @@ void print_show(const fs::path& db, const std::string& task, std::ostream& out) 
   const std::string key = resolve_task(connection, task);
   const auto record = *find_task(connection, key);
   auto times = connection.prepare(
-      "SELECT started_at, coalesce(duration_s, ''), coalesce(host, ''), coalesce(code_version, '') FROM tasks WHERE key = ?");
+      "SELECT started_at, coalesce(duration_s, ''), coalesce(host, ''), coalesce(code_version, '') "
+      "FROM tasks WHERE key = ?");
   times.bind_all(key);
   times.step();
   const std::string started = times.is_null(0) ? std::string("never") : iso8601_utc(times.real(0));
-  out << fmt::format("task {}\nkind {} (version {})\nstatus {} after {} attempt(s){}\n", key, record.spec.kind,
-                     record.spec.version, record.status, record.attempts,
+  out << fmt::format("task {}\nkind {} (version {})\nstatus {} after {} attempt(s){}\n", key,
+                     record.spec.kind, record.spec.version, record.status, record.attempts,
                      record.error.empty() ? "" : "\nerror " + record.error);
-  out << fmt::format("started {} duration {} s host {} code {}\n", started, times.text(1), times.text(2), times.text(3));
+  out << fmt::format("started {} duration {} s host {} code {}\n", started, times.text(1),
+                     times.text(2), times.text(3));
   out << "params " << record.spec.params.dump(2) << '\n';
   if (const auto result = find_result(connection, key)) out << "result " << result->dump(2) << '\n';
   const ArtifactStore artifacts(artifacts_dir(db));
   for (const auto& artifact : find_artifacts(connection, key)) {
-    out << fmt::format("artifact {} {} bytes sha256 {} {} ({})\n", artifact.name, artifact.size, artifact.sha256,
-                       artifacts.path_of(artifact.sha256).string(), artifacts.verify(artifact) ? "verified" : "MISSING OR CORRUPT");
+    out << fmt::format("artifact {} {} bytes sha256 {} {} ({})\n", artifact.name, artifact.size,
+                       artifact.sha256, artifacts.path_of(artifact.sha256).string(),
+                       artifacts.verify(artifact) ? "verified" : "MISSING OR CORRUPT");
   }
   for (const auto& job : find_jobs(connection, key)) {
-    out << fmt::format("job {} {} attempt {} state {} name {}\n  stdout {}\n  stderr {}\n", job.executor, job.job_id,
-                       job.attempt, job.state, job.job_name, job.stdout_file.string(), job.stderr_file.string());
+    out << fmt::format("job {} {} attempt {} state {} name {}\n  stdout {}\n  stderr {}\n",
+                       job.executor, job.job_id, job.attempt, job.state, job.job_name,
+                       job.stdout_file.string(), job.stderr_file.string());
   }
-  for (const auto& upstream : lineage(connection, key, true)) out << "upstream   " << kind_and_status(connection, upstream) << '\n';
-  for (const auto& downstream : lineage(connection, key, false)) out << "downstream " << kind_and_status(connection, downstream) << '\n';
+  for (const auto& upstream : lineage(connection, key, true))
+    out << "upstream   " << kind_and_status(connection, upstream) << '\n';
+  for (const auto& downstream : lineage(connection, key, false))
+    out << "downstream " << kind_and_status(connection, downstream) << '\n';
 }
 
 void print_explain(const fs::path& db, const std::string& task, std::ostream& out) {
   auto connection = open_read_only(db);
   const auto record = *find_task(connection, resolve_task(connection, task));
-  out << "task " << record.spec.key << "\nhashed text (SHA-256 of exactly these bytes):\n" << record.spec.key_text;
-  for (const auto& line : run_reasons(connection, ArtifactStore(artifacts_dir(db)), record)) out << line << '\n';
+  out << "task " << record.spec.key << "\nhashed text (SHA-256 of exactly these bytes):\n"
+      << record.spec.key_text;
+  for (const auto& line : run_reasons(connection, ArtifactStore(artifacts_dir(db)), record))
+    out << line << '\n';
   if (record.status != "done" && record.attempts == 0) {
     for (const auto& line : compare_with_nearest(connection, record)) out << line << '\n';
   }
@@ -319,36 +367,42 @@ void print_dag_dot(const fs::path& db, const std::string& campaign, std::ostream
   auto connection = open_read_only(db);
   const std::int64_t id = campaign_id(connection, campaign);
   static const std::map<std::string, std::string> kColours = {
-      {"done", "palegreen"}, {"failed", "salmon"}, {"running", "lightblue"},
+      {"done", "palegreen"},    {"failed", "salmon"},     {"running", "lightblue"},
       {"skipped", "lightgrey"}, {"interrupted", "khaki"}, {"pending", "white"}};
   out << "digraph \"" << campaign << "\" {\n  node [shape=box, style=filled];\n";
   auto nodes = connection.prepare(
-      "SELECT t.key, t.kind, t.status FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key WHERE ct.campaign_id = ? "
+      "SELECT t.key, t.kind, t.status FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
+      "WHERE ct.campaign_id = ? "
       "ORDER BY t.rowid");
   nodes.bind_all(id);
   while (nodes.step()) {
-    out << fmt::format("  \"{}\" [label=\"{}\\n{}\", fillcolor={}];\n", nodes.text(0), nodes.text(1),
-                       nodes.text(0).substr(0, 12), kColours.at(nodes.text(2)));
+    out << fmt::format("  \"{}\" [label=\"{}\\n{}\", fillcolor={}];\n", nodes.text(0),
+                       nodes.text(1), nodes.text(0).substr(0, 12), kColours.at(nodes.text(2)));
   }
   auto edges = connection.prepare(
-      "SELECT e.upstream, e.downstream FROM edges e JOIN campaign_tasks ct ON ct.task_key = e.downstream "
+      "SELECT e.upstream, e.downstream FROM edges e JOIN campaign_tasks ct ON ct.task_key = "
+      "e.downstream "
       "WHERE ct.campaign_id = ? ORDER BY e.downstream, e.position");
   edges.bind_all(id);
   while (edges.step()) out << fmt::format("  \"{}\" -> \"{}\";\n", edges.text(0), edges.text(1));
   out << "}\n";
 }
 
-std::vector<fs::path> export_campaign(const fs::path& db, const std::string& campaign, TableFormat format,
-                                      const fs::path& out_dir) {
+std::vector<fs::path> export_campaign(const fs::path& db, const std::string& campaign,
+                                      TableFormat format, const fs::path& out_dir) {
   auto connection = open_read_only(db);
   campaign_id(connection, campaign);
   auto rows = connection.prepare(
-      "SELECT task_key, kind, status, params, coalesce(result, 'null') FROM task_results WHERE campaign = ? ORDER BY kind, task_key");
+      "SELECT task_key, kind, status, params, coalesce(result, 'null') FROM task_results WHERE "
+      "campaign = ? ORDER BY kind, task_key");
   rows.bind_all(campaign);
   nlohmann::json tasks = nlohmann::json::array();
   while (rows.step()) {
-    tasks.push_back({{"task_key", rows.text(0)}, {"kind", rows.text(1)}, {"status", rows.text(2)},
-                     {"params", nlohmann::json::parse(rows.text(3))}, {"result", nlohmann::json::parse(rows.text(4))}});
+    tasks.push_back({{"task_key", rows.text(0)},
+                     {"kind", rows.text(1)},
+                     {"status", rows.text(2)},
+                     {"params", nlohmann::json::parse(rows.text(3))},
+                     {"result", nlohmann::json::parse(rows.text(4))}});
   }
   fs::create_directories(out_dir);
   if (format == TableFormat::json) {
@@ -375,7 +429,8 @@ std::vector<fs::path> export_campaign(const fs::path& db, const std::string& cam
     table.header.insert(table.header.end(), columns.begin(), columns.end());
     for (const auto& row : flat) {
       Row cells;
-      for (const auto& column : table.header) cells.push_back(row.count(column) ? row.at(column) : "");
+      for (const auto& column : table.header)
+        cells.push_back(row.count(column) ? row.at(column) : "");
       table.rows.push_back(std::move(cells));
     }
     files.push_back(out_dir / (kind + ".csv"));
@@ -398,15 +453,17 @@ std::vector<TaskArtifacts> finished_task_artifacts(const fs::path& db, const std
   return tasks;
 }
 
-std::vector<fs::path> copy_artifacts(const fs::path& db, const std::vector<StoredArtifact>& artifacts,
+std::vector<fs::path> copy_artifacts(const fs::path& db,
+                                     const std::vector<StoredArtifact>& artifacts,
                                      const fs::path& out_dir, const FileSystem& files) {
   const ArtifactStore store(artifacts_dir(db), files);
   std::vector<fs::path> copied;
   for (const StoredArtifact& artifact : artifacts) {
     if (!store.verify(artifact)) {
-      throw std::runtime_error(fmt::format("artifact {} ({}) is missing or corrupt in the store: re-run its task "
-                                           "(`millflow explain` on it says which)",
-                                           artifact.name, artifact.sha256));
+      throw std::runtime_error(
+          fmt::format("artifact {} ({}) is missing or corrupt in the store: re-run its task "
+                      "(`millflow explain` on it says which)",
+                      artifact.name, artifact.sha256));
     }
     copied.push_back(out_dir / artifact.name);
     files.copy_durably(store.path_of(artifact.sha256), copied.back());

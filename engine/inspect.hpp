@@ -20,7 +20,8 @@ enum class TableFormat { table, csv, json };
 void print_status(const std::filesystem::path& db, const std::string& campaign, std::ostream& out);
 
 // Runs one read-only SQL statement; a writing statement is refused with InvalidInput.
-void run_query(const std::filesystem::path& db, const std::string& sql, TableFormat format, std::ostream& out);
+void run_query(const std::filesystem::path& db, const std::string& sql, TableFormat format,
+               std::ostream& out);
 
 // The full key of the one task whose key starts with `prefix` (InvalidInput otherwise).
 std::string resolve_task(sql::Connection& db, const std::string& prefix);
@@ -30,8 +31,9 @@ void print_explain(const std::filesystem::path& db, const std::string& task, std
 void print_dag_dot(const std::filesystem::path& db, const std::string& campaign, std::ostream& out);
 
 // Writes <out>/<kind>.csv per task kind (params.* and result.* columns) or <out>/<campaign>.json.
-std::vector<std::filesystem::path> export_campaign(const std::filesystem::path& db, const std::string& campaign,
-                                                   TableFormat format, const std::filesystem::path& out_dir);
+std::vector<std::filesystem::path> export_campaign(const std::filesystem::path& db,
+                                                   const std::string& campaign, TableFormat format,
+                                                   const std::filesystem::path& out_dir);
 
 // The finished (done) tasks of one kind in a campaign, by key, each with its stored artifacts
 // (possibly none). Throws InvalidInput for an unknown campaign.
@@ -39,7 +41,8 @@ struct TaskArtifacts {
   std::string task_key;
   std::vector<StoredArtifact> artifacts;
 };
-std::vector<TaskArtifacts> finished_task_artifacts(const std::filesystem::path& db, const std::string& campaign,
+std::vector<TaskArtifacts> finished_task_artifacts(const std::filesystem::path& db,
+                                                   const std::string& campaign,
                                                    const std::string& kind);
 
 // Copies stored artifacts out of the store as <out_dir>/<name>, each verified (size and SHA-256)

@@ -13,11 +13,14 @@ volatile std::sig_atomic_t g_interrupts = 0;
 extern "C" void on_interrupt(int) {
   g_interrupts = g_interrupts + 1;
   if (g_interrupts >= 2) ::_exit(130);
-  static constexpr char kMessage[] = "\nmillflow: stopping after running tasks reach a checkpoint (Ctrl-C again aborts)\n";
+  static constexpr char kMessage[] =
+      "\nmillflow: stopping after running tasks reach a checkpoint (Ctrl-C again aborts)\n";
   [[maybe_unused]] const auto written = ::write(STDERR_FILENO, kMessage, sizeof(kMessage) - 1);
 }
 
-extern "C" void on_checkpoint_request(int) { g_interrupts = g_interrupts + 1; }
+extern "C" void on_checkpoint_request(int) {
+  g_interrupts = g_interrupts + 1;
+}
 
 }  // namespace
 
@@ -36,6 +39,8 @@ void install_interrupt_handlers() {
   sigaction(SIGTERM, &action, nullptr);
 }
 
-bool interrupt_requested() { return g_interrupts > 0; }
+bool interrupt_requested() {
+  return g_interrupts > 0;
+}
 
 }  // namespace millflow::engine

@@ -26,13 +26,13 @@ struct AttemptOrder {
 struct JobRecord {
   std::string task_key;
   int attempt = 0;
-  std::string executor;              // "slurm"
-  std::string job_id;                // the scheduler's id, e.g. "1234_5": element 5 of array 1234;
-                                     // empty while being submitted
-  std::string state;                 // last state seen: SUBMITTING (recorded before the scheduler has
-                                     // it), PENDING, RUNNING, COMPLETED, TIMEOUT, ... NOT_SUBMITTED
-  std::string job_name;              // the scheduler's job name, unique per submission: how a job
-                                     // recorded without id is found again
+  std::string executor;  // "slurm"
+  std::string job_id;    // the scheduler's id, e.g. "1234_5": element 5 of array 1234;
+                         // empty while being submitted
+  std::string state;     // last state seen: SUBMITTING (recorded before the scheduler has
+                         // it), PENDING, RUNNING, COMPLETED, TIMEOUT, ... NOT_SUBMITTED
+  std::string job_name;  // the scheduler's job name, unique per submission: how a job
+                         // recorded without id is found again
   std::filesystem::path output_dir;  // where the job writes its result, artifacts and marker
   std::filesystem::path stdout_file;
   std::filesystem::path stderr_file;
@@ -51,8 +51,9 @@ class JobExecutor {
  public:
   struct Poll {
     std::vector<AttemptOutcome> finished;
-    std::vector<JobRecord> changed;   // jobs whose state changed since the last poll
-    std::vector<std::string> warnings;  // trouble ridden out (e.g. one failed squeue): logged, polled again
+    std::vector<JobRecord> changed;  // jobs whose state changed since the last poll
+    std::vector<std::string>
+        warnings;  // trouble ridden out (e.g. one failed squeue): logged, polled again
     // Set when the scheduler stayed unreachable too long: the coordinator stops, leaving the jobs
     // running for `millflow resume` to re-attach to.
     std::optional<std::string> unreachable;

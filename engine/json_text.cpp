@@ -26,9 +26,15 @@ class DuplicateKeyFinder {
         frames_.push_back({false, {}, {}, 0});
         break;
       case json::parse_event_t::object_end:
-      case json::parse_event_t::array_end: frames_.pop_back(); break;
-      case json::parse_event_t::key: on_key(parsed.get<std::string>()); break;
-      case json::parse_event_t::value: enter_element(); break;
+      case json::parse_event_t::array_end:
+        frames_.pop_back();
+        break;
+      case json::parse_event_t::key:
+        on_key(parsed.get<std::string>());
+        break;
+      case json::parse_event_t::value:
+        enter_element();
+        break;
     }
     return true;
   }
@@ -39,8 +45,8 @@ class DuplicateKeyFinder {
   struct Frame {
     bool object;
     std::set<std::string> keys;
-    std::string key;         // objects: the key being read
-    std::size_t items = 0;   // lists: items started so far
+    std::string key;        // objects: the key being read
+    std::size_t items = 0;  // lists: items started so far
   };
 
   void enter_element() {
@@ -77,11 +83,16 @@ ValidationError syntax_error(const json::parse_error& error, std::string_view te
   const auto column = line_start == std::string_view::npos ? index + 1 : index - line_start;
   std::string reason = error.what();
   const auto column_text = reason.find("column ");
-  const auto colon = column_text == std::string::npos ? std::string::npos : reason.find(": ", column_text);
+  const auto colon =
+      column_text == std::string::npos ? std::string::npos : reason.find(": ", column_text);
   if (colon != std::string::npos) reason = reason.substr(colon + 2);
-  if (reason.starts_with("syntax error ")) reason.erase(0, std::string_view("syntax error ").size());
-  return {"", "JSON syntax error at line " + std::to_string(line) + ", column " + std::to_string(column) + ": " + reason,
-          "correct the JSON there (a missing comma or quote, or a comma before } or ], is the usual cause)"};
+  if (reason.starts_with("syntax error "))
+    reason.erase(0, std::string_view("syntax error ").size());
+  return {"",
+          "JSON syntax error at line " + std::to_string(line) + ", column " +
+              std::to_string(column) + ": " + reason,
+          "correct the JSON there (a missing comma or quote, or a comma before } or ], is the "
+          "usual cause)"};
 }
 
 }  // namespace

@@ -37,7 +37,8 @@ std::vector<std::string> split_path(std::string_view path) {
 std::string unescape_path_segment(std::string_view segment) {
   std::string text;
   for (std::size_t i = 0; i < segment.size(); ++i) {
-    if (segment[i] == '~' && i + 1 < segment.size() && (segment[i + 1] == '0' || segment[i + 1] == '1')) {
+    if (segment[i] == '~' && i + 1 < segment.size() &&
+        (segment[i + 1] == '0' || segment[i + 1] == '1')) {
       text += segment[i + 1] == '0' ? '~' : '/';
       ++i;
     } else {
@@ -47,7 +48,9 @@ std::string unescape_path_segment(std::string_view segment) {
   return text;
 }
 
-std::string format_number(double value) { return fmt::format("{}", value); }
+std::string format_number(double value) {
+  return fmt::format("{}", value);
+}
 
 std::string quoted_list(const std::vector<std::string>& names) {
   std::string text;
@@ -65,10 +68,11 @@ std::string with_unit(const std::string& number, const std::string& unit) {
 // "in [0.1, 15] m", ">= 20", "> 0 s".
 std::string range_text(const FieldRule& rule) {
   if (rule.minimum && rule.maximum) {
-    return with_unit(fmt::format("in {}{}, {}{}", rule.minimum->inclusive ? '[' : '(',
-                                 format_number(rule.minimum->value), format_number(rule.maximum->value),
-                                 rule.maximum->inclusive ? ']' : ')'),
-                     rule.unit);
+    return with_unit(
+        fmt::format("in {}{}, {}{}", rule.minimum->inclusive ? '[' : '(',
+                    format_number(rule.minimum->value), format_number(rule.maximum->value),
+                    rule.maximum->inclusive ? ']' : ')'),
+        rule.unit);
   }
   if (rule.minimum) {
     return with_unit(fmt::format("{} {}", rule.minimum->inclusive ? ">=" : ">",
@@ -85,13 +89,20 @@ std::string range_text(const FieldRule& rule) {
 
 std::string type_name(const FieldRule& rule) {
   switch (rule.type) {
-    case FieldType::integer: return "an integer";
-    case FieldType::number: return "a number";
-    case FieldType::string: return "a string";
-    case FieldType::boolean: return "true or false";
-    case FieldType::object: return "an object";
-    case FieldType::array: return "a list";
-    case FieldType::enumeration: return "one of " + quoted_list(rule.choices);
+    case FieldType::integer:
+      return "an integer";
+    case FieldType::number:
+      return "a number";
+    case FieldType::string:
+      return "a string";
+    case FieldType::boolean:
+      return "true or false";
+    case FieldType::object:
+      return "an object";
+    case FieldType::array:
+      return "a list";
+    case FieldType::enumeration:
+      return "one of " + quoted_list(rule.choices);
   }
   return {};
 }
@@ -130,10 +141,12 @@ bool full_match(const std::string& text, const std::string& pattern) {
 }
 
 bool in_range(double value, const FieldRule& rule) {
-  if (rule.minimum && (rule.minimum->inclusive ? value < rule.minimum->value : value <= rule.minimum->value)) {
+  if (rule.minimum &&
+      (rule.minimum->inclusive ? value < rule.minimum->value : value <= rule.minimum->value)) {
     return false;
   }
-  if (rule.maximum && (rule.maximum->inclusive ? value > rule.maximum->value : value >= rule.maximum->value)) {
+  if (rule.maximum &&
+      (rule.maximum->inclusive ? value > rule.maximum->value : value >= rule.maximum->value)) {
     return false;
   }
   return true;
@@ -146,13 +159,20 @@ class Checker {
 
   json check(const json& value, const FieldRule& rule, const std::string& path) {
     switch (rule.type) {
-      case FieldType::integer: return check_integer(value, rule, path);
-      case FieldType::number: return check_number(value, rule, path);
-      case FieldType::string: return check_string(value, rule, path);
-      case FieldType::boolean: return check_boolean(value, rule, path);
-      case FieldType::enumeration: return check_enumeration(value, rule, path);
-      case FieldType::object: return check_object(value, rule, path);
-      case FieldType::array: return check_array(value, rule, path);
+      case FieldType::integer:
+        return check_integer(value, rule, path);
+      case FieldType::number:
+        return check_number(value, rule, path);
+      case FieldType::string:
+        return check_string(value, rule, path);
+      case FieldType::boolean:
+        return check_boolean(value, rule, path);
+      case FieldType::enumeration:
+        return check_enumeration(value, rule, path);
+      case FieldType::object:
+        return check_object(value, rule, path);
+      case FieldType::array:
+        return check_array(value, rule, path);
     }
     return value;
   }
@@ -164,18 +184,21 @@ class Checker {
     errors_.push_back({path, std::move(problem), std::move(fix)});
   }
 
-  void report(const std::string& path, std::string problem, std::string fix, const FieldRule& rule) {
+  void report(const std::string& path, std::string problem, std::string fix,
+              const FieldRule& rule) {
     report(path, std::move(problem), add_hint(std::move(fix), rule));
   }
 
   json wrong_type(const json& value, const FieldRule& rule, const std::string& path) {
     report(path, "expected " + type_name(rule) + ", got " + describe_value(value),
-           "give " + rule.description + " as " + type_name(rule) + (rule.unit.empty() ? "" : " in " + rule.unit),
+           "give " + rule.description + " as " + type_name(rule) +
+               (rule.unit.empty() ? "" : " in " + rule.unit),
            rule);
     return value;
   }
 
-  void check_range(double number, const json& value, const FieldRule& rule, const std::string& path) {
+  void check_range(double number, const json& value, const FieldRule& rule,
+                   const std::string& path) {
     if (in_range(number, rule)) return;
     report(path, with_unit(quote_value(value), rule.unit) + " is out of range",
            rule.description + " must be " + range_text(rule), rule);
@@ -187,7 +210,8 @@ class Checker {
       integer = value;
     } else if (value.is_number_float() && std::floor(value.get<double>()) == value.get<double>() &&
                std::abs(value.get<double>()) < 9.0e15) {
-      integer = static_cast<std::int64_t>(value.get<double>());  // 2.0 is an integer, as in JSON Schema
+      integer =
+          static_cast<std::int64_t>(value.get<double>());  // 2.0 is an integer, as in JSON Schema
     } else {
       return wrong_type(value, rule, path);
     }
@@ -220,10 +244,12 @@ class Checker {
   json check_enumeration(const json& value, const FieldRule& rule, const std::string& path) {
     if (!value.is_string()) return wrong_type(value, rule, path);
     const auto text = value.get<std::string>();
-    if (std::find(rule.choices.begin(), rule.choices.end(), text) != rule.choices.end()) return value;
+    if (std::find(rule.choices.begin(), rule.choices.end(), text) != rule.choices.end())
+      return value;
     const auto suggestion = closest_match(text, rule.choices);
     report(path, quote_value(value) + " is not allowed",
-           suggestion ? "did you mean \"" + *suggestion + "\"? (allowed: " + quoted_list(rule.choices) + ")"
+           suggestion ? "did you mean \"" + *suggestion +
+                            "\"? (allowed: " + quoted_list(rule.choices) + ")"
                       : "use one of " + quoted_list(rule.choices),
            rule);
     return value;
@@ -235,7 +261,8 @@ class Checker {
     if (!too_few && !too_many) return;
     const auto counted = [&](std::size_t n) {
       const bool entries = rule.type == FieldType::object;
-      return fmt::format("{} {}", n, n == 1 ? (entries ? "entry" : "item") : (entries ? "entries" : "items"));
+      return fmt::format("{} {}", n,
+                         n == 1 ? (entries ? "entry" : "item") : (entries ? "entries" : "items"));
     };
     std::string wanted;
     if (rule.min_items && rule.max_items) {
@@ -243,7 +270,8 @@ class Checker {
                    ? "exactly " + counted(*rule.min_items)
                    : fmt::format("between {} and {}", *rule.min_items, counted(*rule.max_items));
     } else {
-      wanted = rule.min_items ? "at least " + counted(*rule.min_items) : "at most " + counted(*rule.max_items);
+      wanted = rule.min_items ? "at least " + counted(*rule.min_items)
+                              : "at most " + counted(*rule.max_items);
     }
     report(path, "has " + counted(count), "give " + wanted, rule);
   }
@@ -282,7 +310,8 @@ class Checker {
       if (std::find(names.begin(), names.end(), key) != names.end()) continue;
       const auto suggestion = closest_match(key, names);
       report(path + "/" + escape_path_segment(key), "unknown field \"" + key + "\"",
-             suggestion ? "did you mean \"" + *suggestion + "\"?" : "allowed fields here: " + quoted_list(names));
+             suggestion ? "did you mean \"" + *suggestion + "\"?"
+                        : "allowed fields here: " + quoted_list(names));
     }
     for (std::size_t i = 0; i < fields.size(); ++i) {
       const auto field_path = path + "/" + escape_path_segment(names[i]);
@@ -306,7 +335,8 @@ class Checker {
     }
     if (present.size() == 1) return;
     if (present.empty()) {
-      report(path, "sets none of " + quoted_list(rule.exactly_one_of), "add exactly one of them", rule);
+      report(path, "sets none of " + quoted_list(rule.exactly_one_of), "add exactly one of them",
+             rule);
     } else {
       report(path, "sets " + quoted_list(present) + " together",
              "keep exactly one of " + quoted_list(rule.exactly_one_of), rule);
@@ -320,9 +350,11 @@ class Checker {
     for (std::size_t i = 0; i < value.size(); ++i) {
       const auto item_path = path + "/" + std::to_string(i);
       normalized.push_back(item ? check(value[i], *item, item_path) : value[i]);
-      if (rule.unique_items && std::find(value.begin(), value.begin() + static_cast<std::ptrdiff_t>(i),
-                                         value[i]) != value.begin() + static_cast<std::ptrdiff_t>(i)) {
-        report(item_path, quote_value(value[i]) + " appears more than once", "list each value once", rule);
+      if (rule.unique_items &&
+          std::find(value.begin(), value.begin() + static_cast<std::ptrdiff_t>(i), value[i]) !=
+              value.begin() + static_cast<std::ptrdiff_t>(i)) {
+        report(item_path, quote_value(value[i]) + " appears more than once", "list each value once",
+               rule);
       }
     }
     check_count(value.size(), rule, path);
@@ -339,12 +371,16 @@ json number_bounds_schema(const FieldRule& rule) {
     return rule.type == FieldType::integer ? json(static_cast<std::int64_t>(value)) : json(value);
   };
   json schema = json::object();
-  if (rule.minimum) schema[rule.minimum->inclusive ? "minimum" : "exclusiveMinimum"] = bound(rule.minimum->value);
-  if (rule.maximum) schema[rule.maximum->inclusive ? "maximum" : "exclusiveMaximum"] = bound(rule.maximum->value);
+  if (rule.minimum)
+    schema[rule.minimum->inclusive ? "minimum" : "exclusiveMinimum"] = bound(rule.minimum->value);
+  if (rule.maximum)
+    schema[rule.maximum->inclusive ? "maximum" : "exclusiveMaximum"] = bound(rule.maximum->value);
   return schema;
 }
 
-std::string anchored(const std::string& pattern) { return "^(?:" + pattern + ")$"; }
+std::string anchored(const std::string& pattern) {
+  return "^(?:" + pattern + ")$";
+}
 
 json schema_of(const FieldRule& rule, const FieldTable& table);
 
@@ -399,12 +435,21 @@ json schema_of(const FieldRule& rule, const FieldTable& table) {
       schema = {{"type", "string"}};
       if (!rule.pattern.empty()) schema["pattern"] = anchored(rule.pattern);
       break;
-    case FieldType::boolean: schema = {{"type", "boolean"}}; break;
-    case FieldType::enumeration: schema = {{"type", "string"}, {"enum", rule.choices}}; break;
-    case FieldType::object: schema = object_schema(rule, table); break;
-    case FieldType::array: schema = array_schema(rule, table); break;
+    case FieldType::boolean:
+      schema = {{"type", "boolean"}};
+      break;
+    case FieldType::enumeration:
+      schema = {{"type", "string"}, {"enum", rule.choices}};
+      break;
+    case FieldType::object:
+      schema = object_schema(rule, table);
+      break;
+    case FieldType::array:
+      schema = array_schema(rule, table);
+      break;
   }
-  schema["description"] = rule.unit.empty() ? rule.description : rule.description + " [" + rule.unit + "]";
+  schema["description"] =
+      rule.unit.empty() ? rule.description : rule.description + " [" + rule.unit + "]";
   if (rule.default_value) schema["default"] = *rule.default_value;
   return schema;
 }
@@ -480,14 +525,17 @@ FieldTable::FieldTable(std::vector<FieldRule> rules) : rules_(std::move(rules)) 
   for (const auto& field : rules_) {
     if (field.path.empty()) continue;
     const auto* parent = rule(parent_pattern(field.path));
-    if (parent == nullptr || (parent->type != FieldType::object && parent->type != FieldType::array)) {
-      throw std::logic_error("field table: rule \"" + field.path + "\" has no object or list parent");
+    if (parent == nullptr ||
+        (parent->type != FieldType::object && parent->type != FieldType::array)) {
+      throw std::logic_error("field table: rule \"" + field.path +
+                             "\" has no object or list parent");
     }
   }
 }
 
 const FieldRule* FieldTable::rule(std::string_view pattern) const {
-  const auto found = std::find_if(rules_.begin(), rules_.end(), [&](const auto& r) { return r.path == pattern; });
+  const auto found =
+      std::find_if(rules_.begin(), rules_.end(), [&](const auto& r) { return r.path == pattern; });
   return found == rules_.end() ? nullptr : &*found;
 }
 
@@ -511,7 +559,8 @@ const FieldRule* FieldTable::match(std::string_view concrete_path) const {
 std::vector<const FieldRule*> FieldTable::children(std::string_view pattern) const {
   std::vector<const FieldRule*> found;
   for (const auto& candidate : rules_) {
-    if (!candidate.path.empty() && parent_pattern(candidate.path) == pattern) found.push_back(&candidate);
+    if (!candidate.path.empty() && parent_pattern(candidate.path) == pattern)
+      found.push_back(&candidate);
   }
   return found;
 }
@@ -523,7 +572,8 @@ ValidationResult validate(const nlohmann::json& document, const FieldTable& tabl
 ValidationResult validate_field(const nlohmann::json& value, std::string_view pattern,
                                 const FieldTable& table, const std::string& error_path) {
   const auto* rule = table.rule(pattern);
-  if (rule == nullptr) throw std::logic_error("field table has no rule \"" + std::string(pattern) + "\"");
+  if (rule == nullptr)
+    throw std::logic_error("field table has no rule \"" + std::string(pattern) + "\"");
   Checker checker(table);
   ValidationResult result;
   result.document = checker.check(value, *rule, error_path);
@@ -537,7 +587,8 @@ nlohmann::json to_json_schema(const FieldTable& table) {
   return schema;
 }
 
-std::optional<std::string> closest_match(std::string_view name, const std::vector<std::string>& candidates) {
+std::optional<std::string> closest_match(std::string_view name,
+                                         const std::vector<std::string>& candidates) {
   const std::size_t tolerance = std::max<std::size_t>(1, name.size() / 3);
   std::optional<std::string> best;
   std::size_t best_distance = std::numeric_limits<std::size_t>::max();
@@ -573,7 +624,8 @@ std::string quote_value(const nlohmann::json& value) {
 std::string describe_value(const nlohmann::json& value) {
   if (value.is_string()) return "the string " + quote_value(value);
   if (value.is_number()) return "the number " + quote_value(value);
-  if (value.is_boolean()) return std::string("the boolean ") + (value.get<bool>() ? "true" : "false");
+  if (value.is_boolean())
+    return std::string("the boolean ") + (value.get<bool>() ? "true" : "false");
   if (value.is_object()) return "an object";
   if (value.is_array()) return "a list";
   return "null";

@@ -22,10 +22,18 @@ struct Bound {
   double value = 0.0;
   bool inclusive = true;
 };
-inline Bound at_least(double value) { return {value, true}; }
-inline Bound above(double value) { return {value, false}; }
-inline Bound at_most(double value) { return {value, true}; }
-inline Bound below(double value) { return {value, false}; }
+inline Bound at_least(double value) {
+  return {value, true};
+}
+inline Bound above(double value) {
+  return {value, false};
+}
+inline Bound at_most(double value) {
+  return {value, true};
+}
+inline Bound below(double value) {
+  return {value, false};
+}
 
 // The rule for one field. `path` is a JSON-pointer pattern from the document root, e.g.
 // "/mill/lifters/count"; a "*" segment stands for any key of a map or any item of an array (which
@@ -40,14 +48,15 @@ struct FieldRule {
   std::optional<nlohmann::json> default_value;  // filled in when the field is absent
   std::optional<Bound> minimum;                 // numbers and integers
   std::optional<Bound> maximum;
-  std::string pattern;               // strings: ECMAScript regex the whole string must match;
-                                     // maps ("*" child of an object): the keys must match it
-  std::vector<std::string> choices;  // enumeration: the allowed strings
+  std::string pattern;                   // strings: ECMAScript regex the whole string must match;
+                                         // maps ("*" child of an object): the keys must match it
+  std::vector<std::string> choices;      // enumeration: the allowed strings
   std::optional<std::size_t> min_items;  // arrays: item count; maps: entry count
   std::optional<std::size_t> max_items;
-  bool unique_items = false;                 // arrays: no item twice
-  std::vector<std::string> exactly_one_of;   // objects: exactly one of these keys must be present
-  bool opaque = false;  // objects whose contents another check owns (e.g. a sweep block): kept as is
+  bool unique_items = false;                // arrays: no item twice
+  std::vector<std::string> exactly_one_of;  // objects: exactly one of these keys must be present
+  bool opaque =
+      false;         // objects whose contents another check owns (e.g. a sweep block): kept as is
   std::string hint;  // extra advice appended to the fix of every error on this field
 };
 

@@ -77,7 +77,8 @@ ProcessResult run_process(const std::vector<std::string>& argv) {
   pid_t child = 0;
   const int spawned = ::posix_spawnp(&child, args[0], &actions, nullptr, args.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
-  if (spawned != 0) throw std::runtime_error("cannot run " + argv[0] + ": " + std::strerror(spawned));
+  if (spawned != 0)
+    throw std::runtime_error("cannot run " + argv[0] + ": " + std::strerror(spawned));
   out.close_write();
   err.close_write();
   ProcessResult result;

@@ -22,7 +22,8 @@ std::string format_status_line(const ProgressSnapshot& snapshot) {
   if (!snapshot.running.empty()) {
     line += " | running:";
     for (const auto& task : snapshot.running) {
-      line += fmt::format(" {}:{} {:.0f}%", task.kind, task.key.substr(0, 8), 100.0 * task.fraction);
+      line +=
+          fmt::format(" {}:{} {:.0f}%", task.kind, task.key.substr(0, 8), 100.0 * task.fraction);
     }
   }
   if (snapshot.finished_this_run > 0 && snapshot.remaining > 0) {
@@ -32,12 +33,14 @@ std::string format_status_line(const ProgressSnapshot& snapshot) {
   return line;
 }
 
-void PlainProgress::task_event(const std::string& kind, const std::string& key, const std::string& what) {
+void PlainProgress::task_event(const std::string& kind, const std::string& key,
+                               const std::string& what) {
   fmt::print(out_, "{} {} {}\n", kind, key.substr(0, 12), what);
   std::fflush(out_);
 }
 
-void LiveProgress::task_event(const std::string& kind, const std::string& key, const std::string& what) {
+void LiveProgress::task_event(const std::string& kind, const std::string& key,
+                              const std::string& what) {
   fmt::print(out_, "\r\033[K{} {} {}\n{}", kind, key.substr(0, 12), what, line_);
   std::fflush(out_);
 }

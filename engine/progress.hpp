@@ -26,7 +26,8 @@ struct ProgressSnapshot {
 class ProgressView {
  public:
   virtual ~ProgressView() = default;
-  virtual void task_event(const std::string& kind, const std::string& key, const std::string& what) = 0;
+  virtual void task_event(const std::string& kind, const std::string& key,
+                          const std::string& what) = 0;
   virtual void refresh(const ProgressSnapshot& snapshot) = 0;
   virtual void finish() {}
 };
@@ -41,7 +42,8 @@ class QuietProgress final : public ProgressView {
 class PlainProgress final : public ProgressView {
  public:
   explicit PlainProgress(std::FILE* out) : out_(out) {}
-  void task_event(const std::string& kind, const std::string& key, const std::string& what) override;
+  void task_event(const std::string& kind, const std::string& key,
+                  const std::string& what) override;
   void refresh(const ProgressSnapshot&) override {}
 
  private:
@@ -52,7 +54,8 @@ class PlainProgress final : public ProgressView {
 class LiveProgress final : public ProgressView {
  public:
   explicit LiveProgress(std::FILE* out) : out_(out) {}
-  void task_event(const std::string& kind, const std::string& key, const std::string& what) override;
+  void task_event(const std::string& kind, const std::string& key,
+                  const std::string& what) override;
   void refresh(const ProgressSnapshot& snapshot) override;
   void finish() override;
 

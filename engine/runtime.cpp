@@ -22,7 +22,7 @@ struct Node {
   int waiting_on = 0;  // upstream tasks not done yet
   std::vector<std::string> downstream;
   int attempts_this_run = 0;
-  std::optional<nlohmann::json> result;                 // loaded when a downstream task needs it
+  std::optional<nlohmann::json> result;                  // loaded when a downstream task needs it
   std::optional<std::vector<StoredArtifact>> artifacts;  // likewise
 };
 
@@ -62,7 +62,8 @@ class EventQueue {
   }
   std::optional<Event> pop_for(double seconds) {
     std::unique_lock lock(mutex_);
-    if (!ready_.wait_for(lock, std::chrono::duration<double>(seconds), [&] { return !events_.empty(); })) {
+    if (!ready_.wait_for(lock, std::chrono::duration<double>(seconds),
+                         [&] { return !events_.empty(); })) {
       return std::nullopt;
     }
     Event event = std::move(events_.front());
@@ -155,18 +156,22 @@ struct StoredState {
 StoredState load_stored_state(sql::Connection& db, std::int64_t campaign) {
   StoredState state;
   auto status = db.prepare(
-      "SELECT t.key, t.status FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key WHERE ct.campaign_id = ?");
+      "SELECT t.key, t.status FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key WHERE "
+      "ct.campaign_id = ?");
   status.bind_all(campaign);
   while (status.step()) state.status.emplace(status.text(0), status.text(1));
   auto artifacts = db.prepare(
-      "SELECT a.task_key, a.name, a.sha256, a.size FROM campaign_tasks ct JOIN artifacts a ON a.task_key = ct.task_key "
+      "SELECT a.task_key, a.name, a.sha256, a.size FROM campaign_tasks ct JOIN artifacts a ON "
+      "a.task_key = ct.task_key "
       "WHERE ct.campaign_id = ?");
   artifacts.bind_all(campaign);
   while (artifacts.step()) {
-    state.artifacts[artifacts.text(0)].push_back({artifacts.text(1), artifacts.text(2), artifacts.integer(3)});
+    state.artifacts[artifacts.text(0)].push_back(
+        {artifacts.text(1), artifacts.text(2), artifacts.integer(3)});
   }
   auto children = db.prepare(
-      "SELECT t.parent_key, t.key FROM campaign_tasks ct JOIN tasks t ON t.parent_key = ct.task_key "
+      "SELECT t.parent_key, t.key FROM campaign_tasks ct JOIN tasks t ON t.parent_key = "
+      "ct.task_key "
       "WHERE ct.campaign_id = ? ORDER BY t.rowid");
   children.bind_all(campaign);
   while (children.step()) state.children[children.text(0)].push_back(children.text(1));
@@ -232,9 +237,10 @@ class Coordinator {
       recorded.state = "NOT_SUBMITTED";
       env_.store.record_jobs({recorded});
       log(node.spec.key, "warn",
-          fmt::format("attempt {} was being submitted when its coordinator stopped, and {} knows no job {} "
-                      "and it left no output: submitting it again",
-                      record->attempts, recorded.executor, recorded.job_name));
+          fmt::format(
+              "attempt {} was being submitted when its coordinator stopped, and {} knows no job {} "
+              "and it left no output: submitting it again",
+              record->attempts, recorded.executor, recorded.job_name));
       return false;
     }
     if (followed->job_id != recorded.job_id) env_.store.record_jobs({*followed});
@@ -242,8 +248,10 @@ class Coordinator {
     ++node.attempts_this_run;
     ++running_;
     board_.start(node.spec.key, node.spec.kind);
-    report(node.spec.key, fmt::format("re-attached to job {} (attempt {})",
-                                      followed->job_id.empty() ? followed->job_name : followed->job_id, record->attempts));
+    report(node.spec.key,
+           fmt::format("re-attached to job {} (attempt {})",
+                       followed->job_id.empty() ? followed->job_name : followed->job_id,
+                       record->attempts));
     return true;
   }
 
@@ -261,7 +269,8 @@ class Coordinator {
     const std::string key = node.spec.key;
     for (const auto& artifact : artifacts_of(key)) {
       if (!artifacts_.verify(artifact)) {
-        const std::string reason = fmt::format("artifact {} ({}) is missing or corrupt", artifact.name, artifact.sha256);
+        const std::string reason =
+            fmt::format("artifact {} ({}) is missing or corrupt", artifact.name, artifact.sha256);
         env_.store.mark_pending(key, reason);
         log(key, "warn", reason + "; the task runs again");
         return;
@@ -301,8 +310,9 @@ class Coordinator {
         stopping_ = true;
         stop_.request_stop();
         log(std::nullopt, "warn",
-            env_.jobs ? "stop requested: no new jobs; running jobs are left to `millflow resume`"
-                      : "stop requested: no new tasks; running tasks stop at their next checkpoint");
+            env_.jobs
+                ? "stop requested: no new jobs; running jobs are left to `millflow resume`"
+                : "stop requested: no new tasks; running tasks stop at their next checkpoint");
       }
       start(record_turn(event));
       event.reset();
@@ -322,7 +332,8 @@ class Coordinator {
   }
 
   bool can_launch() const {
-    return !stopping_ && running_ < (env_.jobs ? env_.jobs->max_in_flight() : options_.jobs) && !ready_.empty();
+    return !stopping_ && running_ < (env_.jobs ? env_.jobs->max_in_flight() : options_.jobs) &&
+           !ready_.empty();
   }
 
   // One write transaction per turn of the loop: the outcome that just arrived and the launches it
@@ -346,10 +357,13 @@ class Coordinator {
     std::vector<TaskInput> inputs;
     for (const auto& key : spec.upstream) {
       Node& upstream = nodes_.at(key);
-      if (!upstream.result) upstream.result = find_result(env_.store.connection(), key).value_or(nlohmann::json::object());
+      if (!upstream.result)
+        upstream.result =
+            find_result(env_.store.connection(), key).value_or(nlohmann::json::object());
       if (!upstream.artifacts) upstream.artifacts = find_artifacts(env_.store.connection(), key);
       TaskInput input{key, upstream.spec.kind, *upstream.result, {}};
-      for (const auto& artifact : *upstream.artifacts) input.artifacts[artifact.name] = artifacts_.path_of(artifact.sha256);
+      for (const auto& artifact : *upstream.artifacts)
+        input.artifacts[artifact.name] = artifacts_.path_of(artifact.sha256);
       inputs.push_back(std::move(input));
     }
     return inputs;
@@ -363,21 +377,24 @@ class Coordinator {
     const int attempt = env_.store.mark_running(key);
     board_.start(key, node.spec.kind);
     env_.progress.task_event(node.spec.kind, key, fmt::format("started (attempt {})", attempt));
-    return AttemptOrder{&node.spec, std::make_shared<const std::vector<TaskInput>>(inputs_of(node.spec)), attempt};
+    return AttemptOrder{
+        &node.spec, std::make_shared<const std::vector<TaskInput>>(inputs_of(node.spec)), attempt};
   }
 
   void start(const std::vector<AttemptOrder>& launches) {
     if (!env_.jobs) {
       for (const auto& launch : launches) {
-        env_.launcher.launch([this, launch] { attempt_task(*launch.spec, *launch.inputs, launch.attempt); });
+        env_.launcher.launch(
+            [this, launch] { attempt_task(*launch.spec, *launch.inputs, launch.attempt); });
       }
       return;
     }
     if (launches.empty()) return;
-    const auto submitted =
-        env_.jobs->submit(launches, [this](const std::vector<JobRecord>& jobs) { env_.store.record_jobs(jobs); });
+    const auto submitted = env_.jobs->submit(
+        launches, [this](const std::vector<JobRecord>& jobs) { env_.store.record_jobs(jobs); });
     env_.store.record_jobs(submitted);
-    for (const auto& job : submitted) report(job.task_key, fmt::format("submitted as {} job {}", job.executor, job.job_id));
+    for (const auto& job : submitted)
+      report(job.task_key, fmt::format("submitted as {} job {}", job.executor, job.job_id));
   }
 
   // Records the jobs' new states and queues their outcomes as events, as if from a worker.
@@ -386,8 +403,9 @@ class Coordinator {
     env_.store.record_jobs(poll.changed);
     for (const auto& warning : poll.warnings) log(std::nullopt, "warn", warning);
     if (poll.unreachable && !stopping_) {
-      stop_reason_ = *poll.unreachable + ": the coordinator stops; its jobs keep running and `millflow resume` "
-                                         "re-attaches to them";
+      stop_reason_ = *poll.unreachable +
+                     ": the coordinator stops; its jobs keep running and `millflow resume` "
+                     "re-attaches to them";
       log(std::nullopt, "error", stop_reason_);
       stopping_ = true;
       stop_.request_stop();
@@ -424,14 +442,19 @@ class Coordinator {
     Event event = Event::finished(spec.key, attempt);
     try {
       const TaskKind& kind = env_.kinds.get(spec.kind);
-      TaskContext context{.key = spec.key, .params = spec.params, .inputs = inputs, .work_dir = work_root_ / spec.key,
-                          .threads = options_.threads_per_task, .attempt = attempt, .stop = stop_.get_token(),
-                          .progress = [this, key = spec.key](double fraction, std::string_view message) {
-                            board_.update(key, fraction, message);
-                          },
-                          .log = [this, key = spec.key](std::string_view message) {
-                            events_.push(Event::log_line(key, message));
-                          }};
+      TaskContext context{
+          .key = spec.key,
+          .params = spec.params,
+          .inputs = inputs,
+          .work_dir = work_root_ / spec.key,
+          .threads = options_.threads_per_task,
+          .attempt = attempt,
+          .stop = stop_.get_token(),
+          .progress = [this, key = spec.key](
+                          double fraction,
+                          std::string_view message) { board_.update(key, fraction, message); },
+          .log = [this, key = spec.key](
+                     std::string_view message) { events_.push(Event::log_line(key, message)); }};
       arenas_.execute([&] { event.outcome = kind.run(context); });
       if (!event.outcome.interrupted) store_outputs(spec.key, event);
     } catch (const std::exception& error) {
@@ -442,12 +465,13 @@ class Coordinator {
   }
 
   void store_outputs(const std::string& key, Event& event) const {
-    for (const auto& artifact : event.outcome.artifacts) event.stored.push_back(artifacts_.put(artifact.name, artifact.file));
+    for (const auto& artifact : event.outcome.artifacts)
+      event.stored.push_back(artifacts_.put(artifact.name, artifact.file));
     for (auto& child : event.outcome.children) {
       std::vector<std::string> upstream{key};
       upstream.insert(upstream.end(), child.extra_upstream.begin(), child.extra_upstream.end());
-      event.children.push_back(
-          make_task_spec(child.kind, env_.kinds.get(child.kind).version, std::move(child.params), std::move(upstream)));
+      event.children.push_back(make_task_spec(child.kind, env_.kinds.get(child.kind).version,
+                                              std::move(child.params), std::move(upstream)));
     }
   }
 
@@ -471,7 +495,8 @@ class Coordinator {
 
   void handle_success(Event& event) {
     Node& node = nodes_.at(event.key);
-    env_.store.commit_done(campaign_, event.key, event.outcome.result, event.stored, event.children, event.duration_s);
+    env_.store.commit_done(campaign_, event.key, event.outcome.result, event.stored, event.children,
+                           event.duration_s);
     node.state = State::done;
     node.result = std::move(event.outcome.result);
     node.artifacts = std::move(event.stored);
@@ -490,8 +515,8 @@ class Coordinator {
   void handle_interruption(const Event& event) {
     Node& node = nodes_.at(event.key);
     if (!stopping_) {
-      env_.store.mark_finished(event.key, "interrupted", event.attempt, "checkpointed before its time limit",
-                               event.duration_s);
+      env_.store.mark_finished(event.key, "interrupted", event.attempt,
+                               "checkpointed before its time limit", event.duration_s);
       node.state = State::pending;
       --node.attempts_this_run;
       ready_.push_back(event.key);
@@ -499,7 +524,8 @@ class Coordinator {
       return;
     }
     node.state = State::interrupted;
-    env_.store.mark_finished(event.key, "interrupted", event.attempt, "stopped on request", event.duration_s);
+    env_.store.mark_finished(event.key, "interrupted", event.attempt, "stopped on request",
+                             event.duration_s);
     report(event.key, "interrupted");
   }
 
@@ -510,7 +536,8 @@ class Coordinator {
     if (node.attempts_this_run <= options_.retries && !stopping_) {
       node.state = State::pending;
       ready_.push_back(event.key);
-      report(event.key, fmt::format("failed (attempt {}), retrying: {}", event.attempt, *event.error));
+      report(event.key,
+             fmt::format("failed (attempt {}), retrying: {}", event.attempt, *event.error));
       return;
     }
     node.state = State::failed;
@@ -531,17 +558,23 @@ class Coordinator {
       skipped.push_back(key);
       frontier.insert(frontier.end(), node.downstream.begin(), node.downstream.end());
     }
-    env_.store.mark_skipped(skipped, fmt::format("upstream task {} ({}) failed", failed.spec.key, failed.spec.kind));
+    env_.store.mark_skipped(
+        skipped, fmt::format("upstream task {} ({}) failed", failed.spec.key, failed.spec.kind));
   }
 
   // --- reporting ---------------------------------------------------------------------------
-  void log(const std::optional<std::string>& key, const std::string& level, const std::string& message) {
+  void log(const std::optional<std::string>& key, const std::string& level,
+           const std::string& message) {
     env_.store.append_log(key, level, message);
     if (!env_.log) return;
-    const std::string who = key ? nodes_.at(*key).spec.kind + " " + key->substr(0, 12) + ": " : std::string();
-    if (level == "error") env_.log->error("{}{}", who, message);
-    else if (level == "warn") env_.log->warn("{}{}", who, message);
-    else env_.log->info("{}{}", who, message);
+    const std::string who =
+        key ? nodes_.at(*key).spec.kind + " " + key->substr(0, 12) + ": " : std::string();
+    if (level == "error")
+      env_.log->error("{}{}", who, message);
+    else if (level == "warn")
+      env_.log->warn("{}{}", who, message);
+    else
+      env_.log->info("{}{}", who, message);
   }
 
   void report(const std::string& key, const std::string& what) {
@@ -614,17 +647,19 @@ int RunSummary::exit_code() const {
 }
 
 std::string RunSummary::describe() const {
-  std::string text = fmt::format("{} tasks: {} done, {} cached, {} failed, {} skipped", total, done, cached, failed, skipped);
+  std::string text = fmt::format("{} tasks: {} done, {} cached, {} failed, {} skipped", total, done,
+                                 cached, failed, skipped);
   if (interrupted > 0 || not_started > 0) {
     text += fmt::format(", {} interrupted, {} not started", interrupted, not_started);
   }
-  if (detached > 0) text += fmt::format(", {} left running as batch jobs (resume re-attaches)", detached);
+  if (detached > 0)
+    text += fmt::format(", {} left running as batch jobs (resume re-attaches)", detached);
   if (!stop_reason.empty()) text += "; stopped: " + stop_reason;
   return text;
 }
 
-RunSummary run_campaign(RunEnvironment environment, std::int64_t campaign, const std::vector<TaskSpec>& planned,
-                        const RunOptions& options) {
+RunSummary run_campaign(RunEnvironment environment, std::int64_t campaign,
+                        const std::vector<TaskSpec>& planned, const RunOptions& options) {
   Coordinator coordinator(std::move(environment), campaign, options);
   return coordinator.run(planned);
 }

@@ -2,9 +2,9 @@
 // The DAG runtime: the coordinating thread owns the store (the one writing connection), launches
 // ready tasks up to --jobs at once, and commits each outcome in its own transaction as it arrives
 // from the workers through an event queue.
+#include <spdlog/logger.h>
 #include <functional>
 #include <memory>
-#include <spdlog/logger.h>
 #include <string>
 #include <vector>
 
@@ -28,17 +28,19 @@ struct RunOptions {
 
 struct RunSummary {
   int total = 0;
-  int done = 0;     // ran to completion in this run
-  int cached = 0;   // already done before this run
+  int done = 0;    // ran to completion in this run
+  int cached = 0;  // already done before this run
   int failed = 0;
   int skipped = 0;  // below a failed task
   int interrupted = 0;
   int not_started = 0;  // left pending by an interruption
   int detached = 0;     // left running as batch jobs by an interruption; resume re-attaches
   bool stopped = false;
-  std::string stop_reason;  // why the run stopped without a stop request (the scheduler was unreachable)
+  std::string
+      stop_reason;  // why the run stopped without a stop request (the scheduler was unreachable)
 
-  // 0 done, 1 some tasks failed, 130 interrupted (a stop request, or the batch scheduler unreachable).
+  // 0 done, 1 some tasks failed, 130 interrupted (a stop request, or the batch scheduler
+  // unreachable).
   int exit_code() const;
   std::string describe() const;
 };
@@ -49,7 +51,7 @@ struct RunEnvironment {
   Launcher& launcher;
   ProgressView& progress;
   const Clock& clock;
-  const FileSystem& files;  // where artifacts are written and read
+  const FileSystem& files;              // where artifacts are written and read
   std::shared_ptr<spdlog::logger> log;  // the campaign's log file (may be null)
   // When set, attempts run as its batch jobs (the launcher stays idle); a stop leaves running jobs
   // to be re-attached by the next run instead of waiting for them.
@@ -58,7 +60,7 @@ struct RunEnvironment {
 
 // Runs the campaign's tasks (already registered in the store) until all are done, failed or
 // skipped, or a stop is requested.
-RunSummary run_campaign(RunEnvironment environment, std::int64_t campaign, const std::vector<TaskSpec>& planned,
-                        const RunOptions& options);
+RunSummary run_campaign(RunEnvironment environment, std::int64_t campaign,
+                        const std::vector<TaskSpec>& planned, const RunOptions& options);
 
 }  // namespace millflow::engine

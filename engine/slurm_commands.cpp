@@ -16,13 +16,15 @@ std::string trimmed(const std::string& text) {
 
 class SystemSlurmCommands final : public SlurmCommands {
  public:
-  std::string sbatch(const std::vector<std::string>& options, const std::filesystem::path& script) override {
+  std::string sbatch(const std::vector<std::string>& options,
+                     const std::filesystem::path& script) override {
     std::vector<std::string> argv{"sbatch"};
     argv.insert(argv.end(), options.begin(), options.end());
     argv.push_back(script.string());
     const auto run = run_process(argv);
     if (run.exit_code != 0) {
-      throw std::runtime_error("sbatch refused the job (exit " + std::to_string(run.exit_code) + "): " + trimmed(run.err));
+      throw std::runtime_error("sbatch refused the job (exit " + std::to_string(run.exit_code) +
+                               "): " + trimmed(run.err));
     }
     // --parsable prints "jobid" or "jobid;cluster".
     const std::string line = trimmed(run.out);
@@ -44,11 +46,13 @@ class SystemSlurmCommands final : public SlurmCommands {
   // {"1234_5": "RUNNING", ...} of the jobs `selection` (an squeue option) picks.
   static std::map<std::string, std::string> states_of(const std::string& selection) {
     std::map<std::string, std::string> states;
-    const auto run = run_process({"squeue", "--noheader", "--array", "--states=all", "--format=%i %T", selection});
+    const auto run = run_process(
+        {"squeue", "--noheader", "--array", "--states=all", "--format=%i %T", selection});
     if (run.exit_code != 0) {
       // squeue refuses a list in which it knows no job at all: they have all been forgotten.
       if (run.err.find("Invalid job id") != std::string::npos) return states;
-      throw std::runtime_error("squeue failed (exit " + std::to_string(run.exit_code) + "): " + trimmed(run.err));
+      throw std::runtime_error("squeue failed (exit " + std::to_string(run.exit_code) +
+                               "): " + trimmed(run.err));
     }
     std::istringstream lines(run.out);
     std::string id;
@@ -60,6 +64,8 @@ class SystemSlurmCommands final : public SlurmCommands {
 
 }  // namespace
 
-std::unique_ptr<SlurmCommands> system_slurm_commands() { return std::make_unique<SystemSlurmCommands>(); }
+std::unique_ptr<SlurmCommands> system_slurm_commands() {
+  return std::make_unique<SystemSlurmCommands>();
+}
 
 }  // namespace millflow::engine

@@ -15,7 +15,8 @@ class SlurmCommands {
   virtual ~SlurmCommands() = default;
   // `sbatch OPTIONS SCRIPT` with --parsable among the options; returns the job id it printed.
   // Throws std::runtime_error with sbatch's message when the submission is refused.
-  virtual std::string sbatch(const std::vector<std::string>& options, const std::filesystem::path& script) = 0;
+  virtual std::string sbatch(const std::vector<std::string>& options,
+                             const std::filesystem::path& script) = 0;
   // The state of each listed job that the controller still knows, array elements one by one
   // (`squeue --array --states=all`): {"1234_5": "RUNNING", ...}. Jobs it has forgotten are absent.
   virtual std::map<std::string, std::string> squeue(const std::vector<std::string>& job_ids) = 0;

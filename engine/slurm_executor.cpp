@@ -21,7 +21,9 @@ std::string shell_quoted(const std::string& text) {
 }
 
 // "1234_5" -> "1234": squeue lists every element of an array asked for by its base id.
-std::string array_id_of(const std::string& job_id) { return job_id.substr(0, job_id.find('_')); }
+std::string array_id_of(const std::string& job_id) {
+  return job_id.substr(0, job_id.find('_'));
+}
 
 std::string state_from_marker(const AttemptOutcome& outcome) {
   if (outcome.error) return "FAILED";
@@ -32,8 +34,9 @@ std::string state_from_marker(const AttemptOutcome& outcome) {
 
 bool slurm_state_is_active(const std::string& state) {
   static const std::set<std::string> kActive = {
-      "PENDING", "CONFIGURING", "RUNNING", "COMPLETING", "SUSPENDED", "REQUEUED", "REQUEUE_FED", "REQUEUE_HOLD",
-      "RESIZING", "SIGNALING", "STAGE_OUT", "STOPPED", "RESV_DEL_HOLD"};
+      "PENDING",   "CONFIGURING", "RUNNING",      "COMPLETING", "SUSPENDED",
+      "REQUEUED",  "REQUEUE_FED", "REQUEUE_HOLD", "RESIZING",   "SIGNALING",
+      "STAGE_OUT", "STOPPED",     "RESV_DEL_HOLD"};
   return kActive.count(state) > 0;
 }
 
@@ -55,8 +58,10 @@ std::vector<std::string> SlurmExecutor::sbatch_options(int count, const fs::path
       fmt::format("--cpus-per-task={}", settings_.cpus_per_task),
   };
   const std::pair<const char*, const std::string*> optional[] = {
-      {"--partition=", &settings_.partition}, {"--account=", &settings_.account},
-      {"--time=", &settings_.time_limit}, {"--mem=", &settings_.memory}};
+      {"--partition=", &settings_.partition},
+      {"--account=", &settings_.account},
+      {"--time=", &settings_.time_limit},
+      {"--mem=", &settings_.memory}};
   for (const auto& [flag, value] : optional) {
     if (!value->empty()) options.push_back(flag + *value);
   }
@@ -64,12 +69,16 @@ std::vector<std::string> SlurmExecutor::sbatch_options(int count, const fs::path
   return options;
 }
 
-std::string SlurmExecutor::job_name_of(const fs::path& batch_dir) { return "millflow-" + batch_dir.filename().string(); }
+std::string SlurmExecutor::job_name_of(const fs::path& batch_dir) {
+  return "millflow-" + batch_dir.filename().string();
+}
 
 fs::path SlurmExecutor::new_batch_dir() {
   const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(
-                      std::chrono::system_clock::now().time_since_epoch()).count();
-  const fs::path dir = settings_.run_dir / "batches" / fmt::format("{}-{}-{}", ms, ::getpid(), batches_++);
+                      std::chrono::system_clock::now().time_since_epoch())
+                      .count();
+  const fs::path dir =
+      settings_.run_dir / "batches" / fmt::format("{}-{}-{}", ms, ::getpid(), batches_++);
   fs::create_directories(dir);
   return dir;
 }
@@ -86,10 +95,12 @@ std::vector<TaskInput> SlurmExecutor::staged(const std::vector<TaskInput>& input
 void SlurmExecutor::write_batch_script(const fs::path& batch_dir) const {
   std::ofstream script(batch_dir / "job.sh");
   script << "#!/bin/sh\n"
-            "# millflow: array element i runs the task attempt of <i>.json; it never opens the database.\n"
+            "# millflow: array element i runs the task attempt of <i>.json; it never opens the "
+            "database.\n"
          << "exec " << shell_quoted(settings_.program.string()) << " exec "
          << shell_quoted(batch_dir.string()) << "/\"${SLURM_ARRAY_TASK_ID}.json\"\n";
-  if (!script.flush()) throw std::runtime_error("cannot write the batch script in " + batch_dir.string());
+  if (!script.flush())
+    throw std::runtime_error("cannot write the batch script in " + batch_dir.string());
 }
 
 std::vector<JobRecord> SlurmExecutor::submit(const std::vector<AttemptOrder>& attempts,
@@ -101,15 +112,21 @@ std::vector<JobRecord> SlurmExecutor::submit(const std::vector<AttemptOrder>& at
     for (size_t i = 0; i < attempts.size(); ++i) {
       const TaskSpec& task = *attempts[i].spec;
       const std::string element = std::to_string(i);
-      const AttemptSpec spec{task, staged(*attempts[i].inputs), attempts[i].attempt, settings_.cpus_per_task,
-                             work_root() / task.key, batch / element};
+      const AttemptSpec spec{task,
+                             staged(*attempts[i].inputs),
+                             attempts[i].attempt,
+                             settings_.cpus_per_task,
+                             work_root() / task.key,
+                             batch / element};
       write_attempt_spec(spec, batch / (element + ".json"));
-      jobs.push_back(JobRecord{task.key, spec.attempt, "slurm", "", "SUBMITTING", job_name_of(batch),
-                               spec.output_dir, batch / (element + ".out"), batch / (element + ".err")});
+      jobs.push_back(JobRecord{task.key, spec.attempt, "slurm", "", "SUBMITTING",
+                               job_name_of(batch), spec.output_dir, batch / (element + ".out"),
+                               batch / (element + ".err")});
     }
     write_batch_script(batch);
     record_before_sending(jobs);
-    const std::string array_id = commands_.sbatch(sbatch_options(static_cast<int>(attempts.size()), batch), batch / "job.sh");
+    const std::string array_id = commands_.sbatch(
+        sbatch_options(static_cast<int>(attempts.size()), batch), batch / "job.sh");
     for (size_t i = 0; i < jobs.size(); ++i) {
       jobs[i].job_id = array_id + "_" + std::to_string(i);
       jobs[i].state = "PENDING";
@@ -121,8 +138,12 @@ std::vector<JobRecord> SlurmExecutor::submit(const std::vector<AttemptOrder>& at
       refused_.changed.push_back(job);
     }
     for (const auto& order : attempts) {
-      refused_.finished.push_back(AttemptOutcome{order.spec->key, order.attempt,
-                                                 std::string("could not submit the Slurm job: ") + error.what(), {}, 0.0});
+      refused_.finished.push_back(
+          AttemptOutcome{order.spec->key,
+                         order.attempt,
+                         std::string("could not submit the Slurm job: ") + error.what(),
+                         {},
+                         0.0});
     }
     return {};
   }
@@ -135,10 +156,14 @@ void SlurmExecutor::track(const JobRecord& job) {
 
 std::string SlurmExecutor::find_id_by_name(const JobRecord& job) {
   auto found = squeue_by_name_.find(job.job_name);
-  if (found == squeue_by_name_.end()) found = squeue_by_name_.emplace(job.job_name, commands_.squeue_named(job.job_name)).first;
-  const std::string element = "_" + job.output_dir.filename().string();  // output dirs are <batch>/<element>
+  if (found == squeue_by_name_.end())
+    found = squeue_by_name_.emplace(job.job_name, commands_.squeue_named(job.job_name)).first;
+  const std::string element =
+      "_" + job.output_dir.filename().string();  // output dirs are <batch>/<element>
   for (const auto& [id, state] : found->second) {
-    if (id.size() > element.size() && id.compare(id.size() - element.size(), element.size(), element) == 0) return id;
+    if (id.size() > element.size() &&
+        id.compare(id.size() - element.size(), element.size(), element) == 0)
+      return id;
   }
   return {};
 }
@@ -154,7 +179,8 @@ std::optional<JobRecord> SlurmExecutor::reattach(const JobRecord& recorded) {
   return job;
 }
 
-std::optional<AttemptOutcome> SlurmExecutor::settle(Tracked& tracked, const std::string& state) const {
+std::optional<AttemptOutcome> SlurmExecutor::settle(Tracked& tracked,
+                                                    const std::string& state) const {
   JobRecord& job = tracked.job;
   if (auto outcome = read_attempt_outcome(job.output_dir, job.task_key, job.attempt)) {
     job.state = state_from_marker(*outcome);  // says more than FAILED for a checkpointed job
@@ -163,11 +189,14 @@ std::optional<AttemptOutcome> SlurmExecutor::settle(Tracked& tracked, const std:
   // A marker written just before the job ended may reach a shared filesystem late: wait one poll.
   if (++tracked.polls_without_marker_after_end < 2) return std::nullopt;
   const std::string how = state == "VANISHED" ? "vanished from squeue" : "ended " + state;
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - tracked.since).count();
-  return AttemptOutcome{job.task_key, job.attempt,
-                        fmt::format("Slurm job {} {} without a completion marker (its stderr: {})", job.job_id, how,
-                                    job.stderr_file.string()),
-                        {}, seconds};
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - tracked.since).count();
+  return AttemptOutcome{job.task_key,
+                        job.attempt,
+                        fmt::format("Slurm job {} {} without a completion marker (its stderr: {})",
+                                    job.job_id, how, job.stderr_file.string()),
+                        {},
+                        seconds};
 }
 
 std::optional<std::map<std::string, std::string>> SlurmExecutor::squeue_tracked(Poll& result) {
@@ -182,12 +211,14 @@ std::optional<std::map<std::string, std::string>> SlurmExecutor::squeue_tracked(
   } catch (const std::exception& error) {
     ++squeue_failures_;
     if (squeue_failures_ >= settings_.max_squeue_failures) {
-      result.unreachable = fmt::format("squeue failed {} times in a row (executor.slurm.max_squeue_failures), last: {}",
-                                       squeue_failures_, error.what());
+      result.unreachable = fmt::format(
+          "squeue failed {} times in a row (executor.slurm.max_squeue_failures), last: {}",
+          squeue_failures_, error.what());
     } else {
-      result.warnings.push_back(fmt::format("squeue failed ({} of {} failures in a row before the coordinator stops), "
-                                            "polling again: {}",
-                                            squeue_failures_, settings_.max_squeue_failures, error.what()));
+      result.warnings.push_back(
+          fmt::format("squeue failed ({} of {} failures in a row before the coordinator stops), "
+                      "polling again: {}",
+                      squeue_failures_, settings_.max_squeue_failures, error.what()));
     }
     return std::nullopt;
   }

@@ -34,20 +34,20 @@ inline constexpr int kSlurmMaxSignalLeadS = 65535;
 // The campaign file's executor.slurm block (README "Running on a Slurm cluster") plus what the
 // command line adds (run_dir, program, poll_interval_s).
 struct SlurmSettings {
-  std::string partition;             // empty: the cluster's default
+  std::string partition;  // empty: the cluster's default
   std::string account;
-  std::string time_limit;            // sbatch --time, e.g. "90" (minutes) or "1-00:00:00"
-  std::string memory;                // sbatch --mem, e.g. "16G"
-  int cpus_per_task = 1;             // also the threads of each task
+  std::string time_limit;  // sbatch --time, e.g. "90" (minutes) or "1-00:00:00"
+  std::string memory;      // sbatch --mem, e.g. "16G"
+  int cpus_per_task = 1;   // also the threads of each task
   std::vector<std::string> extra_args;
-  int max_in_flight = 100;           // jobs queued or running at once
-  int checkpoint_signal_s = 300;     // --signal=B:USR1@N: checkpoint N s before the time limit
+  int max_in_flight = 100;        // jobs queued or running at once
+  int checkpoint_signal_s = 300;  // --signal=B:USR1@N: checkpoint N s before the time limit
   // squeue failures in a row (a controller restarting, a network blip) ridden out before poll()
   // gives up; at the default poll interval of 10 s, 30 are five minutes.
   int max_squeue_failures = 30;
   double poll_interval_s = 10.0;
-  std::filesystem::path run_dir;     // see above; shared with the compute nodes
-  std::filesystem::path program;     // the millflow executable the jobs run
+  std::filesystem::path run_dir;  // see above; shared with the compute nodes
+  std::filesystem::path program;  // the millflow executable the jobs run
 };
 
 class SlurmExecutor final : public JobExecutor {
@@ -91,7 +91,7 @@ class SlurmExecutor final : public JobExecutor {
   std::map<std::filesystem::path, Tracked> tracked_;  // by output directory (one per attempt)
   Poll refused_;  // attempts that could not be submitted, reported by the next poll
   std::map<std::string, std::map<std::string, std::string>> squeue_by_name_;  // reattach's lookups
-  int squeue_failures_ = 0;  // in a row
+  int squeue_failures_ = 0;                                                   // in a row
   int batches_ = 0;
 };
 

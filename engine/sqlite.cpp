@@ -38,7 +38,9 @@ void Connection::exec(std::string_view sql) {
   }
 }
 
-Statement Connection::prepare(std::string_view sql) { return Statement(db_, sql); }
+Statement Connection::prepare(std::string_view sql) {
+  return Statement(db_, sql);
+}
 
 Statement& Connection::cached(std::string_view sql) {
   auto found = cached_.find(sql);
@@ -54,29 +56,44 @@ int Connection::user_version() {
 
 Statement::Statement(sqlite3* db, std::string_view sql) : db_(db) {
   const char* tail = nullptr;
-  if (sqlite3_prepare_v2(db, sql.data(), static_cast<int>(sql.size()), &stmt_, &tail) != SQLITE_OK) {
+  if (sqlite3_prepare_v2(db, sql.data(), static_cast<int>(sql.size()), &stmt_, &tail) !=
+      SQLITE_OK) {
     fail(db, "cannot prepare \"" + std::string(sql.substr(0, 200)) + "\"");
   }
   if (stmt_ == nullptr) throw Error("empty SQL statement");
-  if (tail != nullptr && std::string_view(tail).find_first_not_of(" \t\r\n;") != std::string_view::npos) {
+  if (tail != nullptr &&
+      std::string_view(tail).find_first_not_of(" \t\r\n;") != std::string_view::npos) {
     sqlite3_finalize(stmt_);
-    throw Error("only one SQL statement at a time, found more after: " + std::string(sql.substr(0, 200)));
+    throw Error("only one SQL statement at a time, found more after: " +
+                std::string(sql.substr(0, 200)));
   }
 }
 
-Statement::~Statement() { sqlite3_finalize(stmt_); }
+Statement::~Statement() {
+  sqlite3_finalize(stmt_);
+}
 
-Statement::Statement(Statement&& other) noexcept : db_(other.db_), stmt_(other.stmt_) { other.stmt_ = nullptr; }
+Statement::Statement(Statement&& other) noexcept : db_(other.db_), stmt_(other.stmt_) {
+  other.stmt_ = nullptr;
+}
 
-void Statement::bind(int index, std::int64_t value) { sqlite3_bind_int64(stmt_, index, value); }
-void Statement::bind(int index, double value) { sqlite3_bind_double(stmt_, index, value); }
+void Statement::bind(int index, std::int64_t value) {
+  sqlite3_bind_int64(stmt_, index, value);
+}
+void Statement::bind(int index, double value) {
+  sqlite3_bind_double(stmt_, index, value);
+}
 void Statement::bind(int index, std::string_view value) {
   sqlite3_bind_text(stmt_, index, value.data(), static_cast<int>(value.size()), SQLITE_TRANSIENT);
 }
-void Statement::bind(int index, std::nullopt_t) { sqlite3_bind_null(stmt_, index); }
+void Statement::bind(int index, std::nullopt_t) {
+  sqlite3_bind_null(stmt_, index);
+}
 void Statement::bind(int index, const std::optional<std::string>& value) {
-  if (value) bind(index, *value);
-  else bind(index, std::nullopt);
+  if (value)
+    bind(index, *value);
+  else
+    bind(index, std::nullopt);
 }
 
 bool Statement::step() {
@@ -100,7 +117,8 @@ void Statement::reset() {
 std::string Statement::text(int column) const {
   const auto* data = sqlite3_column_text(stmt_, column);
   if (data == nullptr) return {};
-  return std::string(reinterpret_cast<const char*>(data), static_cast<size_t>(sqlite3_column_bytes(stmt_, column)));
+  return std::string(reinterpret_cast<const char*>(data),
+                     static_cast<size_t>(sqlite3_column_bytes(stmt_, column)));
 }
 
 Transaction::Transaction(Connection& connection)

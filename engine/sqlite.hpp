@@ -74,7 +74,9 @@ class Connection {
   // read_write creates the file if missing. read_only also sets PRAGMA query_only.
   Connection(const std::filesystem::path& file, Access access);
   ~Connection();
-  Connection(Connection&& other) noexcept : db_(other.db_), cached_(std::move(other.cached_)) { other.db_ = nullptr; }
+  Connection(Connection&& other) noexcept : db_(other.db_), cached_(std::move(other.cached_)) {
+    other.db_ = nullptr;
+  }
   Connection(const Connection&) = delete;
   Connection& operator=(const Connection&) = delete;
   Connection& operator=(Connection&&) = delete;

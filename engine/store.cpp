@@ -178,22 +178,34 @@ fs::path beside(const fs::path& db, const std::string& suffix) {
 
 }  // namespace
 
-fs::path artifacts_dir(const fs::path& db) { return beside(db, ".artifacts"); }
-fs::path work_dir(const fs::path& db) { return beside(db, ".work"); }
-fs::path jobs_dir(const fs::path& db) { return beside(db, ".jobs"); }
-fs::path lock_file(const fs::path& db) { return beside(db, ".lock"); }
-fs::path logs_dir(const fs::path& db) { return beside(db, ".logs"); }
+fs::path artifacts_dir(const fs::path& db) {
+  return beside(db, ".artifacts");
+}
+fs::path work_dir(const fs::path& db) {
+  return beside(db, ".work");
+}
+fs::path jobs_dir(const fs::path& db) {
+  return beside(db, ".jobs");
+}
+fs::path lock_file(const fs::path& db) {
+  return beside(db, ".lock");
+}
+fs::path logs_dir(const fs::path& db) {
+  return beside(db, ".logs");
+}
 
 sql::Connection open_read_only(const fs::path& db) {
   if (!fs::exists(db)) {
-    throw std::runtime_error("no database at " + db.string() + ": submit a campaign first, or pass --db");
+    throw std::runtime_error("no database at " + db.string() +
+                             ": submit a campaign first, or pass --db");
   }
   sql::Connection connection(db, sql::Access::read_only);
   const int version = connection.user_version();
   if (version == 0) {  // the schema and its version are committed together
-    throw std::runtime_error("the database " + db.string() +
-                             " has no millflow tables (nothing was submitted to it, or its first submit stopped "
-                             "before creating them): submit the campaign again");
+    throw std::runtime_error(
+        "the database " + db.string() +
+        " has no millflow tables (nothing was submitted to it, or its first submit stopped "
+        "before creating them): submit the campaign again");
   }
   refuse_newer_schema(db, version);
   return connection;
@@ -201,13 +213,18 @@ sql::Connection open_read_only(const fs::path& db) {
 
 std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key) {
   auto row = db.prepare(
-      "SELECT kind, kind_version, params, key_text, parent_key, status, attempts, coalesce(error, '') "
+      "SELECT kind, kind_version, params, key_text, parent_key, status, attempts, coalesce(error, "
+      "'') "
       "FROM tasks WHERE key = ?");
   row.bind_all(key);
   if (!row.step()) return std::nullopt;
   TaskRecord record;
-  record.spec = TaskSpec{.key = key, .kind = row.text(0), .version = row.text(1),
-                         .params = nlohmann::json::parse(row.text(2)), .upstream = {}, .key_text = row.text(3)};
+  record.spec = TaskSpec{.key = key,
+                         .kind = row.text(0),
+                         .version = row.text(1),
+                         .params = nlohmann::json::parse(row.text(2)),
+                         .upstream = {},
+                         .key_text = row.text(3)};
   if (!row.is_null(4)) record.parent_key = row.text(4);
   record.status = row.text(5);
   record.attempts = static_cast<int>(row.integer(6));
@@ -226,7 +243,8 @@ std::optional<nlohmann::json> find_result(sql::Connection& db, const std::string
 }
 
 std::vector<StoredArtifact> find_artifacts(sql::Connection& db, const std::string& key) {
-  auto rows = db.prepare("SELECT name, sha256, size FROM artifacts WHERE task_key = ? ORDER BY name");
+  auto rows =
+      db.prepare("SELECT name, sha256, size FROM artifacts WHERE task_key = ? ORDER BY name");
   rows.bind_all(key);
   std::vector<StoredArtifact> artifacts;
   while (rows.step()) artifacts.push_back({rows.text(0), rows.text(1), rows.integer(2)});
@@ -245,14 +263,15 @@ std::vector<JobRecord> find_jobs(sql::Connection& db, const std::string& key) {
   std::vector<JobRecord> jobs;
   const int version = db.user_version();
   if (version < 2) return jobs;
-  auto rows = db.prepare(fmt::format(
-      "SELECT attempt, executor, job_id, state, {}, output_dir, stdout_path, stderr_path FROM jobs WHERE task_key = ? "
-      "ORDER BY attempt",
-      version < 3 ? "''" : "job_name"));
+  auto rows =
+      db.prepare(fmt::format("SELECT attempt, executor, job_id, state, {}, output_dir, "
+                             "stdout_path, stderr_path FROM jobs WHERE task_key = ? "
+                             "ORDER BY attempt",
+                             version < 3 ? "''" : "job_name"));
   rows.bind_all(key);
   while (rows.step()) {
-    jobs.push_back(JobRecord{key, static_cast<int>(rows.integer(0)), rows.text(1), rows.text(2), rows.text(3),
-                             rows.text(4), rows.text(5), rows.text(6), rows.text(7)});
+    jobs.push_back(JobRecord{key, static_cast<int>(rows.integer(0)), rows.text(1), rows.text(2),
+                             rows.text(3), rows.text(4), rows.text(5), rows.text(6), rows.text(7)});
   }
   return jobs;
 }
@@ -274,12 +293,13 @@ Store::Store(const fs::path& db, const std::vector<ViewDefinition>& views, const
 }
 
 std::int64_t Store::register_campaign(const std::string& name, const std::string& format,
-                                      const nlohmann::json& document, const std::vector<TaskSpec>& tasks) {
+                                      const nlohmann::json& document,
+                                      const std::vector<TaskSpec>& tasks) {
   sql::Transaction transaction(db_);
   statement(
-         "INSERT INTO campaigns (name, format, document, submitted_at) VALUES (?, ?, ?, ?) "
-         "ON CONFLICT(name) DO UPDATE SET format = excluded.format, document = excluded.document, "
-         "submitted_at = excluded.submitted_at, finished_at = NULL, outcome = 'running'")
+      "INSERT INTO campaigns (name, format, document, submitted_at) VALUES (?, ?, ?, ?) "
+      "ON CONFLICT(name) DO UPDATE SET format = excluded.format, document = excluded.document, "
+      "submitted_at = excluded.submitted_at, finished_at = NULL, outcome = 'running'")
       .bind_all(name, format, canonical_json(document), clock_.now())
       .run();
   auto& id_row = statement("SELECT id FROM campaigns WHERE name = ?");
@@ -296,13 +316,17 @@ std::int64_t Store::register_campaign(const std::string& name, const std::string
 void Store::insert_tasks(std::int64_t campaign, const std::vector<TaskSpec>& tasks,
                          const std::optional<std::string>& parent) {
   auto& task = statement(
-      "INSERT OR IGNORE INTO tasks (key, kind, kind_version, params, key_text, parent_key, created_at) "
+      "INSERT OR IGNORE INTO tasks (key, kind, kind_version, params, key_text, parent_key, "
+      "created_at) "
       "VALUES (?, ?, ?, ?, ?, ?, ?)");
-  auto& edge = statement("INSERT OR IGNORE INTO edges (downstream, position, upstream) VALUES (?, ?, ?)");
-  auto& member = statement("INSERT OR IGNORE INTO campaign_tasks (campaign_id, task_key) VALUES (?, ?)");
+  auto& edge =
+      statement("INSERT OR IGNORE INTO edges (downstream, position, upstream) VALUES (?, ?, ?)");
+  auto& member =
+      statement("INSERT OR IGNORE INTO campaign_tasks (campaign_id, task_key) VALUES (?, ?)");
   const double now = clock_.now();
   for (const auto& spec : tasks) {
-    task.bind_all(spec.key, spec.kind, spec.version, canonical_json(spec.params), spec.key_text, parent, now);
+    task.bind_all(spec.key, spec.kind, spec.version, canonical_json(spec.params), spec.key_text,
+                  parent, now);
     task.run();
     for (size_t position = 0; position < spec.upstream.size(); ++position) {
       edge.bind_all(spec.key, static_cast<std::int64_t>(position), spec.upstream[position]);
@@ -315,7 +339,8 @@ void Store::insert_tasks(std::int64_t campaign, const std::vector<TaskSpec>& tas
 
 void Store::add_members(std::int64_t campaign, const std::vector<std::string>& keys) {
   sql::Transaction transaction(db_);
-  auto& member = statement("INSERT OR IGNORE INTO campaign_tasks (campaign_id, task_key) VALUES (?, ?)");
+  auto& member =
+      statement("INSERT OR IGNORE INTO campaign_tasks (campaign_id, task_key) VALUES (?, ?)");
   for (const auto& key : keys) {
     member.bind_all(campaign, key);
     member.run();
@@ -325,7 +350,8 @@ void Store::add_members(std::int64_t campaign, const std::vector<std::string>& k
 
 void Store::record_history(const std::string& key, const std::string& status, int attempt,
                            const std::string& message) {
-  statement("INSERT INTO status_history (task_key, status, attempt, at, message) VALUES (?, ?, ?, ?, ?)")
+  statement(
+      "INSERT INTO status_history (task_key, status, attempt, at, message) VALUES (?, ?, ?, ?, ?)")
       .bind_all(key, status, attempt, clock_.now(), message)
       .run();
 }
@@ -334,8 +360,10 @@ int Store::mark_running(const std::string& key) {
   static const std::string host = host_name();
   sql::Transaction transaction(db_);
   auto& update = statement(
-      "UPDATE tasks SET status = 'running', attempts = attempts + 1, started_at = ?, finished_at = NULL, "
-      "duration_s = NULL, host = ?, code_version = ?, error = NULL WHERE key = ? RETURNING attempts");
+      "UPDATE tasks SET status = 'running', attempts = attempts + 1, started_at = ?, finished_at = "
+      "NULL, "
+      "duration_s = NULL, host = ?, code_version = ?, error = NULL WHERE key = ? RETURNING "
+      "attempts");
   update.bind_all(clock_.now(), host, code_version(), key);
   update.step();
   const int attempt = static_cast<int>(update.integer(0));
@@ -346,15 +374,16 @@ int Store::mark_running(const std::string& key) {
 }
 
 void Store::commit_done(std::int64_t campaign, const std::string& key, const nlohmann::json& result,
-                        const std::vector<StoredArtifact>& artifacts, const std::vector<TaskSpec>& children,
-                        double duration_s) {
+                        const std::vector<StoredArtifact>& artifacts,
+                        const std::vector<TaskSpec>& children, double duration_s) {
   sql::Transaction transaction(db_);
   const double now = clock_.now();
   statement("INSERT OR REPLACE INTO results (task_key, result, committed_at) VALUES (?, ?, ?)")
       .bind_all(key, canonical_json(result), now)
       .run();
   statement("DELETE FROM artifacts WHERE task_key = ?").bind_all(key).run();
-  auto& artifact = statement("INSERT INTO artifacts (task_key, name, sha256, size, path) VALUES (?, ?, ?, ?, ?)");
+  auto& artifact = statement(
+      "INSERT INTO artifacts (task_key, name, sha256, size, path) VALUES (?, ?, ?, ?, ?)");
   const std::string artifact_root = artifacts_dir(path_).filename().string();
   for (const auto& stored : artifacts) {
     artifact.bind_all(key, stored.name, stored.sha256, stored.size,
@@ -363,7 +392,8 @@ void Store::commit_done(std::int64_t campaign, const std::string& key, const nlo
   }
   insert_tasks(campaign, children, key);
   auto& update = statement(
-      "UPDATE tasks SET status = 'done', finished_at = ?, duration_s = ?, error = NULL WHERE key = ? "
+      "UPDATE tasks SET status = 'done', finished_at = ?, duration_s = ?, error = NULL WHERE key = "
+      "? "
       "RETURNING attempts");
   update.bind_all(now, duration_s, key);
   update.step();
@@ -386,7 +416,8 @@ void Store::mark_finished(const std::string& key, const std::string& status, int
 void Store::mark_skipped(const std::vector<std::string>& keys, const std::string& reason) {
   if (keys.empty()) return;
   sql::Transaction transaction(db_);
-  auto& update = statement("UPDATE tasks SET status = 'skipped', error = ? WHERE key = ? RETURNING attempts");
+  auto& update =
+      statement("UPDATE tasks SET status = 'skipped', error = ? WHERE key = ? RETURNING attempts");
   for (const auto& key : keys) {
     update.bind_all(reason, key);
     update.step();
@@ -399,7 +430,8 @@ void Store::mark_skipped(const std::vector<std::string>& keys, const std::string
 
 void Store::mark_pending(const std::string& key, const std::string& reason) {
   sql::Transaction transaction(db_);
-  auto& update = statement("UPDATE tasks SET status = 'pending', error = ? WHERE key = ? RETURNING attempts");
+  auto& update =
+      statement("UPDATE tasks SET status = 'pending', error = ? WHERE key = ? RETURNING attempts");
   update.bind_all(reason, key);
   update.step();
   const int attempt = static_cast<int>(update.integer(0));
@@ -412,20 +444,24 @@ void Store::record_jobs(const std::vector<JobRecord>& jobs) {
   if (jobs.empty()) return;
   sql::Transaction transaction(db_);
   auto& upsert = statement(
-      "INSERT INTO jobs (task_key, attempt, executor, job_id, state, job_name, output_dir, stdout_path, stderr_path, "
+      "INSERT INTO jobs (task_key, attempt, executor, job_id, state, job_name, output_dir, "
+      "stdout_path, stderr_path, "
       "submitted_at, updated_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
-      "ON CONFLICT(task_key, attempt) DO UPDATE SET job_id = excluded.job_id, state = excluded.state, "
+      "ON CONFLICT(task_key, attempt) DO UPDATE SET job_id = excluded.job_id, state = "
+      "excluded.state, "
       "updated_at = excluded.updated_at");
   const double now = clock_.now();
   for (const auto& job : jobs) {
     upsert.bind_all(job.task_key, job.attempt, job.executor, job.job_id, job.state, job.job_name,
-                    job.output_dir.string(), job.stdout_file.string(), job.stderr_file.string(), now, now);
+                    job.output_dir.string(), job.stdout_file.string(), job.stderr_file.string(),
+                    now, now);
     upsert.run();
   }
   transaction.commit();
 }
 
-void Store::append_log(const std::optional<std::string>& key, const std::string& level, const std::string& message) {
+void Store::append_log(const std::optional<std::string>& key, const std::string& level,
+                       const std::string& message) {
   statement("INSERT INTO log_lines (task_key, at, level, message) VALUES (?, ?, ?, ?)")
       .bind_all(key, clock_.now(), level, message)
       .run();
@@ -438,11 +474,15 @@ void Store::finish_campaign(std::int64_t campaign, const std::string& outcome) {
 }
 
 void Store::set_coordinator(int pid, const std::string& host, const std::string& campaign) {
-  statement("INSERT OR REPLACE INTO coordinator (id, pid, host, started_at, campaign) VALUES (1, ?, ?, ?, ?)")
+  statement(
+      "INSERT OR REPLACE INTO coordinator (id, pid, host, started_at, campaign) VALUES (1, ?, ?, "
+      "?, ?)")
       .bind_all(pid, host, clock_.now(), campaign)
       .run();
 }
 
-void Store::clear_coordinator() { db_.exec("DELETE FROM coordinator"); }
+void Store::clear_coordinator() {
+  db_.exec("DELETE FROM coordinator");
+}
 
 }  // namespace millflow::engine

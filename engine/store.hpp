@@ -2,7 +2,8 @@
 // The provenance store: one SQLite file, written by exactly one connection (this class), owned by
 // the coordinating thread. Readers open their own read-only connections (open_read_only).
 //
-// Schema version 4 (PRAGMA user_version = 4); times are Unix seconds (REAL), JSON is canonical text.
+// Schema version 4 (PRAGMA user_version = 4); times are Unix seconds (REAL), JSON is canonical
+// text.
 //   campaigns      id PK, name UNIQUE, format, document (the loaded campaign JSON), submitted_at,
 //                  finished_at, outcome ('running'|'done'|'failed'|'interrupted')
 //   tasks          key PK (SHA-256 hex), kind, kind_version, params, key_text (exactly what was
@@ -24,9 +25,9 @@
 //                  ('' while state is SUBMITTING: recorded before the scheduler got the job),
 //                  state (the scheduler's last reported state), output_dir, stdout_path,
 //                  stderr_path, submitted_at, updated_at, job_name (since version 3; the
-//                  scheduler's job name, '' in rows of version 2): the batch job of each attempt run
-//                  by a JobExecutor; `resume` re-attaches to the job of a task's current attempt,
-//                  finding one recorded without id by its job name
+//                  scheduler's job name, '' in rows of version 2): the batch job of each attempt
+//                  run by a JobExecutor; `resume` re-attaches to the job of a task's current
+//                  attempt, finding one recorded without id by its job name
 // Views: task_results (campaign, task_key, kind, status, params, result), plus the views that
 // tasks/ registers (ViewDefinition), recreated each time a writer opens the database.
 // Indexes: tasks by kind (since version 4 not by status: a status change then writes no index
@@ -102,7 +103,8 @@ std::vector<JobRecord> find_jobs(sql::Connection& db, const std::string& key);
 
 class Store {
  public:
-  Store(const std::filesystem::path& db, const std::vector<ViewDefinition>& views, const Clock& clock);
+  Store(const std::filesystem::path& db, const std::vector<ViewDefinition>& views,
+        const Clock& clock);
 
   const std::filesystem::path& path() const { return path_; }
   sql::Connection& connection() { return db_; }
@@ -110,7 +112,8 @@ class Store {
   // Creates or updates the campaign (its document and membership start afresh) and adds the
   // planned tasks, all in one transaction. Returns the campaign id.
   std::int64_t register_campaign(const std::string& name, const std::string& format,
-                                 const nlohmann::json& document, const std::vector<TaskSpec>& tasks);
+                                 const nlohmann::json& document,
+                                 const std::vector<TaskSpec>& tasks);
   // Adds existing tasks (e.g. children of a cached task) to a campaign.
   void add_members(std::int64_t campaign, const std::vector<std::string>& keys);
 
@@ -118,15 +121,16 @@ class Store {
   int mark_running(const std::string& key);
   // One transaction: result, artifacts, declared children (tasks, edges, membership), status done.
   void commit_done(std::int64_t campaign, const std::string& key, const nlohmann::json& result,
-                   const std::vector<StoredArtifact>& artifacts, const std::vector<TaskSpec>& children,
-                   double duration_s);
+                   const std::vector<StoredArtifact>& artifacts,
+                   const std::vector<TaskSpec>& children, double duration_s);
   void mark_finished(const std::string& key, const std::string& status, int attempt,
                      const std::string& message, double duration_s);
   void mark_skipped(const std::vector<std::string>& keys, const std::string& reason);
   void mark_pending(const std::string& key, const std::string& reason);
   // Records newly submitted jobs, or the new state of known ones (by task and attempt).
   void record_jobs(const std::vector<JobRecord>& jobs);
-  void append_log(const std::optional<std::string>& key, const std::string& level, const std::string& message);
+  void append_log(const std::optional<std::string>& key, const std::string& level,
+                  const std::string& message);
   void finish_campaign(std::int64_t campaign, const std::string& outcome);
   void set_coordinator(int pid, const std::string& host, const std::string& campaign);
   void clear_coordinator();
@@ -136,7 +140,8 @@ class Store {
                     const std::optional<std::string>& parent);
   // Prepared once per connection: a task's commit reuses the same handful of statements.
   sql::Statement& statement(std::string_view sql) { return db_.cached(sql); }
-  void record_history(const std::string& key, const std::string& status, int attempt, const std::string& message);
+  void record_history(const std::string& key, const std::string& status, int attempt,
+                      const std::string& message);
 
   std::filesystem::path path_;
   const Clock& clock_;

@@ -60,7 +60,8 @@ class SweepReader {
       } else {
         const auto suggestion = closest_match(key, sweep_keys);
         error("/sweep/" + escape_path_segment(key), "unknown field \"" + key + "\"",
-              suggestion ? "did you mean \"" + *suggestion + "\"?" : "allowed fields here: \"product\", \"zip\"");
+              suggestion ? "did you mean \"" + *suggestion + "\"?"
+                         : "allowed fields here: \"product\", \"zip\"");
       }
     }
     return axes;
@@ -94,7 +95,9 @@ class SweepReader {
     for (std::size_t g = 0; g < zip.size(); ++g) {
       const auto group_path = "/sweep/zip/" + std::to_string(g);
       if (!zip[g].is_object() || zip[g].empty()) {
-        error(group_path, zip[g].is_object() ? "empty zip group" : "expected an object, got " + describe_value(zip[g]),
+        error(group_path,
+              zip[g].is_object() ? "empty zip group"
+                                 : "expected an object, got " + describe_value(zip[g]),
               "map each path of the group to its values, e.g. {\"/a\": [1, 2], \"/b\": [3, 4]}");
         continue;
       }
@@ -116,8 +119,8 @@ class SweepReader {
     for (std::size_t i = 1; i < axis.paths.size(); ++i) {
       if (axis.values[i].size() == axis.values[0].size()) continue;
       error(group_path,
-            fmt::format("lists of different lengths: \"{}\" has {} values, \"{}\" has {}", axis.paths[0],
-                        axis.values[0].size(), axis.paths[i], axis.values[i].size()),
+            fmt::format("lists of different lengths: \"{}\" has {} values, \"{}\" has {}",
+                        axis.paths[0], axis.values[0].size(), axis.paths[i], axis.values[i].size()),
             "give every path of a zip group the same number of values");
       return false;
     }
@@ -133,7 +136,8 @@ class SweepReader {
     std::vector<json> values;
     bool valid = true;
     for (std::size_t i = 0; i < raw->size(); ++i) {
-      auto result = validate_field((*raw)[i], rule->path, table_, error_path + "/" + std::to_string(i));
+      auto result =
+          validate_field((*raw)[i], rule->path, table_, error_path + "/" + std::to_string(i));
       valid = valid && result.ok();
       for (auto& e : result.errors) errors_.push_back(std::move(e));
       values.push_back(std::move(result.document));
@@ -146,14 +150,16 @@ class SweepReader {
   // other entry of the sweep covers it.
   const FieldRule* swept_field(const std::string& path, const std::string& error_path) {
     if (path.empty() || path.front() != '/') {
-      error(error_path, "\"" + path + "\" is not a JSON path", "start it at the document root: \"/" + path + "\"");
+      error(error_path, "\"" + path + "\" is not a JSON path",
+            "start it at the document root: \"/" + path + "\"");
       return nullptr;
     }
     const auto* rule = table_.match(path);
     if (rule == nullptr) {
       const auto suggestion = closest_match(path, table_paths(table_));
       error(error_path, "\"" + path + "\" is not a field of this file",
-            suggestion ? "did you mean \"" + *suggestion + "\"?" : "sweep a field the schema defines");
+            suggestion ? "did you mean \"" + *suggestion + "\"?"
+                       : "sweep a field the schema defines");
       return nullptr;
     }
     if (!holds(path)) {
@@ -163,7 +169,8 @@ class SweepReader {
     }
     for (const auto& earlier : swept_paths_) {
       if (earlier == path) {
-        error(error_path, "\"" + path + "\" is swept more than once", "sweep each field in one place only");
+        error(error_path, "\"" + path + "\" is swept more than once",
+              "sweep each field in one place only");
         return nullptr;
       }
       if (is_prefix_path(earlier, path) || is_prefix_path(path, earlier)) {
@@ -193,7 +200,8 @@ class SweepReader {
       return std::vector<json>(spec.begin(), spec.end());
     }
     if (spec.is_object()) return read_range(spec, error_path);
-    error(error_path, "expected a list of values or a range, got " + describe_value(spec), values_fix);
+    error(error_path, "expected a list of values or a range, got " + describe_value(spec),
+          values_fix);
     return std::nullopt;
   }
 
@@ -209,20 +217,25 @@ class SweepReader {
     const auto start = range_number(spec, "start", error_path);
     const auto stop = range_number(spec, "stop", error_path);
     if (spec.contains("num") == spec.contains("step")) {
-      error(error_path, spec.contains("num") ? "sets \"num\" and \"step\" together" : "sets neither \"num\" nor \"step\"",
+      error(error_path,
+            spec.contains("num") ? "sets \"num\" and \"step\" together"
+                                 : "sets neither \"num\" nor \"step\"",
             "give exactly one of them: \"num\" (number of values) or \"step\" (spacing)");
       valid = false;
     }
     if (!valid || !start || !stop) return std::nullopt;
-    const auto generated = spec.contains("num") ? range_by_count(spec.at("num"), *start, *stop, error_path)
-                                                : range_by_step(spec, *start, *stop, error_path);
+    const auto generated = spec.contains("num")
+                               ? range_by_count(spec.at("num"), *start, *stop, error_path)
+                               : range_by_step(spec, *start, *stop, error_path);
     if (!generated) return std::nullopt;
     return std::vector<json>(generated->begin(), generated->end());
   }
 
-  std::optional<double> range_number(const json& spec, const char* key, const std::string& error_path) {
+  std::optional<double> range_number(const json& spec, const char* key,
+                                     const std::string& error_path) {
     if (!spec.contains(key)) {
-      error(error_path + "/" + key, "required field is missing", std::string("add \"") + key + "\", a number");
+      error(error_path + "/" + key, "required field is missing",
+            std::string("add \"") + key + "\", a number");
       return std::nullopt;
     }
     if (!spec.at(key).is_number()) {
@@ -235,8 +248,9 @@ class SweepReader {
 
   std::optional<std::vector<double>> range_by_count(const json& num, double start, double stop,
                                                     const std::string& error_path) {
-    const bool integral = num.is_number_integer() ||
-                          (num.is_number_float() && std::floor(num.get<double>()) == num.get<double>());
+    const bool integral =
+        num.is_number_integer() ||
+        (num.is_number_float() && std::floor(num.get<double>()) == num.get<double>());
     if (!integral || num.get<double>() < 1 || num.get<double>() > double(max_values_per_axis)) {
       error(error_path + "/num", quote_value(num) + " is not a valid number of values",
             fmt::format("give an integer in [1, {}]", max_values_per_axis));
@@ -251,14 +265,16 @@ class SweepReader {
     if (!step) return std::nullopt;
     if (*step == 0.0 || (stop - start) / *step < 0.0) {
       error(error_path + "/step",
-            fmt::format("step {} never reaches stop {} from start {}", quote_value(*step), quote_value(stop),
-                        quote_value(start)),
+            fmt::format("step {} never reaches stop {} from start {}", quote_value(*step),
+                        quote_value(stop), quote_value(start)),
             *step == 0.0 ? "use a non-zero step" : "flip the sign of the step");
       return std::nullopt;
     }
     if ((stop - start) / *step >= double(max_values_per_axis)) {
-      error(error_path + "/step", fmt::format("step {} makes more than {} values", quote_value(*step), max_values_per_axis),
-            "use a larger step");
+      error(
+          error_path + "/step",
+          fmt::format("step {} makes more than {} values", quote_value(*step), max_values_per_axis),
+          "use a larger step");
       return std::nullopt;
     }
     return arange_inclusive(start, stop, *step);
@@ -284,7 +300,8 @@ ReadSweep read_sweep(const json& document, const FieldTable& table) {
   std::size_t points = 1;
   for (const auto& axis : sweep.axes) points *= axis.size();
   if (sweep.errors.empty() && points > max_points) {
-    sweep.errors.push_back({"/sweep", fmt::format("makes {} points, more than {}", points, max_points),
+    sweep.errors.push_back({"/sweep",
+                            fmt::format("makes {} points, more than {}", points, max_points),
                             "split the study into several files"});
   }
   return sweep;
@@ -292,16 +309,22 @@ ReadSweep read_sweep(const json& document, const FieldTable& table) {
 
 json values_schema() {
   const json number = {{"type", "number"}};
-  json linspace_form = {{"type", "object"},
-                        {"properties", {{"start", number}, {"stop", number}, {"num", {{"type", "integer"}, {"minimum", 1}}}}},
-                        {"required", {"start", "stop", "num"}},
-                        {"additionalProperties", false}};
+  json linspace_form = {
+      {"type", "object"},
+      {"properties",
+       {{"start", number}, {"stop", number}, {"num", {{"type", "integer"}, {"minimum", 1}}}}},
+      {"required", {"start", "stop", "num"}},
+      {"additionalProperties", false}};
   json range_form = {{"type", "object"},
-                     {"properties", {{"start", number}, {"stop", number}, {"step", {{"type", "number"}, {"not", {{"const", 0}}}}}}},
+                     {"properties",
+                      {{"start", number},
+                       {"stop", number},
+                       {"step", {{"type", "number"}, {"not", {{"const", 0}}}}}}},
                      {"required", {"start", "stop", "step"}},
                      {"additionalProperties", false}};
   return {{"description",
-           "values of a swept field: a list, a linspace {start, stop, num} (both ends included) or a range "
+           "values of a swept field: a list, a linspace {start, stop, num} (both ends included) or "
+           "a range "
            "{start, stop, step} (stop included when reached)"},
           {"oneOf", {{{"type", "array"}, {"minItems", 1}}, linspace_form, range_form}}};
 }
@@ -358,14 +381,16 @@ std::vector<double> arange_inclusive(double start, double stop, double step) {
   const double steps = (stop - start) / step;
   const auto last = static_cast<long long>(std::floor(steps * (1.0 + 1e-9) + 1e-12));
   std::vector<double> values;
-  for (long long i = 0; i <= last; ++i) values.push_back(round_significant(start + double(i) * step));
+  for (long long i = 0; i <= last; ++i)
+    values.push_back(round_significant(start + double(i) * step));
   return values;
 }
 
 nlohmann::json sweep_json_schema() {
   const json path_names = {{"pattern", "^/"}};
   return {{"type", "object"},
-          {"description", "parameter study: the Cartesian product of the product axes and the zip groups"},
+          {"description",
+           "parameter study: the Cartesian product of the product axes and the zip groups"},
           {"properties",
            {{"product",
              {{"type", "object"},

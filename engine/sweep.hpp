@@ -2,8 +2,8 @@
 // Expansion of a document's `sweep` block into the points of a parameter study.
 //
 //   "sweep": {
-//     "product": {"/macro/fill": [0.2, 0.3], "/macro/speed_fraction": {"start": 0.6, "stop": 0.9, "step": 0.1}},
-//     "zip": [{"/a": [1, 2, 3], "/b": {"start": 0, "stop": 1, "num": 3}}]
+//     "product": {"/macro/fill": [0.2, 0.3], "/macro/speed_fraction": {"start": 0.6, "stop": 0.9,
+//     "step": 0.1}}, "zip": [{"/a": [1, 2, 3], "/b": {"start": 0, "stop": 1, "num": 3}}]
 //   }
 //
 // Each product entry is one axis; each zip group is one axis whose paths advance together (their

@@ -22,8 +22,12 @@ std::string join_keys(const std::vector<std::string>& keys) {
 
 TaskSpec make_task_spec(std::string kind, std::string version, nlohmann::json params,
                         std::vector<std::string> upstream) {
-  TaskSpec spec{.key = {}, .kind = std::move(kind), .version = std::move(version),
-                .params = std::move(params), .upstream = std::move(upstream), .key_text = {}};
+  TaskSpec spec{.key = {},
+                .kind = std::move(kind),
+                .version = std::move(version),
+                .params = std::move(params),
+                .upstream = std::move(upstream),
+                .key_text = {}};
   spec.key_text = "millflow-task 1\nkind:" + spec.kind + "\nversion:" + spec.version +
                   "\nparams:" + canonical_json(spec.params) +
                   "\nupstream:" + join_keys(spec.upstream) + "\n";
@@ -52,10 +56,12 @@ const std::string& Plan::add(const std::string& kind, nlohmann::json params,
                              std::vector<std::string> upstream) {
   for (const auto& key : upstream) {
     if (index_.count(key) == 0) {
-      throw std::logic_error("plan: upstream task " + key + " of a " + kind + " task is not in the plan");
+      throw std::logic_error("plan: upstream task " + key + " of a " + kind +
+                             " task is not in the plan");
     }
   }
-  TaskSpec spec = make_task_spec(kind, kinds_->get(kind).version, std::move(params), std::move(upstream));
+  TaskSpec spec =
+      make_task_spec(kind, kinds_->get(kind).version, std::move(params), std::move(upstream));
   const auto [where, inserted] = index_.emplace(spec.key, tasks_.size());
   if (inserted) tasks_.push_back(std::move(spec));
   return tasks_[where->second].key;

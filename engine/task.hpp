@@ -52,8 +52,8 @@ struct ChildTask {
 };
 
 struct ProducedArtifact {
-  std::string name;             // unique within the task, e.g. "trajectory.vtk"
-  std::filesystem::path file;   // written by the task (usually inside its work directory)
+  std::string name;            // unique within the task, e.g. "trajectory.vtk"
+  std::filesystem::path file;  // written by the task (usually inside its work directory)
 };
 
 struct TaskOutcome {
@@ -82,9 +82,9 @@ struct TaskContext {
   // Private to the task and kept across attempts (checkpoints). The engine does not create it
   // (most tasks never write a file): create_directories(work_dir) before writing into it.
   std::filesystem::path work_dir;
-  int threads = 1;                       // size of the task's own arena
-  int attempt = 1;                       // 1 for the first attempt ever, counted in the store
-  std::stop_token stop;                  // poll at checkpoints; return TaskOutcome::stopped()
+  int threads = 1;       // size of the task's own arena
+  int attempt = 1;       // 1 for the first attempt ever, counted in the store
+  std::stop_token stop;  // poll at checkpoints; return TaskOutcome::stopped()
   std::function<void(double fraction, std::string_view message)> progress;
   std::function<void(std::string_view message)> log;  // goes to the store and the campaign log
 };
@@ -94,7 +94,7 @@ using RunFunction = std::function<TaskOutcome(TaskContext&)>;
 struct TaskKind {
   std::string name;
   std::string version;
-  RunFunction run;  // throws on failure
+  RunFunction run;          // throws on failure
   bool may_expand = false;  // its result may declare child tasks (dry runs show them as pending)
 };
 

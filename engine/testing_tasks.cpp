@@ -19,7 +19,8 @@ std::atomic<int> g_max_running_sleeps{0};
 std::int64_t integer_param(const nlohmann::json& params, const char* name, std::int64_t fallback) {
   if (!params.contains(name)) return fallback;
   if (!params[name].is_number_integer()) {
-    throw InvalidInput({{std::string("/params/") + name, "must be an integer, got " + params[name].dump(), ""}});
+    throw InvalidInput(
+        {{std::string("/params/") + name, "must be an integer, got " + params[name].dump(), ""}});
   }
   return params[name].get<std::int64_t>();
 }
@@ -54,7 +55,8 @@ struct StepsCheckpoint {
 StepsCheckpoint read_steps_checkpoint(const std::filesystem::path& file) {
   StepsCheckpoint checkpoint;
   std::ifstream in(file);
-  if (in && !(in >> checkpoint.step >> checkpoint.state)) throw std::runtime_error("unreadable checkpoint " + file.string());
+  if (in && !(in >> checkpoint.step >> checkpoint.state))
+    throw std::runtime_error("unreadable checkpoint " + file.string());
   return checkpoint;
 }
 
@@ -72,7 +74,8 @@ TaskOutcome run_steps(TaskContext& context) {
   std::filesystem::create_directories(context.work_dir);
   const auto file = context.work_dir / "steps.checkpoint";
   StepsCheckpoint checkpoint = read_steps_checkpoint(file);
-  if (checkpoint.step > 0) context.log(fmt::format("continuing from step {} of {}", checkpoint.step, steps));
+  if (checkpoint.step > 0)
+    context.log(fmt::format("continuing from step {} of {}", checkpoint.step, steps));
   while (checkpoint.step < steps) {
     if (!sleep_unless_stopped(context, step_ms)) {
       context.log(fmt::format("stopped at step {} of {}", checkpoint.step, steps));
@@ -83,14 +86,16 @@ TaskOutcome run_steps(TaskContext& context) {
     ++checkpoint.step;
     write_steps_checkpoint(file, checkpoint);
   }
-  return TaskOutcome::with_result({{"steps", steps}, {"state", fmt::format("{:016x}", checkpoint.state)}});
+  return TaskOutcome::with_result(
+      {{"steps", steps}, {"state", fmt::format("{:016x}", checkpoint.state)}});
 }
 
 TaskOutcome run_fail(TaskContext& context) {
   const std::int64_t failures = integer_param(context.params, "failures", 0);
   if (context.attempt <= failures) {
-    throw std::runtime_error(fmt::format("planned failure: attempt {} of a task that fails its first {}", context.attempt,
-                                         failures));
+    throw std::runtime_error(
+        fmt::format("planned failure: attempt {} of a task that fails its first {}",
+                    context.attempt, failures));
   }
   return TaskOutcome::with_result({{"failures", failures}});
 }
@@ -114,12 +119,15 @@ TaskOutcome run_sum(TaskContext& context) {
   for (const auto& input : context.inputs) {
     if (!input.result.contains("sum")) continue;
     const auto upstream_sum = input.result["sum"].get<std::int64_t>();
-    if (auto file = input.artifacts.find("sum.txt"); file != input.artifacts.end() && read_sum_file(file->second) != upstream_sum) {
-      throw std::runtime_error("input artifact sum.txt of " + input.key + " disagrees with its result");
+    if (auto file = input.artifacts.find("sum.txt");
+        file != input.artifacts.end() && read_sum_file(file->second) != upstream_sum) {
+      throw std::runtime_error("input artifact sum.txt of " + input.key +
+                               " disagrees with its result");
     }
     total += upstream_sum;
   }
-  if (!sleep_unless_stopped(context, integer_param(context.params, "sleep_ms", 0))) return TaskOutcome::stopped();
+  if (!sleep_unless_stopped(context, integer_param(context.params, "sleep_ms", 0)))
+    return TaskOutcome::stopped();
   auto outcome = TaskOutcome::with_result({{"sum", total}});
   if (context.params.value("artifact", false)) {
     std::filesystem::create_directories(context.work_dir);
@@ -148,7 +156,8 @@ nlohmann::json load_test_campaign(const std::filesystem::path& file) {
     errors.push_back({"/name", "missing or not a string", "add \"name\": \"<campaign name>\""});
   }
   if (!document.contains("tasks") || !document["tasks"].is_array()) {
-    errors.push_back({"/tasks", "missing or not an array", "add \"tasks\": [{\"id\": ..., \"kind\": ...}]"});
+    errors.push_back(
+        {"/tasks", "missing or not an array", "add \"tasks\": [{\"id\": ..., \"kind\": ...}]"});
     throw InvalidInput(errors);
   }
   KindRegistry kinds;
@@ -158,9 +167,11 @@ nlohmann::json load_test_campaign(const std::filesystem::path& file) {
     const auto& task = document["tasks"][i];
     const std::string path = "/tasks/" + std::to_string(i);
     const std::string id = task.value("id", "");
-    if (id.empty()) errors.push_back({path + "/id", "missing or empty", "give each task a unique string id"});
+    if (id.empty())
+      errors.push_back({path + "/id", "missing or empty", "give each task a unique string id"});
     if (!kinds.contains(task.value("kind", ""))) {
-      errors.push_back({path + "/kind", "unknown kind " + task.value("kind", nlohmann::json()).dump(),
+      errors.push_back({path + "/kind",
+                        "unknown kind " + task.value("kind", nlohmann::json()).dump(),
                         "use sleep, fail, steps, sum or fanout"});
     }
     if (task.contains("params") && !task["params"].is_object()) {
@@ -168,10 +179,12 @@ nlohmann::json load_test_campaign(const std::filesystem::path& file) {
     }
     for (const auto& after : task.value("after", nlohmann::json::array())) {
       if (!after.is_string() || ids.count(after.get<std::string>()) == 0) {
-        errors.push_back({path + "/after", after.dump() + " is not the id of an earlier task", "list earlier tasks only"});
+        errors.push_back({path + "/after", after.dump() + " is not the id of an earlier task",
+                          "list earlier tasks only"});
       }
     }
-    if (!ids.insert(id).second && !id.empty()) errors.push_back({path + "/id", "duplicate id \"" + id + "\"", ""});
+    if (!ids.insert(id).second && !id.empty())
+      errors.push_back({path + "/id", "duplicate id \"" + id + "\"", ""});
   }
   if (!errors.empty()) throw InvalidInput(errors);
   return document;
@@ -181,9 +194,11 @@ void plan_test_campaign(const nlohmann::json& document, Plan& plan) {
   std::map<std::string, std::string> key_of;
   for (const auto& task : document["tasks"]) {
     std::vector<std::string> upstream;
-    for (const auto& after : task.value("after", nlohmann::json::array())) upstream.push_back(key_of.at(after.get<std::string>()));
+    for (const auto& after : task.value("after", nlohmann::json::array()))
+      upstream.push_back(key_of.at(after.get<std::string>()));
     key_of[task["id"].get<std::string>()] =
-        plan.add(task["kind"].get<std::string>(), task.value("params", nlohmann::json::object()), std::move(upstream));
+        plan.add(task["kind"].get<std::string>(), task.value("params", nlohmann::json::object()),
+                 std::move(upstream));
   }
 }
 
@@ -202,6 +217,8 @@ void add_testing(Registry& registry) {
   registry.add_format({"millflow-test", load_test_campaign, plan_test_campaign});
 }
 
-int take_max_concurrent_sleeps() { return g_max_running_sleeps.exchange(0); }
+int take_max_concurrent_sleeps() {
+  return g_max_running_sleeps.exchange(0);
+}
 
 }  // namespace millflow::engine

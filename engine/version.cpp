@@ -7,7 +7,9 @@
 
 namespace millflow::engine {
 
-const char* code_version() { return MILLFLOW_GIT_VERSION; }
+const char* code_version() {
+  return MILLFLOW_GIT_VERSION;
+}
 
 std::string host_name() {
   std::array<char, 256> name{};

@@ -1,5 +1,5 @@
-#include <filesystem>
 #include "tasks/average.hpp"
+#include <filesystem>
 
 #include <fmt/format.h>
 
@@ -24,8 +24,9 @@ std::vector<std::filesystem::path> flow_segments(const engine::TaskInput& macro)
     if (name.starts_with("flow/segment_")) segments.push_back(path);
   }
   if (segments.empty()) {
-    throw engine::InvalidInput({{"/inputs/0/artifacts", "the macro task left no flow/segment_*.mfs artifacts",
-                                 "re-run the macro task with flow sampling"}});
+    throw engine::InvalidInput(
+        {{"/inputs/0/artifacts", "the macro task left no flow/segment_*.mfs artifacts",
+          "re-run the macro task with flow sampling"}});
   }
   return segments;
 }
@@ -49,7 +50,8 @@ CoarseGrainSettings settings_for(const json& params, const json& macro, double d
   s.slice_length = macro.at("mill").at("length_m").get<double>();
   s.kernel_width = average.at("kernel_width_diameters").get<double>() * diameter;
   s.media_density = density;
-  s.event_window = macro.at("frame_count").get<double>() * macro.at("sample_interval_s").get<double>();
+  s.event_window =
+      macro.at("frame_count").get<double>() * macro.at("sample_interval_s").get<double>();
   s.categories = macro.at("categories").get<std::vector<std::string>>();
   return s;
 }
@@ -76,8 +78,9 @@ json scalar_summaries(const CoarseFields& fields, double charge) {
 json mill_wide_rates(const CoarseFields& fields) {
   json out = json::object();
   for (std::size_t k = 0; k < fields.categories.size(); ++k) {
-    out[fields.categories[k]] = {{"collisions_per_s", fields.integral(fields.collision_frequency_by_category[k])},
-                                 {"dissipation_w", fields.integral(fields.dissipation_by_category[k])}};
+    out[fields.categories[k]] = {
+        {"collisions_per_s", fields.integral(fields.collision_frequency_by_category[k])},
+        {"dissipation_w", fields.integral(fields.dissipation_by_category[k])}};
   }
   out["total"] = {{"collisions_per_s", fields.integral(fields.collision_frequency)},
                   {"dissipation_w", fields.integral(fields.dissipation)}};
@@ -98,7 +101,8 @@ json fields_document(const CoarseFields& fields, const json& mill) {
     arrays[array.name] = {{"components", array.components}, {"values", std::move(array.values)}};
   }
   json document = mill;
-  document["grid"] = {{"nx", fields.grid.nx}, {"ny", fields.grid.ny}, {"half_width_m", fields.grid.half_width}};
+  document["grid"] = {
+      {"nx", fields.grid.nx}, {"ny", fields.grid.ny}, {"half_width_m", fields.grid.half_width}};
   document["slice_length_m"] = fields.slice_length;
   document["arrays"] = std::move(arrays);
   return document;
@@ -114,7 +118,8 @@ engine::TaskOutcome run_average(engine::TaskContext& context) {
   const auto load = [&](std::size_t index) {
     auto frames = dem::read_flow_segment(segments.at(index));
     const std::size_t done = ++loaded;
-    context.progress(static_cast<double>(done) / (2.0 * static_cast<double>(segments.size())), "averaging flow segments");
+    context.progress(static_cast<double>(done) / (2.0 * static_cast<double>(segments.size())),
+                     "averaging flow segments");
     return frames;
   };
   const CoarseFields fields = coarse_grain(settings, segments.size(), load);
@@ -123,7 +128,8 @@ engine::TaskOutcome run_average(engine::TaskContext& context) {
                      {"media_diameter_m", macro.result.at("media_diameter_m")},
                      {"angular_velocity_rad_s", macro.result.at("angular_velocity_rad_s")},
                      {"kernel_width_m", settings.kernel_width}};
-  std::filesystem::create_directories(context.work_dir);  // the engine leaves its creation to the task
+  std::filesystem::create_directories(
+      context.work_dir);  // the engine leaves its creation to the task
   const auto vti = context.work_dir / "fields.vti";
   const auto arrays = cell_arrays(fields);
   write_vtk_image(vti, fields.grid, arrays);
@@ -132,7 +138,8 @@ engine::TaskOutcome run_average(engine::TaskContext& context) {
 
   const double integrated = fields.solid_volume();
   json result = {
-      {"grid", {{"nx", settings.grid.nx}, {"ny", settings.grid.ny}, {"cell_size_m", settings.grid.dx()}}},
+      {"grid",
+       {{"nx", settings.grid.nx}, {"ny", settings.grid.ny}, {"cell_size_m", settings.grid.dx()}}},
       {"kernel_width_m", settings.kernel_width},
       {"kernel_width_diameters", context.params.at("average").at("kernel_width_diameters")},
       {"media_density_kg_m3", settings.media_density},
@@ -149,13 +156,15 @@ engine::TaskOutcome run_average(engine::TaskContext& context) {
   result.update(mill);
   engine::TaskOutcome outcome = engine::TaskOutcome::with_result(std::move(result));
   outcome.artifacts = {{"fields.vti", vti}, {"fields.json", fields_json}};
-  context.log(fmt::format("averaged {} frames onto {} x {} cells; solid volume {:.6g} m^3 vs media {:.6g} m^3",
-                          fields.frame_count, settings.grid.nx, settings.grid.ny, integrated, fields.media_volume));
+  context.log(fmt::format(
+      "averaged {} frames onto {} x {} cells; solid volume {:.6g} m^3 vs media {:.6g} m^3",
+      fields.frame_count, settings.grid.nx, settings.grid.ny, integrated, fields.media_volume));
   return outcome;
 }
 
 void register_average(engine::Registry& registry) {
-  registry.kinds.add(engine::TaskKind{.name = "average", .version = kAverageVersion, .run = run_average});
+  registry.kinds.add(
+      engine::TaskKind{.name = "average", .version = kAverageVersion, .run = run_average});
 }
 
 }  // namespace millflow::tasks

@@ -23,175 +23,268 @@ using engine::ValidationError;
 using nlohmann::json;
 
 const char* const material_name = "[a-z][a-z0-9_]*";
-const std::vector<std::string> flow_regions = {"bulk", "shoulder", "cascading", "toe", "cataracting", "near_liner"};
+const std::vector<std::string> flow_regions = {"bulk", "shoulder",    "cascading",
+                                               "toe",  "cataracting", "near_liner"};
 
 std::vector<engine::FieldRule> material_fields() {
   return {
-      Field("/materials", FieldType::object, "the materials, by name").required().pattern(material_name).items(1, {})
+      Field("/materials", FieldType::object, "the materials, by name")
+          .required()
+          .pattern(material_name)
+          .items(1, {})
           .hint("names are lower-case letters, digits and '_', starting with a letter"),
       Field("/materials/*", FieldType::object, "one material"),
-      Field("/materials/*/density", FieldType::number, "material density").unit("kg/m^3").required()
+      Field("/materials/*/density", FieldType::number, "material density")
+          .unit("kg/m^3")
+          .required()
           .range(at_least(100), at_most(30000)),
-      Field("/interactions", FieldType::array, "contact parameters per material pair").required().items(1, {}),
+      Field("/interactions", FieldType::array, "contact parameters per material pair")
+          .required()
+          .items(1, {}),
       Field("/interactions/*", FieldType::object, "contact parameters of one material pair"),
       Field("/interactions/*/materials", FieldType::array,
             "the pair's two material names (the same name twice for a material with itself)")
-          .required().items(2, 2),
-      Field("/interactions/*/materials/*", FieldType::string, "a material name").pattern(material_name),
-      Field("/interactions/*/restitution", FieldType::number, "normal coefficient of restitution").required()
+          .required()
+          .items(2, 2),
+      Field("/interactions/*/materials/*", FieldType::string, "a material name")
+          .pattern(material_name),
+      Field("/interactions/*/restitution", FieldType::number, "normal coefficient of restitution")
+          .required()
           .range(above(0), at_most(1)),
-      Field("/interactions/*/friction", FieldType::number, "Coulomb friction coefficient").required()
+      Field("/interactions/*/friction", FieldType::number, "Coulomb friction coefficient")
+          .required()
           .range(at_least(0), at_most(2)),
-      Field("/interactions/*/stiffness", FieldType::object, "normal contact stiffness").required()
+      Field("/interactions/*/stiffness", FieldType::object, "normal contact stiffness")
+          .required()
           .exactly_one_of({"collision_time", "normal"}),
       Field("/interactions/*/stiffness/collision_time", FieldType::number,
-            "collision time of two reference particles of the pair (each of its material's mean diameter; "
+            "collision time of two reference particles of the pair (each of its material's mean "
+            "diameter; "
             "a wall counts as the particle alone), from which the normal stiffness is chosen")
-          .unit("s").range(at_least(1e-7), at_most(1e-1)),
-      Field("/interactions/*/stiffness/normal", FieldType::number, "normal spring stiffness k_n").unit("N/m")
+          .unit("s")
+          .range(at_least(1e-7), at_most(1e-1)),
+      Field("/interactions/*/stiffness/normal", FieldType::number, "normal spring stiffness k_n")
+          .unit("N/m")
           .range(above(0), {}),
       Field("/interactions/*/tangential_stiffness_ratio", FieldType::number,
             "ratio of tangential to normal stiffness k_t/k_n")
-          .defaults(0.2857142857).range(above(0), at_most(1)),
+          .defaults(0.2857142857)
+          .range(above(0), at_most(1)),
       Field("/interactions/*/tangential_damping_ratio", FieldType::number,
             "ratio of tangential to normal damping C_t/C_n")
-          .defaults(0.5).range(at_least(0), at_most(1)),
+          .defaults(0.5)
+          .range(at_least(0), at_most(1)),
   };
 }
 
 std::vector<engine::FieldRule> macro_fields() {
   return {
       Field("/dem", FieldType::object, "DEM settings").defaults(json::object()),
-      Field("/dem/steps_per_collision", FieldType::integer, "time steps per collision time (dt = t_c / N)")
-          .defaults(20).range(at_least(20), {}),
+      Field("/dem/steps_per_collision", FieldType::integer,
+            "time steps per collision time (dt = t_c / N)")
+          .defaults(20)
+          .range(at_least(20), {}),
       Field("/dem/neighbor_skin_fraction", FieldType::number,
             "neighbour-list skin as a fraction of the smallest particle diameter")
-          .defaults(0.3).range(above(0), at_most(2)),
-      Field("/dem/seed", FieldType::integer, "random seed, combined with each task's key").defaults(1)
+          .defaults(0.3)
+          .range(above(0), at_most(2)),
+      Field("/dem/seed", FieldType::integer, "random seed, combined with each task's key")
+          .defaults(1)
           .range(at_least(0), {}),
       Field("/mill", FieldType::object, "the mill").required(),
-      Field("/mill/diameter", FieldType::number, "inner diameter of the mill shell").unit("m").required()
+      Field("/mill/diameter", FieldType::number, "inner diameter of the mill shell")
+          .unit("m")
+          .required()
           .range(at_least(0.1), at_most(15)),
-      Field("/mill/length", FieldType::number, "axial length of the simulated mill slice").unit("m").required()
+      Field("/mill/length", FieldType::number, "axial length of the simulated mill slice")
+          .unit("m")
+          .required()
           .range(above(0), {}),
-      Field("/mill/axial_ends", FieldType::enumeration, "axial boundaries of the slice").defaults("periodic")
+      Field("/mill/axial_ends", FieldType::enumeration, "axial boundaries of the slice")
+          .defaults("periodic")
           .choices({"periodic", "walls"}),
-      Field("/mill/liner_material", FieldType::string, "material of the shell liner and lifters").required()
+      Field("/mill/liner_material", FieldType::string, "material of the shell liner and lifters")
+          .required()
           .pattern(material_name),
-      Field("/mill/lifters", FieldType::object, "lifter bars on the shell").defaults(json::object()),
-      Field("/mill/lifters/count", FieldType::integer, "number of lifter bars (evenly spaced)").defaults(0)
+      Field("/mill/lifters", FieldType::object, "lifter bars on the shell")
+          .defaults(json::object()),
+      Field("/mill/lifters/count", FieldType::integer, "number of lifter bars (evenly spaced)")
+          .defaults(0)
           .range(at_least(0), at_most(200)),
-      Field("/mill/lifters/height", FieldType::number, "radial height of a lifter bar").unit("m")
+      Field("/mill/lifters/height", FieldType::number, "radial height of a lifter bar")
+          .unit("m")
           .range(above(0), {}),
-      Field("/mill/lifters/base_width", FieldType::number, "width of a lifter bar at the shell").unit("m")
+      Field("/mill/lifters/base_width", FieldType::number, "width of a lifter bar at the shell")
+          .unit("m")
           .range(above(0), {}),
       Field("/mill/lifters/face_angle_deg", FieldType::number,
             "angle of the lifter faces from the radial direction (0: rectangular bar)")
-          .unit("deg").defaults(0.0).range(at_least(0), below(60)),
-      Field("/media", FieldType::object, "the grinding media (balls)").required()
+          .unit("deg")
+          .defaults(0.0)
+          .range(at_least(0), below(60)),
+      Field("/media", FieldType::object, "the grinding media (balls)")
+          .required()
           .exactly_one_of({"diameter", "size_distribution"}),
-      Field("/media/material", FieldType::string, "material of the balls").required().pattern(material_name),
-      Field("/media/diameter", FieldType::number, "ball diameter (a single size)").unit("m")
+      Field("/media/material", FieldType::string, "material of the balls")
+          .required()
+          .pattern(material_name),
+      Field("/media/diameter", FieldType::number, "ball diameter (a single size)")
+          .unit("m")
           .range(at_least(1e-4), at_most(0.5)),
       Field("/media/size_distribution", FieldType::array, "ball size classes").items(1, 20),
       Field("/media/size_distribution/*", FieldType::object, "one ball size class"),
-      Field("/media/size_distribution/*/diameter", FieldType::number, "ball diameter of the size class").unit("m")
-          .required().range(at_least(1e-4), at_most(0.5)),
-      Field("/media/size_distribution/*/mass_fraction", FieldType::number, "mass fraction of the size class")
-          .required().range(above(0), at_most(1)),
+      Field("/media/size_distribution/*/diameter", FieldType::number,
+            "ball diameter of the size class")
+          .unit("m")
+          .required()
+          .range(at_least(1e-4), at_most(0.5)),
+      Field("/media/size_distribution/*/mass_fraction", FieldType::number,
+            "mass fraction of the size class")
+          .required()
+          .range(above(0), at_most(1)),
       Field("/macro", FieldType::object, "the macroscale mill runs").required(),
       Field("/macro/fill", FieldType::number,
-            "mill filling J (fraction of the mill volume taken by the charge at rest, voids included)")
-          .required().range(at_least(0.05), at_most(0.6)),
+            "mill filling J (fraction of the mill volume taken by the charge at rest, voids "
+            "included)")
+          .required()
+          .range(at_least(0.05), at_most(0.6)),
       Field("/macro/speed_fraction", FieldType::number,
             "mill speed as a fraction of the critical speed N_c = 42.3/sqrt(D - d) rpm")
-          .required().range(at_least(0.1), at_most(2)),
-      Field("/macro/settle_time", FieldType::number, "time the charge settles before the mill turns").unit("s")
-          .defaults(0.5).range(above(0), {}),
-      Field("/macro/warmup_revolutions", FieldType::number, "mill revolutions before measuring").defaults(2.0)
-          .range(at_least(0), {}),
-      Field("/macro/measure_revolutions", FieldType::number, "mill revolutions measured").defaults(3.0)
+          .required()
+          .range(at_least(0.1), at_most(2)),
+      Field("/macro/settle_time", FieldType::number,
+            "time the charge settles before the mill turns")
+          .unit("s")
+          .defaults(0.5)
           .range(above(0), {}),
-      Field("/macro/sample_interval", FieldType::number, "interval between flow samples for averaging").unit("s")
-          .defaults(0.01).range(above(0), {}),
-      Field("/macro/vtk_interval", FieldType::number, "interval between VTK particle files").unit("s")
-          .defaults(0.1).range(above(0), {}),
-      Field("/macro/checkpoint_interval_s", FieldType::number, "wall-clock interval between checkpoints")
-          .unit("s").defaults(60.0).range(above(0), {}),
+      Field("/macro/warmup_revolutions", FieldType::number, "mill revolutions before measuring")
+          .defaults(2.0)
+          .range(at_least(0), {}),
+      Field("/macro/measure_revolutions", FieldType::number, "mill revolutions measured")
+          .defaults(3.0)
+          .range(above(0), {}),
+      Field("/macro/sample_interval", FieldType::number,
+            "interval between flow samples for averaging")
+          .unit("s")
+          .defaults(0.01)
+          .range(above(0), {}),
+      Field("/macro/vtk_interval", FieldType::number, "interval between VTK particle files")
+          .unit("s")
+          .defaults(0.1)
+          .range(above(0), {}),
+      Field("/macro/checkpoint_interval_s", FieldType::number,
+            "wall-clock interval between checkpoints")
+          .unit("s")
+          .defaults(60.0)
+          .range(above(0), {}),
   };
 }
 
 std::vector<engine::FieldRule> micro_fields() {
   return {
-      Field("/average", FieldType::object, "coarse-graining over the mill cross-section").defaults(json::object()),
+      Field("/average", FieldType::object, "coarse-graining over the mill cross-section")
+          .defaults(json::object()),
       Field("/average/grid_cells", FieldType::array, "grid cells across the cross-section [nx, ny]")
-          .defaults({40, 40}).items(2, 2),
-      Field("/average/grid_cells/*", FieldType::integer, "grid cells along one axis").range(at_least(4), at_most(400)),
-      Field("/average/kernel_width_diameters", FieldType::number, "coarse-graining kernel width in ball diameters")
-          .defaults(1.5).range(at_least(0.5), at_most(5)),
-      Field("/sites", FieldType::object, "representative sites for the shear cells").defaults(json::object()),
-      Field("/sites/per_region", FieldType::integer, "sites chosen per flow region").defaults(2)
+          .defaults({40, 40})
+          .items(2, 2),
+      Field("/average/grid_cells/*", FieldType::integer, "grid cells along one axis")
+          .range(at_least(4), at_most(400)),
+      Field("/average/kernel_width_diameters", FieldType::number,
+            "coarse-graining kernel width in ball diameters")
+          .defaults(1.5)
+          .range(at_least(0.5), at_most(5)),
+      Field("/sites", FieldType::object, "representative sites for the shear cells")
+          .defaults(json::object()),
+      Field("/sites/per_region", FieldType::integer, "sites chosen per flow region")
+          .defaults(2)
           .range(at_least(1), at_most(20)),
-      Field("/sites/regions", FieldType::array, "flow regions that get sites").defaults(flow_regions)
-          .items(1, flow_regions.size()).unique(),
+      Field("/sites/regions", FieldType::array, "flow regions that get sites")
+          .defaults(flow_regions)
+          .items(1, flow_regions.size())
+          .unique(),
       Field("/sites/regions/*", FieldType::enumeration, "a flow region").choices(flow_regions),
       Field("/shear_cell", FieldType::object, "the microscale shear cells").required(),
       Field("/shear_cell/enabled", FieldType::boolean,
-            "whether the campaign runs the microscale shear cells below its sites (false stops at the sites)")
+            "whether the campaign runs the microscale shear cells below its sites (false stops at "
+            "the sites)")
           .defaults(true),
       Field("/shear_cell/boundary", FieldType::enumeration, "boundaries in the gradient direction")
-          .defaults("lees_edwards").choices({"walls", "lees_edwards"}),
+          .defaults("lees_edwards")
+          .choices({"walls", "lees_edwards"}),
       Field("/shear_cell/size_diameters", FieldType::array,
             "cell size in ball diameters [x flow, y gradient, z spanwise]")
-          .defaults({6.0, 8.0, 6.0}).items(3, 3),
-      Field("/shear_cell/size_diameters/*", FieldType::number, "cell size along one axis in ball diameters")
+          .defaults({6.0, 8.0, 6.0})
+          .items(3, 3),
+      Field("/shear_cell/size_diameters/*", FieldType::number,
+            "cell size along one axis in ball diameters")
           .range(at_least(3), at_most(30)),
-      Field("/shear_cell/gravity", FieldType::boolean, "whether gravity acts in the shear cell").defaults(false),
-      Field("/shear_cell/warmup_strain", FieldType::number, "shear strain before measuring").defaults(2.0)
+      Field("/shear_cell/gravity", FieldType::boolean, "whether gravity acts in the shear cell")
+          .defaults(false),
+      Field("/shear_cell/warmup_strain", FieldType::number, "shear strain before measuring")
+          .defaults(2.0)
           .range(at_least(0), {}),
-      Field("/shear_cell/measure_strain", FieldType::number, "shear strain measured").defaults(4.0)
+      Field("/shear_cell/measure_strain", FieldType::number, "shear strain measured")
+          .defaults(4.0)
           .range(above(0), {}),
       Field("/shear_cell/steps_per_collision", FieldType::integer,
-            "time steps per collision time in the shear cells (dt = t_c / N; /dem/steps_per_collision is the macro "
+            "time steps per collision time in the shear cells (dt = t_c / N; "
+            "/dem/steps_per_collision is the macro "
             "runs'): the cells' energy balance error falls as 1/N")
-          .defaults(40).range(at_least(20), {}),
-      Field("/shear_cell/checkpoint_interval_s", FieldType::number, "wall-clock interval between a cell's checkpoints")
-          .unit("s").defaults(60.0).range(above(0), {}),
-      Field("/shear_cell/stress_control", FieldType::object, "the normal-stress control").defaults(json::object()),
-      Field("/shear_cell/stress_control/gain", FieldType::number, "gain of the normal-stress control (wall servo or Lees-Edwards barostat)")
-          .defaults(0.5).range(above(0), at_most(1)),
+          .defaults(40)
+          .range(at_least(20), {}),
+      Field("/shear_cell/checkpoint_interval_s", FieldType::number,
+            "wall-clock interval between a cell's checkpoints")
+          .unit("s")
+          .defaults(60.0)
+          .range(above(0), {}),
+      Field("/shear_cell/stress_control", FieldType::object, "the normal-stress control")
+          .defaults(json::object()),
+      Field("/shear_cell/stress_control/gain", FieldType::number,
+            "gain of the normal-stress control (wall servo or Lees-Edwards barostat)")
+          .defaults(0.5)
+          .range(above(0), at_most(1)),
       Field("/shear_cell/powder", FieldType::object, "the powder in the shear cell").required(),
-      Field("/shear_cell/powder/material", FieldType::string, "material of the powder").required()
+      Field("/shear_cell/powder/material", FieldType::string, "material of the powder")
+          .required()
           .pattern(material_name),
       Field("/shear_cell/powder/diameter_ratio", FieldType::number,
             "powder diameter as a fraction of the mean ball diameter")
-          .required().range(above(0.02), at_most(1)),
+          .required()
+          .range(above(0.02), at_most(1)),
       Field("/shear_cell/powder/load", FieldType::number,
             "powder load U (fraction of the ball bed's voids filled with powder)")
-          .required().range(at_least(0), at_most(3)),
+          .required()
+          .range(at_least(0), at_most(3)),
   };
 }
 
 std::vector<engine::FieldRule> executor_fields() {
   return {
       Field("/executor", FieldType::object, "where the tasks run").defaults(json::object()),
-      Field("/executor/kind", FieldType::enumeration, "executor kind").defaults("local").choices({"local", "slurm"}),
+      Field("/executor/kind", FieldType::enumeration, "executor kind")
+          .defaults("local")
+          .choices({"local", "slurm"}),
       Field("/executor/slurm", FieldType::object, "Slurm settings"),
       Field("/executor/slurm/partition", FieldType::string, "Slurm partition"),
       Field("/executor/slurm/account", FieldType::string, "Slurm account"),
       Field("/executor/slurm/time_limit", FieldType::string, "Slurm time limit per job")
-          .pattern("([0-9]+-)?[0-9]+(:[0-9]{2}){0,2}").hint("write minutes, HH:MM:SS or D-HH:MM:SS"),
-      Field("/executor/slurm/cpus_per_task", FieldType::integer, "CPUs per Slurm job").range(at_least(1), at_most(1024)),
-      Field("/executor/slurm/memory", FieldType::string, "memory per Slurm job").pattern("[0-9]+[KMGT]?")
+          .pattern("([0-9]+-)?[0-9]+(:[0-9]{2}){0,2}")
+          .hint("write minutes, HH:MM:SS or D-HH:MM:SS"),
+      Field("/executor/slurm/cpus_per_task", FieldType::integer, "CPUs per Slurm job")
+          .range(at_least(1), at_most(1024)),
+      Field("/executor/slurm/memory", FieldType::string, "memory per Slurm job")
+          .pattern("[0-9]+[KMGT]?")
           .hint("write a size such as 16G"),
       Field("/executor/slurm/extra_args", FieldType::array, "extra sbatch arguments"),
       Field("/executor/slurm/extra_args/*", FieldType::string, "one sbatch argument"),
-      Field("/executor/slurm/max_in_flight", FieldType::integer, "most Slurm jobs queued or running at once")
+      Field("/executor/slurm/max_in_flight", FieldType::integer,
+            "most Slurm jobs queued or running at once")
           .range(at_least(1), {}),
       // 0 would signal a job at its time limit, too late to checkpoint.
       Field("/executor/slurm/checkpoint_signal_s", FieldType::integer,
             "lead of the checkpoint signal before a Slurm job's time limit")
-          .unit("s").range(at_least(1), at_most(engine::kSlurmMaxSignalLeadS))
+          .unit("s")
+          .range(at_least(1), at_most(engine::kSlurmMaxSignalLeadS))
           .hint("jobs get sbatch --signal=B:USR1@N, which Slurm may send up to a minute early"),
       Field("/executor/slurm/max_squeue_failures", FieldType::integer,
             "failed squeue polls in a row before the coordinator stops")
@@ -202,16 +295,22 @@ std::vector<engine::FieldRule> executor_fields() {
 engine::FieldTable make_campaign_table() {
   std::vector<engine::FieldRule> rules = {
       Field("", FieldType::object, "a millflow campaign"),
-      Field("/millflow_campaign", FieldType::integer, "campaign file format version").required()
+      Field("/millflow_campaign", FieldType::integer, "campaign file format version")
+          .required()
           .range(at_least(campaign_format_version), at_most(campaign_format_version)),
-      Field("/name", FieldType::string, "the campaign name").required().pattern("[a-z0-9_-]+")
+      Field("/name", FieldType::string, "the campaign name")
+          .required()
+          .pattern("[a-z0-9_-]+")
           .hint("use lower-case letters, digits, '_' and '-'"),
       Field("/description", FieldType::string, "a free-text description").defaults(""),
   };
   const std::vector<engine::FieldRule> sweep = {
-      Field("/sweep", FieldType::object, "the parameter study: the Cartesian product of the product axes and the zip groups").opaque(),
+      Field("/sweep", FieldType::object,
+            "the parameter study: the Cartesian product of the product axes and the zip groups")
+          .opaque(),
   };
-  for (const auto& part : {material_fields(), macro_fields(), micro_fields(), executor_fields(), sweep}) {
+  for (const auto& part :
+       {material_fields(), macro_fields(), micro_fields(), executor_fields(), sweep}) {
     rules.insert(rules.end(), part.begin(), part.end());
   }
   return engine::FieldTable(std::move(rules));
@@ -222,16 +321,18 @@ void refuse_other_versions(const json& document) {
   if (!document.contains("millflow_campaign") || !document["millflow_campaign"].is_number()) return;
   const auto version = document["millflow_campaign"];
   if (version.get<double>() == campaign_format_version) return;
-  throw engine::InvalidInput({{"/millflow_campaign",
-                               "campaign format version " + engine::quote_value(version) + " is not supported",
-                               "this millflow reads version " + std::to_string(campaign_format_version) +
-                                   " files; write \"millflow_campaign\": " + std::to_string(campaign_format_version)}});
+  throw engine::InvalidInput(
+      {{"/millflow_campaign",
+        "campaign format version " + engine::quote_value(version) + " is not supported",
+        "this millflow reads version " + std::to_string(campaign_format_version) +
+            " files; write \"millflow_campaign\": " + std::to_string(campaign_format_version)}});
 }
 
 std::string describe_point(const CampaignPoint& point) {
   std::string text;
   for (const auto& coordinate : point.coordinates) {
-    text += (text.empty() ? "" : ", ") + coordinate.path + " = " + engine::quote_value(coordinate.value);
+    text += (text.empty() ? "" : ", ") + coordinate.path + " = " +
+            engine::quote_value(coordinate.value);
   }
   return text;
 }
@@ -252,8 +353,9 @@ void check_sweep_points(const json& campaign, std::vector<ValidationError>& erro
 // The normalized campaign and every error of it (none when it is valid).
 engine::ValidationResult check_campaign(const json& document) {
   if (!document.is_object()) {
-    return {document, {{"", "expected an object, got " + engine::describe_value(document),
-                        "write the campaign as a JSON object {\"millflow_campaign\": 1, ...}"}}};
+    return {document,
+            {{"", "expected an object, got " + engine::describe_value(document),
+              "write the campaign as a JSON object {\"millflow_campaign\": 1, ...}"}}};
   }
   refuse_other_versions(document);
   auto [campaign, errors] = engine::validate(document, campaign_table());
@@ -299,8 +401,9 @@ nlohmann::json parse_campaign(std::string_view text) {
 nlohmann::json load_campaign(const std::filesystem::path& file) {
   std::ifstream stream(file, std::ios::binary);
   if (!stream) {
-    throw engine::InvalidInput({{"", "cannot read campaign file " + file.string() + ": " + std::strerror(errno),
-                                 "check the file name and its permissions"}});
+    throw engine::InvalidInput(
+        {{"", "cannot read campaign file " + file.string() + ": " + std::strerror(errno),
+          "check the file name and its permissions"}});
   }
   std::ostringstream text;
   text << stream.rdbuf();

@@ -16,7 +16,9 @@ namespace {
 using engine::ValidationError;
 using nlohmann::json;
 
-std::string quantity(double value) { return fmt::format("{:.4g}", value); }
+std::string quantity(double value) {
+  return fmt::format("{:.4g}", value);
+}
 
 bool related_paths(const std::string& a, const std::string& b) {
   const auto& shorter = a.size() <= b.size() ? a : b;
@@ -69,12 +71,13 @@ class Campaign {
       return std::vector<BallClass>{{*diameter, 1.0, "/media/diameter"}};
     }
     const auto* classes = node("/media/size_distribution");
-    if (node("/media") == nullptr || classes == nullptr || !classes->is_array()) return std::nullopt;
+    if (node("/media") == nullptr || classes == nullptr || !classes->is_array())
+      return std::nullopt;
     std::vector<BallClass> balls;
     for (std::size_t i = 0; i < classes->size(); ++i) {
       const auto path = "/media/size_distribution/" + std::to_string(i);
-      balls.push_back({(*classes)[i].at("diameter").get<double>(), (*classes)[i].at("mass_fraction").get<double>(),
-                       path + "/diameter"});
+      balls.push_back({(*classes)[i].at("diameter").get<double>(),
+                       (*classes)[i].at("mass_fraction").get<double>(), path + "/diameter"});
     }
     return balls;
   }
@@ -100,7 +103,9 @@ double largest_diameter(const std::vector<BallClass>& balls) {
   return largest;
 }
 
-double sphere_volume(double diameter) { return std::numbers::pi / 6.0 * diameter * diameter * diameter; }
+double sphere_volume(double diameter) {
+  return std::numbers::pi / 6.0 * diameter * diameter * diameter;
+}
 
 class ConsistencyChecker {
  public:
@@ -139,12 +144,14 @@ class ConsistencyChecker {
     std::string known;
     for (const auto& n : names) known += (known.empty() ? "\"" : ", \"") + n + "\"";
     error(path, "unknown material \"" + *name + "\"",
-          suggestion ? "did you mean \"" + *suggestion + "\"? (defined in /materials: " + known + ")"
-                     : "define it in /materials or use one of " + known);
+          suggestion
+              ? "did you mean \"" + *suggestion + "\"? (defined in /materials: " + known + ")"
+              : "define it in /materials or use one of " + known);
   }
 
   void check_material_names() {
-    for (const auto* path : {"/media/material", "/mill/liner_material", "/shear_cell/powder/material"}) {
+    for (const auto* path :
+         {"/media/material", "/mill/liner_material", "/shear_cell/powder/material"}) {
       check_material_reference(path);
     }
     const auto* interactions = campaign_.node("/interactions");
@@ -180,8 +187,10 @@ class ConsistencyChecker {
       const auto pair = pair_of(*a, *b);
       const auto earlier = std::find(pairs.begin(), pairs.end(), pair);
       if (earlier != pairs.end()) {
-        error(path, "the pair \"" + pair.first + "\", \"" + pair.second + "\" is already defined by /interactions/" +
-                        std::to_string(earlier - pairs.begin()),
+        error(path,
+              "the pair \"" + pair.first + "\", \"" + pair.second +
+                  "\" is already defined by /interactions/" +
+                  std::to_string(earlier - pairs.begin()),
               "keep one entry per material pair");
       }
       pairs.push_back(pair);
@@ -213,7 +222,8 @@ class ConsistencyChecker {
       }
       reported.push_back(pair);
       error("/interactions",
-            "no contact parameters for \"" + pair.first + "\" with \"" + pair.second + "\" (" + meeting.where + ")",
+            "no contact parameters for \"" + pair.first + "\" with \"" + pair.second + "\" (" +
+                meeting.where + ")",
             "add an entry with \"materials\": [\"" + pair.first + "\", \"" + pair.second + "\"]");
     }
   }
@@ -224,7 +234,7 @@ class ConsistencyChecker {
     const auto height = campaign_.number("/mill/lifters/height");
     const auto base = campaign_.number("/mill/lifters/base_width");
     const std::pair<const char*, const char*> dimensions[] = {{"height", "radial height"},
-                                                               {"base_width", "width at the shell"}};
+                                                              {"base_width", "width at the shell"}};
     for (const auto& [field, meaning] : dimensions) {
       const auto path = std::string("/mill/lifters/") + field;
       if (campaign_.node(path) == nullptr && campaign_.node("/mill/lifters") != nullptr) {
@@ -236,7 +246,8 @@ class ConsistencyChecker {
     if (!diameter || !height || !base) return;
     if (*height >= *diameter / 4) {
       error("/mill/lifters/height",
-            quantity(*height) + " m is not below half the mill radius (" + quantity(*diameter / 4) + " m)",
+            quantity(*height) + " m is not below half the mill radius (" + quantity(*diameter / 4) +
+                " m)",
             "use lifters lower than " + quantity(*diameter / 4) + " m");
     }
     if (*count * *base >= std::numbers::pi * *diameter) {
@@ -256,8 +267,8 @@ class ConsistencyChecker {
     if (top > 0.0) return;
     const double widest = std::atan(base / (2.0 * height)) * 180.0 / std::numbers::pi;
     error("/mill/lifters/face_angle_deg",
-          "faces at " + quantity(*angle) + " deg meet below the top of a " + quantity(height) + " m high, " +
-              quantity(base) + " m wide lifter",
+          "faces at " + quantity(*angle) + " deg meet below the top of a " + quantity(height) +
+              " m high, " + quantity(base) + " m wide lifter",
           "use a face angle below " + quantity(widest) + " deg, a wider base or a lower bar");
   }
 
@@ -276,15 +287,19 @@ class ConsistencyChecker {
     if (diameter) {
       for (const auto& ball : balls) {
         if (ball.diameter <= *diameter / 10) continue;
-        error(ball.path, quantity(ball.diameter) + " m balls are too big for a " + quantity(*diameter) + " m mill",
-              "use balls of at most " + quantity(*diameter / 10) + " m (a tenth of the mill diameter)");
+        error(ball.path,
+              quantity(ball.diameter) + " m balls are too big for a " + quantity(*diameter) +
+                  " m mill",
+              "use balls of at most " + quantity(*diameter / 10) +
+                  " m (a tenth of the mill diameter)");
       }
     }
     const auto length = campaign_.number("/mill/length");
     const double largest = largest_diameter(balls);
     if (length && *length < 3 * largest * (1 - 1e-9)) {  // 0.15 m is 3 x 0.05 m, rounding aside
       error("/mill/length",
-            "a " + quantity(*length) + " m slice is shorter than 3 diameters of the " + quantity(largest) + " m balls",
+            "a " + quantity(*length) + " m slice is shorter than 3 diameters of the " +
+                quantity(largest) + " m balls",
             "use a slice of at least " + quantity(3 * largest) + " m");
     }
   }
@@ -294,13 +309,17 @@ class ConsistencyChecker {
     const auto diameter = campaign_.number("/mill/diameter");
     const auto length = campaign_.number("/mill/length");
     if (!fill || !diameter || !length) return;
-    const double solid = *fill * std::numbers::pi / 4 * *diameter * *diameter * *length * (1 - bed_void_fraction);
+    const double solid =
+        *fill * std::numbers::pi / 4 * *diameter * *diameter * *length * (1 - bed_void_fraction);
     double count = 0.0;
-    for (const auto& ball : balls) count += ball.mass_fraction * solid / sphere_volume(ball.diameter);
+    for (const auto& ball : balls)
+      count += ball.mass_fraction * solid / sphere_volume(ball.diameter);
     if (count >= min_balls_in_charge) return;
     error("/macro/fill",
-          "fill " + quantity(*fill) + " holds only about " + fmt::format("{:.0f}", count) + " balls in this mill slice",
-          fmt::format("raise the fill, lengthen the slice or use smaller balls (a charge needs at least {} balls)",
+          "fill " + quantity(*fill) + " holds only about " + fmt::format("{:.0f}", count) +
+              " balls in this mill slice",
+          fmt::format("raise the fill, lengthen the slice or use smaller balls (a charge needs at "
+                      "least {} balls)",
                       min_balls_in_charge));
   }
 
@@ -309,13 +328,14 @@ class ConsistencyChecker {
     const auto diameter = campaign_.number("/mill/diameter");
     const auto speed = campaign_.number("/macro/speed_fraction");
     const auto revolutions = campaign_.number("/macro/measure_revolutions");
-    if (!interval || !diameter || !speed || !revolutions || *diameter <= mean_diameter(balls)) return;
+    if (!interval || !diameter || !speed || !revolutions || *diameter <= mean_diameter(balls))
+      return;
     const double critical_rpm = 42.3 / std::sqrt(*diameter - mean_diameter(balls));
     const double measured = *revolutions * 60.0 / (*speed * critical_rpm);
     if (measured / *interval >= min_flow_samples) return;
     error("/macro/sample_interval",
-          quantity(*interval) + " s gives fewer than " + quantity(min_flow_samples) + " flow samples over the " +
-              quantity(measured) + " s measurement",
+          quantity(*interval) + " s gives fewer than " + quantity(min_flow_samples) +
+              " flow samples over the " + quantity(measured) + " s measurement",
           "use a sample interval of at most " + quantity(measured / min_flow_samples) + " s");
   }
 
@@ -328,11 +348,13 @@ class ConsistencyChecker {
     for (const auto& side : *size) cell *= side.get<double>();
     const double count = *load * bed_void_fraction * cell / sphere_volume(*ratio);
     if (count <= max_powder_particles) return;
-    const double smallest = std::cbrt(*load * bed_void_fraction * cell / max_powder_particles * 6 / std::numbers::pi);
+    const double smallest =
+        std::cbrt(*load * bed_void_fraction * cell / max_powder_particles * 6 / std::numbers::pi);
     error("/shear_cell/powder/diameter_ratio",
-          "powder " + quantity(*ratio) + " times the ball diameter at load " + quantity(*load) + " puts about " +
-              fmt::format("{:.0f}", count) + " particles in the shear cell",
-          "use a diameter ratio of at least " + quantity(smallest) + ", a smaller cell or a lower load (at most " +
+          "powder " + quantity(*ratio) + " times the ball diameter at load " + quantity(*load) +
+              " puts about " + fmt::format("{:.0f}", count) + " particles in the shear cell",
+          "use a diameter ratio of at least " + quantity(smallest) +
+              ", a smaller cell or a lower load (at most " +
               fmt::format("{:.0f}", max_powder_particles) + " particles)");
   }
 
@@ -342,8 +364,8 @@ class ConsistencyChecker {
 
 }  // namespace
 
-std::vector<engine::ValidationError> check_campaign_consistency(const nlohmann::json& campaign,
-                                                                const std::vector<ValidationError>& field_errors) {
+std::vector<engine::ValidationError> check_campaign_consistency(
+    const nlohmann::json& campaign, const std::vector<ValidationError>& field_errors) {
   return ConsistencyChecker(Campaign(campaign, field_errors)).run();
 }
 

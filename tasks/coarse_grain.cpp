@@ -14,7 +14,9 @@ namespace {
 
 using Eigen::Vector3d;
 
-Vector3d to_vector(const dem::Float3& v) { return {v[0], v[1], v[2]}; }
+Vector3d to_vector(const dem::Float3& v) {
+  return {v[0], v[1], v[2]};
+}
 
 // The cells a kernel centred at one point reaches, with their weights W_c (sum_c W_c A = 1).
 struct Footprint {
@@ -25,7 +27,8 @@ struct Footprint {
 
 class Kernel {
  public:
-  Kernel(const CrossSectionGrid& grid, double width) : grid_(grid), width_(width), reach_(3.0 * width) {}
+  Kernel(const CrossSectionGrid& grid, double width)
+      : grid_(grid), width_(width), reach_(3.0 * width) {}
 
   // Fills `out` for the point (x, y). Throws std::invalid_argument when no cell inside the mill is
   // in reach, i.e. the point lies outside the mill.
@@ -34,8 +37,10 @@ class Kernel {
     out.weights.clear();
     const auto [i0, i1] = index_range(x, grid_.dx(), grid_.nx);
     const auto [j0, j1] = index_range(y, grid_.dy(), grid_.ny);
-    gaussian_factors(x, i0, i1, [&](int i) { return grid_.x(i); }, out.gx);
-    gaussian_factors(y, j0, j1, [&](int j) { return grid_.y(j); }, out.gy);
+    gaussian_factors(
+        x, i0, i1, [&](int i) { return grid_.x(i); }, out.gx);
+    gaussian_factors(
+        y, j0, j1, [&](int j) { return grid_.y(j); }, out.gy);
     double sum = 0.0;
     for (int j = j0; j <= j1; ++j) {
       const double ry = grid_.y(j) - y;
@@ -43,17 +48,19 @@ class Kernel {
         const double rx = grid_.x(i) - x;
         const std::size_t cell = grid_.index(i, j);
         if (rx * rx + ry * ry > reach_ * reach_ || !grid_.inside_mill(cell)) continue;
-        const double weight = out.gx[static_cast<std::size_t>(i - i0)] * out.gy[static_cast<std::size_t>(j - j0)];
+        const double weight =
+            out.gx[static_cast<std::size_t>(i - i0)] * out.gy[static_cast<std::size_t>(j - j0)];
         out.cells.push_back(cell);
         out.weights.push_back(weight);
         sum += weight;
       }
     }
     if (out.cells.empty()) {
-      throw std::invalid_argument(fmt::format(
-          "a particle, contact or collision at ({:.4g}, {:.4g}) m lies outside the mill of radius {:.4g} m: "
-          "check that the mill radius matches the flow sample",
-          x, y, grid_.half_width));
+      throw std::invalid_argument(
+          fmt::format("a particle, contact or collision at ({:.4g}, {:.4g}) m lies outside the "
+                      "mill of radius {:.4g} m: "
+                      "check that the mill radius matches the flow sample",
+                      x, y, grid_.half_width));
     }
     const double scale = 1.0 / (sum * grid_.cell_area());
     for (double& weight : out.weights) weight *= scale;
@@ -69,7 +76,8 @@ class Kernel {
   }
 
   template <class Centre>
-  void gaussian_factors(double u, int lo, int hi, Centre centre, std::vector<double>& factors) const {
+  void gaussian_factors(double u, int lo, int hi, Centre centre,
+                        std::vector<double>& factors) const {
     factors.clear();
     for (int k = lo; k <= hi; ++k) {
       const double r = centre(k) - u;
@@ -95,8 +103,8 @@ struct Sums {
 
   std::vector<double> mass, volume;
   std::vector<Vector3d> momentum;
-  std::vector<Tensor3> contact;      // sum f (x) b W (line kernel)
-  std::vector<Tensor3> fluctuation;  // sum m v' (x) v' W
+  std::vector<Tensor3> contact;                         // sum f (x) b W (line kernel)
+  std::vector<Tensor3> fluctuation;                     // sum m v' (x) v' W
   std::vector<std::vector<double>> events, dissipated;  // [category][cell]
   double particle_volume = 0.0;
   std::size_t frames = 0;
@@ -121,12 +129,15 @@ struct Sums {
   }
 };
 
-double sphere_volume(double radius) { return 4.0 / 3.0 * std::numbers::pi * radius * radius * radius; }
+double sphere_volume(double radius) {
+  return 4.0 / 3.0 * std::numbers::pi * radius * radius * radius;
+}
 
 // Pass 1: mass, volume, momentum, contact stress and collision events of one frame.
 class FirstPass {
  public:
-  FirstPass(const CoarseGrainSettings& settings, const Kernel& kernel) : settings_(settings), kernel_(kernel) {}
+  FirstPass(const CoarseGrainSettings& settings, const Kernel& kernel)
+      : settings_(settings), kernel_(kernel) {}
 
   void add(const dem::FlowFrame& frame, Sums& sums) {
     add_particles(frame, sums);
@@ -159,7 +170,8 @@ class FirstPass {
     for (std::size_t c = 0; c < frame.contact_a.size(); ++c) {
       const Vector3d start = to_vector(frame.position.at(frame.contact_a[c]));
       const Vector3d branch = to_vector(frame.contact_branch[c]);
-      const int pieces = std::max(1, static_cast<int>(std::ceil(std::hypot(branch.x(), branch.y()) / piece)));
+      const int pieces =
+          std::max(1, static_cast<int>(std::ceil(std::hypot(branch.x(), branch.y()) / piece)));
       const Tensor3 dyad = to_vector(frame.contact_force[c]) * branch.transpose() / pieces;
       for (int k = 0; k < pieces; ++k) {
         const Vector3d point = start + (k + 0.5) / pieces * branch;
@@ -175,14 +187,16 @@ class FirstPass {
     for (std::size_t e = 0; e < frame.event_point.size(); ++e) {
       const std::uint32_t category = frame.event_category[e];
       if (category >= settings_.categories.size()) {
-        throw std::invalid_argument(fmt::format("a collision names contact category {}, but only {} categories are named: "
-                                                "pass every category of the run",
-                                                category, settings_.categories.size()));
+        throw std::invalid_argument(
+            fmt::format("a collision names contact category {}, but only {} categories are named: "
+                        "pass every category of the run",
+                        category, settings_.categories.size()));
       }
       kernel_.evaluate(frame.event_point[e][0], frame.event_point[e][1], footprint_);
       for (std::size_t k = 0; k < footprint_.cells.size(); ++k) {
         sums.events[category][footprint_.cells[k]] += footprint_.weights[k];
-        sums.dissipated[category][footprint_.cells[k]] += frame.event_dissipated[e] * footprint_.weights[k];
+        sums.dissipated[category][footprint_.cells[k]] +=
+            frame.event_dissipated[e] * footprint_.weights[k];
       }
     }
   }
@@ -195,7 +209,8 @@ class FirstPass {
 // Pass 2: velocity fluctuations about the time-mean field, V(x_p) = sum_c W_c A V_c.
 class SecondPass {
  public:
-  SecondPass(const CoarseGrainSettings& settings, const Kernel& kernel, const std::vector<Vector3d>& mean_velocity)
+  SecondPass(const CoarseGrainSettings& settings, const Kernel& kernel,
+             const std::vector<Vector3d>& mean_velocity)
       : settings_(settings), kernel_(kernel), mean_velocity_(mean_velocity) {}
 
   void add(const dem::FlowFrame& frame, Sums& sums) {
@@ -227,8 +242,8 @@ class SecondPass {
 // added in segment order (see the header on determinism). `make_pass()` gives a pass object with
 // add(frame, sums), one per segment.
 template <class MakePass>
-Sums sum_segments(const CoarseGrainSettings& settings, std::size_t segment_count, const SegmentLoader& load,
-                  MakePass make_pass) {
+Sums sum_segments(const CoarseGrainSettings& settings, std::size_t segment_count,
+                  const SegmentLoader& load, MakePass make_pass) {
   const std::size_t cells = settings.grid.size(), categories = settings.categories.size();
   Sums total(cells, categories);
   for (std::size_t first = 0; first < segment_count; first += kParallelSegments) {
@@ -244,13 +259,16 @@ Sums sum_segments(const CoarseGrainSettings& settings, std::size_t segment_count
 }
 
 // dV/du at cell (i, j) along one axis (di, dj), from the neighbours where V is defined.
-Vector3d derivative(const CoarseFields& f, const std::vector<std::uint8_t>& defined, int i, int j, int di, int dj,
-                    double h) {
+Vector3d derivative(const CoarseFields& f, const std::vector<std::uint8_t>& defined, int i, int j,
+                    int di, int dj, double h) {
   const CrossSectionGrid& g = f.grid;
-  auto usable = [&](int a, int b) { return a >= 0 && b >= 0 && a < g.nx && b < g.ny && defined[g.index(a, b)]; };
+  auto usable = [&](int a, int b) {
+    return a >= 0 && b >= 0 && a < g.nx && b < g.ny && defined[g.index(a, b)];
+  };
   const bool plus = usable(i + di, j + dj), minus = usable(i - di, j - dj);
   const Vector3d& here = f.velocity[g.index(i, j)];
-  if (plus && minus) return (f.velocity[g.index(i + di, j + dj)] - f.velocity[g.index(i - di, j - dj)]) / (2.0 * h);
+  if (plus && minus)
+    return (f.velocity[g.index(i + di, j + dj)] - f.velocity[g.index(i - di, j - dj)]) / (2.0 * h);
   if (plus) return (f.velocity[g.index(i + di, j + dj)] - here) / h;
   if (minus) return (here - f.velocity[g.index(i - di, j - dj)]) / h;
   return Vector3d::Zero();
@@ -278,13 +296,17 @@ double shear_rate_of(const Tensor3& strain_rate) {
 
 }  // namespace
 
-ShearPlaneTraction shear_plane_traction(const Tensor3& gradient, const Tensor3& strain_rate, const Tensor3& stress) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> principal(strain_rate.topLeftCorner<2, 2>().eval());
-  const Eigen::Vector2d e_compress = principal.eigenvectors().col(0), e_extend = principal.eigenvectors().col(1);
+ShearPlaneTraction shear_plane_traction(const Tensor3& gradient, const Tensor3& strain_rate,
+                                        const Tensor3& stress) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> principal(
+      strain_rate.topLeftCorner<2, 2>().eval());
+  const Eigen::Vector2d e_compress = principal.eigenvectors().col(0),
+                        e_extend = principal.eigenvectors().col(1);
   const Eigen::Vector2d first = (e_extend + e_compress) / std::sqrt(2.0);
   const Eigen::Vector2d second = (e_extend - e_compress) / std::sqrt(2.0);
   const Eigen::Matrix2d in_plane_gradient = gradient.topLeftCorner<2, 2>();
-  const bool second_is_layers = (in_plane_gradient * second).norm() > (in_plane_gradient * first).norm();
+  const bool second_is_layers =
+      (in_plane_gradient * second).norm() > (in_plane_gradient * first).norm();
   const Eigen::Vector2d n = second_is_layers ? second : first;
   const Eigen::Vector2d t(-n.y(), n.x());
   const Eigen::Vector2d traction = stress.topLeftCorner<2, 2>() * n;
@@ -308,10 +330,12 @@ void derive_rates_and_stresses(CoarseFields& f, double min_solid_fraction) {
     f.stress[c] = f.kinetic_stress[c] + f.contact_stress[c];
     f.shear_rate[c] = shear_rate_of(f.strain_rate[c]);
     f.pressure[c] = -f.stress[c].trace() / 3.0;
-    const ShearPlaneTraction traction = shear_plane_traction(f.velocity_gradient[c], f.strain_rate[c], f.stress[c]);
+    const ShearPlaneTraction traction =
+        shear_plane_traction(f.velocity_gradient[c], f.strain_rate[c], f.stress[c]);
     f.shear_plane_normal_stress[c] = traction.normal;
     f.shear_plane_shear_stress[c] = traction.shear;
-    if (f.density[c] > 0.0) f.granular_temperature[c] = -f.kinetic_stress[c].trace() / (3.0 * f.density[c]);
+    if (f.density[c] > 0.0)
+      f.granular_temperature[c] = -f.kinetic_stress[c].trace() / (3.0 * f.density[c]);
   }
 }
 
@@ -345,7 +369,8 @@ void fill_collision_rates(const Sums& sums, double per_volume_time, CoarseFields
   }
 }
 
-void append_tensor_array(std::vector<CellArray>& out, const char* name, const std::vector<Tensor3>& tensors) {
+void append_tensor_array(std::vector<CellArray>& out, const char* name,
+                         const std::vector<Tensor3>& tensors) {
   CellArray array{name, 9, {}};
   array.values.reserve(tensors.size() * 9);
   for (const Tensor3& t : tensors) {
@@ -360,16 +385,23 @@ void append_tensor_array(std::vector<CellArray>& out, const char* name, const st
 
 void CoarseGrainSettings::validate() const {
   auto refuse = [](const std::string& message) { throw std::invalid_argument(message); };
-  if (grid.nx < 1 || grid.ny < 1) refuse(fmt::format("grid of {} x {} cells: give at least one cell per axis", grid.nx, grid.ny));
-  if (!(grid.half_width > 0.0)) refuse(fmt::format("mill radius {} m: must be positive", grid.half_width));
-  if (!(slice_length > 0.0)) refuse(fmt::format("slice length {} m: must be positive", slice_length));
-  if (!(media_density > 0.0)) refuse(fmt::format("media density {} kg/m^3: must be positive", media_density));
-  if (!(event_window > 0.0)) refuse(fmt::format("collision event window {} s: must be positive", event_window));
+  if (grid.nx < 1 || grid.ny < 1)
+    refuse(fmt::format("grid of {} x {} cells: give at least one cell per axis", grid.nx, grid.ny));
+  if (!(grid.half_width > 0.0))
+    refuse(fmt::format("mill radius {} m: must be positive", grid.half_width));
+  if (!(slice_length > 0.0))
+    refuse(fmt::format("slice length {} m: must be positive", slice_length));
+  if (!(media_density > 0.0))
+    refuse(fmt::format("media density {} kg/m^3: must be positive", media_density));
+  if (!(event_window > 0.0))
+    refuse(fmt::format("collision event window {} s: must be positive", event_window));
   const double cell = std::max(grid.dx(), grid.dy());
   if (!(kernel_width >= 0.5 * cell)) {
-    refuse(fmt::format("kernel width {:.4g} m is below half the cell size {:.4g} m, so the kernel can miss every cell "
-                       "centre: use a wider kernel or more cells",
-                       kernel_width, cell));
+    refuse(
+        fmt::format("kernel width {:.4g} m is below half the cell size {:.4g} m, so the kernel can "
+                    "miss every cell "
+                    "centre: use a wider kernel or more cells",
+                    kernel_width, cell));
   }
 }
 
@@ -379,13 +411,18 @@ double CoarseFields::integral(const std::vector<double>& per_cell) const {
   return sum * grid.cell_area() * slice_length;
 }
 
-double CoarseFields::solid_volume() const { return integral(solid_fraction); }
+double CoarseFields::solid_volume() const {
+  return integral(solid_fraction);
+}
 
-CoarseFields coarse_grain(const CoarseGrainSettings& settings, std::size_t segment_count, const SegmentLoader& load) {
+CoarseFields coarse_grain(const CoarseGrainSettings& settings, std::size_t segment_count,
+                          const SegmentLoader& load) {
   settings.validate();
   const Kernel kernel(settings.grid, settings.kernel_width);
-  const Sums first = sum_segments(settings, segment_count, load, [&] { return FirstPass(settings, kernel); });
-  if (first.frames == 0) throw std::invalid_argument("the flow sample holds no frames: sample the macro run");
+  const Sums first =
+      sum_segments(settings, segment_count, load, [&] { return FirstPass(settings, kernel); });
+  if (first.frames == 0)
+    throw std::invalid_argument("the flow sample holds no frames: sample the macro run");
 
   CoarseFields f;
   f.grid = settings.grid;
@@ -397,10 +434,11 @@ CoarseFields coarse_grain(const CoarseGrainSettings& settings, std::size_t segme
   fill_mass_and_momentum(first, per_volume_frame, f);
   fill_collision_rates(first, 1.0 / (settings.slice_length * settings.event_window), f);
 
-  const Sums second =
-      sum_segments(settings, segment_count, load, [&] { return SecondPass(settings, kernel, f.velocity); });
+  const Sums second = sum_segments(settings, segment_count, load,
+                                   [&] { return SecondPass(settings, kernel, f.velocity); });
   f.kinetic_stress.resize(f.grid.size());
-  for (std::size_t c = 0; c < f.grid.size(); ++c) f.kinetic_stress[c] = -second.fluctuation[c] * per_volume_frame;
+  for (std::size_t c = 0; c < f.grid.size(); ++c)
+    f.kinetic_stress[c] = -second.fluctuation[c] * per_volume_frame;
   derive_rates_and_stresses(f, settings.min_solid_fraction_for_velocity);
   return f;
 }
@@ -410,7 +448,8 @@ std::vector<CellArray> cell_arrays(const CoarseFields& f) {
   out.push_back({"solid_fraction", 1, f.solid_fraction});
   out.push_back({"density_kg_m3", 1, f.density});
   CellArray velocity{"velocity_m_s", 3, {}};
-  for (const Vector3d& v : f.velocity) velocity.values.insert(velocity.values.end(), {v.x(), v.y(), v.z()});
+  for (const Vector3d& v : f.velocity)
+    velocity.values.insert(velocity.values.end(), {v.x(), v.y(), v.z()});
   out.push_back(std::move(velocity));
   append_tensor_array(out, "kinetic_stress_pa", f.kinetic_stress);
   append_tensor_array(out, "contact_stress_pa", f.contact_stress);
@@ -424,7 +463,8 @@ std::vector<CellArray> cell_arrays(const CoarseFields& f) {
   out.push_back({"collision_frequency_per_m3_s", 1, f.collision_frequency});
   out.push_back({"dissipation_w_m3", 1, f.dissipation});
   for (std::size_t k = 0; k < f.categories.size(); ++k) {
-    out.push_back({"collision_frequency_per_m3_s." + f.categories[k], 1, f.collision_frequency_by_category[k]});
+    out.push_back({"collision_frequency_per_m3_s." + f.categories[k], 1,
+                   f.collision_frequency_by_category[k]});
     out.push_back({"dissipation_w_m3." + f.categories[k], 1, f.dissipation_by_category[k]});
   }
   return out;

@@ -62,15 +62,16 @@ struct ShearPlaneTraction {
 
 // The traction on the shear plane (the plane of maximum shear rate nearest the flow's layers,
 // above) of a cell with velocity gradient L, strain rate D and stress sigma.
-ShearPlaneTraction shear_plane_traction(const Eigen::Matrix3d& gradient, const Eigen::Matrix3d& strain_rate,
+ShearPlaneTraction shear_plane_traction(const Eigen::Matrix3d& gradient,
+                                        const Eigen::Matrix3d& strain_rate,
                                         const Eigen::Matrix3d& stress);
 
 struct CoarseGrainSettings {
-  CrossSectionGrid grid;             // half_width: the mill's inner radius
-  double slice_length = 0.0;         // L, m
-  double kernel_width = 0.0;         // w, m
-  double media_density = 0.0;        // kg/m^3, of every particle
-  double event_window = 0.0;         // s: the time the frames' collision events span together
+  CrossSectionGrid grid;                // half_width: the mill's inner radius
+  double slice_length = 0.0;            // L, m
+  double kernel_width = 0.0;            // w, m
+  double media_density = 0.0;           // kg/m^3, of every particle
+  double event_window = 0.0;            // s: the time the frames' collision events span together
   std::vector<std::string> categories;  // contact category names, by the index events carry
   double min_solid_fraction_for_velocity = 0.01;
 
@@ -108,7 +109,8 @@ using SegmentLoader = std::function<std::vector<dem::FlowFrame>(std::size_t inde
 
 // Throws std::invalid_argument for bad settings, no frames, a particle outside the mill or an
 // event category with no name.
-CoarseFields coarse_grain(const CoarseGrainSettings& settings, std::size_t segment_count, const SegmentLoader& load);
+CoarseFields coarse_grain(const CoarseGrainSettings& settings, std::size_t segment_count,
+                          const SegmentLoader& load);
 
 // The fields as named cell arrays: scalars, vectors (3) and tensors (9, row-major), for VTK and
 // JSON. Names: solid_fraction, density_kg_m3, velocity_m_s, kinetic_stress_pa, contact_stress_pa,

@@ -18,11 +18,17 @@ struct CrossSectionGrid {
   double dy() const { return 2.0 * half_width / ny; }
   double cell_area() const { return dx() * dy(); }
   std::size_t size() const { return static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny); }
-  std::size_t index(int i, int j) const { return static_cast<std::size_t>(j) * nx + static_cast<std::size_t>(i); }
+  std::size_t index(int i, int j) const {
+    return static_cast<std::size_t>(j) * nx + static_cast<std::size_t>(i);
+  }
   double x(int i) const { return -half_width + (i + 0.5) * dx(); }
   double y(int j) const { return -half_width + (j + 0.5) * dy(); }
-  double x_of(std::size_t cell) const { return x(static_cast<int>(cell % static_cast<std::size_t>(nx))); }
-  double y_of(std::size_t cell) const { return y(static_cast<int>(cell / static_cast<std::size_t>(nx))); }
+  double x_of(std::size_t cell) const {
+    return x(static_cast<int>(cell % static_cast<std::size_t>(nx)));
+  }
+  double y_of(std::size_t cell) const {
+    return y(static_cast<int>(cell / static_cast<std::size_t>(nx)));
+  }
   // Whether the cell's centre lies inside the mill (the circle of radius half_width).
   bool inside_mill(std::size_t cell) const {
     const double x = x_of(cell), y = y_of(cell);

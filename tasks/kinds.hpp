@@ -36,6 +36,7 @@ nlohmann::json shear_cells_params(const nlohmann::json& point);  // shear_cell, 
                                                                  // of media and powder
 // The shear_cell tasks of a point, one per slot (region in /sites/regions x index below
 // /sites/per_region), below its sites task; returns their keys.
-std::vector<std::string> plan_shear_cells(engine::Plan& plan, const nlohmann::json& point, const std::string& sites);
+std::vector<std::string> plan_shear_cells(engine::Plan& plan, const nlohmann::json& point,
+                                          const std::string& sites);
 
 }  // namespace millflow::tasks

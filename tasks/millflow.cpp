@@ -10,7 +10,8 @@ namespace millflow::tasks {
 namespace {
 
 // The interactions whose two materials are both in `names`.
-nlohmann::json interactions_among(const nlohmann::json& interactions, const std::set<std::string>& names) {
+nlohmann::json interactions_among(const nlohmann::json& interactions,
+                                  const std::set<std::string>& names) {
   nlohmann::json kept = nlohmann::json::array();
   for (const auto& interaction : interactions) {
     const auto& pair = interaction.at("materials");
@@ -37,22 +38,29 @@ nlohmann::json macro_params(const nlohmann::json& point) {
 }
 
 nlohmann::json shear_cells_params(const nlohmann::json& point) {
-  const std::set<std::string> names{point.at("media").at("material").get<std::string>(),
-                                    point.at("shear_cell").at("powder").at("material").get<std::string>()};
+  const std::set<std::string> names{
+      point.at("media").at("material").get<std::string>(),
+      point.at("shear_cell").at("powder").at("material").get<std::string>()};
   nlohmann::json materials = nlohmann::json::object();
   for (const auto& name : names) materials[name] = point.at("materials").at(name);
-  return {{"shear_cell", point.at("shear_cell")},
-          {"materials", materials},
-          {"interactions", interactions_among(point.at("interactions"), names)},
-          {"media", point.at("media")},
-          {"dem", {{"seed", point.at("dem").at("seed")}}}};  // the cells' time step is /shear_cell's
+  return {
+      {"shear_cell", point.at("shear_cell")},
+      {"materials", materials},
+      {"interactions", interactions_among(point.at("interactions"), names)},
+      {"media", point.at("media")},
+      {"dem", {{"seed", point.at("dem").at("seed")}}}};  // the cells' time step is /shear_cell's
 }
 
-nlohmann::json average_params(const nlohmann::json& point) { return {{"average", point.at("average")}}; }
+nlohmann::json average_params(const nlohmann::json& point) {
+  return {{"average", point.at("average")}};
+}
 
-nlohmann::json sites_params(const nlohmann::json& point) { return {{"sites", point.at("sites")}}; }
+nlohmann::json sites_params(const nlohmann::json& point) {
+  return {{"sites", point.at("sites")}};
+}
 
-std::vector<std::string> plan_shear_cells(engine::Plan& plan, const nlohmann::json& point, const std::string& sites) {
+std::vector<std::string> plan_shear_cells(engine::Plan& plan, const nlohmann::json& point,
+                                          const std::string& sites) {
   const nlohmann::json base = shear_cells_params(point);
   const int per_region = point.at("sites").at("per_region").get<int>();
   std::vector<std::string> cells;
@@ -90,7 +98,8 @@ void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
     std::vector<std::string> upstream = {macro, average, sites};
     for (const auto& cell : plan_shear_cells(plan, document, sites)) upstream.push_back(cell);
     if (load != 0.0) {
-      for (const auto& cell : plan_shear_cells(plan, without_powder(document), sites)) upstream.push_back(cell);
+      for (const auto& cell : plan_shear_cells(plan, without_powder(document), sites))
+        upstream.push_back(cell);
     }
     report_inputs.push_back(plan.add("upscale", {{"powder_load", load}}, std::move(upstream)));
     // The loads of a fill and speed share one average: the report needs it once.
@@ -98,11 +107,13 @@ void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
       report_inputs.push_back(average);
     }
   }
-  if (!report_inputs.empty()) plan.add("report", {{"campaign", campaign.at("name")}}, std::move(report_inputs));
+  if (!report_inputs.empty())
+    plan.add("report", {{"campaign", campaign.at("name")}}, std::move(report_inputs));
 }
 
 void register_millflow(engine::Registry& registry) {
-  registry.add_format(engine::CampaignFormat{.name = "millflow_campaign", .load = load_campaign, .plan = plan_millflow});
+  registry.add_format(engine::CampaignFormat{
+      .name = "millflow_campaign", .load = load_campaign, .plan = plan_millflow});
   register_macro(registry);
   register_average(registry);
   register_sites(registry);

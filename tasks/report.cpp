@@ -44,7 +44,8 @@ struct Slice {
 std::vector<Slice> slices_of(const std::vector<UpscalePoint>& points) {
   std::vector<Slice> slices;
   for (const UpscalePoint& point : points) {
-    if (slices.empty() || slices.back().fill != point.fill || slices.back().speed_fraction != point.speed_fraction) {
+    if (slices.empty() || slices.back().fill != point.fill ||
+        slices.back().speed_fraction != point.speed_fraction) {
       slices.push_back({point.fill, point.speed_fraction, {}});
     }
     slices.back().points.push_back(&point);
@@ -52,11 +53,18 @@ std::vector<Slice> slices_of(const std::vector<UpscalePoint>& points) {
   return slices;
 }
 
-std::string g(double value) { return fmt::format("{:g}", value); }
-std::string slice_label(const Slice& slice) { return fmt::format("J = {:g}, phi = {:g}", slice.fill, slice.speed_fraction); }
-std::string maps_file(const Slice& slice) { return fmt::format("maps_{:g}_{:g}.svg", slice.fill, slice.speed_fraction); }
+std::string g(double value) {
+  return fmt::format("{:g}", value);
+}
+std::string slice_label(const Slice& slice) {
+  return fmt::format("J = {:g}, phi = {:g}", slice.fill, slice.speed_fraction);
+}
+std::string maps_file(const Slice& slice) {
+  return fmt::format("maps_{:g}_{:g}.svg", slice.fill, slice.speed_fraction);
+}
 
-std::vector<double> distinct(const std::vector<UpscalePoint>& points, double UpscalePoint::*member) {
+std::vector<double> distinct(const std::vector<UpscalePoint>& points,
+                             double UpscalePoint::*member) {
   std::set<double> values;
   for (const UpscalePoint& point : points) values.insert(point.*member);
   return {values.begin(), values.end()};
@@ -69,8 +77,11 @@ int speed_columns(const std::vector<UpscalePoint>& points) {
 
 // ---- figures ----
 
-svg::Figure power_draw_figure(const std::vector<UpscalePoint>& points, const std::vector<Slice>& slices) {
-  svg::LineChart chart{.title = "Mill power draw", .x = {"speed fraction of critical (-)"}, .y = {"power draw of the slice (W)"}};
+svg::Figure power_draw_figure(const std::vector<UpscalePoint>& points,
+                              const std::vector<Slice>& slices) {
+  svg::LineChart chart{.title = "Mill power draw",
+                       .x = {"speed fraction of critical (-)"},
+                       .y = {"power draw of the slice (W)"}};
   for (double fill : distinct(points, &UpscalePoint::fill)) {
     svg::Series macro{.name = fmt::format("J = {:g} macro", fill)};
     std::map<double, svg::Series> with_powder;
@@ -110,8 +121,9 @@ svg::Figure region_panels(const std::vector<UpscalePoint>& points, const std::ve
       svg::Series series{.name = region, .colour = region_colour(region)};
       bool present = false;
       for (const UpscalePoint* point : slice.points) {
-        const auto found = std::find_if(point->regions.begin(), point->regions.end(),
-                                        [&](const report::RegionResult& r) { return r.region == region; });
+        const auto found =
+            std::find_if(point->regions.begin(), point->regions.end(),
+                         [&](const report::RegionResult& r) { return r.region == region; });
         present = present || found != point->regions.end();
         series.x.push_back(point->powder_load);
         series.y.push_back(found == point->regions.end() ? kNaN : value(*found));
@@ -123,15 +135,18 @@ svg::Figure region_panels(const std::vector<UpscalePoint>& points, const std::ve
   return svg::panel_grid(panels, speed_columns(points), title);
 }
 
-svg::Figure spectra_figure(const std::vector<UpscalePoint>& points, const std::vector<Slice>& slices) {
+svg::Figure spectra_figure(const std::vector<UpscalePoint>& points,
+                           const std::vector<Slice>& slices) {
   std::vector<svg::Figure> panels;
   for (const Slice& slice : slices) {
-    svg::HistogramChart chart{.title = slice_label(slice),
-                              .x = {"dissipated energy per collision (J)", svg::Scale::log},
-                              .y = {"powder collisions per bin in the slice (1/s)", svg::Scale::log}};
+    svg::HistogramChart chart{
+        .title = slice_label(slice),
+        .x = {"dissipated energy per collision (J)", svg::Scale::log},
+        .y = {"powder collisions per bin in the slice (1/s)", svg::Scale::log}};
     for (const UpscalePoint* point : slice.points) {
-      chart.series.push_back(
-          {.name = fmt::format("U = {:g}", point->powder_load), .edges = point->bin_edges_j, .values = point->powder_rate_per_s});
+      chart.series.push_back({.name = fmt::format("U = {:g}", point->powder_load),
+                              .edges = point->bin_edges_j,
+                              .values = point->powder_rate_per_s});
     }
     panels.push_back(svg::histogram_chart(chart));
   }
@@ -140,15 +155,23 @@ svg::Figure spectra_figure(const std::vector<UpscalePoint>& points, const std::v
 
 svg::Figure maps_figure(const Slice& slice, const FlowMap& map) {
   std::vector<svg::MapMarker> sites;
-  for (const report::SiteResult& site : slice.first().sites) sites.push_back({site.x_m, site.y_m, site.site_id});
-  auto panel = [&](const char* title, const char* quantity, const std::vector<double>& values, svg::Scale scale) {
-    return svg::heat_map(
-        {.title = title, .quantity = quantity, .grid = map.grid, .values = values, .scale = scale, .markers = sites});
+  for (const report::SiteResult& site : slice.first().sites)
+    sites.push_back({site.x_m, site.y_m, site.site_id});
+  auto panel = [&](const char* title, const char* quantity, const std::vector<double>& values,
+                   svg::Scale scale) {
+    return svg::heat_map({.title = title,
+                          .quantity = quantity,
+                          .grid = map.grid,
+                          .values = values,
+                          .scale = scale,
+                          .markers = sites});
   };
-  return svg::panel_grid({panel("Shear rate", "shear rate (1/s)", map.shear_rate, svg::Scale::linear),
-                          panel("Normal stress", "normal stress on the shear plane (Pa)", map.normal_stress, svg::Scale::linear),
-                          panel("Dissipation", "dissipation (W/m^3)", map.dissipation, svg::Scale::log)},
-                         3, "Macro flow, " + slice_label(slice) + ", with the sites");
+  return svg::panel_grid(
+      {panel("Shear rate", "shear rate (1/s)", map.shear_rate, svg::Scale::linear),
+       panel("Normal stress", "normal stress on the shear plane (Pa)", map.normal_stress,
+             svg::Scale::linear),
+       panel("Dissipation", "dissipation (W/m^3)", map.dissipation, svg::Scale::log)},
+      3, "Macro flow, " + slice_label(slice) + ", with the sites");
 }
 
 svg::Figure coupling_figure(const std::vector<Slice>& slices) {
@@ -170,16 +193,24 @@ svg::Figure coupling_figure(const std::vector<Slice>& slices) {
     chart.series.push_back(std::move(series));
   }
   if (lo <= hi) {
-    chart.series.push_back({.name = "cell = macro", .x = {lo, hi}, .y = {lo, hi}, .colour = svg::kPaletteSize - 1,
-                            .dashed = true, .markers = false});
+    chart.series.push_back({.name = "cell = macro",
+                            .x = {lo, hi},
+                            .y = {lo, hi},
+                            .colour = svg::kPaletteSize - 1,
+                            .dashed = true,
+                            .markers = false});
   }
   return svg::line_chart(chart);
 }
 
 // ---- tables ----
 
-std::string number(double value) { return fmt::format("{}", value); }
-std::string number(const std::optional<double>& value) { return value ? number(*value) : std::string(); }
+std::string number(double value) {
+  return fmt::format("{}", value);
+}
+std::string number(const std::optional<double>& value) {
+  return value ? number(*value) : std::string();
+}
 
 std::string csv_text(const std::string& text) {
   if (text.find_first_of(",\"\n") == std::string::npos) return text;
@@ -202,7 +233,8 @@ std::vector<std::string> point_cells(const UpscalePoint& p) {
 }
 
 template <class Rows>
-std::string csv_table(const std::vector<std::string>& header, const std::vector<UpscalePoint>& points, Rows rows_of) {
+std::string csv_table(const std::vector<std::string>& header,
+                      const std::vector<UpscalePoint>& points, Rows rows_of) {
   std::string out = csv_row(header);
   for (const UpscalePoint& point : points) {
     for (std::vector<std::string> cells : rows_of(point)) {
@@ -216,38 +248,42 @@ std::string csv_table(const std::vector<std::string>& header, const std::vector<
 }
 
 std::string upscaled_csv(const std::vector<UpscalePoint>& points) {
-  return csv_table({"fill", "speed_fraction", "powder_load", "region", "sites", "volume_m3", "powder_power_w",
-                    "powder_power_share", "media_power_w", "media_collision_power_w",
-                    "media_collision_power_no_powder_w", "cushioning", "power_draw_w", "power_draw_with_powder_w",
-                    "dominant_region", "upscale_task"},
-                   points, [](const UpscalePoint& p) {
-                     std::vector<std::vector<std::string>> rows;
-                     for (const report::RegionResult& r : p.regions) {
-                       rows.push_back({r.region, fmt::format("{}", r.sites), number(r.volume_m3), number(r.powder_power_w),
-                                       number(r.powder_power_share), number(r.media_power_w),
-                                       number(r.media_collision_power_w), number(r.media_collision_power_no_powder_w),
-                                       number(r.cushioning), number(p.power_draw_w), number(p.power_draw_with_powder_w),
-                                       p.dominant_region.value_or("")});
-                     }
-                     return rows;
-                   });
+  return csv_table(
+      {"fill", "speed_fraction", "powder_load", "region", "sites", "volume_m3", "powder_power_w",
+       "powder_power_share", "media_power_w", "media_collision_power_w",
+       "media_collision_power_no_powder_w", "cushioning", "power_draw_w",
+       "power_draw_with_powder_w", "dominant_region", "upscale_task"},
+      points, [](const UpscalePoint& p) {
+        std::vector<std::vector<std::string>> rows;
+        for (const report::RegionResult& r : p.regions) {
+          rows.push_back({r.region, fmt::format("{}", r.sites), number(r.volume_m3),
+                          number(r.powder_power_w), number(r.powder_power_share),
+                          number(r.media_power_w), number(r.media_collision_power_w),
+                          number(r.media_collision_power_no_powder_w), number(r.cushioning),
+                          number(p.power_draw_w), number(p.power_draw_with_powder_w),
+                          p.dominant_region.value_or("")});
+        }
+        return rows;
+      });
 }
 
 std::string sites_csv(const std::vector<UpscalePoint>& points) {
-  return csv_table({"fill", "speed_fraction", "powder_load", "site_id", "region", "x_m", "y_m", "weight_m3",
-                    "shear_rate_per_s", "normal_stress_pa", "macro_shear_stress_pa", "cell_shear_stress_pa",
-                    "coupling_ratio", "power_density_w_m3", "powder_dissipation_w_m3", "skipped", "upscale_task"},
-                   points, [](const UpscalePoint& p) {
-                     std::vector<std::vector<std::string>> rows;
-                     for (const report::SiteResult& s : p.sites) {
-                       rows.push_back({s.site_id, s.region, number(s.x_m), number(s.y_m), number(s.weight_m3),
-                                       number(s.shear_rate_per_s), number(s.normal_stress_pa),
-                                       number(s.macro_shear_stress_pa), number(s.cell_shear_stress_pa),
-                                       number(s.coupling_ratio), number(s.power_density_w_m3),
-                                       number(s.powder_dissipation_w_m3), s.skipped.value_or("")});
-                     }
-                     return rows;
-                   });
+  return csv_table(
+      {"fill", "speed_fraction", "powder_load", "site_id", "region", "x_m", "y_m", "weight_m3",
+       "shear_rate_per_s", "normal_stress_pa", "macro_shear_stress_pa", "cell_shear_stress_pa",
+       "coupling_ratio", "power_density_w_m3", "powder_dissipation_w_m3", "skipped",
+       "upscale_task"},
+      points, [](const UpscalePoint& p) {
+        std::vector<std::vector<std::string>> rows;
+        for (const report::SiteResult& s : p.sites) {
+          rows.push_back({s.site_id, s.region, number(s.x_m), number(s.y_m), number(s.weight_m3),
+                          number(s.shear_rate_per_s), number(s.normal_stress_pa),
+                          number(s.macro_shear_stress_pa), number(s.cell_shear_stress_pa),
+                          number(s.coupling_ratio), number(s.power_density_w_m3),
+                          number(s.powder_dissipation_w_m3), s.skipped.value_or("")});
+        }
+        return rows;
+      });
 }
 
 std::string spectra_csv(const std::vector<UpscalePoint>& points) {
@@ -256,8 +292,9 @@ std::string spectra_csv(const std::vector<UpscalePoint>& points) {
                    points, [](const UpscalePoint& p) {
                      std::vector<std::vector<std::string>> rows;
                      for (std::size_t b = 0; b < p.powder_rate_per_s.size(); ++b) {
-                       rows.push_back({fmt::format("{}", b), number(p.bin_edges_j[b]), number(p.bin_edges_j[b + 1]),
-                                       number(p.powder_rate_per_s[b]), number(p.media_rate_per_s[b])});
+                       rows.push_back({fmt::format("{}", b), number(p.bin_edges_j[b]),
+                                       number(p.bin_edges_j[b + 1]), number(p.powder_rate_per_s[b]),
+                                       number(p.media_rate_per_s[b])});
                      }
                      return rows;
                    });
@@ -265,27 +302,33 @@ std::string spectra_csv(const std::vector<UpscalePoint>& points) {
 
 // ---- the page ----
 
-std::string md(double value) { return fmt::format("{:.4g}", value); }
+std::string md(double value) {
+  return fmt::format("{:.4g}", value);
+}
 
 std::string points_table(const std::vector<UpscalePoint>& points) {
   std::string out =
-      "| fill J | speed phi | powder load U | power draw (W) | with powder (W) | powder power (W) | media power (W) | "
+      "| fill J | speed phi | powder load U | power draw (W) | with powder (W) | powder power (W) "
+      "| media power (W) | "
       "dominant region |\n|---|---|---|---|---|---|---|---|\n";
   for (const UpscalePoint& p : points) {
-    out += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", g(p.fill), g(p.speed_fraction), g(p.powder_load),
-                       md(p.power_draw_w), md(p.power_draw_with_powder_w), md(p.powder_power_w), md(p.media_power_w),
-                       p.dominant_region.value_or("-"));
+    out +=
+        fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", g(p.fill), g(p.speed_fraction),
+                    g(p.powder_load), md(p.power_draw_w), md(p.power_draw_with_powder_w),
+                    md(p.powder_power_w), md(p.media_power_w), p.dominant_region.value_or("-"));
   }
   return out;
 }
 
 std::string coupling_table(const std::vector<Slice>& slices) {
-  std::string out = "| fill J | speed phi | sites compared | within tolerance | median cell/macro | tolerance |\n"
-                    "|---|---|---|---|---|---|\n";
+  std::string out =
+      "| fill J | speed phi | sites compared | within tolerance | median cell/macro | tolerance |\n"
+      "|---|---|---|---|---|---|\n";
   for (const Slice& slice : slices) {
     const report::Coupling& c = slice.first().coupling;
-    out += fmt::format("| {} | {} | {} | {} | {} | {} |\n", g(slice.fill), g(slice.speed_fraction), c.sites,
-                       c.within_tolerance, c.median_ratio ? md(*c.median_ratio) : "n/a", md(c.tolerance));
+    out += fmt::format("| {} | {} | {} | {} | {} | {} |\n", g(slice.fill), g(slice.speed_fraction),
+                       c.sites, c.within_tolerance, c.median_ratio ? md(*c.median_ratio) : "n/a",
+                       md(c.tolerance));
   }
   return out;
 }
@@ -293,43 +336,68 @@ std::string coupling_table(const std::vector<Slice>& slices) {
 std::string index_page(const std::string& campaign, const std::vector<UpscalePoint>& points,
                        const std::vector<Slice>& slices) {
   std::string out = fmt::format("# Campaign report: {}\n\n", campaign);
-  out += fmt::format("{} upscaled points: fills J = {}; speed fractions phi = {}; powder loads U = {}.\n\n", points.size(),
-                     fmt::join(distinct(points, &UpscalePoint::fill), ", "),
-                     fmt::join(distinct(points, &UpscalePoint::speed_fraction), ", "),
-                     fmt::join(distinct(points, &UpscalePoint::powder_load), ", "));
-  out += "## Power draw\n\n![power draw vs speed](power_draw.svg)\n\n"
-         "Power draw of the mill slice vs the speed as a fraction of the critical speed, one solid line per fill "
-         "(the macro DEM run, balls only) and one dashed line per fill and powder load (the draw including the "
-         "powder's effect, from the upscaled shear cells).\n\n";
-  out += "## Points\n\nThe dominant region is the region taking the largest share of the powder power; it is "
-         "computed from the shear cells, not assumed.\n\n" + points_table(points) + "\n";
-  out += "## Powder power by region\n\n![powder power shares](powder_power_shares.svg)\n\n"
-         "Each region's share of the power going into the powder (site power densities x site weights), vs the "
-         "powder load; one panel per fill (rows) and speed (columns).\n\n";
-  out += "## Cushioning\n\n![cushioning](cushioning.svg)\n\n"
-         "Media-media collision power with powder divided by the same without powder, per region: below 1 the powder "
-         "cushions the ball collisions.\n\n";
-  out += "## Powder collision energy spectra\n\n![powder spectra](powder_spectra.svg)\n\n"
-         "Powder collisions per second in the mill slice in each bin of dissipated energy per collision (log-log), one "
-         "step line per powder load.\n\n";
-  out += "## Flow maps\n\nShear rate, normal stress on the shear plane and energy dissipation density of the averaged "
-         "macro flow over the mill cross-section; the circles are the sites where the shear cells ran.\n\n";
-  for (const Slice& slice : slices) out += fmt::format("### {}\n\n![flow maps]({})\n\n", slice_label(slice), maps_file(slice));
-  out += "## Coupling check\n\n![coupling](coupling.svg)\n\n"
-         "A media-only shear cell driven by a site's shear rate and normal stress should reproduce the macro run's "
-         "shear stress there; the points should lie near the dashed 1:1 line.\n\n" + coupling_table(slices) + "\n";
-  out += "## Tables\n\n"
-         "- [upscaled.csv](upscaled.csv): one row per point and region (powers, shares, cushioning).\n"
-         "- [sites.csv](sites.csv): one row per point and site (macro state, cell results, coupling ratio).\n"
-         "- [spectra.csv](spectra.csv): one row per point and energy bin (powder and media collision rates).\n";
+  out += fmt::format(
+      "{} upscaled points: fills J = {}; speed fractions phi = {}; powder loads U = {}.\n\n",
+      points.size(), fmt::join(distinct(points, &UpscalePoint::fill), ", "),
+      fmt::join(distinct(points, &UpscalePoint::speed_fraction), ", "),
+      fmt::join(distinct(points, &UpscalePoint::powder_load), ", "));
+  out +=
+      "## Power draw\n\n![power draw vs speed](power_draw.svg)\n\n"
+      "Power draw of the mill slice vs the speed as a fraction of the critical speed, one solid "
+      "line per fill "
+      "(the macro DEM run, balls only) and one dashed line per fill and powder load (the draw "
+      "including the "
+      "powder's effect, from the upscaled shear cells).\n\n";
+  out +=
+      "## Points\n\nThe dominant region is the region taking the largest share of the powder "
+      "power; it is "
+      "computed from the shear cells, not assumed.\n\n" +
+      points_table(points) + "\n";
+  out +=
+      "## Powder power by region\n\n![powder power shares](powder_power_shares.svg)\n\n"
+      "Each region's share of the power going into the powder (site power densities x site "
+      "weights), vs the "
+      "powder load; one panel per fill (rows) and speed (columns).\n\n";
+  out +=
+      "## Cushioning\n\n![cushioning](cushioning.svg)\n\n"
+      "Media-media collision power with powder divided by the same without powder, per region: "
+      "below 1 the powder "
+      "cushions the ball collisions.\n\n";
+  out +=
+      "## Powder collision energy spectra\n\n![powder spectra](powder_spectra.svg)\n\n"
+      "Powder collisions per second in the mill slice in each bin of dissipated energy per "
+      "collision (log-log), one "
+      "step line per powder load.\n\n";
+  out +=
+      "## Flow maps\n\nShear rate, normal stress on the shear plane and energy dissipation density "
+      "of the averaged "
+      "macro flow over the mill cross-section; the circles are the sites where the shear cells "
+      "ran.\n\n";
+  for (const Slice& slice : slices)
+    out += fmt::format("### {}\n\n![flow maps]({})\n\n", slice_label(slice), maps_file(slice));
+  out +=
+      "## Coupling check\n\n![coupling](coupling.svg)\n\n"
+      "A media-only shear cell driven by a site's shear rate and normal stress should reproduce "
+      "the macro run's "
+      "shear stress there; the points should lie near the dashed 1:1 line.\n\n" +
+      coupling_table(slices) + "\n";
+  out +=
+      "## Tables\n\n"
+      "- [upscaled.csv](upscaled.csv): one row per point and region (powers, shares, cushioning).\n"
+      "- [sites.csv](sites.csv): one row per point and site (macro state, cell results, coupling "
+      "ratio).\n"
+      "- [spectra.csv](spectra.csv): one row per point and energy bin (powder and media collision "
+      "rates).\n";
   return out;
 }
 
-json result_of(const std::string& campaign, const std::vector<UpscalePoint>& points, const std::vector<Slice>& slices,
-               const std::vector<std::string>& files) {
+json result_of(const std::string& campaign, const std::vector<UpscalePoint>& points,
+               const std::vector<Slice>& slices, const std::vector<std::string>& files) {
   json dominant = json::array();
   for (const UpscalePoint& p : points) {
-    dominant.push_back({{"fill", p.fill}, {"speed_fraction", p.speed_fraction}, {"powder_load", p.powder_load},
+    dominant.push_back({{"fill", p.fill},
+                        {"speed_fraction", p.speed_fraction},
+                        {"powder_load", p.powder_load},
                         {"region", p.dominant_region ? json(*p.dominant_region) : json(nullptr)}});
   }
   std::size_t sites = 0, within = 0;
@@ -337,8 +405,12 @@ json result_of(const std::string& campaign, const std::vector<UpscalePoint>& poi
     sites += slice.first().coupling.sites;
     within += slice.first().coupling.within_tolerance;
   }
-  return {{"campaign", campaign}, {"files", files}, {"points", points.size()}, {"slices", slices.size()},
-          {"dominant_regions", dominant}, {"coupling", {{"sites", sites}, {"within_tolerance", within}}}};
+  return {{"campaign", campaign},
+          {"files", files},
+          {"points", points.size()},
+          {"slices", slices.size()},
+          {"dominant_regions", dominant},
+          {"coupling", {{"sites", sites}, {"within_tolerance", within}}}};
 }
 
 // Writes files into one directory and remembers them in order.
@@ -351,7 +423,9 @@ class ReportWriter {
     std::ofstream out(file, std::ios::binary | std::ios::trunc);
     out << text;
     out.close();
-    if (!out) throw std::runtime_error("cannot write " + file.string() + ": check the disk and the work directory");
+    if (!out)
+      throw std::runtime_error("cannot write " + file.string() +
+                               ": check the disk and the work directory");
     names_.push_back(name);
   }
   const std::vector<std::string>& names() const { return names_; }
@@ -372,32 +446,38 @@ engine::TaskOutcome run_report(engine::TaskContext& context) {
 
   ReportWriter out(context.work_dir);
   out.write("power_draw.svg", power_draw_figure(points, slices).svg);
-  out.write("powder_power_shares.svg",
-            region_panels(points, slices, "Share of the powder power by region", "share of the powder power (-)",
-                          [](const report::RegionResult& r) { return r.powder_power_share.value_or(kNaN); })
-                .svg);
+  out.write(
+      "powder_power_shares.svg",
+      region_panels(
+          points, slices, "Share of the powder power by region", "share of the powder power (-)",
+          [](const report::RegionResult& r) { return r.powder_power_share.value_or(kNaN); })
+          .svg);
   out.write("cushioning.svg",
             region_panels(points, slices, "Cushioning of media collisions by the powder",
                           "media collision power with / without powder (-)",
                           [](const report::RegionResult& r) { return r.cushioning.value_or(kNaN); })
                 .svg);
   out.write("powder_spectra.svg", spectra_figure(points, slices).svg);
-  for (const Slice& slice : slices) out.write(maps_file(slice), maps_figure(slice, inputs.flow_maps.at(slice.first().average_task)).svg);
+  for (const Slice& slice : slices)
+    out.write(maps_file(slice),
+              maps_figure(slice, inputs.flow_maps.at(slice.first().average_task)).svg);
   out.write("coupling.svg", coupling_figure(slices).svg);
   out.write("upscaled.csv", upscaled_csv(points));
   out.write("sites.csv", sites_csv(points));
   out.write("spectra.csv", spectra_csv(points));
   out.write("index.md", index_page(campaign, points, slices));
 
-  engine::TaskOutcome outcome = engine::TaskOutcome::with_result(result_of(campaign, points, slices, out.names()));
+  engine::TaskOutcome outcome =
+      engine::TaskOutcome::with_result(result_of(campaign, points, slices, out.names()));
   for (const std::string& name : out.names()) outcome.artifacts.push_back({name, out.dir() / name});
-  context.log(fmt::format("report of {} points ({} fill/speed slices): {} files", points.size(), slices.size(),
-                          out.names().size()));
+  context.log(fmt::format("report of {} points ({} fill/speed slices): {} files", points.size(),
+                          slices.size(), out.names().size()));
   return outcome;
 }
 
 void register_report(engine::Registry& registry) {
-  registry.kinds.add(engine::TaskKind{.name = "report", .version = kReportVersion, .run = run_report});
+  registry.kinds.add(
+      engine::TaskKind{.name = "report", .version = kReportVersion, .run = run_report});
 }
 
 }  // namespace millflow::tasks

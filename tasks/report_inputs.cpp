@@ -15,7 +15,8 @@ using nlohmann::json;
 // Typed reads from one task's JSON by JSON pointer, with errors that name the task and field.
 class FieldReader {
  public:
-  FieldReader(std::string owner, const json& document) : owner_(std::move(owner)), document_(document) {}
+  FieldReader(std::string owner, const json& document)
+      : owner_(std::move(owner)), document_(document) {}
 
   const json& at(const std::string& pointer) const {
     const json::json_pointer where(pointer);
@@ -33,7 +34,8 @@ class FieldReader {
   }
   std::size_t count(const std::string& pointer) const {
     const json& value = at(pointer);
-    if (!value.is_number_integer() || value.get<long long>() < 0) refuse(pointer, "is " + value.dump() + ", not a count");
+    if (!value.is_number_integer() || value.get<long long>() < 0)
+      refuse(pointer, "is " + value.dump() + ", not a count");
     return value.get<std::size_t>();
   }
   std::string text(const std::string& pointer) const {
@@ -52,13 +54,15 @@ class FieldReader {
   }
   std::vector<double> numbers(const std::string& pointer) const {
     std::vector<double> values;
-    for (std::size_t i = 0; i < array_size(pointer); ++i) values.push_back(number(fmt::format("{}/{}", pointer, i)));
+    for (std::size_t i = 0; i < array_size(pointer); ++i)
+      values.push_back(number(fmt::format("{}/{}", pointer, i)));
     return values;
   }
   [[noreturn]] void refuse(const std::string& pointer, const std::string& problem) const {
-    throw std::invalid_argument(fmt::format("{}: field {} {}; the report reads the upscale result contract, so re-run "
-                                            "that task with a matching version",
-                                            owner_, pointer, problem));
+    throw std::invalid_argument(
+        fmt::format("{}: field {} {}; the report reads the upscale result contract, so re-run "
+                    "that task with a matching version",
+                    owner_, pointer, problem));
   }
 
  private:
@@ -100,8 +104,10 @@ void read_spectra(const FieldReader& in, UpscalePoint& point) {
   point.media_rate_per_s = in.numbers("/spectra/media_rate_per_s");
   if (point.bin_edges_j.size() < 2) in.refuse("/spectra/bin_edges_j", "holds fewer than 2 edges");
   const std::size_t bins = point.bin_edges_j.size() - 1;
-  if (point.powder_rate_per_s.size() != bins) in.refuse("/spectra/powder_rate_per_s", fmt::format("does not hold {} bins", bins));
-  if (point.media_rate_per_s.size() != bins) in.refuse("/spectra/media_rate_per_s", fmt::format("does not hold {} bins", bins));
+  if (point.powder_rate_per_s.size() != bins)
+    in.refuse("/spectra/powder_rate_per_s", fmt::format("does not hold {} bins", bins));
+  if (point.media_rate_per_s.size() != bins)
+    in.refuse("/spectra/media_rate_per_s", fmt::format("does not hold {} bins", bins));
 }
 
 FlowMap read_flow_map(const engine::TaskInput& average) {
@@ -111,7 +117,9 @@ FlowMap read_flow_map(const engine::TaskInput& average) {
     throw std::invalid_argument(owner + ": has no fields.json artifact; re-run the average task");
   }
   std::ifstream file(artifact->second);
-  if (!file) throw std::invalid_argument(fmt::format("{}: cannot read {}", owner, artifact->second.string()));
+  if (!file)
+    throw std::invalid_argument(
+        fmt::format("{}: cannot read {}", owner, artifact->second.string()));
   try {
     return flow_map_from_document(json::parse(file));
   } catch (const std::exception& error) {
@@ -138,8 +146,10 @@ UpscalePoint read_upscale(const std::string& task_key, const json& result) {
                                   .median_ratio = in.number_or_null("/coupling/median_ratio"),
                                   .tolerance = in.number("/coupling/tolerance"),
                                   .within_tolerance = in.count("/coupling/within_tolerance")}};
-  for (std::size_t r = 0; r < in.array_size("/regions"); ++r) point.regions.push_back(read_region(in, fmt::format("/regions/{}", r)));
-  for (std::size_t s = 0; s < in.array_size("/sites"); ++s) point.sites.push_back(read_site(in, fmt::format("/sites/{}", s)));
+  for (std::size_t r = 0; r < in.array_size("/regions"); ++r)
+    point.regions.push_back(read_region(in, fmt::format("/regions/{}", r)));
+  for (std::size_t s = 0; s < in.array_size("/sites"); ++s)
+    point.sites.push_back(read_site(in, fmt::format("/sites/{}", s)));
   read_spectra(in, point);
   return point;
 }
@@ -152,22 +162,25 @@ ReportInputs read_report_inputs(const std::vector<engine::TaskInput>& inputs) {
     if (input.kind == "average") averages[input.key] = &input;
   }
   if (report.points.empty()) {
-    throw std::invalid_argument("the report has no upscale input: plan it below the campaign's upscale tasks");
+    throw std::invalid_argument(
+        "the report has no upscale input: plan it below the campaign's upscale tasks");
   }
   for (const UpscalePoint& point : report.points) {
     if (report.flow_maps.count(point.average_task) > 0) continue;
     const auto average = averages.find(point.average_task);
     if (average == averages.end()) {
-      throw std::invalid_argument(fmt::format("upscale task {}: field /average_task names {}, which is not an average "
-                                              "input of the report; plan the report below that average task",
-                                              point.task_key, point.average_task));
+      throw std::invalid_argument(
+          fmt::format("upscale task {}: field /average_task names {}, which is not an average "
+                      "input of the report; plan the report below that average task",
+                      point.task_key, point.average_task));
     }
     report.flow_maps.emplace(point.average_task, read_flow_map(*average->second));
   }
-  std::sort(report.points.begin(), report.points.end(), [](const UpscalePoint& a, const UpscalePoint& b) {
-    return std::tie(a.fill, a.speed_fraction, a.powder_load, a.task_key) <
-           std::tie(b.fill, b.speed_fraction, b.powder_load, b.task_key);
-  });
+  std::sort(report.points.begin(), report.points.end(),
+            [](const UpscalePoint& a, const UpscalePoint& b) {
+              return std::tie(a.fill, a.speed_fraction, a.powder_load, a.task_key) <
+                     std::tie(b.fill, b.speed_fraction, b.powder_load, b.task_key);
+            });
   return report;
 }
 

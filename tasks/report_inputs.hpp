@@ -33,7 +33,8 @@ struct SiteResult {
   std::string site_id{}, region{};
   double x_m = 0.0, y_m = 0.0, weight_m3 = 0.0;
   double shear_rate_per_s = 0.0, normal_stress_pa = 0.0, macro_shear_stress_pa = 0.0;
-  std::optional<double> cell_shear_stress_pa, coupling_ratio, power_density_w_m3, powder_dissipation_w_m3;
+  std::optional<double> cell_shear_stress_pa, coupling_ratio, power_density_w_m3,
+      powder_dissipation_w_m3;
   std::optional<std::string> skipped{};  // the reason the cell was skipped
 };
 
@@ -60,8 +61,8 @@ struct UpscalePoint {
 UpscalePoint read_upscale(const std::string& task_key, const nlohmann::json& result);
 
 struct ReportInputs {
-  std::vector<UpscalePoint> points{};            // sorted (see above)
-  std::map<std::string, FlowMap> flow_maps;    // by average task key
+  std::vector<UpscalePoint> points{};        // sorted (see above)
+  std::map<std::string, FlowMap> flow_maps;  // by average task key
 };
 
 // Throws std::invalid_argument when there is no upscale input, an upscale names an average task

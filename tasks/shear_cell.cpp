@@ -18,7 +18,9 @@ namespace {
 
 using nlohmann::json;
 
-const json& at(const json& params, const std::string& path) { return params.at(json::json_pointer(path)); }
+const json& at(const json& params, const std::string& path) {
+  return params.at(json::json_pointer(path));
+}
 
 double sphere_mass(double density, double diameter) {
   return density * std::numbers::pi * diameter * diameter * diameter / 6.0;
@@ -27,7 +29,8 @@ double sphere_mass(double density, double diameter) {
 dem::ShearCellSetup::Boundary boundary(const std::string& name) {
   if (name == "walls") return dem::ShearCellSetup::Boundary::RoughWalls;
   if (name == "lees_edwards") return dem::ShearCellSetup::Boundary::LeesEdwards;
-  throw engine::InvalidInput({{"/shear_cell/boundary", "is \"" + name + "\"", "write \"walls\" or \"lees_edwards\""}});
+  throw engine::InvalidInput(
+      {{"/shear_cell/boundary", "is \"" + name + "\"", "write \"walls\" or \"lees_edwards\""}});
 }
 
 bool involves_powder(dem::ContactType type) {
@@ -51,28 +54,32 @@ json spectra_json(const dem::ShearCellMeasurements& m) {
 
 }  // namespace
 
-dem::ShearCellSetup shear_cell_setup(const json& params, const json& site, const std::string& task_key) {
+dem::ShearCellSetup shear_cell_setup(const json& params, const json& site,
+                                     const std::string& task_key) {
   dem::ShearCellSetup setup;
   const json& cell = params.at("shear_cell");
   const auto media = at(params, "/media/material").get<std::string>();
   const auto powder = at(cell, "/powder/material").get<std::string>();
   setup.media_diameter = media_diameter(params);
   setup.media = dem::Material{media, at(params, "/materials/" + media + "/density").get<double>()};
-  setup.powder = dem::Material{powder, at(params, "/materials/" + powder + "/density").get<double>()};
+  setup.powder =
+      dem::Material{powder, at(params, "/materials/" + powder + "/density").get<double>()};
   setup.powder_diameter_ratio = at(cell, "/powder/diameter_ratio").get<double>();
   setup.powder_load = at(cell, "/powder/load").get<double>();
 
   const double media_mass = sphere_mass(setup.media.density, setup.media_diameter);
   const double powder_mass =
       sphere_mass(setup.powder.density, setup.powder_diameter_ratio * setup.media_diameter);
-  setup.media_media = interaction_spec(find_interaction(params, media, media), dem::effective_mass(media_mass, media_mass));
-  setup.media_powder =
-      interaction_spec(find_interaction(params, media, powder), dem::effective_mass(media_mass, powder_mass));
-  setup.powder_powder =
-      interaction_spec(find_interaction(params, powder, powder), dem::effective_mass(powder_mass, powder_mass));
+  setup.media_media = interaction_spec(find_interaction(params, media, media),
+                                       dem::effective_mass(media_mass, media_mass));
+  setup.media_powder = interaction_spec(find_interaction(params, media, powder),
+                                        dem::effective_mass(media_mass, powder_mass));
+  setup.powder_powder = interaction_spec(find_interaction(params, powder, powder),
+                                         dem::effective_mass(powder_mass, powder_mass));
 
   const json& size = cell.at("size_diameters");
-  setup.size_diameters = dem::Vec3(size.at(0).get<double>(), size.at(1).get<double>(), size.at(2).get<double>());
+  setup.size_diameters =
+      dem::Vec3(size.at(0).get<double>(), size.at(1).get<double>(), size.at(2).get<double>());
   setup.boundary = boundary(cell.at("boundary").get<std::string>());
   setup.shear_rate = site.at("shear_rate_per_s").get<double>();
   setup.normal_stress = site.at("normal_stress_pa").get<double>();
@@ -138,17 +145,21 @@ namespace {
 constexpr const char* kCheckpointFile = "cell.ckpt";
 
 // The run saved by an earlier attempt, or a fresh one when there is none or it cannot be used.
-dem::ShearCellRun resume_or_start(const dem::ShearCellSetup& setup, const dem::ShearCellProtocol& protocol,
-                                  const std::filesystem::path& checkpoint, engine::TaskContext& context) {
+dem::ShearCellRun resume_or_start(const dem::ShearCellSetup& setup,
+                                  const dem::ShearCellProtocol& protocol,
+                                  const std::filesystem::path& checkpoint,
+                                  engine::TaskContext& context) {
   if (std::filesystem::exists(checkpoint)) {
     try {
       dem::ShearCellRun run = dem::ShearCellRun::resume(setup, protocol, checkpoint);
-      context.log(fmt::format("shear cell: continuing from the checkpoint at step {} ({}, {:.0f}% done)",
-                              run.cell().system().step_count(), run.phase_name(), 100.0 * run.progress()));
+      context.log(
+          fmt::format("shear cell: continuing from the checkpoint at step {} ({}, {:.0f}% done)",
+                      run.cell().system().step_count(), run.phase_name(), 100.0 * run.progress()));
       return run;
     } catch (const dem::CorruptData& error) {
-      context.log(fmt::format("shear cell: the checkpoint {} cannot be used ({}); starting again from scratch",
-                              checkpoint.string(), error.what()));
+      context.log(fmt::format(
+          "shear cell: the checkpoint {} cannot be used ({}); starting again from scratch",
+          checkpoint.string(), error.what()));
       std::filesystem::remove(checkpoint);
     }
   }
@@ -172,9 +183,11 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   const SlotSite found = find_slot_site(context.inputs.at(0).result, slot);
   if (!found.skipped.empty()) {
     context.log(fmt::format("shear cell {} skipped: {}", slot_site_id(slot), found.skipped));
-    return engine::TaskOutcome::with_result({{"skipped", found.skipped}, {"slot", slot}, {"powder_load", powder_load}});
+    return engine::TaskOutcome::with_result(
+        {{"skipped", found.skipped}, {"slot", slot}, {"powder_load", powder_load}});
   }
-  std::filesystem::create_directories(context.work_dir);  // the engine leaves its creation to the task
+  std::filesystem::create_directories(
+      context.work_dir);  // the engine leaves its creation to the task
   const auto checkpoint = context.work_dir / kCheckpointFile;
   dem::ShearCellRun run = resume_or_start(shear_cell_setup(context.params, found.site, context.key),
                                           shear_cell_protocol(context.params), checkpoint, context);
@@ -203,11 +216,12 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   result["powder_count"] = cell.powder_count();
   result["wall_ball_count"] = cell.wall_ball_count();
   // Timings go to the log, not the result: a result must not depend on the machine's load.
-  context.log(fmt::format("shear cell {}: tau {:.4g} Pa, p {:.4g} Pa, mu {:.3g}, I {:.3g}, {:.4g} W/m^3{}; "
-                          "measured window {:.3g} s wall, {:.3g} particle-steps/s",
-                          slot_site_id(slot), m.shear_stress, m.normal_stress, m.friction, m.inertial_number,
-                          m.power_density, m.steady ? "" : " (not steady)", m.wall_seconds,
-                          m.particle_steps_per_second));
+  context.log(
+      fmt::format("shear cell {}: tau {:.4g} Pa, p {:.4g} Pa, mu {:.3g}, I {:.3g}, {:.4g} W/m^3{}; "
+                  "measured window {:.3g} s wall, {:.3g} particle-steps/s",
+                  slot_site_id(slot), m.shear_stress, m.normal_stress, m.friction,
+                  m.inertial_number, m.power_density, m.steady ? "" : " (not steady)",
+                  m.wall_seconds, m.particle_steps_per_second));
   const auto snapshot = context.work_dir / "cell.vtp";
   dem::write_particles_vtp(cell.system(), snapshot);
   std::filesystem::remove(checkpoint);

@@ -63,9 +63,9 @@ dem::ShearCellSetup shear_cell_setup(const nlohmann::json& params, const nlohman
 // contact type, total}, powder_dissipation_w_m3 (every type involving powder), collisions {by
 // contact type, media, powder: count, rate_per_m3_s}, spectra {bin_edges_j, media, powder:
 // dissipated energy histograms}, energy {work_in_j, kinetic_change_j, elastic_change_j,
-// dissipated_j, stress_control_work_j (in work_in_j), balance_error}, steady_state {shear_stress_first_half_pa,
-// shear_stress_second_half_pa, deviation, steady}. The measured window's wall time and
-// particle-steps per second go to the task's log only.
+// dissipated_j, stress_control_work_j (in work_in_j), balance_error}, steady_state
+// {shear_stress_first_half_pa, shear_stress_second_half_pa, deviation, steady}. The measured
+// window's wall time and particle-steps per second go to the task's log only.
 nlohmann::json measurements_json(const dem::ShearCellMeasurements& m);
 
 // The warm-up and measurement of a shear_cell task's parameters.

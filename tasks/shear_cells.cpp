@@ -14,7 +14,8 @@ using nlohmann::json;
 std::string unusable_reason(const json& site) {
   for (const char* key : {"shear_rate_per_s", "normal_stress_pa"}) {
     const double value = site.at(key).get<double>();
-    if (!(value > 0.0 && std::isfinite(value))) return fmt::format("{} = {} is not positive", key, value);
+    if (!(value > 0.0 && std::isfinite(value)))
+      return fmt::format("{} = {} is not positive", key, value);
   }
   return {};
 }
@@ -31,8 +32,8 @@ SlotSite find_slot_site(const json& sites_result, const json& slot) {
     if (site.at("site_id") != id) continue;
     return {site, unusable_reason(site)};
   }
-  return {json(), fmt::format("the sites task chose no site {} (region {} has fewer cells or none)", id,
-                              slot.at("region").get<std::string>())};
+  return {json(), fmt::format("the sites task chose no site {} (region {} has fewer cells or none)",
+                              id, slot.at("region").get<std::string>())};
 }
 
 // One row per shear cell that ran, with the sweep point it belongs to (view macro_lineage).
@@ -69,7 +70,8 @@ JOIN macro_lineage lineage ON lineage.task_key = cell.key
 }
 
 void register_shear_cells(engine::Registry& registry) {
-  registry.kinds.add(engine::TaskKind{.name = "shear_cell", .version = kShearCellVersion, .run = run_shear_cell});
+  registry.kinds.add(
+      engine::TaskKind{.name = "shear_cell", .version = kShearCellVersion, .run = run_shear_cell});
   registry.views.push_back(micro_results_view());
 }
 

@@ -1,5 +1,5 @@
-#include <filesystem>
 #include "tasks/sites.hpp"
+#include <filesystem>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -22,11 +22,13 @@ enum Region : int { kNearLiner, kCataracting, kToe, kShoulder, kCascading, kBulk
 
 std::vector<double> scalar_array(const json& fields, const std::string& name, std::size_t cells) {
   const json& arrays = fields.at("arrays");
-  if (!arrays.contains(name)) throw std::invalid_argument("fields.json has no array '" + name + "': re-run average");
+  if (!arrays.contains(name))
+    throw std::invalid_argument("fields.json has no array '" + name + "': re-run average");
   auto values = arrays.at(name).at("values").get<std::vector<double>>();
   if (values.size() != cells) {
     throw std::invalid_argument(
-        fmt::format("fields.json array '{}' holds {} values for {} cells: re-run average", name, values.size(), cells));
+        fmt::format("fields.json array '{}' holds {} values for {} cells: re-run average", name,
+                    values.size(), cells));
   }
   return values;
 }
@@ -39,16 +41,21 @@ struct BedEnds {
 std::optional<BedEnds> bed_ends(const FlowMap& map, const RegionRules& rules) {
   constexpr int kSamples = 360;
   const CrossSectionGrid& g = map.grid;
-  const double radius =
-      g.half_width - std::max(rules.liner_layer_diameters * map.media_diameter, std::max(g.dx(), g.dy()));
+  const double radius = g.half_width - std::max(rules.liner_layer_diameters * map.media_diameter,
+                                                std::max(g.dx(), g.dy()));
   auto angle = [](int k) { return 2.0 * std::numbers::pi * k / kSamples - std::numbers::pi; };
   std::vector<double> nu(kSamples);
   for (int k = 0; k < kSamples; ++k) {
-    const int i = std::clamp(static_cast<int>((radius * std::cos(angle(k)) + g.half_width) / g.dx()), 0, g.nx - 1);
-    const int j = std::clamp(static_cast<int>((radius * std::sin(angle(k)) + g.half_width) / g.dy()), 0, g.ny - 1);
+    const int i = std::clamp(
+        static_cast<int>((radius * std::cos(angle(k)) + g.half_width) / g.dx()), 0, g.nx - 1);
+    const int j = std::clamp(
+        static_cast<int>((radius * std::sin(angle(k)) + g.half_width) / g.dy()), 0, g.ny - 1);
     nu[static_cast<std::size_t>(k)] = map.solid_fraction[g.index(i, j)];
   }
-  auto bed = [&](int k) { return nu[static_cast<std::size_t>(((k % kSamples) + kSamples) % kSamples)] >= rules.bed_solid_fraction; };
+  auto bed = [&](int k) {
+    return nu[static_cast<std::size_t>(((k % kSamples) + kSamples) % kSamples)] >=
+           rules.bed_solid_fraction;
+  };
   const int bottom = kSamples / 4;  // -90 degrees
   const int anchor =
       bed(bottom) ? bottom : static_cast<int>(std::max_element(nu.begin(), nu.end()) - nu.begin());
@@ -61,24 +68,32 @@ std::optional<BedEnds> bed_ends(const FlowMap& map, const RegionRules& rules) {
   return BedEnds{.toe = angle(toe), .shoulder = angle(shoulder), .radius = radius};
 }
 
-std::vector<int> classify(const FlowMap& map, const RegionRules& rules, const std::optional<BedEnds>& ends) {
+std::vector<int> classify(const FlowMap& map, const RegionRules& rules,
+                          const std::optional<BedEnds>& ends) {
   const CrossSectionGrid& g = map.grid;
   const double liner_layer = rules.liner_layer_diameters * map.media_diameter;
   const double end_radius = rules.end_radius_fraction * g.half_width;
   const double bulk_shear = rules.bulk_max_shear_per_omega * std::abs(map.angular_velocity);
   auto near = [&](double x, double y, double angle) {
-    return std::hypot(x - ends->radius * std::cos(angle), y - ends->radius * std::sin(angle)) <= end_radius;
+    return std::hypot(x - ends->radius * std::cos(angle), y - ends->radius * std::sin(angle)) <=
+           end_radius;
   };
   std::vector<int> region(g.size(), -1);
   for (std::size_t c = 0; c < g.size(); ++c) {
     const double x = g.x_of(c), y = g.y_of(c), nu = map.solid_fraction[c];
     if (!g.inside_mill(c) || nu < rules.charge_solid_fraction) continue;
-    if (g.half_width - std::hypot(x, y) < liner_layer) region[c] = kNearLiner;
-    else if (nu < rules.flight_solid_fraction) region[c] = kCataracting;
-    else if (ends && near(x, y, ends->toe)) region[c] = kToe;
-    else if (ends && near(x, y, ends->shoulder)) region[c] = kShoulder;
-    else if (map.shear_rate[c] >= bulk_shear) region[c] = kCascading;
-    else region[c] = kBulk;
+    if (g.half_width - std::hypot(x, y) < liner_layer)
+      region[c] = kNearLiner;
+    else if (nu < rules.flight_solid_fraction)
+      region[c] = kCataracting;
+    else if (ends && near(x, y, ends->toe))
+      region[c] = kToe;
+    else if (ends && near(x, y, ends->shoulder))
+      region[c] = kShoulder;
+    else if (map.shear_rate[c] >= bulk_shear)
+      region[c] = kCascading;
+    else
+      region[c] = kBulk;
   }
   return region;
 }
@@ -103,31 +118,38 @@ Site site_of(const FlowMap& map, const std::vector<std::size_t>& cells, double t
     dissipated += map.dissipation[c];
   }
   const double n = static_cast<double>(cells.size());
-  for (double* solid_weighted : {&s.shear_rate, &s.normal_stress, &s.shear_stress, &s.pressure, &s.granular_temperature, &cx, &cy}) {
+  for (double* solid_weighted : {&s.shear_rate, &s.normal_stress, &s.shear_stress, &s.pressure,
+                                 &s.granular_temperature, &cx, &cy}) {
     *solid_weighted /= solid;
   }
   s.solid_fraction = solid / n;
   s.collision_frequency /= n;
   s.dissipation = dissipated / n;
   s.weight_m3 = n * cell_volume;
-  s.dissipation_share = total_dissipation > 0.0 ? dissipated * cell_volume / total_dissipation : 0.0;
-  const auto nearest = std::min_element(cells.begin(), cells.end(), [&](std::size_t a, std::size_t b) {
-    return std::hypot(g.x_of(a) - cx, g.y_of(a) - cy) < std::hypot(g.x_of(b) - cx, g.y_of(b) - cy);
-  });
+  s.dissipation_share =
+      total_dissipation > 0.0 ? dissipated * cell_volume / total_dissipation : 0.0;
+  const auto nearest =
+      std::min_element(cells.begin(), cells.end(), [&](std::size_t a, std::size_t b) {
+        return std::hypot(g.x_of(a) - cx, g.y_of(a) - cy) <
+               std::hypot(g.x_of(b) - cx, g.y_of(b) - cy);
+      });
   s.x = g.x_of(*nearest);
   s.y = g.y_of(*nearest);
   return s;
 }
 
-std::vector<Site> sites_of_region(const FlowMap& map, std::vector<std::size_t> cells, const std::string& name,
-                                  int per_region, double total_dissipation) {
-  std::stable_sort(cells.begin(), cells.end(),
-                   [&](std::size_t a, std::size_t b) { return map.shear_rate[a] < map.shear_rate[b]; });
+std::vector<Site> sites_of_region(const FlowMap& map, std::vector<std::size_t> cells,
+                                  const std::string& name, int per_region,
+                                  double total_dissipation) {
+  std::stable_sort(cells.begin(), cells.end(), [&](std::size_t a, std::size_t b) {
+    return map.shear_rate[a] < map.shear_rate[b];
+  });
   const std::size_t groups = std::min(cells.size(), static_cast<std::size_t>(per_region));
   std::vector<Site> sites;
   for (std::size_t k = 0; k < groups; ++k) {
-    const std::vector<std::size_t> group(cells.begin() + static_cast<std::ptrdiff_t>(k * cells.size() / groups),
-                                         cells.begin() + static_cast<std::ptrdiff_t>((k + 1) * cells.size() / groups));
+    const std::vector<std::size_t> group(
+        cells.begin() + static_cast<std::ptrdiff_t>(k * cells.size() / groups),
+        cells.begin() + static_cast<std::ptrdiff_t>((k + 1) * cells.size() / groups));
     Site site = site_of(map, group, total_dissipation);
     site.site_id = fmt::format("{}-{}", name, k);
     site.region = name;
@@ -136,8 +158,8 @@ std::vector<Site> sites_of_region(const FlowMap& map, std::vector<std::size_t> c
   return sites;
 }
 
-RegionSummary summarise(const FlowMap& map, const std::vector<std::size_t>& cells, const std::string& name,
-                        double total_dissipation) {
+RegionSummary summarise(const FlowMap& map, const std::vector<std::size_t>& cells,
+                        const std::string& name, double total_dissipation) {
   const double cell_volume = map.grid.cell_area() * map.slice_length;
   RegionSummary r{.name = name, .cells = cells.size()};
   double solid = 0.0, shear = 0.0;
@@ -201,7 +223,8 @@ json selection_json(const SiteSelection& selection) {
 }  // namespace
 
 const std::vector<std::string>& region_names() {
-  static const std::vector<std::string> names = {"near_liner", "cataracting", "toe", "shoulder", "cascading", "bulk"};
+  static const std::vector<std::string> names = {"near_liner", "cataracting", "toe",
+                                                 "shoulder",   "cascading",   "bulk"};
   return names;
 }
 
@@ -226,13 +249,15 @@ FlowMap flow_map_from_document(const json& fields) {
   return map;
 }
 
-SiteSelection select_sites(const FlowMap& map, const RegionRules& rules, const std::vector<std::string>& site_regions,
-                           int per_region) {
-  if (per_region < 1) throw std::invalid_argument(fmt::format("{} sites per region: ask for at least 1", per_region));
+SiteSelection select_sites(const FlowMap& map, const RegionRules& rules,
+                           const std::vector<std::string>& site_regions, int per_region) {
+  if (per_region < 1)
+    throw std::invalid_argument(fmt::format("{} sites per region: ask for at least 1", per_region));
   const auto& names = region_names();
   for (const std::string& name : site_regions) {
     if (std::find(names.begin(), names.end(), name) == names.end()) {
-      throw std::invalid_argument(fmt::format("unknown flow region '{}': use one of {}", name, fmt::join(names, ", ")));
+      throw std::invalid_argument(
+          fmt::format("unknown flow region '{}': use one of {}", name, fmt::join(names, ", ")));
     }
   }
   SiteSelection selection;
@@ -246,14 +271,16 @@ SiteSelection select_sites(const FlowMap& map, const RegionRules& rules, const s
   std::vector<std::vector<std::size_t>> cells(names.size());
   for (std::size_t c = 0; c < map.grid.size(); ++c) {
     selection.total_dissipation_w += map.dissipation[c] * cell_volume;
-    if (selection.region_of_cell[c] >= 0) cells[static_cast<std::size_t>(selection.region_of_cell[c])].push_back(c);
+    if (selection.region_of_cell[c] >= 0)
+      cells[static_cast<std::size_t>(selection.region_of_cell[c])].push_back(c);
   }
   for (std::size_t r = 0; r < names.size(); ++r) {
     selection.regions.push_back(summarise(map, cells[r], names[r], selection.total_dissipation_w));
     selection.charge_volume_m3 += selection.regions.back().volume_m3;
   }
   for (const std::string& name : site_regions) {
-    const std::size_t r = static_cast<std::size_t>(std::find(names.begin(), names.end(), name) - names.begin());
+    const std::size_t r =
+        static_cast<std::size_t>(std::find(names.begin(), names.end(), name) - names.begin());
     auto sites = sites_of_region(map, cells[r], name, per_region, selection.total_dissipation_w);
     selection.regions[r].sites = sites.size();
     selection.sites.insert(selection.sites.end(), sites.begin(), sites.end());
@@ -267,15 +294,18 @@ engine::TaskOutcome run_sites(engine::TaskContext& context) {
   const json fields = json::parse(file);
   const FlowMap map = flow_map_from_document(fields);
   const json& params = context.params.at("sites");
-  const SiteSelection selection = select_sites(map, RegionRules{}, params.at("regions").get<std::vector<std::string>>(),
-                                               params.at("per_region").get<int>());
+  const SiteSelection selection =
+      select_sites(map, RegionRules{}, params.at("regions").get<std::vector<std::string>>(),
+                   params.at("per_region").get<int>());
 
-  std::vector<double> region_index(selection.region_of_cell.begin(), selection.region_of_cell.end());
+  std::vector<double> region_index(selection.region_of_cell.begin(),
+                                   selection.region_of_cell.end());
   const std::vector<CellArray> arrays = {{"region", 1, std::move(region_index)},
                                          {"solid_fraction", 1, map.solid_fraction},
                                          {"shear_rate_per_s", 1, map.shear_rate},
                                          {"dissipation_w_m3", 1, map.dissipation}};
-  std::filesystem::create_directories(context.work_dir);  // the engine leaves its creation to the task
+  std::filesystem::create_directories(
+      context.work_dir);  // the engine leaves its creation to the task
   const auto vti = context.work_dir / "regions.vti";
   write_vtk_image(vti, map.grid, arrays);
 
@@ -283,7 +313,8 @@ engine::TaskOutcome run_sites(engine::TaskContext& context) {
   result["region_index"] = region_names();
   engine::TaskOutcome outcome = engine::TaskOutcome::with_result(std::move(result));
   outcome.artifacts = {{"regions.vti", vti}};
-  context.log(fmt::format("{} sites over a charge of {:.4g} m^3", selection.sites.size(), selection.charge_volume_m3));
+  context.log(fmt::format("{} sites over a charge of {:.4g} m^3", selection.sites.size(),
+                          selection.charge_volume_m3));
   return outcome;
 }
 

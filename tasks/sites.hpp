@@ -23,7 +23,8 @@
 //   weight_m3       the group's volume (cell area x slice length x cells): the sites' weights sum
 //                   to the volume of the charge in the regions that get sites;
 //   dissipation_share  the group's dissipated power over the mill's total;
-//   shear rate, normal and shear stress (on the shear plane), pressure, granular temperature: means weighted by solid volume
+//   shear rate, normal and shear stress (on the shear plane), pressure, granular temperature: means
+//   weighted by solid volume
 //                   (what the media there experience); solid fraction, collision frequency and
 //                   dissipation density: means over the group's volume.
 // Empty regions give no sites.
@@ -59,8 +60,8 @@ struct FlowMap {
   double slice_length = 0.0;
   double media_diameter = 0.0;
   double angular_velocity = 0.0;  // rad/s, counter-clockwise seen from +z positive
-  std::vector<double> solid_fraction, shear_rate, normal_stress, shear_stress, pressure, granular_temperature,
-      collision_frequency, dissipation;
+  std::vector<double> solid_fraction, shear_rate, normal_stress, shear_stress, pressure,
+      granular_temperature, collision_frequency, dissipation;
 };
 
 // From the average task's fields.json (tasks/average.hpp). Throws std::invalid_argument naming a
@@ -73,7 +74,8 @@ struct Site {
   double x = 0.0, y = 0.0;
   double weight_m3 = 0.0;
   double dissipation_share = 0.0;
-  double shear_rate = 0.0, normal_stress = 0.0, shear_stress = 0.0, pressure = 0.0, solid_fraction = 0.0;
+  double shear_rate = 0.0, normal_stress = 0.0, shear_stress = 0.0, pressure = 0.0,
+         solid_fraction = 0.0;
   double granular_temperature = 0.0, collision_frequency = 0.0, dissipation = 0.0;
 };
 
@@ -89,18 +91,18 @@ struct RegionSummary {
 };
 
 struct SiteSelection {
-  std::vector<int> region_of_cell;  // index into region_names(), -1 outside the charge
+  std::vector<int> region_of_cell;     // index into region_names(), -1 outside the charge
   std::vector<RegionSummary> regions;  // every region, in region_names() order
   std::vector<Site> sites;
-  double charge_volume_m3 = 0.0;   // all classified cells
-  double total_dissipation_w = 0.0;  // over the whole cross-section
+  double charge_volume_m3 = 0.0;                            // all classified cells
+  double total_dissipation_w = 0.0;                         // over the whole cross-section
   std::optional<double> toe_angle_deg, shoulder_angle_deg;  // atan2(y, x) of the points
 };
 
 // Classifies the cells and picks up to `per_region` sites in each region of `site_regions`.
 // Throws std::invalid_argument for an unknown region name or per_region < 1.
-SiteSelection select_sites(const FlowMap& map, const RegionRules& rules, const std::vector<std::string>& site_regions,
-                           int per_region);
+SiteSelection select_sites(const FlowMap& map, const RegionRules& rules,
+                           const std::vector<std::string>& site_regions, int per_region);
 
 // Parameters: {"sites": {"per_region": n, "regions": [...]}}. Input 0: the average task (its
 // fields.json). Artifact: regions.vti (region index per cell, with the fields it used). Result:

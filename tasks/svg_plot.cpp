@@ -32,12 +32,17 @@ double in_steps(double value, int m, int e) {
 // Absorbs rounding in the step counts (a tick that lands on the data's end stays the end).
 constexpr double kStepSlack = 1e-9;
 
-std::string px(double value) { return fmt::format("{:.2f}", value); }
+std::string px(double value) {
+  return fmt::format("{:.2f}", value);
+}
 
-std::string tick_label(double value) { return fmt::format("{:g}", value); }
+std::string tick_label(double value) {
+  return fmt::format("{:g}", value);
+}
 
-constexpr std::array<const char*, kPaletteSize> kPalette = {"#4e79a7", "#f28e2b", "#e15759", "#76b7b2", "#59a14f",
-                                                            "#edc948", "#b07aa1", "#ff9da7", "#9c755f", "#bab0ac"};
+constexpr std::array<const char*, kPaletteSize> kPalette = {
+    "#4e79a7", "#f28e2b", "#e15759", "#76b7b2", "#59a14f",
+    "#edc948", "#b07aa1", "#ff9da7", "#9c755f", "#bab0ac"};
 
 const char* palette(int colour, std::size_t index) {
   const std::size_t slot = colour >= 0 ? static_cast<std::size_t>(colour) : index;
@@ -46,22 +51,26 @@ const char* palette(int colour, std::size_t index) {
 
 std::string svg_open(double width, double height) {
   return fmt::format(
-      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" viewBox=\"0 0 {0} {1}\" "
-      "font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"{0}\" height=\"{1}\" fill=\"white\"/>\n",
+      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" viewBox=\"0 0 {0} "
+      "{1}\" "
+      "font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"{0}\" height=\"{1}\" "
+      "fill=\"white\"/>\n",
       px(width), px(height));
 }
 
 std::string text(double x, double y, std::string_view content, std::string_view attributes = "") {
-  return fmt::format("<text x=\"{}\" y=\"{}\"{}{}>{}</text>\n", px(x), px(y), attributes.empty() ? "" : " ",
-                     attributes, escape_xml(content));
+  return fmt::format("<text x=\"{}\" y=\"{}\"{}{}>{}</text>\n", px(x), px(y),
+                     attributes.empty() ? "" : " ", attributes, escape_xml(content));
 }
 
 std::string line(double x1, double y1, double x2, double y2, std::string_view stroke) {
-  return fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{}\"/>\n", px(x1), px(y1), px(x2), px(y2),
-                     stroke);
+  return fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{}\"/>\n", px(x1),
+                     px(y1), px(x2), px(y2), stroke);
 }
 
-bool plottable(double value, Scale scale) { return std::isfinite(value) && (scale == Scale::linear || value > 0.0); }
+bool plottable(double value, Scale scale) {
+  return std::isfinite(value) && (scale == Scale::linear || value > 0.0);
+}
 
 // The smallest and largest plottable values seen.
 struct Range {
@@ -109,7 +118,9 @@ struct LegendEntry {
   bool has_data;
 };
 
-std::string dash_attribute(bool dashed) { return dashed ? " stroke-dasharray=\"6 4\"" : ""; }
+std::string dash_attribute(bool dashed) {
+  return dashed ? " stroke-dasharray=\"6 4\"" : "";
+}
 
 std::string legend(const std::vector<LegendEntry>& entries, std::size_t limit) {
   std::string out;
@@ -118,20 +129,24 @@ std::string legend(const std::vector<LegendEntry>& entries, std::size_t limit) {
   const std::size_t shown = entries.size() > limit ? limit - 1 : entries.size();
   for (std::size_t i = 0; i < shown; ++i) {
     const LegendEntry& entry = entries[i];
-    out += fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{}\" stroke-width=\"2\"{}/>\n", px(x),
-                       px(y), px(x + 22), px(y), entry.colour, dash_attribute(entry.dashed));
+    out += fmt::format(
+        "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{}\" stroke-width=\"2\"{}/>\n",
+        px(x), px(y), px(x + 22), px(y), entry.colour, dash_attribute(entry.dashed));
     if (entry.marker) {
-      out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"6\" height=\"6\" fill=\"{}\"/>\n", px(x + 8), px(y - 3),
-                         entry.colour);
+      out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"6\" height=\"6\" fill=\"{}\"/>\n",
+                         px(x + 8), px(y - 3), entry.colour);
     }
-    out += text(x + 28, y + 4, entry.has_data ? entry.name : entry.name + " (no data)", "font-size=\"11\"");
+    out += text(x + 28, y + 4, entry.has_data ? entry.name : entry.name + " (no data)",
+                "font-size=\"11\"");
     y += 18;
   }
-  if (shown < entries.size()) out += text(x, y + 4, fmt::format("+ {} more", entries.size() - shown), "font-size=\"11\"");
+  if (shown < entries.size())
+    out += text(x, y + 4, fmt::format("+ {} more", entries.size() - shown), "font-size=\"11\"");
   return out;
 }
 
-std::string axes(const std::string& title, const Axis& x_axis, const Axis& y_axis, const AxisMap& x, const AxisMap& y) {
+std::string axes(const std::string& title, const Axis& x_axis, const Axis& y_axis, const AxisMap& x,
+                 const AxisMap& y) {
   using F = ChartFrame;
   std::string out = text(F::kWidth / 2, 22, title, "text-anchor=\"middle\" font-size=\"14\"");
   for (double tick : x.ticks()) {
@@ -142,11 +157,13 @@ std::string axes(const std::string& title, const Axis& x_axis, const Axis& y_axi
     out += line(F::kLeft, y(tick), F::kRight, y(tick), "#dddddd");
     out += text(F::kLeft - 6, y(tick) + 4, tick_label(tick), "text-anchor=\"end\"");
   }
-  out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>\n",
-                     px(F::kLeft), px(F::kTop), px(F::kRight - F::kLeft), px(F::kBottom - F::kTop));
+  out += fmt::format(
+      "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>\n",
+      px(F::kLeft), px(F::kTop), px(F::kRight - F::kLeft), px(F::kBottom - F::kTop));
   out += text((F::kLeft + F::kRight) / 2, F::kBottom + 40, x_axis.label, "text-anchor=\"middle\"");
   const double mid_y = (F::kTop + F::kBottom) / 2;
-  out += text(18, mid_y, y_axis.label, fmt::format("text-anchor=\"middle\" transform=\"rotate(-90 18 {})\"", px(mid_y)));
+  out += text(18, mid_y, y_axis.label,
+              fmt::format("text-anchor=\"middle\" transform=\"rotate(-90 18 {})\"", px(mid_y)));
   return out;
 }
 
@@ -154,13 +171,14 @@ std::string no_data_chart(const std::string& title) {
   using F = ChartFrame;
   std::string out = svg_open(F::kWidth, F::kHeight);
   out += text(F::kWidth / 2, 22, title, "text-anchor=\"middle\" font-size=\"14\"");
-  out += text((F::kLeft + F::kRight) / 2, (F::kTop + F::kBottom) / 2, "no data", "text-anchor=\"middle\"");
+  out += text((F::kLeft + F::kRight) / 2, (F::kTop + F::kBottom) / 2, "no data",
+              "text-anchor=\"middle\"");
   return out + "</svg>\n";
 }
 
 std::string path_element(const std::string& d, const char* colour, bool dashed) {
-  return fmt::format("<path d=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"{}/>\n", d, colour,
-                     dash_attribute(dashed));
+  return fmt::format("<path d=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"{}/>\n", d,
+                     colour, dash_attribute(dashed));
 }
 
 // Builds a path's d attribute, starting a new subpath after a break.
@@ -180,7 +198,8 @@ class PathBuilder {
 
 void check_sizes(std::size_t a, std::size_t b, const std::string& name, const char* what) {
   if (a != b) {
-    throw std::invalid_argument(fmt::format("series \"{}\": {} ({} vs {}): give one value per point", name, what, a, b));
+    throw std::invalid_argument(
+        fmt::format("series \"{}\": {} ({} vs {}): give one value per point", name, what, a, b));
   }
 }
 
@@ -192,7 +211,8 @@ std::string colour_at(double t) {
   const std::size_t k = std::min(static_cast<std::size_t>(position), kStops.size() - 2);
   const double f = position - static_cast<double>(k);
   std::array<int, 3> rgb{};
-  for (std::size_t c = 0; c < 3; ++c) rgb[c] = static_cast<int>(std::lround(kStops[k][c] + f * (kStops[k + 1][c] - kStops[k][c])));
+  for (std::size_t c = 0; c < 3; ++c)
+    rgb[c] = static_cast<int>(std::lround(kStops[k][c] + f * (kStops[k + 1][c] - kStops[k][c])));
   return fmt::format("#{:02x}{:02x}{:02x}", rgb[0], rgb[1], rgb[2]);
 }
 
@@ -200,9 +220,10 @@ std::string colour_at(double t) {
 
 std::vector<double> nice_ticks(double lo, double hi, int max_intervals) {
   if (!std::isfinite(lo) || !std::isfinite(hi) || lo > hi || max_intervals < 1) {
-    throw std::invalid_argument(fmt::format("axis range [{}, {}] with at most {} intervals: give finite lo <= hi and "
-                                            "at least one interval",
-                                            lo, hi, max_intervals));
+    throw std::invalid_argument(
+        fmt::format("axis range [{}, {}] with at most {} intervals: give finite lo <= hi and "
+                    "at least one interval",
+                    lo, hi, max_intervals));
   }
   if (lo == hi) {
     const double pad = lo == 0.0 ? 1.0 : 0.1 * std::abs(lo);
@@ -225,7 +246,8 @@ std::vector<double> nice_ticks(double lo, double hi, int max_intervals) {
 
 std::vector<double> log_ticks(double lo, double hi, int max_intervals) {
   if (!(lo > 0.0) || !std::isfinite(hi) || lo > hi || max_intervals < 1) {
-    throw std::invalid_argument(fmt::format("log axis range [{}, {}]: give 0 < lo <= hi (finite)", lo, hi));
+    throw std::invalid_argument(
+        fmt::format("log axis range [{}, {}]: give 0 < lo <= hi (finite)", lo, hi));
   }
   const int first = static_cast<int>(std::floor(std::log10(lo) + kStepSlack));
   const int last = std::max(first + 1, static_cast<int>(std::ceil(std::log10(hi) - kStepSlack)));
@@ -246,12 +268,23 @@ std::string escape_xml(std::string_view raw) {
   out.reserve(raw.size());
   for (const char c : raw) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&apos;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&apos;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -266,16 +299,19 @@ Figure line_chart(const LineChart& chart) {
     check_sizes(series.x.size(), series.y.size(), series.name, "x and y differ in size");
     bool has_data = false;
     for (std::size_t i = 0; i < series.x.size(); ++i) {
-      if (!plottable(series.x[i], chart.x.scale) || !plottable(series.y[i], chart.y.scale)) continue;
+      if (!plottable(series.x[i], chart.x.scale) || !plottable(series.y[i], chart.y.scale))
+        continue;
       x_range.add(series.x[i]);
       y_range.add(series.y[i]);
       has_data = true;
     }
-    entries.push_back({series.name, palette(series.colour, s), series.dashed && series.line, series.markers, has_data});
+    entries.push_back({series.name, palette(series.colour, s), series.dashed && series.line,
+                       series.markers, has_data});
   }
   if (x_range.empty()) return {F::kWidth, F::kHeight, no_data_chart(chart.title)};
 
-  const AxisMap x(chart.x.scale, x_range, F::kLeft, F::kRight), y(chart.y.scale, y_range, F::kBottom, F::kTop);
+  const AxisMap x(chart.x.scale, x_range, F::kLeft, F::kRight),
+      y(chart.y.scale, y_range, F::kBottom, F::kTop);
   std::string out = svg_open(F::kWidth, F::kHeight) + axes(chart.title, chart.x, chart.y, x, y);
   for (std::size_t s = 0; s < chart.series.size(); ++s) {
     const Series& series = chart.series[s];
@@ -288,11 +324,12 @@ Figure line_chart(const LineChart& chart) {
       }
       path.to(x(series.x[i]), y(series.y[i]));
       if (series.markers) {
-        markers += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"3\" fill=\"{}\"/>\n", px(x(series.x[i])),
-                               px(y(series.y[i])), entries[s].colour);
+        markers += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"3\" fill=\"{}\"/>\n",
+                               px(x(series.x[i])), px(y(series.y[i])), entries[s].colour);
       }
     }
-    if (series.line && entries[s].has_data) out += path_element(path.d(), entries[s].colour, series.dashed);
+    if (series.line && entries[s].has_data)
+      out += path_element(path.d(), entries[s].colour, series.dashed);
     out += markers;
   }
   out += legend(entries, chart.legend_limit);
@@ -322,7 +359,8 @@ Figure histogram_chart(const HistogramChart& chart) {
   }
   if (x_range.empty()) return {F::kWidth, F::kHeight, no_data_chart(chart.title)};
 
-  const AxisMap x(chart.x.scale, x_range, F::kLeft, F::kRight), y(chart.y.scale, y_range, F::kBottom, F::kTop);
+  const AxisMap x(chart.x.scale, x_range, F::kLeft, F::kRight),
+      y(chart.y.scale, y_range, F::kBottom, F::kTop);
   std::string out = svg_open(F::kWidth, F::kHeight) + axes(chart.title, chart.x, chart.y, x, y);
   for (std::size_t s = 0; s < chart.series.size(); ++s) {
     const Histogram& h = chart.series[s];
@@ -348,14 +386,17 @@ Figure heat_map(const HeatMap& map) {
   constexpr int kBarSteps = 32;
   const CrossSectionGrid& grid = map.grid;
   if (grid.nx < 1 || grid.ny < 1 || !(grid.half_width > 0.0) || map.values.size() != grid.size()) {
-    throw std::invalid_argument(fmt::format("heat map \"{}\": {} values for a {} x {} grid of half width {}: give one "
-                                            "value per cell over a grid of positive size",
-                                            map.title, map.values.size(), grid.nx, grid.ny, grid.half_width));
+    throw std::invalid_argument(
+        fmt::format("heat map \"{}\": {} values for a {} x {} grid of half width {}: give one "
+                    "value per cell over a grid of positive size",
+                    map.title, map.values.size(), grid.nx, grid.ny, grid.half_width));
   }
   const double scale = kSide / (2.0 * grid.half_width);
   auto to_x = [&](double x) { return kLeft + (x + grid.half_width) * scale; };
   auto to_y = [&](double y) { return kTop + (grid.half_width - y) * scale; };
-  auto shown = [&](std::size_t c) { return grid.inside_mill(c) && plottable(map.values[c], map.scale); };
+  auto shown = [&](std::size_t c) {
+    return grid.inside_mill(c) && plottable(map.values[c], map.scale);
+  };
 
   Range range;
   for (std::size_t c = 0; c < grid.size(); ++c) {
@@ -371,13 +412,15 @@ Figure heat_map(const HeatMap& map) {
     for (std::size_t c = 0; c < grid.size(); ++c) {
       if (!shown(c)) continue;
       out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\"/>\n",
-                         px(to_x(grid.x_of(c) - grid.dx() / 2)), px(to_y(grid.y_of(c) + grid.dy() / 2)),
-                         px(grid.dx() * scale), px(grid.dy() * scale), colour_at(colour(map.values[c])));
+                         px(to_x(grid.x_of(c) - grid.dx() / 2)),
+                         px(to_y(grid.y_of(c) + grid.dy() / 2)), px(grid.dx() * scale),
+                         px(grid.dy() * scale), colour_at(colour(map.values[c])));
     }
     const double step = kSide / kBarSteps;
     for (int k = 0; k < kBarSteps; ++k) {
-      out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\"/>\n", px(kBarX),
-                         px(kTop + kSide - (k + 1) * step), px(kBarWidth), px(step), colour_at((k + 0.5) / kBarSteps));
+      out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\"/>\n",
+                         px(kBarX), px(kTop + kSide - (k + 1) * step), px(kBarWidth), px(step),
+                         colour_at((k + 0.5) / kBarSteps));
     }
     out += "</g>\n";
     for (double tick : colour.ticks()) {
@@ -387,20 +430,22 @@ Figure heat_map(const HeatMap& map) {
     }
     const double mid_y = kTop + kSide / 2, label_x = kWidth - 8;
     out += text(label_x, mid_y, map.quantity,
-                fmt::format("text-anchor=\"middle\" transform=\"rotate(-90 {} {})\"", px(label_x), px(mid_y)));
+                fmt::format("text-anchor=\"middle\" transform=\"rotate(-90 {} {})\"", px(label_x),
+                            px(mid_y)));
   }
-  out += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"{}\" fill=\"none\" stroke=\"black\"/>\n", px(to_x(0)), px(to_y(0)),
-                     px(kSide / 2));
+  out += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"{}\" fill=\"none\" stroke=\"black\"/>\n",
+                     px(to_x(0)), px(to_y(0)), px(kSide / 2));
   for (const MapMarker& marker : map.markers) {
-    out += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"4\" fill=\"white\" stroke=\"black\"/>\n", px(to_x(marker.x)),
-                       px(to_y(marker.y)));
+    out += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"4\" fill=\"white\" stroke=\"black\"/>\n",
+                       px(to_x(marker.x)), px(to_y(marker.y)));
     out += text(to_x(marker.x) + 5, to_y(marker.y) - 5, marker.label, "font-size=\"9\"");
   }
   return {kWidth, kHeight, out + "</svg>\n"};
 }
 
 Figure panel_grid(const std::vector<Figure>& panels, int columns, const std::string& title) {
-  if (columns < 1) throw std::invalid_argument(fmt::format("{} panel columns: give at least 1", columns));
+  if (columns < 1)
+    throw std::invalid_argument(fmt::format("{} panel columns: give at least 1", columns));
   constexpr double kTitle = 32;
   double cell_width = 0.0, cell_height = 0.0;
   for (const Figure& panel : panels) {
@@ -410,7 +455,8 @@ Figure panel_grid(const std::vector<Figure>& panels, int columns, const std::str
   const auto count = static_cast<int>(panels.size());
   const int used_columns = std::max(1, std::min(columns, count));
   const int rows = (count + columns - 1) / columns;
-  const double width = std::max(used_columns * cell_width, 320.0), height = kTitle + rows * cell_height;
+  const double width = std::max(used_columns * cell_width, 320.0),
+               height = kTitle + rows * cell_height;
   std::string out = svg_open(width, height);
   out += text(width / 2, 22, title, "text-anchor=\"middle\" font-size=\"16\"");
   for (int k = 0; k < count; ++k) {

@@ -18,10 +18,13 @@ const engine::TaskInput& only_input(const engine::TaskContext& context, const st
   const engine::TaskInput* found = nullptr;
   for (const auto& input : context.inputs) {
     if (input.kind != kind) continue;
-    if (found) throw std::invalid_argument(fmt::format("upscale {}: more than one {} input", context.key, kind));
+    if (found)
+      throw std::invalid_argument(
+          fmt::format("upscale {}: more than one {} input", context.key, kind));
     found = &input;
   }
-  if (!found) throw std::invalid_argument(fmt::format("upscale {}: no {} input", context.key, kind));
+  if (!found)
+    throw std::invalid_argument(fmt::format("upscale {}: no {} input", context.key, kind));
   return *found;
 }
 
@@ -41,8 +44,12 @@ const json* cell_of(const std::map<std::string, const json*>& cells, const std::
   return found == cells.end() ? nullptr : found->second;
 }
 
-double powder_dissipation(const json& cell) { return cell.at("powder_dissipation_w_m3").get<double>(); }
-double power_input(const json& cell) { return cell.at("power_density_w_m3").get<double>(); }
+double powder_dissipation(const json& cell) {
+  return cell.at("powder_dissipation_w_m3").get<double>();
+}
+double power_input(const json& cell) {
+  return cell.at("power_density_w_m3").get<double>();
+}
 double media_collision_dissipation(const json& cell) {
   const json& d = cell.at("dissipation_w_m3");
   return d.at("media-media").get<double>() + d.at("wall-media").get<double>();
@@ -94,9 +101,11 @@ class SpectrumSum {
       media_.assign(edges.size() - 1, 0.0);
       powder_.assign(edges.size() - 1, 0.0);
     } else if (edges != edges_) {
-      throw std::invalid_argument("upscale: shear cells with different spectrum bins: re-run them with one version");
+      throw std::invalid_argument(
+          "upscale: shear cells with different spectrum bins: re-run them with one version");
     }
-    const double scale = weight / (cell.at("volume_m3").get<double>() * cell.at("duration_s").get<double>());
+    const double scale =
+        weight / (cell.at("volume_m3").get<double>() * cell.at("duration_s").get<double>());
     accumulate(spectra.at("media").at("counts"), scale, media_);
     accumulate(spectra.at("powder").at("counts"), scale, powder_);
   }
@@ -116,28 +125,32 @@ class SpectrumSum {
 json site_row(const json& site, const json* loaded, const json* baseline) {
   const double macro_tau = site.at("shear_stress_pa").get<double>();
   const json cell_tau = baseline ? baseline->at("shear_stress_pa") : json(nullptr);
-  return {{"site_id", site.at("site_id")},
-          {"region", site.at("region")},
-          {"x_m", site.at("position_m").at(0)},
-          {"y_m", site.at("position_m").at(1)},
-          {"weight_m3", site.at("weight_m3")},
-          {"shear_rate_per_s", site.at("shear_rate_per_s")},
-          {"normal_stress_pa", site.at("normal_stress_pa")},
-          {"macro_shear_stress_pa", macro_tau},
-          {"cell_shear_stress_pa", cell_tau},
-          {"coupling_ratio", baseline ? ratio_or_null(cell_tau.get<double>(), macro_tau) : json(nullptr)},
-          {"power_density_w_m3", loaded ? loaded->at("power_density_w_m3") : json(nullptr)},
-          {"powder_dissipation_w_m3", loaded ? loaded->at("powder_dissipation_w_m3") : json(nullptr)},
-          {"skipped", loaded ? json(nullptr) : json("no shear cell ran at this site")}};
+  return {
+      {"site_id", site.at("site_id")},
+      {"region", site.at("region")},
+      {"x_m", site.at("position_m").at(0)},
+      {"y_m", site.at("position_m").at(1)},
+      {"weight_m3", site.at("weight_m3")},
+      {"shear_rate_per_s", site.at("shear_rate_per_s")},
+      {"normal_stress_pa", site.at("normal_stress_pa")},
+      {"macro_shear_stress_pa", macro_tau},
+      {"cell_shear_stress_pa", cell_tau},
+      {"coupling_ratio",
+       baseline ? ratio_or_null(cell_tau.get<double>(), macro_tau) : json(nullptr)},
+      {"power_density_w_m3", loaded ? loaded->at("power_density_w_m3") : json(nullptr)},
+      {"powder_dissipation_w_m3", loaded ? loaded->at("powder_dissipation_w_m3") : json(nullptr)},
+      {"skipped", loaded ? json(nullptr) : json("no shear cell ran at this site")}};
 }
 
 json coupling_summary(const json& sites) {
   std::vector<double> ratios;
   for (const json& site : sites) {
-    if (site.at("coupling_ratio").is_number()) ratios.push_back(site.at("coupling_ratio").get<double>());
+    if (site.at("coupling_ratio").is_number())
+      ratios.push_back(site.at("coupling_ratio").get<double>());
   }
-  const auto within = std::count_if(ratios.begin(), ratios.end(),
-                                    [](double r) { return std::abs(r - 1.0) <= kCouplingTolerance; });
+  const auto within = std::count_if(ratios.begin(), ratios.end(), [](double r) {
+    return std::abs(r - 1.0) <= kCouplingTolerance;
+  });
   json median = nullptr;
   if (!ratios.empty()) {
     std::sort(ratios.begin(), ratios.end());
@@ -201,8 +214,9 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
       {"powder_load", load},
       {"average_task", only_input(context, "average").key},
       {"mill", mill_json(macro)},
-      {"power_draw_with_powder_w",
-       all.input_no_powder > 0.0 ? json(power_draw * all.input / all.input_no_powder) : json(nullptr)},
+      {"power_draw_with_powder_w", all.input_no_powder > 0.0
+                                       ? json(power_draw * all.input / all.input_no_powder)
+                                       : json(nullptr)},
       {"powder_power_w", all.powder},
       {"media_power_w", all.media},
       {"media_collision_power_w", all.collisions},
@@ -214,11 +228,12 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
       {"sites", site_rows},
       {"coupling", coupling_summary(site_rows)},
   };
-  context.log(fmt::format("upscale U = {}: powder {:.4g} W ({} dominates), cushioning {}, {} of {} sites couple "
-                          "within {:.0f}%",
-                          load, all.powder, dominant.empty() ? "no region" : dominant,
-                          result["cushioning"].dump(), result["coupling"]["within_tolerance"].dump(),
-                          result["coupling"]["sites"].dump(), 100 * kCouplingTolerance));
+  context.log(fmt::format(
+      "upscale U = {}: powder {:.4g} W ({} dominates), cushioning {}, {} of {} sites couple "
+      "within {:.0f}%",
+      load, all.powder, dominant.empty() ? "no region" : dominant, result["cushioning"].dump(),
+      result["coupling"]["within_tolerance"].dump(), result["coupling"]["sites"].dump(),
+      100 * kCouplingTolerance));
   return engine::TaskOutcome::with_result(std::move(result));
 }
 
@@ -251,7 +266,8 @@ JOIN json_each(r.result, '$.regions') region
 }
 
 void register_upscale(engine::Registry& registry) {
-  registry.kinds.add(engine::TaskKind{.name = "upscale", .version = kUpscaleVersion, .run = run_upscale});
+  registry.kinds.add(
+      engine::TaskKind{.name = "upscale", .version = kUpscaleVersion, .run = run_upscale});
   registry.views.push_back(upscaled_results_view());
 }
 

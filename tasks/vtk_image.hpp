@@ -10,6 +10,7 @@ namespace millflow::tasks {
 
 // Throws std::invalid_argument for an array whose size is not cells x components, and
 // std::system_error when the file cannot be written.
-void write_vtk_image(const std::filesystem::path& file, const CrossSectionGrid& grid, std::span<const CellArray> arrays);
+void write_vtk_image(const std::filesystem::path& file, const CrossSectionGrid& grid,
+                     std::span<const CellArray> arrays);
 
 }  // namespace millflow::tasks

@@ -29,10 +29,11 @@ using nlohmann::json;
 const std::map<int, int> kDiamondSums = {{1, 1}, {2, 3}, {3, 4}, {4, 11}};
 
 json diamond_tasks() {
-  return json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}, {"artifact", true}}}},
-                      {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"a"}}},
-                      {{"id", "c"}, {"kind", "sum"}, {"params", {{"value", 3}}}, {"after", {"a"}}},
-                      {{"id", "d"}, {"kind", "sum"}, {"params", {{"value", 4}}}, {"after", {"b", "c"}}}});
+  return json::array(
+      {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}, {"artifact", true}}}},
+       {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"a"}}},
+       {{"id", "c"}, {"kind", "sum"}, {"params", {{"value", 3}}}, {"after", {"a"}}},
+       {{"id", "d"}, {"kind", "sum"}, {"params", {{"value", 4}}}, {"after", {"b", "c"}}}});
 }
 
 std::vector<std::string> lines_of(const std::string& text) {
@@ -53,7 +54,10 @@ class Cli : public ::testing::Test {
  protected:
   fs::path write_campaign(const std::string& name, const json& tasks) {
     const fs::path file = dir_.path() / (name + ".json");
-    std::ofstream(file) << json{{"format", "millflow-test"}, {"name", name}, {"tasks", tasks}}.dump();
+    std::ofstream(file) << json{
+        {"format", "millflow-test"},
+        {"name", name},
+        {"tasks", tasks}}.dump();
     return file;
   }
   // millflow ARGS --db <the test's database>
@@ -61,7 +65,9 @@ class Cli : public ::testing::Test {
     arguments.insert(arguments.end(), {"--db", db().string()});
     return run_millflow(arguments, dir_.path());
   }
-  Finished submit_diamond() { return millflow({"submit", write_campaign("diamond", diamond_tasks()).string(), "--jobs", "2"}); }
+  Finished submit_diamond() {
+    return millflow({"submit", write_campaign("diamond", diamond_tasks()).string(), "--jobs", "2"});
+  }
   fs::path db() const { return dir_.path() / "cli.db"; }
   // value parameter -> task key, read from the store.
   std::map<int, std::string> keys_by_value() {
@@ -76,8 +82,9 @@ class Cli : public ::testing::Test {
 };
 
 TEST_F(Cli, ValidateReportsEveryErrorWithExitTwoAndNothingIsWritten) {
-  const auto file = write_campaign("bad", json::array({{{"id", "a"}, {"kind", "nope"}},
-                                                       {{"id", "a"}, {"kind", "sum"}, {"after", {"z"}}}}));
+  const auto file =
+      write_campaign("bad", json::array({{{"id", "a"}, {"kind", "nope"}},
+                                         {{"id", "a"}, {"kind", "sum"}, {"after", {"z"}}}}));
   const auto validated = run_millflow({"validate", file.string()}, dir_.path());
   EXPECT_EQ(validated.exit_code, 2);
   EXPECT_EQ(validated.out, "");
@@ -95,13 +102,15 @@ TEST_F(Cli, ValidateReportsEveryErrorWithExitTwoAndNothingIsWritten) {
   const auto good = write_campaign("diamond", diamond_tasks());
   const auto valid = run_millflow({"validate", good.string()}, dir_.path());
   EXPECT_EQ(valid.exit_code, 0);
-  EXPECT_EQ(valid.out, good.string() + ": valid millflow-test campaign \"diamond\", 4 planned tasks\n");
+  EXPECT_EQ(valid.out,
+            good.string() + ": valid millflow-test campaign \"diamond\", 4 planned tasks\n");
 }
 
 TEST_F(Cli, SubmitThenStatusCountsTasksByKindAndStatus) {
   json tasks = diamond_tasks();
   tasks.push_back({{"id", "broken"}, {"kind", "fail"}, {"params", {{"failures", 9}}}});
-  tasks.push_back({{"id", "below"}, {"kind", "sum"}, {"params", {{"value", 5}}}, {"after", {"broken"}}});
+  tasks.push_back(
+      {{"id", "below"}, {"kind", "sum"}, {"params", {{"value", 5}}}, {"after", {"broken"}}});
   const auto file = write_campaign("mixed", tasks);
   const auto first = millflow({"submit", file.string()});
   EXPECT_EQ(first.exit_code, 1);
@@ -113,8 +122,10 @@ TEST_F(Cli, SubmitThenStatusCountsTasksByKindAndStatus) {
   for (const auto& line : lines_of(status.out)) rows.insert(words_of(line));
   const std::set<std::vector<std::string>> expected_rows = {
       {"fail", "failed", "1"}, {"sum", "done", "4"}, {"sum", "skipped", "1"}};
-  for (const auto& row : expected_rows) EXPECT_EQ(rows.count(row), 1u) << row[0] << " " << row[1] << "\n" << status.out;
-  EXPECT_EQ(lines_of(status.out).size(), 2 + expected_rows.size()) << status.out;  // header, rule, rows
+  for (const auto& row : expected_rows)
+    EXPECT_EQ(rows.count(row), 1u) << row[0] << " " << row[1] << "\n" << status.out;
+  EXPECT_EQ(lines_of(status.out).size(), 2 + expected_rows.size())
+      << status.out;  // header, rule, rows
 
   const auto campaigns = millflow({"status"});
   EXPECT_NE(campaigns.out.find("mixed"), std::string::npos) << campaigns.out;
@@ -128,7 +139,8 @@ TEST_F(Cli, SubmitThenStatusCountsTasksByKindAndStatus) {
 TEST_F(Cli, QueryAnswersInCsvAndJsonAndRefusesWrites) {
   ASSERT_EQ(submit_diamond().exit_code, 0);
   const std::string sql =
-      "SELECT json_extract(params, '$.value') AS value, json_extract(result, '$.sum') AS sum FROM task_results "
+      "SELECT json_extract(params, '$.value') AS value, json_extract(result, '$.sum') AS sum FROM "
+      "task_results "
       "ORDER BY value";
   std::string expected_csv = "value,sum\n";
   json expected_json = json::array();
@@ -140,7 +152,8 @@ TEST_F(Cli, QueryAnswersInCsvAndJsonAndRefusesWrites) {
   EXPECT_EQ(json::parse(millflow({"query", "--format", "json", sql}).out), expected_json);
   const auto refused = millflow({"query", "DELETE FROM tasks"});
   EXPECT_EQ(refused.exit_code, 2);
-  EXPECT_NE(refused.err.find("refused: the statement would modify the database"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("refused: the statement would modify the database"), std::string::npos)
+      << refused.err;
 }
 
 std::time_t parse_iso8601_utc(const std::string& text) {
@@ -162,7 +175,8 @@ TEST_F(Cli, ShowFindsATaskByKeyPrefixAndPrintsItsStartInIso8601Utc) {
   EXPECT_EQ(lines.at(1), "kind sum (version 1)");
   EXPECT_EQ(lines.at(2), "status done after 1 attempt(s)");
   std::smatch started;
-  ASSERT_TRUE(std::regex_search(lines.at(3), started, std::regex(R"(^started (\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z) )")))
+  ASSERT_TRUE(std::regex_search(
+      lines.at(3), started, std::regex(R"(^started (\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z) )")))
       << lines.at(3);
   EXPECT_GE(parse_iso8601_utc(started[1]), before);
   EXPECT_LE(parse_iso8601_utc(started[1]), after);
@@ -170,7 +184,8 @@ TEST_F(Cli, ShowFindsATaskByKeyPrefixAndPrintsItsStartInIso8601Utc) {
   for (const auto& line : lines) {
     if (line.rfind("upstream", 0) == 0) upstream.insert(words_of(line).at(1));
   }
-  EXPECT_EQ(upstream, (std::set<std::string>{keys.at(1).substr(0, 16), keys.at(2).substr(0, 16), keys.at(3).substr(0, 16)}));
+  EXPECT_EQ(upstream, (std::set<std::string>{keys.at(1).substr(0, 16), keys.at(2).substr(0, 16),
+                                             keys.at(3).substr(0, 16)}));
   EXPECT_NE(shown.out.find("\"sum\": 11"), std::string::npos) << shown.out;
 
   const auto unknown = millflow({"show", "zzzz"});
@@ -188,7 +203,8 @@ TEST_F(Cli, ExportWritesOneCsvPerKindOrOneJsonFile) {
   std::map<std::string, std::string> expected_rows;  // by key: rows are sorted by task key
   for (const auto& [value, sum] : kDiamondSums) {
     const std::string artifact = value == 1 ? "true" : "";
-    expected_rows[keys.at(value)] = keys.at(value) + ",done," + artifact + "," + std::to_string(value) + "," + std::to_string(sum);
+    expected_rows[keys.at(value)] = keys.at(value) + ",done," + artifact + "," +
+                                    std::to_string(value) + "," + std::to_string(sum);
   }
   std::string expected = "task_key,status,params/artifact,params/value,result/sum\n";
   for (const auto& [key, row] : expected_rows) expected += row + "\n";
@@ -217,15 +233,18 @@ TEST_F(Cli, DagDotHasEveryTaskAndEveryEdge) {
   std::set<std::pair<std::string, std::string>> edges;
   std::set<std::string> done_nodes;
   const std::regex edge(R"re(^  "([0-9a-f]{64})" -> "([0-9a-f]{64})";$)re");
-  const std::regex node(R"re(^  "([0-9a-f]{64})" \[label="sum\\n[0-9a-f]{12}", fillcolor=palegreen\];$)re");
+  const std::regex node(
+      R"re(^  "([0-9a-f]{64})" \[label="sum\\n[0-9a-f]{12}", fillcolor=palegreen\];$)re");
   for (const auto& line : lines) {
     std::smatch match;
     if (std::regex_match(line, match, edge)) edges.insert({match[1], match[2]});
     if (std::regex_match(line, match, node)) done_nodes.insert(match[1]);
   }
   EXPECT_EQ(done_nodes, (std::set<std::string>{keys.at(1), keys.at(2), keys.at(3), keys.at(4)}));
-  EXPECT_EQ(edges, (std::set<std::pair<std::string, std::string>>{
-                       {keys.at(1), keys.at(2)}, {keys.at(1), keys.at(3)}, {keys.at(2), keys.at(4)}, {keys.at(3), keys.at(4)}}));
+  EXPECT_EQ(edges, (std::set<std::pair<std::string, std::string>>{{keys.at(1), keys.at(2)},
+                                                                  {keys.at(1), keys.at(3)},
+                                                                  {keys.at(2), keys.at(4)},
+                                                                  {keys.at(3), keys.at(4)}}));
 }
 
 TEST_F(Cli, GcRemovesOnlyFilesNoTaskReferences) {
@@ -245,13 +264,15 @@ TEST_F(Cli, GcRemovesOnlyFilesNoTaskReferences) {
   ASSERT_EQ(dry.exit_code, 0) << dry.err;
   const auto dry_lines = lines_of(dry.out);
   EXPECT_EQ(std::set<std::string>(dry_lines.begin(), dry_lines.end()),
-            (std::set<std::string>{"would remove " + stray, "would remove " + leftover, "2 unreferenced artifact file(s)"}));
+            (std::set<std::string>{"would remove " + stray, "would remove " + leftover,
+                                   "2 unreferenced artifact file(s)"}));
   EXPECT_TRUE(fs::exists(root / "ff" / stray));
 
   const auto collected = millflow({"gc"});
   const auto lines = lines_of(collected.out);
   EXPECT_EQ(std::set<std::string>(lines.begin(), lines.end()),
-            (std::set<std::string>{"removed " + stray, "removed " + leftover, "2 unreferenced artifact file(s)"}));
+            (std::set<std::string>{"removed " + stray, "removed " + leftover,
+                                   "2 unreferenced artifact file(s)"}));
   EXPECT_FALSE(fs::exists(root / "ff" / stray));
   EXPECT_FALSE(fs::exists(kept.parent_path() / leftover));
   EXPECT_TRUE(fs::exists(kept));
@@ -271,17 +292,21 @@ std::int64_t running_tasks(const fs::path& db) {
 
 TEST_F(Cli, ExitCodesForDoneFailedBadInputBusyAndInterrupted) {
   EXPECT_EQ(submit_diamond().exit_code, 0);
-  const auto failing = write_campaign("failing", json::array({{{"id", "f"}, {"kind", "fail"}, {"params", {{"failures", 1}}}}}));
+  const auto failing = write_campaign(
+      "failing", json::array({{{"id", "f"}, {"kind", "fail"}, {"params", {{"failures", 1}}}}}));
   EXPECT_EQ(millflow({"submit", failing.string()}).exit_code, 1);
   EXPECT_EQ(millflow({"submit", failing.string(), "--jobs", "0"}).exit_code, 2);  // out of range
   EXPECT_EQ(millflow({"submit"}).exit_code, 2);                                   // no file
   EXPECT_EQ(millflow({"status", "no-such-campaign"}).exit_code, 2);
 
   json sleepers = json::array();
-  for (int i = 0; i < 4; ++i) sleepers.push_back({{"id", std::to_string(i)}, {"kind", "sleep"}, {"params", {{"ms", 20000 + i}}}});
+  for (int i = 0; i < 4; ++i)
+    sleepers.push_back(
+        {{"id", std::to_string(i)}, {"kind", "sleep"}, {"params", {{"ms", 20000 + i}}}});
   const auto long_file = write_campaign("long", sleepers);
-  const pid_t coordinator = spawn_millflow({"submit", long_file.string(), "--db", db().string(), "--jobs", "2"},
-                                           dir_.path() / "long.out", dir_.path() / "long.err");
+  const pid_t coordinator =
+      spawn_millflow({"submit", long_file.string(), "--db", db().string(), "--jobs", "2"},
+                     dir_.path() / "long.out", dir_.path() / "long.err");
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (running_tasks(db()) < 2 && std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -289,13 +314,16 @@ TEST_F(Cli, ExitCodesForDoneFailedBadInputBusyAndInterrupted) {
   ASSERT_EQ(running_tasks(db()), 2);
   const auto busy = millflow({"submit", long_file.string()});
   EXPECT_EQ(busy.exit_code, 3);
-  EXPECT_NE(busy.err.find("in use by another millflow coordinator: pid " + std::to_string(coordinator)), std::string::npos)
+  EXPECT_NE(
+      busy.err.find("in use by another millflow coordinator: pid " + std::to_string(coordinator)),
+      std::string::npos)
       << busy.err;
 
   ::kill(coordinator, SIGINT);
   EXPECT_EQ(wait_exit_code(coordinator), 130);
   EXPECT_EQ(read_text(dir_.path() / "long.out"),
-            "campaign long: 4 tasks: 0 done, 0 cached, 0 failed, 0 skipped, 2 interrupted, 2 not started\n");
+            "campaign long: 4 tasks: 0 done, 0 cached, 0 failed, 0 skipped, 2 interrupted, 2 not "
+            "started\n");
   EXPECT_EQ(running_tasks(db()), 0);
 }
 
@@ -303,7 +331,8 @@ TEST_F(Cli, ReportOfACampaignWithoutAReportTaskIsBadInput) {
   ASSERT_EQ(submit_diamond().exit_code, 0);
   const auto latest = millflow({"report", "--out", (dir_.path() / "report").string()});
   EXPECT_EQ(latest.exit_code, 2);
-  EXPECT_NE(latest.err.find("campaign \"diamond\" has no finished report task"), std::string::npos) << latest.err;
+  EXPECT_NE(latest.err.find("campaign \"diamond\" has no finished report task"), std::string::npos)
+      << latest.err;
   EXPECT_FALSE(fs::exists(dir_.path() / "report"));
   EXPECT_EQ(millflow({"report", "nope"}).exit_code, 2);
 }

@@ -23,32 +23,44 @@ std::vector<std::string> messages_of(const json& document) {
 
 TEST(ExecutorChoice, ReadsTheSlurmBlockAndKeepsDefaultsForWhatItLeavesOut) {
   const auto choice = choose_executor(
-      {{"executor", {{"kind", "slurm"}, {"slurm", {{"partition", "short"}, {"checkpoint_signal_s", 600},
-                                                   {"max_squeue_failures", 5}}}}}},
+      {{"executor",
+        {{"kind", "slurm"},
+         {"slurm",
+          {{"partition", "short"}, {"checkpoint_signal_s", 600}, {"max_squeue_failures", 5}}}}}},
       "");
   EXPECT_EQ(choice.kind, "slurm");
   EXPECT_EQ(choice.slurm.partition, "short");
   EXPECT_EQ(choice.slurm.checkpoint_signal_s, 600);
   EXPECT_EQ(choice.slurm.max_squeue_failures, 5);
   EXPECT_EQ(choice.slurm.max_in_flight, engine::SlurmSettings{}.max_in_flight);
-  EXPECT_EQ(choose_executor({{"executor", {{"slurm", json::object()}}}}, "").slurm.checkpoint_signal_s, 300);
+  EXPECT_EQ(
+      choose_executor({{"executor", {{"slurm", json::object()}}}}, "").slurm.checkpoint_signal_s,
+      300);
   EXPECT_EQ(choose_executor({{"executor", {{"kind", "slurm"}}}}, "local").kind, "local");
 }
 
 TEST(ExecutorChoice, OutOfRangeOrMistypedSettingsNameTheirPath) {
-  EXPECT_EQ(messages_of({{"executor", {{"slurm", {{"checkpoint_signal_s", 0}, {"max_squeue_failures", 2.5},
-                                                  {"max_in_flight", -1}, {"extra_args", {"--qos=low", 3}}}}}}}),
-            (std::vector<std::string>{
-                "/executor/slurm/max_in_flight: must be a positive integer, got -1; fix the campaign file's executor block",
-                "/executor/slurm/checkpoint_signal_s: must be an integer in [1, 65535], got 0; fix the campaign file's "
-                "executor block",
-                "/executor/slurm/max_squeue_failures: must be a positive integer, got 2.5; fix the campaign file's "
-                "executor block",
-                "/executor/slurm/extra_args: must be an array of strings, got [\"--qos=low\",3]; fix the campaign file's "
-                "executor block"}));
+  EXPECT_EQ(messages_of({{"executor",
+                          {{"slurm",
+                            {{"checkpoint_signal_s", 0},
+                             {"max_squeue_failures", 2.5},
+                             {"max_in_flight", -1},
+                             {"extra_args", {"--qos=low", 3}}}}}}}),
+            (std::vector<std::string>{"/executor/slurm/max_in_flight: must be a positive integer, "
+                                      "got -1; fix the campaign file's executor block",
+                                      "/executor/slurm/checkpoint_signal_s: must be an integer in "
+                                      "[1, 65535], got 0; fix the campaign file's "
+                                      "executor block",
+                                      "/executor/slurm/max_squeue_failures: must be a positive "
+                                      "integer, got 2.5; fix the campaign file's "
+                                      "executor block",
+                                      "/executor/slurm/extra_args: must be an array of strings, "
+                                      "got [\"--qos=low\",3]; fix the campaign file's "
+                                      "executor block"}));
   EXPECT_EQ(messages_of({{"executor", {{"slurm", {{"checkpoint_signal_s", 65536}}}}}}),
-            (std::vector<std::string>{"/executor/slurm/checkpoint_signal_s: must be an integer in [1, 65535], got "
-                                      "65536; fix the campaign file's executor block"}));
+            (std::vector<std::string>{
+                "/executor/slurm/checkpoint_signal_s: must be an integer in [1, 65535], got "
+                "65536; fix the campaign file's executor block"}));
 }
 
 }  // namespace

@@ -14,13 +14,16 @@
 
 namespace millflow::testing {
 
-inline std::filesystem::path millflow_binary() { return std::filesystem::path(MILLFLOW_BINARY_DIR) / "millflow"; }
+inline std::filesystem::path millflow_binary() {
+  return std::filesystem::path(MILLFLOW_BINARY_DIR) / "millflow";
+}
 
 // Starts millflow with `arguments`, stdout and stderr redirected to files, extra environment
 // variables set. Returns the child's pid.
-inline pid_t spawn_millflow(const std::vector<std::string>& arguments, const std::filesystem::path& out = "/dev/null",
-                            const std::filesystem::path& err = "/dev/null",
-                            const std::vector<std::pair<std::string, std::string>>& environment = {}) {
+inline pid_t spawn_millflow(
+    const std::vector<std::string>& arguments, const std::filesystem::path& out = "/dev/null",
+    const std::filesystem::path& err = "/dev/null",
+    const std::vector<std::pair<std::string, std::string>>& environment = {}) {
   const std::string binary = millflow_binary().string();
   const pid_t child = ::fork();
   if (child == 0) {
@@ -57,7 +60,8 @@ struct Finished {
 };
 
 // Runs millflow to its end; its output passes through files in `scratch`.
-inline Finished run_millflow(const std::vector<std::string>& arguments, const std::filesystem::path& scratch) {
+inline Finished run_millflow(const std::vector<std::string>& arguments,
+                             const std::filesystem::path& scratch) {
   const auto out = scratch / "stdout.txt";
   const auto err = scratch / "stderr.txt";
   const int code = wait_exit_code(spawn_millflow(arguments, out, err));

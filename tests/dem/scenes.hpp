@@ -7,11 +7,14 @@
 namespace millflow::dem::testing {
 
 // One material ("steel", 7800 kg/m^3) interacting with itself.
-inline MaterialTable steel_table(double restitution, double friction, double normal_stiffness = 1e6) {
+inline MaterialTable steel_table(double restitution, double friction,
+                                 double normal_stiffness = 1e6) {
   MaterialTable table;
   const MaterialId steel = table.add({"steel", 7800.0});
-  table.set_interaction(steel, steel,
-                        InteractionSpec{.restitution = restitution, .friction = friction, .normal_stiffness = normal_stiffness});
+  table.set_interaction(
+      steel, steel,
+      InteractionSpec{
+          .restitution = restitution, .friction = friction, .normal_stiffness = normal_stiffness});
   return table;
 }
 
@@ -44,20 +47,23 @@ namespace millflow::dem::testing {
 // fine for the invariants tested and keeps dt at 50 us.
 inline MillSetup small_mill(double fill, double speed_fraction) {
   MillSetup setup;
-  setup.shell = MillShell{.radius = 0.1,
-                          .length = 0.04,
-                          .lifter_count = 4,
-                          .lifter = LifterProfile{.height = 0.01, .base_width = 0.012, .face_angle_deg = 10.0},
-                          .end_walls = false};
+  setup.shell = MillShell{
+      .radius = 0.1,
+      .length = 0.04,
+      .lifter_count = 4,
+      .lifter = LifterProfile{.height = 0.01, .base_width = 0.012, .face_angle_deg = 10.0},
+      .end_walls = false};
   setup.ball_diameter = 0.01;
   const double ball_mass = sphere_mass(0.005);
   const double zeta_ball = damping_ratio_for_restitution(0.5);
-  setup.ball_ball = InteractionSpec{.restitution = 0.5,
-                                    .friction = 0.5,
-                                    .normal_stiffness = stiffness_for_collision_duration(1e-3, ball_mass / 2, zeta_ball)};
-  setup.ball_liner = InteractionSpec{.restitution = 0.5,
-                                     .friction = 0.5,
-                                     .normal_stiffness = stiffness_for_collision_duration(1e-3, ball_mass, zeta_ball)};
+  setup.ball_ball = InteractionSpec{
+      .restitution = 0.5,
+      .friction = 0.5,
+      .normal_stiffness = stiffness_for_collision_duration(1e-3, ball_mass / 2, zeta_ball)};
+  setup.ball_liner = InteractionSpec{
+      .restitution = 0.5,
+      .friction = 0.5,
+      .normal_stiffness = stiffness_for_collision_duration(1e-3, ball_mass, zeta_ball)};
   setup.fill = fill;
   setup.speed_fraction = speed_fraction;
   return setup;

@@ -7,7 +7,8 @@
 
 namespace millflow::dem::testing {
 
-inline ShearCellSetup small_shear_cell(double inertial_number, double powder_load = 0.0, double powder_ratio = 0.3) {
+inline ShearCellSetup small_shear_cell(double inertial_number, double powder_load = 0.0,
+                                       double powder_ratio = 0.3) {
   ShearCellSetup s;
   s.media_diameter = 0.01;
   s.media = {"steel", 7800.0};
@@ -17,9 +18,12 @@ inline ShearCellSetup small_shear_cell(double inertial_number, double powder_loa
   const double k = 100.0 * s.normal_stress * s.media_diameter;
   const double dp = powder_ratio * s.media_diameter;
   s.media_media = {.restitution = 0.5, .friction = 0.5, .normal_stiffness = k};
-  s.media_powder = {.restitution = 0.5, .friction = 0.5,
-                    .normal_stiffness = size_scaled_stiffness(k, s.media_diameter, s.media_diameter, dp)};
-  s.powder_powder = {.restitution = 0.5, .friction = 0.5,
+  s.media_powder = {
+      .restitution = 0.5,
+      .friction = 0.5,
+      .normal_stiffness = size_scaled_stiffness(k, s.media_diameter, s.media_diameter, dp)};
+  s.powder_powder = {.restitution = 0.5,
+                     .friction = 0.5,
                      .normal_stiffness = size_scaled_stiffness(k, s.media_diameter, dp, dp)};
   s.powder_diameter_ratio = powder_ratio;
   s.powder_load = powder_load;

@@ -38,7 +38,8 @@ TEST(DerivedCoefficients, EffectiveMassTreatsWallAsInfinitelyHeavy) {
 }
 
 PairParams params(double e, double mu) {
-  return derive_pair_params(InteractionSpec{.restitution = e, .friction = mu, .normal_stiffness = 1000.0}, "a-b");
+  return derive_pair_params(
+      InteractionSpec{.restitution = e, .friction = mu, .normal_stiffness = 1000.0}, "a-b");
 }
 
 TEST(LinearSpringDashpot, NormalForceIsSpringMinusDashpot) {
@@ -58,7 +59,8 @@ TEST(LinearSpringDashpot, SpringGrowsWithTangentialMotionWhileSticking) {
   const ContactGeometry g{Vec3::UnitZ(), 1e-3, Vec3(0.01, 0, 0)};
   const ContactResponse r = linear_spring_dashpot(p, 0.1, g, Vec3(2e-6, 0, 0), 1e-4);
   EXPECT_NEAR(r.spring.x(), 2e-6 + 0.01 * 1e-4, 1e-18);
-  const double c_t = p.tangential_damping_ratio * normal_damping_coefficient(1000.0, 0.1, p.damping_ratio);
+  const double c_t =
+      p.tangential_damping_ratio * normal_damping_coefficient(1000.0, 0.1, p.damping_ratio);
   EXPECT_NEAR(r.force_on_a.x(), -p.tangential_stiffness * r.spring.x() - c_t * 0.01, 1e-12);
   EXPECT_FALSE(r.sliding);
 }
@@ -102,9 +104,11 @@ TEST(DerivePairParams, RejectsOutOfRangeValuesNamingThem) {
     return std::string("no error");
   };
   EXPECT_EQ(message({.restitution = 0.0, .friction = 0.5, .normal_stiffness = 1e6}),
-            "interaction steel-steel: restitution = 0 is outside (0, 1]; give the ratio of rebound to impact normal speed");
+            "interaction steel-steel: restitution = 0 is outside (0, 1]; give the ratio of rebound "
+            "to impact normal speed");
   EXPECT_EQ(message({.restitution = 1.2, .friction = 0.5, .normal_stiffness = 1e6}),
-            "interaction steel-steel: restitution = 1.2 is outside (0, 1]; give the ratio of rebound to impact normal speed");
+            "interaction steel-steel: restitution = 1.2 is outside (0, 1]; give the ratio of "
+            "rebound to impact normal speed");
   EXPECT_EQ(message({.restitution = 0.5, .friction = -0.1, .normal_stiffness = 1e6}),
             "interaction steel-steel: friction = -0.1 must be a finite number >= 0");
   EXPECT_EQ(message({.restitution = 0.5, .friction = 0.5, .normal_stiffness = -1.0}),

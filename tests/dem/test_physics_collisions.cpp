@@ -37,8 +37,10 @@ TEST_P(BinaryCollision, SphereSphereRestitutionAndDurationMatchAnalytic) {
   System system(steel_table(e, 0.5, kStiffness), open_box(0.1), Vec3::Zero());
   system.set_record_collisions(true);
   const double speed = 0.5;
-  system.add_particle({.position = Vec3(-kRadius - 1e-4, 0, 0), .velocity = Vec3(speed, 0, 0), .radius = kRadius});
-  system.add_particle({.position = Vec3(kRadius + 1e-4, 0, 0), .velocity = Vec3(-speed, 0, 0), .radius = kRadius});
+  system.add_particle(
+      {.position = Vec3(-kRadius - 1e-4, 0, 0), .velocity = Vec3(speed, 0, 0), .radius = kRadius});
+  system.add_particle(
+      {.position = Vec3(kRadius + 1e-4, 0, 0), .velocity = Vec3(-speed, 0, 0), .radius = kRadius});
   system.set_time_step_from_collisions(kStepsPerCollision);
   const double m_eff = sphere_mass(kRadius) / 2.0;
   const double t_c = collision_duration(kStiffness, m_eff, damping_ratio_for_restitution(e));
@@ -59,11 +61,15 @@ TEST_P(BinaryCollision, SphereWallRestitutionAndDurationMatchAnalytic) {
   MaterialTable table = steel_table(e, 0.5, kStiffness);
   System system(std::move(table), open_box(0.1), Vec3::Zero());
   system.set_record_collisions(true);
-  system.add_wall({.name = "floor", .material = 0, .shape = PlaneWall{.origin = Vec3::Zero(), .normal = Vec3::UnitZ()}});
+  system.add_wall({.name = "floor",
+                   .material = 0,
+                   .shape = PlaneWall{.origin = Vec3::Zero(), .normal = Vec3::UnitZ()}});
   const double speed = 0.5;
-  system.add_particle({.position = Vec3(0, 0, kRadius + 1e-4), .velocity = Vec3(0, 0, -speed), .radius = kRadius});
+  system.add_particle(
+      {.position = Vec3(0, 0, kRadius + 1e-4), .velocity = Vec3(0, 0, -speed), .radius = kRadius});
   system.set_time_step_from_collisions(kStepsPerCollision);
-  const double t_c = collision_duration(kStiffness, sphere_mass(kRadius), damping_ratio_for_restitution(e));
+  const double t_c =
+      collision_duration(kStiffness, sphere_mass(kRadius), damping_ratio_for_restitution(e));
 
   const std::vector<CollisionEvent> events = step_until_a_collision_ends(system);
   ASSERT_EQ(events.size(), 1u);
@@ -81,16 +87,21 @@ INSTANTIATE_TEST_SUITE_P(Restitution, BinaryCollision, ::testing::Values(0.1, 0.
 TEST(Sliding, DeceleratesAtMuGThenRollsAtFiveSeventhsOfInitialSpeed) {
   const double mu = 0.3, g = 9.81, v0 = 1.0;
   System system(steel_table(0.5, mu, kStiffness), open_box(1.0), Vec3(0, 0, -g));
-  system.add_wall({.name = "floor", .material = 0, .shape = PlaneWall{.origin = Vec3::Zero(), .normal = Vec3::UnitZ()}});
+  system.add_wall({.name = "floor",
+                   .material = 0,
+                   .shape = PlaneWall{.origin = Vec3::Zero(), .normal = Vec3::UnitZ()}});
   const double m = sphere_mass(kRadius);
   // Start at the static overlap so the sphere does not bounce.
-  system.add_particle({.position = Vec3(-0.5, 0, kRadius - m * g / kStiffness), .velocity = Vec3(v0, 0, 0), .radius = kRadius});
+  system.add_particle({.position = Vec3(-0.5, 0, kRadius - m * g / kStiffness),
+                       .velocity = Vec3(v0, 0, 0),
+                       .radius = kRadius});
   system.set_time_step_from_collisions(50);
   const double sliding_time = 2.0 * v0 / (7.0 * mu * g);
 
   const auto half = static_cast<std::size_t>(0.5 * sliding_time / system.time_step());
   system.step(half);
-  EXPECT_NEAR(system.velocities()[0].x(), v0 - mu * g * system.time(), 0.01 * v0) << "Coulomb deceleration";
+  EXPECT_NEAR(system.velocities()[0].x(), v0 - mu * g * system.time(), 0.01 * v0)
+      << "Coulomb deceleration";
 
   system.step(2 * half);  // well past the end of sliding
   const double v = system.velocities()[0].x();
@@ -105,8 +116,10 @@ TEST(Sliding, DeceleratesAtMuGThenRollsAtFiveSeventhsOfInitialSpeed) {
 TEST(DissipationAccounting, ConvergesAtSecondOrderInTheTimeStep) {
   auto accounting_error = [](int steps_per_collision) {
     System system(steel_table(0.3, 0.5, kStiffness), open_box(0.1), Vec3::Zero());
-    system.add_particle({.position = Vec3(-kRadius - 1e-4, 0, 0), .velocity = Vec3(0.5, 0, 0), .radius = kRadius});
-    system.add_particle({.position = Vec3(kRadius + 1e-4, 0, 0), .velocity = Vec3(-0.5, 0, 0), .radius = kRadius});
+    system.add_particle(
+        {.position = Vec3(-kRadius - 1e-4, 0, 0), .velocity = Vec3(0.5, 0, 0), .radius = kRadius});
+    system.add_particle(
+        {.position = Vec3(kRadius + 1e-4, 0, 0), .velocity = Vec3(-0.5, 0, 0), .radius = kRadius});
     system.set_time_step_from_collisions(steps_per_collision);
     const EnergyBudget before = system.energy();
     system.step(40 * steps_per_collision);  // the collision is over
@@ -115,7 +128,8 @@ TEST(DissipationAccounting, ConvergesAtSecondOrderInTheTimeStep) {
     const double kinetic_lost = before.kinetic - after.kinetic;
     return std::abs(after.dissipated - before.dissipated - kinetic_lost) / kinetic_lost;
   };
-  const double at_20 = accounting_error(20), at_40 = accounting_error(40), at_80 = accounting_error(80);
+  const double at_20 = accounting_error(20), at_40 = accounting_error(40),
+               at_80 = accounting_error(80);
   EXPECT_LT(at_40, 0.005);
   EXPECT_GT(at_20 / at_40, 3.0);
   EXPECT_GT(at_40 / at_80, 3.0);
@@ -148,8 +162,12 @@ TEST(ElasticGas, EnergyIsConservedOverHundredThousandSteps) {
     system.step(10);
     samples.push_back(system.energy().mechanical());
   }
-  auto mean = [](auto begin, auto end) { return std::accumulate(begin, end, 0.0) / double(end - begin); };
-  const double drift = std::abs(mean(samples.end() - 1000, samples.end()) - mean(samples.begin(), samples.begin() + 1000)) / initial;
+  auto mean = [](auto begin, auto end) {
+    return std::accumulate(begin, end, 0.0) / double(end - begin);
+  };
+  const double drift = std::abs(mean(samples.end() - 1000, samples.end()) -
+                                mean(samples.begin(), samples.begin() + 1000)) /
+                       initial;
   double worst = 0.0;
   for (double e : samples) worst = std::max(worst, std::abs(e - initial) / initial);
   EXPECT_LT(drift, 1e-4) << "relative energy drift over 1e5 steps";

@@ -15,7 +15,11 @@ Domain sheared_box(double shear_velocity) {
   box.lo = Vec3::Zero();
   box.hi = Vec3(0.1, 0.08, 0.06);
   box.periodic = {true, true, true};
-  box.lees_edwards = LeesEdwards{.enabled = true, .flow_axis = 0, .gradient_axis = 1, .offset = 0.0, .velocity = shear_velocity};
+  box.lees_edwards = LeesEdwards{.enabled = true,
+                                 .flow_axis = 0,
+                                 .gradient_axis = 1,
+                                 .offset = 0.0,
+                                 .velocity = shear_velocity};
   return box;
 }
 
@@ -45,7 +49,8 @@ TEST(LeesEdwards, ParticleCrossingLowerFaceReentersWithOppositeShift) {
   const double shear_velocity = 0.8;
   System system(steel_table(0.5, 0.5), sheared_box(shear_velocity), Vec3::Zero());
   system.domain().lees_edwards.offset = 0.03;
-  system.add_particle({.position = Vec3(0.09, 0.0005, 0.03), .velocity = Vec3(0, -2.0, 0), .radius = 0.004});
+  system.add_particle(
+      {.position = Vec3(0.09, 0.0005, 0.03), .velocity = Vec3(0, -2.0, 0), .radius = 0.004});
   system.set_time_step(1e-5);
   system.step(50);
   const double offset = system.domain().lees_edwards.offset;
@@ -61,7 +66,8 @@ TEST(LeesEdwards, ContactAcrossTheBoundaryFeelsTheImageVelocity) {
   System system(steel_table(0.5, 0.5), sheared_box(shear_velocity), Vec3::Zero());
   const double r = 0.004;
   system.add_particle({.position = Vec3(0.05, 0.0795, 0.03), .radius = r});  // top of the box
-  system.add_particle({.position = Vec3(0.05, 0.0075 - 0.0001, 0.03), .radius = r});  // image above touches it
+  system.add_particle(
+      {.position = Vec3(0.05, 0.0075 - 0.0001, 0.03), .radius = r});  // image above touches it
   system.set_time_step(1e-6);
   system.step();
   ASSERT_EQ(system.active_contact_count(), 1u);
@@ -75,7 +81,8 @@ TEST(LeesEdwards, ContactAcrossTheBoundaryFeelsTheImageVelocity) {
 
 TEST(LeesEdwards, AffineStretchScalesPositionsTheBoxAndTheImageVelocity) {
   System system(steel_table(0.5, 0.5), sheared_box(0.8), Vec3::Zero());
-  system.add_particle({.position = Vec3(0.05, 0.02, 0.03), .velocity = Vec3(0.1, 0.2, 0.3), .radius = 0.004});
+  system.add_particle(
+      {.position = Vec3(0.05, 0.02, 0.03), .velocity = Vec3(0.1, 0.2, 0.3), .radius = 0.004});
   system.add_particle({.position = Vec3(0.05, 0.03, 0.03), .radius = 0.004});
   system.deform_affinely(1, 0.9);
   EXPECT_DOUBLE_EQ(system.domain().length().y(), 0.08 * 0.9);

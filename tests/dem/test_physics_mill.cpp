@@ -61,7 +61,8 @@ TEST(MillPhysics, ShellWorkEqualsEnergyChangePlusDissipation) {
   system.step(static_cast<std::size_t>(0.4 / system.time_step()));
   const EnergyBudget end = system.energy();
   const double work = end.wall_work - start.wall_work;
-  const double accounted = end.mechanical() - start.mechanical() + end.dissipated - start.dissipated;
+  const double accounted =
+      end.mechanical() - start.mechanical() + end.dissipated - start.dissipated;
   ASSERT_GT(work, 0.0);
   EXPECT_NEAR(accounted, work, 0.01 * work) << "shell work " << work << " J";
 }

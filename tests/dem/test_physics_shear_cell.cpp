@@ -15,7 +15,9 @@ namespace {
 
 using testing::small_shear_cell;
 
-std::size_t index(ContactType type) { return static_cast<std::size_t>(type); }
+std::size_t index(ContactType type) {
+  return static_cast<std::size_t>(type);
+}
 
 // Jop, Forterre & Pouliquen (2006), glass beads: the reference, not a fit.
 double jop_forterre_pouliquen(double inertial_number) {
@@ -49,13 +51,16 @@ TEST_F(ShearCellPhysics, ServoHoldsTheNormalStressAndTheEnergyBalanceCloses) {
   const double window = static_cast<double>(steps) * system.time_step();
   const double target = setup.normal_stress * cell.wall_area();
   const double displacement = system.positions()[top_ball].y() - start_height;
-  EXPECT_NEAR(impulse / window, target + displacement / (cell.servo_mobility() * window), 0.02 * target) << "servo law";
+  EXPECT_NEAR(impulse / window, target + displacement / (cell.servo_mobility() * window),
+              0.02 * target)
+      << "servo law";
   EXPECT_NEAR(impulse / window, target, 0.25 * target) << "wall settled near the target";
 
   const ShearCellMeasurements m = cell.measure(2.0);
   EXPECT_NEAR(m.normal_stress, setup.normal_stress, 0.25 * setup.normal_stress);
   ASSERT_GT(m.work_in, 0.0);
-  EXPECT_LT(m.energy_balance_error, 0.01) << "work " << m.work_in << " J, dissipated " << m.dissipated << " J";
+  EXPECT_LT(m.energy_balance_error, 0.01)
+      << "work " << m.work_in << " J, dissipated " << m.dissipated << " J";
   EXPECT_NEAR(m.power_density, m.work_in / (m.volume * m.duration), 1e-9 * m.power_density);
   // Media only: no powder dissipation at all, and no powder collisions.
   EXPECT_EQ(m.dissipation_density[index(ContactType::MediaPowder)], 0.0);
@@ -75,13 +80,16 @@ TEST_F(ShearCellPhysics, FrictionRisesWithInertialNumberLikeFrictionalSpheres) {
     cell.warm_up(2.0, 3);
     runs.push_back(cell.measure(2.0));
     const ShearCellMeasurements& m = runs.back();
-    std::printf("I = %.4g (bulk rate %.4g 1/s, nominal %.4g 1/s): mu = %.4g, JFP mu(I) = %.4g, solid fraction %.3g\n",
-                m.inertial_number, m.bulk_shear_rate, m.nominal_shear_rate, m.friction,
-                jop_forterre_pouliquen(m.inertial_number), m.media_solid_fraction);
+    std::printf(
+        "I = %.4g (bulk rate %.4g 1/s, nominal %.4g 1/s): mu = %.4g, JFP mu(I) = %.4g, solid "
+        "fraction %.3g\n",
+        m.inertial_number, m.bulk_shear_rate, m.nominal_shear_rate, m.friction,
+        jop_forterre_pouliquen(m.inertial_number), m.media_solid_fraction);
     EXPECT_GT(m.friction, 0.2);
     EXPECT_LT(m.friction, 0.8);
   }
-  EXPECT_GT(runs[1].inertial_number, 3.0 * runs[0].inertial_number) << "the controller kept the rates apart";
+  EXPECT_GT(runs[1].inertial_number, 3.0 * runs[0].inertial_number)
+      << "the controller kept the rates apart";
   EXPECT_GT(runs[1].friction, runs[0].friction);
   EXPECT_LT(runs[1].media_solid_fraction, runs[0].media_solid_fraction) << "faster flow dilates";
 }
@@ -91,7 +99,8 @@ TEST_F(ShearCellPhysics, DissipationWithPowderSplitsIntoTheFourTypesAndSumsToThe
   ASSERT_GT(cell.powder_count(), 0u);
   cell.warm_up(0.5, 1);
   const ShearCellMeasurements m = cell.measure(0.5);
-  const double wall = m.dissipation_density[index(ContactType::WallMedia)] + m.dissipation_density[index(ContactType::WallPowder)];
+  const double wall = m.dissipation_density[index(ContactType::WallMedia)] +
+                      m.dissipation_density[index(ContactType::WallPowder)];
   EXPECT_GT(m.dissipation_density[index(ContactType::MediaMedia)], 0.0);
   EXPECT_GT(m.dissipation_density[index(ContactType::MediaPowder)], 0.0);
   EXPECT_GT(m.dissipation_density[index(ContactType::PowderPowder)], 0.0);
@@ -113,12 +122,15 @@ TEST_F(ShearCellPhysics, LeesEdwardsCellBalancesEnergyAndResistsShear) {
   ShearCell cell(setup);
   cell.run_strain(2.0);
   const ShearCellMeasurements m = cell.measure(1.5);
-  std::printf("LE with barostat: p = %.4g Pa (target %.4g), tau = %.4g Pa, mu = %.4g, phi = %.3g, bulk rate %.4g "
-              "(target %.4g)\n",
-              m.normal_stress, setup.normal_stress, m.shear_stress, m.friction, m.media_solid_fraction,
-              m.bulk_shear_rate, m.target_shear_rate);
+  std::printf(
+      "LE with barostat: p = %.4g Pa (target %.4g), tau = %.4g Pa, mu = %.4g, phi = %.3g, bulk "
+      "rate %.4g "
+      "(target %.4g)\n",
+      m.normal_stress, setup.normal_stress, m.shear_stress, m.friction, m.media_solid_fraction,
+      m.bulk_shear_rate, m.target_shear_rate);
   // A 6-diameter cell fluctuates by ~20% over 0.2 strains; the window averages them out.
-  EXPECT_NEAR(m.normal_stress, setup.normal_stress, 0.1 * setup.normal_stress) << "the barostat imposes it";
+  EXPECT_NEAR(m.normal_stress, setup.normal_stress, 0.1 * setup.normal_stress)
+      << "the barostat imposes it";
   EXPECT_GT(m.friction, 0.1);
   EXPECT_NEAR(m.bulk_shear_rate, setup.shear_rate, 0.2 * setup.shear_rate) << "no walls to slip";
   EXPECT_LT(m.energy_balance_error, 0.01) << "work " << m.work_in << " J, barostat included";
@@ -134,7 +146,8 @@ TEST_F(ShearCellPhysics, LeesEdwardsCellBalancesEnergyAndResistsShear) {
 // sticking ones (mu = 5) add the second (+2.88%, +1.93%, +0.98%). (Advancing the spring by the
 // displacement instead made the sticking cell second order too: -1.69%, -0.42%, -0.05%, before
 // the springs of contacts that let go were counted as dissipated.)
-TEST_F(ShearCellPhysics, EnergyBalanceErrorIsSecondOrderForNormalAndFirstOrderForTangentialContacts) {
+TEST_F(ShearCellPhysics,
+       EnergyBalanceErrorIsSecondOrderForNormalAndFirstOrderForTangentialContacts) {
   auto signed_error = [](double friction, int steps_per_collision) {
     ShearCellSetup setup = small_shear_cell(0.1);
     setup.media_media.restitution = 0.3;
@@ -151,8 +164,9 @@ TEST_F(ShearCellPhysics, EnergyBalanceErrorIsSecondOrderForNormalAndFirstOrderFo
   for (std::size_t k = 0; k < 3; ++k) {
     frictionless[k] = signed_error(0.0, 20 << k);
     sticking[k] = signed_error(5.0, 20 << k);
-    std::printf("%d steps per collision: energy balance error %+.3f%% frictionless, %+.3f%% sticking\n", 20 << k,
-                100 * frictionless[k], 100 * sticking[k]);
+    std::printf(
+        "%d steps per collision: energy balance error %+.3f%% frictionless, %+.3f%% sticking\n",
+        20 << k, 100 * frictionless[k], 100 * sticking[k]);
   }
   for (std::size_t k = 0; k < 2; ++k) {
     EXPECT_LT(frictionless[k], 0.0) << "the dashpots' dissipation is over-counted";
@@ -174,12 +188,14 @@ TEST_F(ShearCellPhysics, PowderCushionsTheMediaMediaCollisions) {
     ShearCell cell(setup);
     cell.run_strain(2.0);
     const ShearCellMeasurements m = cell.measure(2.0);
-    EXPECT_NEAR(m.normal_stress, setup.normal_stress, 0.1 * setup.normal_stress) << "load " << powder_load;
+    EXPECT_NEAR(m.normal_stress, setup.normal_stress, 0.1 * setup.normal_stress)
+        << "load " << powder_load;
     return m.dissipation_density[index(ContactType::MediaMedia)];
   };
   const double without = media_media_dissipation(0.0), with = media_media_dissipation(1.0);
-  std::printf("media-media dissipation: %.4g W/m^3 without powder, %.4g W/m^3 at load 1 (ratio %.3f)\n", without,
-              with, with / without);
+  std::printf(
+      "media-media dissipation: %.4g W/m^3 without powder, %.4g W/m^3 at load 1 (ratio %.3f)\n",
+      without, with, with / without);
   EXPECT_GT(without, 0.0);
   EXPECT_LT(with, 0.5 * without);
 }

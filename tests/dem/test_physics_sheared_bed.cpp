@@ -27,10 +27,13 @@ ShearedBed make_sheared_bed(double wall_speed, double pressure) {
   box.hi = Vec3(kWidth, 0.08, kWidth);
   box.periodic = {true, false, true};
   const double ball_mass = sphere_mass(kRadius);
-  const double stiffness = stiffness_for_collision_duration(5e-4, ball_mass / 2, damping_ratio_for_restitution(0.5));
+  const double stiffness =
+      stiffness_for_collision_duration(5e-4, ball_mass / 2, damping_ratio_for_restitution(0.5));
   System system(steel_table(0.5, 0.5, stiffness), box, Vec3(0, -9.81, 0));
   const double target_force = pressure * kWidth * kWidth;
-  system.add_wall({.name = "bottom", .material = 0, .shape = PlaneWall{.origin = Vec3::Zero(), .normal = Vec3::UnitY()}});
+  system.add_wall({.name = "bottom",
+                   .material = 0,
+                   .shape = PlaneWall{.origin = Vec3::Zero(), .normal = Vec3::UnitY()}});
   // The 125 balls settle into about three layers (top near y = 34 mm); the wall starts above
   // them and descends at the servo's speed limit until it carries the target force.
   // Mobility: a force error of 1 N moves the wall at 5 mm/s, slow enough for the servo loop to
@@ -47,7 +50,8 @@ ShearedBed make_sheared_bed(double wall_speed, double pressure) {
   for (int i = 0; i < 5; ++i) {
     for (int j = 0; j < 5; ++j) {
       for (int k = 0; k < 5; ++k) {
-        const Vec3 site = Vec3(i + 0.5, j + 0.5, k + 0.5) * 0.012 + 0.0004 * Vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
+        const Vec3 site = Vec3(i + 0.5, j + 0.5, k + 0.5) * 0.012 +
+                          0.0004 * Vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
         system.add_particle({.position = site, .radius = kRadius});
       }
     }
@@ -63,7 +67,8 @@ TEST(ShearedBed, WallWorkEqualsEnergyChangePlusDissipation) {
   system.step(static_cast<std::size_t>(0.2 / system.time_step()));
   const EnergyBudget end = system.energy();
   const double work = end.wall_work - start.wall_work;
-  const double accounted = end.mechanical() - start.mechanical() + end.dissipated - start.dissipated;
+  const double accounted =
+      end.mechanical() - start.mechanical() + end.dissipated - start.dissipated;
   ASSERT_GT(work, 0.0);
   EXPECT_NEAR(accounted, work, 0.01 * work) << "wall work " << work << " J";
 }
@@ -79,12 +84,15 @@ TEST(ShearedBed, StressControlledWallHoldsTheTargetNormalForce) {
   const std::size_t steps = static_cast<std::size_t>(0.3 / system.time_step());
   for (std::size_t s = 0; s < steps; ++s) {
     system.step();
-    impulse += system.wall_load(1).force.y() * system.time_step();  // the particles push the top wall up (+y)
+    impulse += system.wall_load(1).force.y() *
+               system.time_step();  // the particles push the top wall up (+y)
   }
   const double window = static_cast<double>(steps) * system.time_step();
   const double mean_force = impulse / window;
   const double mobility = std::get<PlaneWall>(system.wall(1).shape).servo_mobility;
-  EXPECT_NEAR(mean_force, target + (wall_height() - start_height) / (mobility * window), 0.02 * target) << "servo law";
+  EXPECT_NEAR(mean_force, target + (wall_height() - start_height) / (mobility * window),
+              0.02 * target)
+      << "servo law";
   EXPECT_NEAR(mean_force, target, 0.1 * target) << "wall settled near the target";
 }
 

@@ -12,13 +12,16 @@ namespace {
 
 using testing::small_shear_cell;
 
-double sphere_volume(double d) { return std::numbers::pi / 6.0 * d * d * d; }
+double sphere_volume(double d) {
+  return std::numbers::pi / 6.0 * d * d * d;
+}
 
 std::size_t count_material(const System& system, const std::string& name) {
   const MaterialId id = system.materials().find(name);
   std::size_t n = 0;
   for (std::size_t p = 0; p < system.size(); ++p) {
-    n += system.particle_groups()[p] == kFreeParticle && system.particle_materials()[p] == id ? 1 : 0;
+    n += system.particle_groups()[p] == kFreeParticle && system.particle_materials()[p] == id ? 1
+                                                                                              : 0;
   }
   return n;
 }
@@ -44,7 +47,8 @@ TEST(ShearCell, ZeroLoadHasNoPowder) {
 }
 
 TEST(ShearCell, ParticlesArePlacedWithoutOverlaps) {
-  for (auto boundary : {ShearCellSetup::Boundary::RoughWalls, ShearCellSetup::Boundary::LeesEdwards}) {
+  for (auto boundary :
+       {ShearCellSetup::Boundary::RoughWalls, ShearCellSetup::Boundary::LeesEdwards}) {
     ShearCellSetup setup = small_shear_cell(0.05, 0.4, 0.25);
     setup.boundary = boundary;
     setup.size_diameters = Vec3(6, 6, 6);
@@ -85,7 +89,8 @@ TEST(ShearCell, LeesEdwardsCellIsPeriodicWithTheImposedProfile) {
   EXPECT_EQ(cell.system().group_count(), 0u);
   const double y_mid = 0.5 * domain.length().y();
   for (std::size_t p = 0; p < cell.system().size(); ++p) {
-    EXPECT_DOUBLE_EQ(cell.system().velocities()[p].x(), setup.shear_rate * (cell.system().positions()[p].y() - y_mid));
+    EXPECT_DOUBLE_EQ(cell.system().velocities()[p].x(),
+                     setup.shear_rate * (cell.system().positions()[p].y() - y_mid));
   }
 }
 
@@ -93,8 +98,9 @@ TEST(ShearCell, ServoConstantsFollowTheDocumentedLaw) {
   const ShearCellSetup setup = small_shear_cell(0.05);
   const ShearCell cell(setup);
   const double d = setup.media_diameter, m = 7800.0 * sphere_volume(d);
-  const double t_c = collision_duration(setup.media_media.normal_stiffness, 0.5 * m,
-                                        damping_ratio_for_restitution(setup.media_media.restitution));
+  const double t_c =
+      collision_duration(setup.media_media.normal_stiffness, 0.5 * m,
+                         damping_ratio_for_restitution(setup.media_media.restitution));
   const double k_bed = setup.media_media.normal_stiffness * 16.0 / 6.0;  // (A / d^2) (d / H)
   const double t_wave = 6.0 * t_c;
   EXPECT_NEAR(cell.servo_mobility(), 0.5 / (k_bed * t_wave), 1e-12 * cell.servo_mobility());
@@ -105,7 +111,8 @@ TEST(ShearCell, ServoConstantsFollowTheDocumentedLaw) {
 TEST(ShearCell, SizeScaledStiffnessUsesTheHarmonicMeanDiameter) {
   EXPECT_DOUBLE_EQ(size_scaled_stiffness(1000.0, 0.01, 0.01, 0.01), 1000.0);
   EXPECT_DOUBLE_EQ(size_scaled_stiffness(1000.0, 0.01, 0.002, 0.002), 200.0);
-  EXPECT_NEAR(size_scaled_stiffness(1000.0, 0.01, 0.01, 0.002), 1000.0 * (2 * 0.01 * 0.002 / 0.012) / 0.01, 1e-9);
+  EXPECT_NEAR(size_scaled_stiffness(1000.0, 0.01, 0.01, 0.002),
+              1000.0 * (2 * 0.01 * 0.002 / 0.012) / 0.01, 1e-9);
   EXPECT_THROW(size_scaled_stiffness(1000.0, 0.01, -1.0, 0.002), std::invalid_argument);
 }
 
@@ -120,9 +127,12 @@ TEST(ShearCell, RejectsBadSettingsNamingThem) {
     }
     return std::string("no error");
   };
-  EXPECT_NE(message([](auto& s) { s.powder_diameter_ratio = 1.5; }).find("powder diameter ratio = 1.5"), std::string::npos);
+  EXPECT_NE(
+      message([](auto& s) { s.powder_diameter_ratio = 1.5; }).find("powder diameter ratio = 1.5"),
+      std::string::npos);
   EXPECT_NE(message([](auto& s) { s.servo_gain = 0.0; }).find("servo gain"), std::string::npos);
-  EXPECT_NE(message([](auto& s) { s.shear_rate = -1.0; }).find("shear rate = -1"), std::string::npos);
+  EXPECT_NE(message([](auto& s) { s.shear_rate = -1.0; }).find("shear rate = -1"),
+            std::string::npos);
   EXPECT_NE(message([](auto& s) {
               s.boundary = ShearCellSetup::Boundary::LeesEdwards;
               s.gravity = true;

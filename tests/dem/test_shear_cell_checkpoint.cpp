@@ -27,14 +27,18 @@ ShearCellSetup tiny_cell(ShearCellSetup::Boundary boundary) {
 }
 
 ShearCellProtocol tiny_protocol() {
-  return {.warmup_strain = 0.2, .warmup_windows = 2, .measure_strain = 0.3, .measure = {.samples = 20}};
+  return {
+      .warmup_strain = 0.2, .warmup_windows = 2, .measure_strain = 0.3, .measure = {.samples = 20}};
 }
 
-bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+bool same_bits(double a, double b) {
+  return std::memcmp(&a, &b, sizeof a) == 0;
+}
 
 void expect_same_histogram(const LogHistogram& a, const LogHistogram& b, const std::string& what) {
   ASSERT_EQ(a.bin_count(), b.bin_count()) << what;
-  for (std::size_t k = 0; k < a.bin_count(); ++k) EXPECT_TRUE(same_bits(a.count(k), b.count(k))) << what << " bin " << k;
+  for (std::size_t k = 0; k < a.bin_count(); ++k)
+    EXPECT_TRUE(same_bits(a.count(k), b.count(k))) << what << " bin " << k;
   EXPECT_TRUE(same_bits(a.underflow(), b.underflow())) << what;
   EXPECT_TRUE(same_bits(a.overflow(), b.overflow())) << what;
 }
@@ -62,11 +66,16 @@ void expect_same_bits(const ShearCellRun& a, const ShearCellRun& b) {
       {"first half", {x.shear_stress_first_half, y.shear_stress_first_half}},
       {"second half", {x.shear_stress_second_half, y.shear_stress_second_half}},
   };
-  for (const auto& [name, pair] : values) EXPECT_TRUE(same_bits(pair.first, pair.second)) << name << ": " << pair.first << " vs " << pair.second;
+  for (const auto& [name, pair] : values)
+    EXPECT_TRUE(same_bits(pair.first, pair.second))
+        << name << ": " << pair.first << " vs " << pair.second;
   for (std::size_t t = 0; t < kContactTypeCount; ++t) {
-    EXPECT_TRUE(same_bits(x.dissipation_density[t], y.dissipation_density[t])) << "dissipation of type " << t;
-    EXPECT_TRUE(same_bits(x.collisions[t].count, y.collisions[t].count)) << "collisions of type " << t;
-    expect_same_histogram(x.collisions[t].dissipated_energy, y.collisions[t].dissipated_energy, "spectrum");
+    EXPECT_TRUE(same_bits(x.dissipation_density[t], y.dissipation_density[t]))
+        << "dissipation of type " << t;
+    EXPECT_TRUE(same_bits(x.collisions[t].count, y.collisions[t].count))
+        << "collisions of type " << t;
+    expect_same_histogram(x.collisions[t].dissipated_energy, y.collisions[t].dissipated_energy,
+                          "spectrum");
   }
   const System& s = a.cell().system();
   const System& t = b.cell().system();
@@ -105,12 +114,14 @@ TEST_P(ShearCellCheckpoint, StoppingAnywhereAndContinuingGivesTheSameBits) {
     run.save(file);
     run = ShearCellRun::resume(setup, tiny_protocol(), file);
   }
-  EXPECT_EQ(stopped_in, (std::set<std::string>{"warm-up window 1/2", "warm-up window 2/2", "measuring"}));
+  EXPECT_EQ(stopped_in,
+            (std::set<std::string>{"warm-up window 1/2", "warm-up window 2/2", "measuring"}));
   expect_same_bits(uninterrupted, run);
 }
 
 INSTANTIATE_TEST_SUITE_P(Boundaries, ShearCellCheckpoint,
-                         ::testing::Values(ShearCellSetup::Boundary::RoughWalls, ShearCellSetup::Boundary::LeesEdwards));
+                         ::testing::Values(ShearCellSetup::Boundary::RoughWalls,
+                                           ShearCellSetup::Boundary::LeesEdwards));
 
 std::string resume_error(const ShearCellSetup& setup, const std::filesystem::path& file) {
   try {
@@ -130,22 +141,26 @@ TEST(ShearCellCheckpointFile, TruncatedAlteredForeignAndMissingFilesAreRefused) 
   const std::filesystem::path file = dir.path() / "cell.ckpt";
   run.save(file);
   std::ifstream stream(file, std::ios::binary);
-  const std::string bytes((std::istreambuf_iterator<char>(stream)), std::istreambuf_iterator<char>());
+  const std::string bytes((std::istreambuf_iterator<char>(stream)),
+                          std::istreambuf_iterator<char>());
   auto write = [&](const std::string& content) {
     std::ofstream out(file, std::ios::binary | std::ios::trunc);
     out << content;
   };
 
   write(bytes.substr(0, bytes.size() / 2));
-  EXPECT_NE(resume_error(setup, file).find("is truncated"), std::string::npos) << resume_error(setup, file);
+  EXPECT_NE(resume_error(setup, file).find("is truncated"), std::string::npos)
+      << resume_error(setup, file);
   std::string altered = bytes;
   altered[altered.size() / 2] ^= 0x20;
   write(altered);
-  EXPECT_NE(resume_error(setup, file).find("checksum mismatch"), std::string::npos) << resume_error(setup, file);
+  EXPECT_NE(resume_error(setup, file).find("checksum mismatch"), std::string::npos)
+      << resume_error(setup, file);
   write(bytes);
   ShearCellSetup other = setup;
   other.seed += 1;
-  EXPECT_NE(resume_error(other, file).find("the checkpoint is of another shear cell or protocol"), std::string::npos);
+  EXPECT_NE(resume_error(other, file).find("the checkpoint is of another shear cell or protocol"),
+            std::string::npos);
   EXPECT_EQ(resume_error(setup, file), "no error");
   std::filesystem::remove(file);
   EXPECT_NE(resume_error(setup, file).find("cannot read"), std::string::npos);

@@ -28,7 +28,9 @@ TEST(SystemInput, NegativeRadiusIsRefused) {
 
 TEST(SystemInput, NanPositionIsRefused) {
   System system(steel_table(0.5, 0.5), open_box(1.0), Vec3::Zero());
-  EXPECT_EQ(error_of([&] { system.add_particle({.position = Vec3(0, std::nan(""), 0), .radius = 0.01}); }),
+  EXPECT_EQ(error_of([&] {
+              system.add_particle({.position = Vec3(0, std::nan(""), 0), .radius = 0.01});
+            }),
             "particle 0: position or velocity is not finite");
 }
 
@@ -41,9 +43,16 @@ TEST(SystemInput, UnknownMaterialIsRefused) {
 TEST(SystemInput, RestitutionOutsideRangeAndNegativeFrictionAreRefused) {
   MaterialTable table;
   const MaterialId steel = table.add({"steel", 7800.0});
-  EXPECT_EQ(error_of([&] { table.set_interaction(steel, steel, {.restitution = 1.5, .friction = 0.5, .normal_stiffness = 1e6}); }),
-            "interaction steel-steel: restitution = 1.5 is outside (0, 1]; give the ratio of rebound to impact normal speed");
-  EXPECT_EQ(error_of([&] { table.set_interaction(steel, steel, {.restitution = 0.5, .friction = -0.2, .normal_stiffness = 1e6}); }),
+  EXPECT_EQ(error_of([&] {
+              table.set_interaction(steel, steel,
+                                    {.restitution = 1.5, .friction = 0.5, .normal_stiffness = 1e6});
+            }),
+            "interaction steel-steel: restitution = 1.5 is outside (0, 1]; give the ratio of "
+            "rebound to impact normal speed");
+  EXPECT_EQ(error_of([&] {
+              table.set_interaction(
+                  steel, steel, {.restitution = 0.5, .friction = -0.2, .normal_stiffness = 1e6});
+            }),
             "interaction steel-steel: friction = -0.2 must be a finite number >= 0");
 }
 
@@ -72,7 +81,8 @@ TEST(SystemInput, MissingInteractionIsNamedWhenDerivingTheTimeStep) {
   MaterialTable table;
   const MaterialId steel = table.add({"steel", 7800.0});
   const MaterialId powder = table.add({"powder", 3100.0});
-  table.set_interaction(steel, steel, {.restitution = 0.5, .friction = 0.5, .normal_stiffness = 1e6});
+  table.set_interaction(steel, steel,
+                        {.restitution = 0.5, .friction = 0.5, .normal_stiffness = 1e6});
   System system(std::move(table), open_box(1.0), Vec3::Zero());
   system.add_particle({.position = Vec3::Zero(), .radius = 0.005, .material = steel});
   system.add_particle({.position = Vec3(0.1, 0, 0), .radius = 0.001, .material = powder});

@@ -11,10 +11,13 @@ Registry testing_registry() {
 }
 
 Campaign test_campaign(const std::string& name, nlohmann::json tasks) {
-  return Campaign{name, "millflow-test", {{"format", "millflow-test"}, {"name", name}, {"tasks", std::move(tasks)}}};
+  return Campaign{name,
+                  "millflow-test",
+                  {{"format", "millflow-test"}, {"name", name}, {"tasks", std::move(tasks)}}};
 }
 
-RunSummary submit(const Campaign& campaign, const std::filesystem::path& db, int jobs, int retries) {
+RunSummary submit(const Campaign& campaign, const std::filesystem::path& db, int jobs,
+                  int retries) {
   SubmitOptions options;
   options.run.jobs = jobs;
   options.run.retries = retries;

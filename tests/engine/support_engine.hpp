@@ -17,7 +17,8 @@ Registry testing_registry();
 // {"format": "millflow-test", "name": name, "tasks": tasks}
 Campaign test_campaign(const std::string& name, nlohmann::json tasks);
 
-RunSummary submit(const Campaign& campaign, const std::filesystem::path& db, int jobs = 2, int retries = 0);
+RunSummary submit(const Campaign& campaign, const std::filesystem::path& db, int jobs = 2,
+                  int retries = 0);
 
 // One integer from a read-only SQL query.
 std::int64_t count(const std::filesystem::path& db, const std::string& sql);

@@ -22,7 +22,9 @@ class DiskFullOnCopies final : public FileSystem {
  public:
   explicit DiskFullOnCopies(int failures) : failures_(failures) {}
 
-  std::optional<std::int64_t> file_size(const fs::path& file) const override { return disk().file_size(file); }
+  std::optional<std::int64_t> file_size(const fs::path& file) const override {
+    return disk().file_size(file);
+  }
   std::string sha256(const fs::path& file) const override { return disk().sha256(file); }
   void copy_durably(const fs::path& from, const fs::path& to) const override {
     if (failures_.fetch_sub(1) <= 0) return disk().copy_durably(from, to);
@@ -34,7 +36,9 @@ class DiskFullOnCopies final : public FileSystem {
   }
   void rename(const fs::path& from, const fs::path& to) const override { disk().rename(from, to); }
   void remove(const fs::path& file) const override { disk().remove(file); }
-  std::vector<fs::path> files_under(const fs::path& root) const override { return disk().files_under(root); }
+  std::vector<fs::path> files_under(const fs::path& root) const override {
+    return disk().files_under(root);
+  }
 
  private:
   static const FileSystem& disk() { return local_file_system(); }
@@ -64,12 +68,18 @@ TEST(Artifacts, TaskWhoseArtifactCannotBeStoredFailsAndItsRetryCommits) {
   SubmitOptions options;
   options.run.retries = 1;
   options.files = &disk;
-  const auto campaign = test_campaign("files", json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 7}, {"artifact", true}}}}}));
+  const auto campaign = test_campaign(
+      "files",
+      json::array(
+          {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 7}, {"artifact", true}}}}}));
   const auto summary = submit_campaign(testing_registry(), campaign, dir.db(), options);
   EXPECT_EQ(summary.done, 1);
   EXPECT_EQ(summary.failed, 0);
   EXPECT_EQ(count(dir.db(), "SELECT attempts FROM tasks"), 2);
-  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM status_history WHERE status = 'failed' AND message = 'disk full (test)'"), 1);
+  EXPECT_EQ(count(dir.db(),
+                  "SELECT count(*) FROM status_history WHERE status = 'failed' AND message = 'disk "
+                  "full (test)'"),
+            1);
   EXPECT_EQ(count(dir.db(), "SELECT json_extract(result, '$.sum') FROM results"), 7);
   auto connection = open_read_only(dir.db());
   auto row = connection.prepare("SELECT task_key FROM artifacts");
@@ -77,7 +87,8 @@ TEST(Artifacts, TaskWhoseArtifactCannotBeStoredFailsAndItsRetryCommits) {
   const auto artifact = find_artifacts(connection, row.text(0)).at(0);
   const ArtifactStore store(artifacts_dir(dir.db()));
   EXPECT_TRUE(store.verify(artifact));
-  EXPECT_EQ(local_file_system().files_under(store.root()), std::vector<fs::path>{store.path_of(artifact.sha256)});
+  EXPECT_EQ(local_file_system().files_under(store.root()),
+            std::vector<fs::path>{store.path_of(artifact.sha256)});
 }
 
 }  // namespace

@@ -38,7 +38,8 @@ class AttemptFiles : public ::testing::Test {
   }
   Exec exec_file(const fs::path& file, bool stop = false, const std::string& key = "") {
     std::ostringstream log;
-    const int code = execute_attempt(registry_.kinds, file, [=] { return stop; }, log);
+    const int code = execute_attempt(
+        registry_.kinds, file, [=] { return stop; }, log);
     return Exec{code, read_attempt_outcome(dir_.path() / "out", key, 1), log.str()};
   }
 

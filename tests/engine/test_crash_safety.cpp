@@ -29,18 +29,26 @@ json layered_campaign() {
   constexpr int kWidth = 10;
   for (int layer = 0; layer < kLayers; ++layer) {
     for (int i = 0; i < kWidth; ++i) {
-      json task = {{"id", fmt::format("{}-{}", layer, i)}, {"kind", "sum"},
-                   {"params", {{"value", layer * 100 + i}, {"sleep_ms", 80}, {"artifact", i % 3 == 0}}}};
-      if (layer > 0) task["after"] = {fmt::format("{}-{}", layer - 1, i), fmt::format("{}-{}", layer - 1, (i + 1) % kWidth)};
+      json task = {
+          {"id", fmt::format("{}-{}", layer, i)},
+          {"kind", "sum"},
+          {"params", {{"value", layer * 100 + i}, {"sleep_ms", 80}, {"artifact", i % 3 == 0}}}};
+      if (layer > 0)
+        task["after"] = {fmt::format("{}-{}", layer - 1, i),
+                         fmt::format("{}-{}", layer - 1, (i + 1) % kWidth)};
       tasks.push_back(task);
     }
   }
-  tasks.push_back({{"id", "fan"}, {"kind", "fanout"}, {"params", {{"children", 5}, {"value", 1}}}, {"after", {"4-0"}}});
+  tasks.push_back({{"id", "fan"},
+                   {"kind", "fanout"},
+                   {"params", {{"children", 5}, {"value", 1}}},
+                   {"after", {"4-0"}}});
   return {{"format", "millflow-test"}, {"name", "crash"}, {"tasks", tasks}};
 }
 
 pid_t spawn_millflow(const std::vector<std::string>& arguments, const fs::path& trace) {
-  return millflow::testing::spawn_millflow(arguments, "/dev/null", "/dev/null", {{"MILLFLOW_TEST_TRACE", trace.string()}});
+  return millflow::testing::spawn_millflow(arguments, "/dev/null", "/dev/null",
+                                           {{"MILLFLOW_TEST_TRACE", trace.string()}});
 }
 
 std::map<std::string, std::string> done_results(const fs::path& db) {
@@ -48,7 +56,9 @@ std::map<std::string, std::string> done_results(const fs::path& db) {
   if (!fs::exists(db)) return results;
   try {
     auto connection = open_read_only(db);
-    auto rows = connection.prepare("SELECT t.key, r.result FROM tasks t JOIN results r ON r.task_key = t.key WHERE t.status = 'done'");
+    auto rows = connection.prepare(
+        "SELECT t.key, r.result FROM tasks t JOIN results r ON r.task_key = t.key WHERE t.status = "
+        "'done'");
     while (rows.step()) results[rows.text(0)] = rows.text(1);
   } catch (const std::runtime_error&) {
     // killed before the schema was created: nothing committed yet
@@ -86,8 +96,9 @@ TEST(CrashSafety, KillNineAtRandomMomentsLosesNothingCommitted) {
   std::ofstream(file) << layered_campaign().dump();
 
   const fs::path reference_db = dir.path() / "reference.db";
-  ASSERT_EQ(wait_exit_code(spawn_millflow({"submit", file.string(), "--db", reference_db.string(), "--jobs", "4"},
-                                          dir.path() / "reference.trace")),
+  ASSERT_EQ(wait_exit_code(spawn_millflow(
+                {"submit", file.string(), "--db", reference_db.string(), "--jobs", "4"},
+                dir.path() / "reference.trace")),
             0);
   const auto expected = done_results(reference_db);
   ASSERT_EQ(expected.size(), 106u);
@@ -107,7 +118,8 @@ TEST(CrashSafety, KillNineAtRandomMomentsLosesNothingCommitted) {
     kills += killed && done_results(db).size() < expected.size();  // killed mid-campaign
     const auto lines = trace_lines(trace);
     for (size_t i = trace_offset; i < lines.size(); ++i) {
-      EXPECT_EQ(committed.count(lines[i]), 0u) << "round " << round << ": task " << lines[i] << " ran again after its commit";
+      EXPECT_EQ(committed.count(lines[i]), 0u)
+          << "round " << round << ": task " << lines[i] << " ran again after its commit";
     }
     for (const auto& [key, result] : committed) {
       EXPECT_EQ(done_results(db).at(key), result) << "a committed result changed";
@@ -119,7 +131,8 @@ TEST(CrashSafety, KillNineAtRandomMomentsLosesNothingCommitted) {
   const size_t trace_offset = trace_lines(trace).size();
   ASSERT_EQ(wait_exit_code(spawn_millflow(go_on(file, db), trace)), 0);
   const auto lines = trace_lines(trace);
-  for (size_t i = trace_offset; i < lines.size(); ++i) EXPECT_EQ(committed.count(lines[i]), 0u) << lines[i];
+  for (size_t i = trace_offset; i < lines.size(); ++i)
+    EXPECT_EQ(committed.count(lines[i]), 0u) << lines[i];
 
   EXPECT_EQ(done_results(db), expected);
   auto connection = open_read_only(db);

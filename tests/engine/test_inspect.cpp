@@ -18,10 +18,14 @@ using nlohmann::json;
 // a -> b, a -> c, (b, c) -> d; c carries a second parameter so that it is the one nearest task
 // to any variant of itself.
 json diamond(int c_value) {
-  return json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}, {"artifact", true}}}},
-                      {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"a"}}},
-                      {{"id", "c"}, {"kind", "sum"}, {"params", {{"value", c_value}, {"note", "c"}}}, {"after", {"a"}}},
-                      {{"id", "d"}, {"kind", "sum"}, {"params", {{"value", 4}}}, {"after", {"b", "c"}}}});
+  return json::array(
+      {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}, {"artifact", true}}}},
+       {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"a"}}},
+       {{"id", "c"},
+        {"kind", "sum"},
+        {"params", {{"value", c_value}, {"note", "c"}}},
+        {"after", {"a"}}},
+       {{"id", "d"}, {"kind", "sum"}, {"params", {{"value", 4}}}, {"after", {"b", "c"}}}});
 }
 
 // Registers the campaign's tasks without running any of them.
@@ -47,7 +51,8 @@ std::string explain(const std::filesystem::path& db, const std::string& key) {
 // What explain prints first for every task: its key and the exact hashed text.
 std::string header(const std::filesystem::path& db, const std::string& key) {
   auto connection = open_read_only(db);
-  return "task " + key + "\nhashed text (SHA-256 of exactly these bytes):\n" + find_task(connection, key)->spec.key_text;
+  return "task " + key + "\nhashed text (SHA-256 of exactly these bytes):\n" +
+         find_task(connection, key)->spec.key_text;
 }
 
 class Explain : public ::testing::Test {
@@ -68,7 +73,9 @@ class Explain : public ::testing::Test {
 TEST_F(Explain, NewTaskShowsTheParameterDiffAgainstTheNearestCachedTask) {
   EXPECT_EQ(explain(dir_.db(), new_c_), header(dir_.db(), new_c_) +
                                             "would run: new (never attempted)\n"
-                                            "nearest cached sum task: " + c_ + "\n"
+                                            "nearest cached sum task: " +
+                                            c_ +
+                                            "\n"
                                             "parameters changed:\n"
                                             "  /value: 3 -> 30\n");
 }
@@ -76,9 +83,12 @@ TEST_F(Explain, NewTaskShowsTheParameterDiffAgainstTheNearestCachedTask) {
 TEST_F(Explain, TaskBelowAChangedOneShowsWhichInputChanged) {
   EXPECT_EQ(explain(dir_.db(), new_d_), header(dir_.db(), new_d_) +
                                             "would run: new (never attempted)\n"
-                                            "nearest cached sum task: " + d_ + "\n"
+                                            "nearest cached sum task: " +
+                                            d_ +
+                                            "\n"
                                             "upstream changed:\n"
-                                            "  input 1: " + c_ + " -> " + new_c_ + "\n");
+                                            "  input 1: " +
+                                            c_ + " -> " + new_c_ + "\n");
 }
 
 TEST_F(Explain, CachedTaskWouldNotRunUntilItsArtifactIsCorrupt) {
@@ -88,16 +98,20 @@ TEST_F(Explain, CachedTaskWouldNotRunUntilItsArtifactIsCorrupt) {
   auto connection = open_read_only(dir_.db());
   const auto artifact = find_artifacts(connection, a).at(0);
   std::ofstream(artifacts_dir(dir_.db()) / artifact.sha256.substr(0, 2) / artifact.sha256) << "9\n";
-  EXPECT_EQ(explain(dir_.db(), a), header(dir_.db(), a) + "would run: artifact sum.txt (" + artifact.sha256 +
-                                       ") is missing or corrupt\n");
+  EXPECT_EQ(explain(dir_.db(), a), header(dir_.db(), a) + "would run: artifact sum.txt (" +
+                                       artifact.sha256 + ") is missing or corrupt\n");
 }
 
 TEST_F(Explain, FailedAttemptIsNamedWithItsError) {
-  submit(test_campaign("broken", json::array({{{"id", "f"}, {"kind", "fail"}, {"params", {{"failures", 9}}}}})), dir_.db());
+  submit(
+      test_campaign("broken",
+                    json::array({{{"id", "f"}, {"kind", "fail"}, {"params", {{"failures", 9}}}}})),
+      dir_.db());
   const std::string f = key_where(dir_.db(), "kind = 'fail'");
-  EXPECT_EQ(explain(dir_.db(), f), header(dir_.db(), f) +
-                                       "would run: the previous attempt failed: planned failure: attempt 1 of a task "
-                                       "that fails its first 9\n");
+  EXPECT_EQ(explain(dir_.db(), f),
+            header(dir_.db(), f) +
+                "would run: the previous attempt failed: planned failure: attempt 1 of a task "
+                "that fails its first 9\n");
 }
 
 TEST_F(Explain, TaskLeftRunningByACrashIsReportedAsInterrupted) {
@@ -106,9 +120,10 @@ TEST_F(Explain, TaskLeftRunningByACrashIsReportedAsInterrupted) {
     Store store(dir_.db(), {}, clock);
     store.mark_running(new_c_);  // the coordinator recorded the launch, then died
   }
-  EXPECT_EQ(explain(dir_.db(), new_c_), header(dir_.db(), new_c_) +
-                                            "would run: its last attempt never finished (coordinator stopped or still "
-                                            "running)\n");
+  EXPECT_EQ(explain(dir_.db(), new_c_),
+            header(dir_.db(), new_c_) +
+                "would run: its last attempt never finished (coordinator stopped or still "
+                "running)\n");
 }
 
 }  // namespace

@@ -19,23 +19,29 @@ std::string syntax_message(std::string_view text) {
 
 TEST(JsonText, SyntaxErrorNamesLineAndColumn) {
   EXPECT_EQ(syntax_message("{\n  \"a\": 1,\n  \"b\": [1, 2}\n}"),
-            "(document): JSON syntax error at line 3, column 13: while parsing array - unexpected '}'; expected ']'; "
-            "correct the JSON there (a missing comma or quote, or a comma before } or ], is the usual cause)");
-  EXPECT_TRUE(syntax_message("\n\n{\"a\": tru}").starts_with("(document): JSON syntax error at line 3, column "));
+            "(document): JSON syntax error at line 3, column 13: while parsing array - unexpected "
+            "'}'; expected ']'; "
+            "correct the JSON there (a missing comma or quote, or a comma before } or ], is the "
+            "usual cause)");
+  EXPECT_TRUE(syntax_message("\n\n{\"a\": tru}")
+                  .starts_with("(document): JSON syntax error at line 3, column "));
 }
 
 TEST(JsonText, KeysWrittenTwiceAreReportedWithTheirPath) {
-  const auto parsed = parse_json_text(R"({"a": [{"x": 1}, {"y": [0, {"z": 1, "z": 2}], "y2": 0}], "b": 1, "b": 3})");
+  const auto parsed = parse_json_text(
+      R"({"a": [{"x": 1}, {"y": [0, {"z": 1, "z": 2}], "y2": 0}], "b": 1, "b": 3})");
   ASSERT_EQ(parsed.duplicate_keys.size(), 2U);
   EXPECT_EQ(parsed.duplicate_keys[0].path, "/a/1/y/1/z");
   EXPECT_EQ(parsed.duplicate_keys[1].path, "/b");
   EXPECT_EQ(parsed.duplicate_keys[1].message(),
-            "/b: key \"b\" appears twice in the same object; keep one of them (only the last one would count)");
+            "/b: key \"b\" appears twice in the same object; keep one of them (only the last one "
+            "would count)");
   EXPECT_EQ(parsed.document["b"], 3);
 }
 
 TEST(JsonText, SameKeyInDifferentObjectsIsFine) {
-  EXPECT_TRUE(parse_json_text(R"({"a": {"k": 1}, "b": {"k": 2}, "c": [{"k": 1}, {"k": 2}]})").duplicate_keys.empty());
+  EXPECT_TRUE(parse_json_text(R"({"a": {"k": 1}, "b": {"k": 2}, "c": [{"k": 1}, {"k": 2}]})")
+                  .duplicate_keys.empty());
 }
 
 }  // namespace

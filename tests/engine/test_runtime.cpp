@@ -14,15 +14,19 @@ using nlohmann::json;
 
 // a(1) -> b(2) -> d(4); a -> c(3) -> d: sums are 1, 3, 4, 1+3+4+4 = 12.
 json diamond(int a_value = 1) {
-  return json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", a_value}}}},
-                      {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"a"}}},
-                      {{"id", "c"}, {"kind", "sum"}, {"params", {{"value", 3}}}, {"after", {"a"}}},
-                      {{"id", "d"}, {"kind", "sum"}, {"params", {{"value", 4}}}, {"after", {"b", "c"}}}});
+  return json::array(
+      {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", a_value}}}},
+       {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"a"}}},
+       {{"id", "c"}, {"kind", "sum"}, {"params", {{"value", 3}}}, {"after", {"a"}}},
+       {{"id", "d"}, {"kind", "sum"}, {"params", {{"value", 4}}}, {"after", {"b", "c"}}}});
 }
 
 std::int64_t sum_of(const std::filesystem::path& db, std::int64_t value) {
-  return count(db, "SELECT json_extract(r.result, '$.sum') FROM tasks t JOIN results r ON r.task_key = t.key "
-                   "WHERE json_extract(t.params, '$.value') = " + std::to_string(value));
+  return count(
+      db,
+      "SELECT json_extract(r.result, '$.sum') FROM tasks t JOIN results r ON r.task_key = t.key "
+      "WHERE json_extract(t.params, '$.value') = " +
+          std::to_string(value));
 }
 
 std::string only_result(const std::filesystem::path& db) {
@@ -44,17 +48,20 @@ TEST(Runtime, RunsTheDagInDependencyOrderWithCorrectInputs) {
   EXPECT_EQ(sum_of(dir.db(), 3), 1 + 3);
   EXPECT_EQ(sum_of(dir.db(), 4), 4 + (1 + 2) + (1 + 3));
   // Every downstream launch comes after its upstream task was committed done.
-  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM edges e "
-                            "JOIN status_history up ON up.task_key = e.upstream AND up.status = 'done' "
-                            "JOIN status_history down ON down.task_key = e.downstream AND down.status = 'running' "
-                            "WHERE down.id < up.id"),
-            0);
+  EXPECT_EQ(
+      count(dir.db(),
+            "SELECT count(*) FROM edges e "
+            "JOIN status_history up ON up.task_key = e.upstream AND up.status = 'done' "
+            "JOIN status_history down ON down.task_key = e.downstream AND down.status = 'running' "
+            "WHERE down.id < up.id"),
+      0);
 }
 
 TEST(Runtime, NeverRunsMoreThanJobsTasksAtOnce) {
   ScratchDir dir;
   json tasks = json::array();
-  for (int i = 0; i < 9; ++i) tasks.push_back({{"id", std::to_string(i)}, {"kind", "sleep"}, {"params", {{"ms", 60 + i}}}});
+  for (int i = 0; i < 9; ++i)
+    tasks.push_back({{"id", std::to_string(i)}, {"kind", "sleep"}, {"params", {{"ms", 60 + i}}}});
   take_max_concurrent_sleeps();
   EXPECT_EQ(submit(test_campaign("sleepers", tasks), dir.db(), 3).done, 9);
   EXPECT_EQ(take_max_concurrent_sleeps(), 3);
@@ -62,10 +69,11 @@ TEST(Runtime, NeverRunsMoreThanJobsTasksAtOnce) {
 
 TEST(Runtime, FailureSkipsDescendantsButNotSiblings) {
   ScratchDir dir;
-  const json tasks = json::array({{{"id", "bad"}, {"kind", "fail"}, {"params", {{"failures", 5}}}},
-                                  {{"id", "child"}, {"kind", "sum"}, {"params", {{"value", 1}}}, {"after", {"bad"}}},
-                                  {{"id", "grandchild"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"child"}}},
-                                  {{"id", "sibling"}, {"kind", "sum"}, {"params", {{"value", 3}}}}});
+  const json tasks = json::array(
+      {{{"id", "bad"}, {"kind", "fail"}, {"params", {{"failures", 5}}}},
+       {{"id", "child"}, {"kind", "sum"}, {"params", {{"value", 1}}}, {"after", {"bad"}}},
+       {{"id", "grandchild"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"child"}}},
+       {{"id", "sibling"}, {"kind", "sum"}, {"params", {{"value", 3}}}}});
   const auto summary = submit(test_campaign("failing", tasks), dir.db());
   EXPECT_EQ(summary.failed, 1);
   EXPECT_EQ(summary.skipped, 2);
@@ -77,7 +85,8 @@ TEST(Runtime, FailureSkipsDescendantsButNotSiblings) {
 
 TEST(Runtime, RetriesWithinARunAndCountsAttemptsAcrossRuns) {
   ScratchDir dir;
-  const auto campaign = test_campaign("flaky", json::array({{{"id", "f"}, {"kind", "fail"}, {"params", {{"failures", 2}}}}}));
+  const auto campaign = test_campaign(
+      "flaky", json::array({{{"id", "f"}, {"kind", "fail"}, {"params", {{"failures", 2}}}}}));
   EXPECT_EQ(submit(campaign, dir.db(), 1, 1).failed, 1);  // attempts 1 and 2 fail
   EXPECT_EQ(count(dir.db(), "SELECT attempts FROM tasks"), 2);
   EXPECT_EQ(submit(campaign, dir.db(), 1, 0).done, 1);  // attempt 3 succeeds
@@ -127,13 +136,18 @@ TEST(Runtime, OverlappingCampaignsShareTasks) {
 TEST(Runtime, ResultsCanGrowTheDagWithStableChildKeys) {
   ScratchDir dir;
   const json tasks = json::array({{{"id", "root"}, {"kind", "sum"}, {"params", {{"value", 5}}}},
-                                  {{"id", "fan"}, {"kind", "fanout"}, {"params", {{"children", 4}, {"value", 10}}}, {"after", {"root"}}}});
+                                  {{"id", "fan"},
+                                   {"kind", "fanout"},
+                                   {"params", {{"children", 4}, {"value", 10}}},
+                                   {"after", {"root"}}}});
   const auto first = submit(test_campaign("grow", tasks), dir.db());
   EXPECT_EQ(first.total, 6);
   EXPECT_EQ(first.done, 6);
   // Children see the fanout's sum (10) as input: 10 + i.
-  EXPECT_EQ(count(dir.db(), "SELECT sum(json_extract(r.result, '$.sum')) FROM tasks t JOIN results r ON r.task_key = t.key "
-                            "WHERE t.parent_key IS NOT NULL"),
+  EXPECT_EQ(count(dir.db(),
+                  "SELECT sum(json_extract(r.result, '$.sum')) FROM tasks t JOIN results r ON "
+                  "r.task_key = t.key "
+                  "WHERE t.parent_key IS NOT NULL"),
             4 * 10 + (0 + 1 + 2 + 3));
   // A second campaign with the same tasks finds the expanded children cached.
   const auto second = submit(test_campaign("grow-again", tasks), dir.db());
@@ -144,8 +158,10 @@ TEST(Runtime, ResultsCanGrowTheDagWithStableChildKeys) {
 
 TEST(Runtime, CorruptOrMissingArtifactMakesItsTaskRunAgain) {
   ScratchDir dir;
-  const auto campaign = test_campaign("files", json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 7}, {"artifact", true}}}},
-                                                           {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 1}}}, {"after", {"a"}}}}));
+  const auto campaign = test_campaign(
+      "files",
+      json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 7}, {"artifact", true}}}},
+                   {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 1}}}, {"after", {"a"}}}}));
   submit(campaign, dir.db());
   auto connection = open_read_only(dir.db());
   const auto key = [&] {
@@ -172,7 +188,8 @@ TEST(Runtime, CorruptOrMissingArtifactMakesItsTaskRunAgain) {
 TEST(Runtime, StopRequestInterruptsRunningTasksAndResumeFinishes) {
   ScratchDir dir;
   json tasks = json::array();
-  for (int i = 0; i < 4; ++i) tasks.push_back({{"id", std::to_string(i)}, {"kind", "sleep"}, {"params", {{"ms", 3000 + i}}}});
+  for (int i = 0; i < 4; ++i)
+    tasks.push_back({{"id", std::to_string(i)}, {"kind", "sleep"}, {"params", {{"ms", 3000 + i}}}});
   const auto campaign = test_campaign("long", tasks);
   SubmitOptions options;
   options.run.jobs = 2;
@@ -189,8 +206,9 @@ TEST(Runtime, StopRequestInterruptsRunningTasksAndResumeFinishes) {
 // The steps kind stands in for a long DEM task: stopped part-way, it continues from the checkpoint
 // in its work directory, and the result equals that of one uninterrupted run.
 TEST(Runtime, StoppedTaskContinuesFromItsCheckpointToTheSameResult) {
-  const auto campaign = test_campaign("steps", json::array({{{"id", "s"}, {"kind", "steps"},
-                                                             {"params", {{"steps", 60}, {"step_ms", 5}}}}}));
+  const auto campaign = test_campaign(
+      "steps",
+      json::array({{{"id", "s"}, {"kind", "steps"}, {"params", {{"steps", 60}, {"step_ms", 5}}}}}));
   ScratchDir whole;
   ASSERT_EQ(submit(campaign, whole.db()).exit_code(), 0);
 
@@ -208,8 +226,9 @@ TEST(Runtime, StoppedTaskContinuesFromItsCheckpointToTheSameResult) {
   };
   EXPECT_EQ(submit_campaign(testing_registry(), campaign, dir.db(), options).interrupted, 1);
   ASSERT_EQ(submit(campaign, dir.db()).exit_code(), 0);
-  const auto resumed = count(dir.db(), "SELECT CAST(substr(message, 22) AS INTEGER) FROM log_lines "
-                                       "WHERE message LIKE 'continuing from step % of 60'");
+  const auto resumed = count(dir.db(),
+                             "SELECT CAST(substr(message, 22) AS INTEGER) FROM log_lines "
+                             "WHERE message LIKE 'continuing from step % of 60'");
   EXPECT_GE(resumed, 5);
   EXPECT_LT(resumed, 60);
   EXPECT_EQ(only_result(dir.db()), only_result(whole.db()));

@@ -44,7 +44,8 @@ class FakeSlurm final : public SlurmCommands {
       "squeue failed (exit 1): slurm_load_jobs error: Unable to contact slurm controller";
 
   std::string sbatch(const std::vector<std::string>& options, const fs::path& script) override {
-    if (refuse) throw std::runtime_error("Batch job submission failed: Invalid partition name specified");
+    if (refuse)
+      throw std::runtime_error("Batch job submission failed: Invalid partition name specified");
     if (kill == Kill::before_sbatch) {
       kill = Kill::never;
       throw CoordinatorKilled{};  // sbatch never reached the controller
@@ -52,7 +53,8 @@ class FakeSlurm final : public SlurmCommands {
     arrays.push_back({options, script});
     const std::string id = std::to_string(100 + arrays.size() - 1);
     for (int i = 0; i < elements_of(options); ++i) states[id + "_" + std::to_string(i)] = "PENDING";
-    if (std::exchange(kill, Kill::never) == Kill::after_sbatch) throw CoordinatorKilled{};  // the id is lost
+    if (std::exchange(kill, Kill::never) == Kill::after_sbatch)
+      throw CoordinatorKilled{};  // the id is lost
     return id;
   }
 
@@ -76,7 +78,8 @@ class FakeSlurm final : public SlurmCommands {
     });
   }
 
-  std::map<std::string, std::string> states_where(const std::function<bool(const std::string& array)>& wanted) const {
+  std::map<std::string, std::string> states_where(
+      const std::function<bool(const std::string& array)>& wanted) const {
     std::map<std::string, std::string> known;
     for (const auto& [element, state] : states) {
       if (wanted(element.substr(0, element.find('_')))) known[element] = state;
@@ -88,7 +91,8 @@ class FakeSlurm final : public SlurmCommands {
     for (auto& [element, state] : states) {
       if (state != "PENDING") continue;
       const size_t array = std::stoul(element.substr(0, element.find('_'))) - 100;
-      state = fate(arrays.at(array).script.parent_path() / (element.substr(element.find('_') + 1) + ".json"));
+      state = fate(arrays.at(array).script.parent_path() /
+                   (element.substr(element.find('_') + 1) + ".json"));
     }
   }
 
@@ -102,7 +106,8 @@ class FakeSlurm final : public SlurmCommands {
   // Runs the attempt as `millflow exec` would; Slurm reports COMPLETED for exit 0, else FAILED.
   static std::string run_job(const fs::path& spec_file, bool checkpoint_signal = false) {
     std::ostringstream log;
-    const int code = execute_attempt(registry().kinds, spec_file, [=] { return checkpoint_signal; }, log);
+    const int code = execute_attempt(
+        registry().kinds, spec_file, [=] { return checkpoint_signal; }, log);
     return code == kExecDone ? "COMPLETED" : "FAILED";
   }
 
@@ -124,8 +129,9 @@ SlurmSettings settings_for(const ScratchDir& dir) {
   return settings;
 }
 
-RunSummary run_on(FakeSlurm& cluster, const ScratchDir& dir, const Campaign& campaign, int retries = 0,
-                  std::function<bool()> stop = [] { return false; }, int max_squeue_failures = 30) {
+RunSummary run_on(
+    FakeSlurm& cluster, const ScratchDir& dir, const Campaign& campaign, int retries = 0,
+    std::function<bool()> stop = [] { return false; }, int max_squeue_failures = 30) {
   SlurmSettings settings = settings_for(dir);
   settings.max_squeue_failures = max_squeue_failures;
   SlurmExecutor executor(settings, cluster);
@@ -153,10 +159,17 @@ std::vector<std::string> column(const fs::path& db, const std::string& sql) {
 }
 
 json chain_of_sums() {
-  return json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}, {"artifact", true}}}},
-                      {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}},
-                      {{"id", "c"}, {"kind", "sum"}, {"params", {{"value", 4}, {"artifact", true}}}, {"after", {"a", "b"}}},
-                      {{"id", "f"}, {"kind", "fanout"}, {"params", {{"children", 2}, {"value", 8}}}, {"after", {"c"}}}});
+  return json::array(
+      {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}, {"artifact", true}}}},
+       {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}},
+       {{"id", "c"},
+        {"kind", "sum"},
+        {"params", {{"value", 4}, {"artifact", true}}},
+        {"after", {"a", "b"}}},
+       {{"id", "f"},
+        {"kind", "fanout"},
+        {"params", {{"children", 2}, {"value", 8}}},
+        {"after", {"c"}}}});
 }
 
 TEST(SlurmExecutor, SubmitsReadyAttemptsAsOneThrottledArray) {
@@ -177,23 +190,34 @@ TEST(SlurmExecutor, SubmitsReadyAttemptsAsOneThrottledArray) {
                                        make_task_spec("sum", "1", {{"value", 3}}, {})};
   const auto no_inputs = std::make_shared<const std::vector<TaskInput>>();
   std::vector<JobRecord> recorded_before_sbatch;
-  const auto jobs = executor.submit({{&specs[0], no_inputs, 1}, {&specs[1], no_inputs, 1}, {&specs[2], no_inputs, 2}},
-                                    [&](const std::vector<JobRecord>& recorded) {
-                                      EXPECT_TRUE(cluster.arrays.empty());
-                                      recorded_before_sbatch = recorded;
-                                    });
+  const auto jobs = executor.submit(
+      {{&specs[0], no_inputs, 1}, {&specs[1], no_inputs, 1}, {&specs[2], no_inputs, 2}},
+      [&](const std::vector<JobRecord>& recorded) {
+        EXPECT_TRUE(cluster.arrays.empty());
+        recorded_before_sbatch = recorded;
+      });
 
   ASSERT_EQ(cluster.arrays.size(), 1u);
   const fs::path batch = cluster.arrays[0].script.parent_path();
   EXPECT_EQ(batch.parent_path(), settings.run_dir / "batches");
   const std::string name = "millflow-" + batch.filename().string();
-  const std::vector<std::string> expected = {
-      "--parsable", "--array=0-2%2", "--job-name=" + name, "--output=" + (batch / "%a.out").string(),
-      "--error=" + (batch / "%a.err").string(), "--chdir=" + settings.run_dir.string(), "--signal=B:USR1@120",
-      "--cpus-per-task=4", "--partition=short", "--account=mills", "--time=90", "--mem=4G", "--qos=low"};
+  const std::vector<std::string> expected = {"--parsable",
+                                             "--array=0-2%2",
+                                             "--job-name=" + name,
+                                             "--output=" + (batch / "%a.out").string(),
+                                             "--error=" + (batch / "%a.err").string(),
+                                             "--chdir=" + settings.run_dir.string(),
+                                             "--signal=B:USR1@120",
+                                             "--cpus-per-task=4",
+                                             "--partition=short",
+                                             "--account=mills",
+                                             "--time=90",
+                                             "--mem=4G",
+                                             "--qos=low"};
   EXPECT_EQ(cluster.arrays[0].options, expected);
   EXPECT_NE(read_file(cluster.arrays[0].script)
-                .find("exec '/opt/millflow/bin/millflow' exec '" + batch.string() + "'/\"${SLURM_ARRAY_TASK_ID}.json\""),
+                .find("exec '/opt/millflow/bin/millflow' exec '" + batch.string() +
+                      "'/\"${SLURM_ARRAY_TASK_ID}.json\""),
             std::string::npos);
 
   ASSERT_EQ(jobs.size(), 3u);
@@ -221,7 +245,8 @@ TEST(SlurmExecutor, ActiveStatesKeepWaitingEndedOnesSettle) {
   for (const char* state : {"PENDING", "RUNNING", "COMPLETING", "SUSPENDED", "REQUEUED"}) {
     EXPECT_TRUE(slurm_state_is_active(state)) << state;
   }
-  for (const char* state : {"COMPLETED", "FAILED", "CANCELLED", "TIMEOUT", "NODE_FAIL", "OUT_OF_MEMORY", "PREEMPTED"}) {
+  for (const char* state :
+       {"COMPLETED", "FAILED", "CANCELLED", "TIMEOUT", "NODE_FAIL", "OUT_OF_MEMORY", "PREEMPTED"}) {
     EXPECT_FALSE(slurm_state_is_active(state)) << state;
   }
 }
@@ -234,7 +259,8 @@ TEST(SlurmExecutor, EndedOrVanishedJobsWithoutMarkerFailAfterAGracePoll) {
   const std::vector<TaskSpec> specs = {make_task_spec("sum", "1", {{"value", 1}}, {}),
                                        make_task_spec("sum", "1", {{"value", 2}}, {})};
   const auto no_inputs = std::make_shared<const std::vector<TaskInput>>();
-  executor.submit({{&specs[0], no_inputs, 1}, {&specs[1], no_inputs, 1}}, [](const std::vector<JobRecord>&) {});
+  executor.submit({{&specs[0], no_inputs, 1}, {&specs[1], no_inputs, 1}},
+                  [](const std::vector<JobRecord>&) {});
   EXPECT_TRUE(executor.poll().finished.empty());
   cluster.states["100_0"] = "NODE_FAIL";
   cluster.states.erase("100_1");
@@ -245,7 +271,8 @@ TEST(SlurmExecutor, EndedOrVanishedJobsWithoutMarkerFailAfterAGracePoll) {
   EXPECT_EQ(first.changed[1].state, "VANISHED");
   const auto second = executor.poll();
   ASSERT_EQ(second.finished.size(), 2u);
-  EXPECT_NE(second.finished[0].error->find("100_0 ended NODE_FAIL without a completion marker"), std::string::npos);
+  EXPECT_NE(second.finished[0].error->find("100_0 ended NODE_FAIL without a completion marker"),
+            std::string::npos);
   EXPECT_NE(second.finished[1].error->find("100_1 vanished from squeue"), std::string::npos);
 }
 
@@ -257,11 +284,14 @@ TEST(SlurmExecutor, CampaignResultsEqualTheLocalExecutors) {
   const auto summary = run_on(cluster, dir, test_campaign("chain", chain_of_sums()));
   EXPECT_EQ(summary.exit_code(), 0);
   EXPECT_EQ(summary.done, 6);
-  const std::string results = "SELECT task_key || ' ' || result FROM task_results ORDER BY task_key";
+  const std::string results =
+      "SELECT task_key || ' ' || result FROM task_results ORDER BY task_key";
   EXPECT_EQ(column(dir.db(), results), column(local.db(), results));
-  const std::string artifacts = "SELECT task_key || ' ' || name || ' ' || sha256 FROM artifacts ORDER BY task_key";
+  const std::string artifacts =
+      "SELECT task_key || ' ' || name || ' ' || sha256 FROM artifacts ORDER BY task_key";
   EXPECT_EQ(column(dir.db(), artifacts), column(local.db(), artifacts));
-  EXPECT_EQ(column(dir.db(), "SELECT DISTINCT state FROM jobs"), std::vector<std::string>{"COMPLETED"});
+  EXPECT_EQ(column(dir.db(), "SELECT DISTINCT state FROM jobs"),
+            std::vector<std::string>{"COMPLETED"});
   // Ready tasks go out together: {a, b}, then c, then f, then f's two children.
   EXPECT_EQ(cluster.arrays.size(), 4u);
 }
@@ -275,7 +305,8 @@ TEST(SlurmExecutor, ResumeReattachesToRecordedJobsInsteadOfSubmittingAgain) {
   EXPECT_EQ(first.exit_code(), 130);
   EXPECT_EQ(first.detached, 2);
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM tasks WHERE status = 'running'"), 2);
-  // While no coordinator runs, a finishes and b's job is forgotten by squeue after writing its marker.
+  // While no coordinator runs, a finishes and b's job is forgotten by squeue after writing its
+  // marker.
   cluster.run_pending();
   cluster.states.erase("100_1");
   cluster.hold = false;
@@ -286,7 +317,8 @@ TEST(SlurmExecutor, ResumeReattachesToRecordedJobsInsteadOfSubmittingAgain) {
   EXPECT_EQ(cluster.arrays.size(), 4u);  // {a, b} once, then c, f and f's children
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM jobs"), 6);
   EXPECT_EQ(count(dir.db(), "SELECT max(attempts) FROM tasks"), 1);
-  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM log_lines WHERE message LIKE 'attempt%failed%'"), 0);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM log_lines WHERE message LIKE 'attempt%failed%'"),
+            0);
 }
 
 // The window between sbatch accepting an array and the coordinator recording its id: the jobs
@@ -307,9 +339,11 @@ TEST(SlurmExecutor, CoordinatorKilledBeforeRecordingTheArrayIdSubmitsNothingTwic
   const auto resumed = run_on(cluster, dir, test_campaign("chain", chain_of_sums()));
   EXPECT_EQ(resumed.exit_code(), 0);
   EXPECT_EQ(resumed.done, 6);
-  EXPECT_EQ(cluster.arrays.size(), 4u);  // {a, b} once, then c, f and f's children, as without the kill
+  EXPECT_EQ(cluster.arrays.size(),
+            4u);  // {a, b} once, then c, f and f's children, as without the kill
   EXPECT_EQ(count(dir.db(), "SELECT max(attempts) FROM tasks"), 1);
-  EXPECT_EQ(column(dir.db(), "SELECT job_id || ' ' || state FROM jobs WHERE job_name = '" + name + "' ORDER BY job_id"),
+  EXPECT_EQ(column(dir.db(), "SELECT job_id || ' ' || state FROM jobs WHERE job_name = '" + name +
+                                 "' ORDER BY job_id"),
             (std::vector<std::string>{" COMPLETED", "100_0 COMPLETED"}));
 }
 
@@ -319,49 +353,61 @@ TEST(SlurmExecutor, CoordinatorKilledBeforeSlurmGotTheArraySubmitsItAgain) {
   ScratchDir dir;
   FakeSlurm cluster;
   cluster.kill = FakeSlurm::Kill::before_sbatch;
-  EXPECT_THROW(run_on(cluster, dir, test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}}))),
-               CoordinatorKilled);
+  EXPECT_THROW(
+      run_on(cluster, dir, test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}}))),
+      CoordinatorKilled);
   EXPECT_TRUE(cluster.arrays.empty());
-  const auto resumed = run_on(cluster, dir, test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})));
+  const auto resumed =
+      run_on(cluster, dir, test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})));
   EXPECT_EQ(resumed.exit_code(), 0);
   EXPECT_EQ(cluster.arrays.size(), 1u);
   EXPECT_EQ(column(dir.db(), "SELECT state FROM jobs ORDER BY attempt"),
             (std::vector<std::string>{"NOT_SUBMITTED", "COMPLETED"}));
   const auto warnings = column(dir.db(), "SELECT message FROM log_lines WHERE level = 'warn'");
   ASSERT_EQ(warnings.size(), 1u);
-  EXPECT_EQ(warnings[0], "attempt 1 was being submitted when its coordinator stopped, and slurm knows no job " +
-                             column(dir.db(), "SELECT job_name FROM jobs WHERE attempt = 1")[0] +
-                             " and it left no output: submitting it again");
+  EXPECT_EQ(warnings[0],
+            "attempt 1 was being submitted when its coordinator stopped, and slurm knows no job " +
+                column(dir.db(), "SELECT job_name FROM jobs WHERE attempt = 1")[0] +
+                " and it left no output: submitting it again");
 }
 
 TEST(SlurmExecutor, FailedSqueueCallsAreLoggedAndPolledAgain) {
   ScratchDir dir;
   FakeSlurm cluster;
   cluster.squeue_failures = 2;
-  const auto summary = run_on(cluster, dir, test_campaign("chain", chain_of_sums()), 0, [] { return false; }, 3);
+  const auto summary = run_on(
+      cluster, dir, test_campaign("chain", chain_of_sums()), 0, [] { return false; }, 3);
   EXPECT_EQ(summary.exit_code(), 0);
   EXPECT_EQ(summary.done, 6);
   EXPECT_EQ(cluster.arrays.size(), 4u);
-  const auto warnings = column(dir.db(), "SELECT message FROM log_lines WHERE level = 'warn' ORDER BY id");
+  const auto warnings =
+      column(dir.db(), "SELECT message FROM log_lines WHERE level = 'warn' ORDER BY id");
   const std::string reason = FakeSlurm::kSqueueError;
-  EXPECT_EQ(warnings, (std::vector<std::string>{
-                          "squeue failed (1 of 3 failures in a row before the coordinator stops), polling again: " + reason,
-                          "squeue failed (2 of 3 failures in a row before the coordinator stops), polling again: " + reason}));
+  EXPECT_EQ(
+      warnings,
+      (std::vector<std::string>{
+          "squeue failed (1 of 3 failures in a row before the coordinator stops), polling again: " +
+              reason,
+          "squeue failed (2 of 3 failures in a row before the coordinator stops), polling again: " +
+              reason}));
 }
 
 TEST(SlurmExecutor, SqueueFailingTooOftenInARowStopsTheCoordinatorAndResumeReattaches) {
   ScratchDir dir;
   FakeSlurm cluster;
   cluster.squeue_failures = 3;
-  const auto stopped = run_on(cluster, dir, test_campaign("chain", chain_of_sums()), 0, [] { return false; }, 3);
+  const auto stopped = run_on(
+      cluster, dir, test_campaign("chain", chain_of_sums()), 0, [] { return false; }, 3);
   EXPECT_EQ(stopped.exit_code(), 130);
   EXPECT_EQ(stopped.detached, 2);
-  const std::string reason = "squeue failed 3 times in a row (executor.slurm.max_squeue_failures), last: " +
-                             std::string(FakeSlurm::kSqueueError) +
-                             ": the coordinator stops; its jobs keep running and `millflow resume` re-attaches to them";
+  const std::string reason =
+      "squeue failed 3 times in a row (executor.slurm.max_squeue_failures), last: " +
+      std::string(FakeSlurm::kSqueueError) +
+      ": the coordinator stops; its jobs keep running and `millflow resume` re-attaches to them";
   EXPECT_EQ(stopped.stop_reason, reason);
   EXPECT_NE(stopped.describe().find("; stopped: " + reason), std::string::npos);
-  EXPECT_EQ(column(dir.db(), "SELECT message FROM log_lines WHERE level = 'error'"), std::vector<std::string>{reason});
+  EXPECT_EQ(column(dir.db(), "SELECT message FROM log_lines WHERE level = 'error'"),
+            std::vector<std::string>{reason});
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM campaigns WHERE outcome = 'interrupted'"), 1);
 
   const auto resumed = run_on(cluster, dir, test_campaign("chain", chain_of_sums()));
@@ -379,11 +425,13 @@ TEST(SlurmExecutor, OutputNotMatchingItsMarkerIsAFailedAttempt) {
     std::ofstream(read_attempt_spec(spec_file).output_dir / "result.json", std::ios::app) << ' ';
     return state;
   };
-  const auto summary = run_on(cluster, dir, test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})));
+  const auto summary =
+      run_on(cluster, dir, test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})));
   EXPECT_EQ(summary.failed, 1);
   const auto errors = column(dir.db(), "SELECT error FROM tasks");
   ASSERT_EQ(errors.size(), 1u);
-  EXPECT_NE(errors[0].find("result.json does not match the SHA-256 of its completion marker"), std::string::npos);
+  EXPECT_NE(errors[0].find("result.json does not match the SHA-256 of its completion marker"),
+            std::string::npos);
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM results"), 0);
 }
 
@@ -391,13 +439,23 @@ TEST(SlurmExecutor, JobKilledByTimeoutIsRetried) {
   ScratchDir dir;
   FakeSlurm cluster;
   cluster.fate = [](const fs::path& spec_file) {
-    return read_attempt_spec(spec_file).attempt == 1 ? std::string("TIMEOUT") : FakeSlurm::run_job(spec_file);
+    return read_attempt_spec(spec_file).attempt == 1 ? std::string("TIMEOUT")
+                                                     : FakeSlurm::run_job(spec_file);
   };
-  const auto summary = run_on(cluster, dir, test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 7}}}}})), 1);
+  const auto summary =
+      run_on(cluster, dir,
+             test_campaign(
+                 "one", json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 7}}}}})),
+             1);
   EXPECT_EQ(summary.exit_code(), 0);
-  EXPECT_EQ(column(dir.db(), "SELECT result FROM results"), std::vector<std::string>{R"({"sum":7})"});
-  EXPECT_EQ(column(dir.db(), "SELECT state FROM jobs ORDER BY attempt"), (std::vector<std::string>{"TIMEOUT", "COMPLETED"}));
-  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM status_history WHERE status = 'failed' AND message LIKE '%ended TIMEOUT%'"), 1);
+  EXPECT_EQ(column(dir.db(), "SELECT result FROM results"),
+            std::vector<std::string>{R"({"sum":7})"});
+  EXPECT_EQ(column(dir.db(), "SELECT state FROM jobs ORDER BY attempt"),
+            (std::vector<std::string>{"TIMEOUT", "COMPLETED"}));
+  EXPECT_EQ(count(dir.db(),
+                  "SELECT count(*) FROM status_history WHERE status = 'failed' AND message LIKE "
+                  "'%ended TIMEOUT%'"),
+            1);
 }
 
 TEST(SlurmExecutor, CheckpointedJobIsSubmittedAgainAndNotCountedAsFailure) {
@@ -406,9 +464,13 @@ TEST(SlurmExecutor, CheckpointedJobIsSubmittedAgainAndNotCountedAsFailure) {
   cluster.fate = [](const fs::path& spec_file) {
     return FakeSlurm::run_job(spec_file, read_attempt_spec(spec_file).attempt == 1);
   };
-  const auto summary = run_on(cluster, dir, test_campaign("one", json::array({{{"id", "s"}, {"kind", "sleep"}, {"params", {{"ms", 20}}}}})));
+  const auto summary =
+      run_on(cluster, dir,
+             test_campaign(
+                 "one", json::array({{{"id", "s"}, {"kind", "sleep"}, {"params", {{"ms", 20}}}}})));
   EXPECT_EQ(summary.exit_code(), 0);
-  EXPECT_EQ(column(dir.db(), "SELECT state FROM jobs ORDER BY attempt"), (std::vector<std::string>{"STOPPED", "COMPLETED"}));
+  EXPECT_EQ(column(dir.db(), "SELECT state FROM jobs ORDER BY attempt"),
+            (std::vector<std::string>{"STOPPED", "COMPLETED"}));
   EXPECT_EQ(column(dir.db(), "SELECT status FROM status_history ORDER BY id"),
             (std::vector<std::string>{"running", "interrupted", "running", "done"}));
 }
@@ -417,9 +479,11 @@ TEST(SlurmExecutor, RefusedSubmissionFailsTheAttempts) {
   ScratchDir dir;
   FakeSlurm cluster;
   cluster.refuse = true;
-  const auto summary = run_on(cluster, dir, test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})));
+  const auto summary =
+      run_on(cluster, dir, test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})));
   EXPECT_EQ(summary.failed, 1);
-  EXPECT_NE(column(dir.db(), "SELECT error FROM tasks")[0].find("Invalid partition name"), std::string::npos);
+  EXPECT_NE(column(dir.db(), "SELECT error FROM tasks")[0].find("Invalid partition name"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -36,7 +36,8 @@ TEST(Store, RefusesANewerSchemaWithoutTouchingIt) {
     Store store(dir.db(), {}, clock);
     FAIL() << "a newer schema was opened";
   } catch (const SchemaTooNew& error) {
-    EXPECT_NE(std::string(error.what()).find("schema version 99"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("schema version 99"), std::string::npos)
+        << error.what();
   }
   EXPECT_THROW(open_read_only(dir.db()), SchemaTooNew);
   sql::Connection raw(dir.db(), sql::Access::read_only);
@@ -52,10 +53,10 @@ TEST(Store, ReadersOfADatabaseWithoutTablesSayToSubmitAgain) {
     open_read_only(dir.db());
     FAIL() << "a database without tables was opened";
   } catch (const std::runtime_error& error) {
-    EXPECT_EQ(std::string(error.what()),
-              "the database " + dir.db().string() +
-                  " has no millflow tables (nothing was submitted to it, or its first submit stopped before creating "
-                  "them): submit the campaign again");
+    EXPECT_EQ(std::string(error.what()), "the database " + dir.db().string() +
+                                             " has no millflow tables (nothing was submitted to "
+                                             "it, or its first submit stopped before creating "
+                                             "them): submit the campaign again");
   }
 }
 
@@ -64,7 +65,9 @@ TEST(Store, ReadersOfADatabaseWithoutTablesSayToSubmitAgain) {
 TEST(Store, SubmitToADatabaseWithoutTablesCreatesThem) {
   ScratchDir dir;
   { sql::Connection raw(dir.db(), sql::Access::read_write); }
-  EXPECT_EQ(submit(test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})), dir.db()).exit_code(), 0);
+  EXPECT_EQ(submit(test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})), dir.db())
+                .exit_code(),
+            0);
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM tasks WHERE status = 'done'"), 1);
 }
 
@@ -76,17 +79,22 @@ TEST(Store, MigratesAVersion2DatabaseKeepingItsResultsAndJobs) {
   ScratchDir dir;
   {
     sql::Connection raw(dir.db(), sql::Access::read_write);
-    for (int version = 0; version < 2; ++version) raw.exec(schema_migrations()[static_cast<size_t>(version)]);
+    for (int version = 0; version < 2; ++version)
+      raw.exec(schema_migrations()[static_cast<size_t>(version)]);
     raw.exec("PRAGMA user_version = 2");
     raw.exec(
         "INSERT INTO tasks (key, kind, kind_version, params, key_text, status, created_at) "
         "VALUES ('k', 'sum', '1', '{}', 'text', 'done', 0)");
-    raw.exec("INSERT INTO campaigns (id, name, format, document, submitted_at) VALUES (1, 'old', 'millflow-test', '{}', 0)");
+    raw.exec(
+        "INSERT INTO campaigns (id, name, format, document, submitted_at) VALUES (1, 'old', "
+        "'millflow-test', '{}', 0)");
     raw.exec("INSERT INTO campaign_tasks (campaign_id, task_key) VALUES (1, 'k')");
     raw.exec("INSERT INTO results (task_key, result, committed_at) VALUES ('k', '{\"sum\":7}', 0)");
-    raw.exec("INSERT INTO status_history (task_key, status, attempt, at) VALUES ('k', 'done', 1, 0)");
-    raw.exec("INSERT INTO jobs VALUES ('k', 1, 'slurm', '7_0', 'COMPLETED', '/run/b/0', '/run/b/0.out', "
-             "'/run/b/0.err', 1, 2)");
+    raw.exec(
+        "INSERT INTO status_history (task_key, status, attempt, at) VALUES ('k', 'done', 1, 0)");
+    raw.exec(
+        "INSERT INTO jobs VALUES ('k', 1, 'slurm', '7_0', 'COMPLETED', '/run/b/0', '/run/b/0.out', "
+        "'/run/b/0.err', 1, 2)");
   }
   {
     auto reader = open_read_only(dir.db());
@@ -95,7 +103,9 @@ TEST(Store, MigratesAVersion2DatabaseKeepingItsResultsAndJobs) {
   }
   const SystemClock clock;
   {
-    Store store(dir.db(), {{"sum_results", "SELECT task_key, json_extract(result, '$.sum') AS sum FROM task_results"}},
+    Store store(dir.db(),
+                {{"sum_results",
+                  "SELECT task_key, json_extract(result, '$.sum') AS sum FROM task_results"}},
                 clock);
     EXPECT_EQ(store.connection().user_version(), kSchemaVersion);
     const auto jobs = find_jobs(store.connection(), "k");
@@ -106,7 +116,9 @@ TEST(Store, MigratesAVersion2DatabaseKeepingItsResultsAndJobs) {
   }
   EXPECT_EQ(count(dir.db(), "SELECT sum FROM sum_results WHERE task_key = 'k'"), 7);
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM pragma_index_info('tasks_by_kind')"), 1);
-  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM sqlite_schema WHERE name = 'status_history_by_task'"), 0);
+  EXPECT_EQ(
+      count(dir.db(), "SELECT count(*) FROM sqlite_schema WHERE name = 'status_history_by_task'"),
+      0);
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM status_history"), 1);
   auto connection = open_read_only(dir.db());
   auto check = connection.prepare("PRAGMA integrity_check");
@@ -125,27 +137,34 @@ TEST(Store, ATaskCompletionAndTheNextLaunchWriteAFewPages) {
   constexpr int kTasks = 2000;
   std::vector<TaskSpec> tasks;
   for (int i = 0; i < kTasks; ++i) tasks.push_back(make_task_spec("sum", "1", {{"value", i}}, {}));
-  const std::int64_t campaign = store.register_campaign("pages", "millflow-test", json::object(), tasks);
+  const std::int64_t campaign =
+      store.register_campaign("pages", "millflow-test", json::object(), tasks);
   store.mark_running(tasks[0].key);
   int written = 0;
   int unused = 0;
-  sqlite3_db_status(store.connection().handle(), SQLITE_DBSTATUS_CACHE_WRITE, &written, &unused, 1);  // reset
+  sqlite3_db_status(store.connection().handle(), SQLITE_DBSTATUS_CACHE_WRITE, &written, &unused,
+                    1);  // reset
   long pages = 0;
   for (size_t i = 0; i + 1 < tasks.size(); ++i) {
     sql::Transaction turn(store.connection());
     store.commit_done(campaign, tasks[i].key, {{"sum", i}}, {}, {}, 0.0);
     store.mark_running(tasks[i + 1].key);
     turn.commit();
-    sqlite3_db_status(store.connection().handle(), SQLITE_DBSTATUS_CACHE_WRITE, &written, &unused, 1);
+    sqlite3_db_status(store.connection().handle(), SQLITE_DBSTATUS_CACHE_WRITE, &written, &unused,
+                      1);
     pages += written;
   }
-  EXPECT_LE(static_cast<double>(pages) / (kTasks - 1), 5.0) << pages << " pages in " << kTasks - 1 << " turns";
+  EXPECT_LE(static_cast<double>(pages) / (kTasks - 1), 5.0)
+      << pages << " pages in " << kTasks - 1 << " turns";
 }
 
 TEST(Store, DomainViewsAreInstalled) {
   ScratchDir dir;
   const SystemClock clock;
-  Store store(dir.db(), {{"sum_results", "SELECT task_key, json_extract(result, '$.sum') AS sum FROM task_results"}}, clock);
+  Store store(
+      dir.db(),
+      {{"sum_results", "SELECT task_key, json_extract(result, '$.sum') AS sum FROM task_results"}},
+      clock);
   std::ostringstream out;
   run_query(dir.db(), "SELECT count(*) AS n FROM sum_results", TableFormat::csv, out);
   EXPECT_EQ(out.str(), "n\n0\n");
@@ -153,14 +172,19 @@ TEST(Store, DomainViewsAreInstalled) {
 
 TEST(Store, QueryRefusesWrites) {
   ScratchDir dir;
-  submit(test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}}}}})), dir.db());
+  submit(test_campaign("one",
+                       json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}}}}})),
+         dir.db());
   std::ostringstream out;
-  for (const char* statement : {"DELETE FROM tasks", "UPDATE tasks SET status = 'failed'", "DROP TABLE results",
-                                "INSERT INTO log_lines (at, level, message) VALUES (0, 'x', 'y')"}) {
-    EXPECT_THROW(run_query(dir.db(), statement, TableFormat::table, out), InvalidInput) << statement;
+  for (const char* statement :
+       {"DELETE FROM tasks", "UPDATE tasks SET status = 'failed'", "DROP TABLE results",
+        "INSERT INTO log_lines (at, level, message) VALUES (0, 'x', 'y')"}) {
+    EXPECT_THROW(run_query(dir.db(), statement, TableFormat::table, out), InvalidInput)
+        << statement;
   }
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM tasks WHERE status = 'done'"), 1);
-  run_query(dir.db(), "SELECT json_extract(result, '$.sum') AS s FROM task_results", TableFormat::json, out);
+  run_query(dir.db(), "SELECT json_extract(result, '$.sum') AS s FROM task_results",
+            TableFormat::json, out);
   EXPECT_EQ(json::parse(out.str()), json::parse(R"([{"s": 1}])"));
 }
 
@@ -194,13 +218,15 @@ TEST(CoordinatorLock, StaleLockOfADeadProcessIsTakenOver) {
   ::waitpid(child, &status, 0);
   CoordinatorLock taken(dir.db());
   ASSERT_TRUE(taken.stale_holder().has_value());
-  EXPECT_NE(taken.stale_holder()->find("pid " + std::to_string(child)), std::string::npos) << *taken.stale_holder();
+  EXPECT_NE(taken.stale_holder()->find("pid " + std::to_string(child)), std::string::npos)
+      << *taken.stale_holder();
 }
 
 TEST(Store, StatusAndQueryAnswerWhileACampaignRuns) {
   ScratchDir dir;
   json tasks = json::array();
-  for (int i = 0; i < 20; ++i) tasks.push_back({{"id", std::to_string(i)}, {"kind", "sleep"}, {"params", {{"ms", 20 + i}}}});
+  for (int i = 0; i < 20; ++i)
+    tasks.push_back({{"id", std::to_string(i)}, {"kind", "sleep"}, {"params", {{"ms", 20 + i}}}});
   std::thread coordinator([&] { submit(test_campaign("busy", tasks), dir.db(), 2); });
   int answers = 0;
   bool saw_running_coordinator = false;

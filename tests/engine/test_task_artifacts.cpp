@@ -17,9 +17,10 @@ using nlohmann::json;
 
 // a(1, writes sum.txt = "1") -> b(2); and a fanout task of another kind.
 json tasks() {
-  return json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}, {"artifact", true}}}},
-                      {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"a"}}},
-                      {{"id", "f"}, {"kind", "fanout"}, {"params", {{"children", 0}, {"value", 5}}}}});
+  return json::array(
+      {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}, {"artifact", true}}}},
+       {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"a"}}},
+       {{"id", "f"}, {"kind", "fanout"}, {"params", {{"children", 0}, {"value", 5}}}}});
 }
 
 std::string read_text(const std::filesystem::path& file) {
@@ -31,7 +32,8 @@ std::string read_text(const std::filesystem::path& file) {
 
 std::string key_of_value(const std::filesystem::path& db, int value) {
   auto connection = open_read_only(db);
-  auto row = connection.prepare("SELECT key FROM tasks WHERE kind = 'sum' AND json_extract(params, '$.value') = ?");
+  auto row = connection.prepare(
+      "SELECT key FROM tasks WHERE kind = 'sum' AND json_extract(params, '$.value') = ?");
   row.bind_all(value);
   EXPECT_TRUE(row.step());
   return row.text(0);
@@ -72,12 +74,14 @@ TEST_F(TaskArtifactsTest, CopiesVerifiedArtifactsUnderTheirNames) {
 TEST_F(TaskArtifactsTest, CorruptArtifactIsRefusedByName) {
   const auto found = finished_task_artifacts(dir_.db(), "artifacts", "sum");
   const auto& with_file = found[0].artifacts.empty() ? found[1] : found[0];
-  std::ofstream(ArtifactStore(artifacts_dir(dir_.db())).path_of(with_file.artifacts[0].sha256)) << "tampered\n";
+  std::ofstream(ArtifactStore(artifacts_dir(dir_.db())).path_of(with_file.artifacts[0].sha256))
+      << "tampered\n";
   try {
     copy_artifacts(dir_.db(), with_file.artifacts, dir_.path() / "out");
     FAIL() << "expected std::runtime_error";
   } catch (const std::runtime_error& error) {
-    EXPECT_NE(std::string(error.what()).find("artifact sum.txt"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("artifact sum.txt"), std::string::npos)
+        << error.what();
   }
   EXPECT_FALSE(std::filesystem::exists(dir_.path() / "out" / "sum.txt"));
 }

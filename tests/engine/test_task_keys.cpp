@@ -33,8 +33,10 @@ TEST(CanonicalJson, OneSpellingPerFloat) {
 }
 
 TEST(CanonicalJson, FloatsRoundTripExactly) {
-  for (const double value : {0.1, 1.0 / 3.0, 6.02214076e23, 5e-324, std::numeric_limits<double>::max(), 123456.789}) {
-    EXPECT_EQ(json::parse(canonical_json(json(value))).get<double>(), value) << canonical_json(json(value));
+  for (const double value :
+       {0.1, 1.0 / 3.0, 6.02214076e23, 5e-324, std::numeric_limits<double>::max(), 123456.789}) {
+    EXPECT_EQ(json::parse(canonical_json(json(value))).get<double>(), value)
+        << canonical_json(json(value));
   }
 }
 
@@ -49,7 +51,8 @@ TEST(CanonicalJson, RefusesNonFiniteNumbers) {
 
 TEST(TaskKey, IsTheSha256OfTheStoredText) {
   const auto spec = make_task_spec("sum", "1", json{{"value", 3}}, {"aa", "bb"});
-  EXPECT_EQ(spec.key_text, "millflow-task 1\nkind:sum\nversion:1\nparams:{\"value\":3}\nupstream:aa,bb\n");
+  EXPECT_EQ(spec.key_text,
+            "millflow-task 1\nkind:sum\nversion:1\nparams:{\"value\":3}\nupstream:aa,bb\n");
   EXPECT_EQ(spec.key, sha256_hex(spec.key_text));
 }
 
@@ -62,14 +65,18 @@ TEST(TaskKey, GoldenKeyForAFixedTask) {
   // GOLDEN: recorded from this implementation. If it changes, every stored cache is invalidated:
   // change it only together with the "millflow-task 1" tag of the key text. The value equals
   // `printf ... | sha256sum` (coreutils) of the text in the line above.
-  const auto spec = make_task_spec("macro", "2", json::parse(R"({"speed": 0.75, "fill": 0.3, "balls": 1000})"), {});
-  EXPECT_EQ(spec.key, sha256_hex("millflow-task 1\nkind:macro\nversion:2\nparams:{\"balls\":1000,\"fill\":0.3,\"speed\":0.75}\nupstream:\n"));
+  const auto spec = make_task_spec(
+      "macro", "2", json::parse(R"({"speed": 0.75, "fill": 0.3, "balls": 1000})"), {});
+  EXPECT_EQ(spec.key, sha256_hex("millflow-task "
+                                 "1\nkind:macro\nversion:2\nparams:{\"balls\":1000,\"fill\":0.3,"
+                                 "\"speed\":0.75}\nupstream:\n"));
   EXPECT_EQ(spec.key, "2ee358402de72664d4ce899fcf6be552d418c4ad87fec20bff9074c982092103");
 }
 
 TEST(TaskKey, ChangesWithEveryIngredientAndNothingElse) {
   const auto base = make_task_spec("sum", "1", json{{"value", 3}, {"w", 1.5}}, {"up"});
-  EXPECT_EQ(base.key, make_task_spec("sum", "1", json::parse(R"({"w": 1.50, "value": 3})"), {"up"}).key);
+  EXPECT_EQ(base.key,
+            make_task_spec("sum", "1", json::parse(R"({"w": 1.50, "value": 3})"), {"up"}).key);
   EXPECT_NE(base.key, make_task_spec("sum", "2", json{{"value", 3}, {"w", 1.5}}, {"up"}).key);
   EXPECT_NE(base.key, make_task_spec("sum", "1", json{{"value", 4}, {"w", 1.5}}, {"up"}).key);
   EXPECT_NE(base.key, make_task_spec("sum", "1", json{{"value", 3.0}, {"w", 1.5}}, {"up"}).key);

@@ -14,13 +14,18 @@
 
 namespace millflow::testing {
 
-inline void check_golden(const std::string& kind, const std::string& version, const nlohmann::json& values) {
+inline void check_golden(const std::string& kind, const std::string& version,
+                         const nlohmann::json& values) {
   using nlohmann::json;
-  const std::filesystem::path file = std::filesystem::path(MILLFLOW_SOURCE_DIR) / "tests/tasks/golden" / (kind + ".json");
+  const std::filesystem::path file =
+      std::filesystem::path(MILLFLOW_SOURCE_DIR) / "tests/tasks/golden" / (kind + ".json");
   constexpr double kTolerance = 1e-9;  // relative: only rounding differences between builds
   if (std::getenv("MILLFLOW_REGENERATE_GOLDEN")) {
-    std::ofstream(file) << json{{"kind", kind}, {"version", version}, {"relative_tolerance", kTolerance},
-                                {"values", values}}.dump(2)
+    std::ofstream(file) << json{{"kind", kind},
+                                {"version", version},
+                                {"relative_tolerance", kTolerance},
+                                {"values", values}}
+                               .dump(2)
                         << "\n";
     GTEST_SKIP() << "regenerated " << file;
   }
@@ -32,7 +37,8 @@ inline void check_golden(const std::string& kind, const std::string& version, co
   for (const auto& [name, expected] : golden.at("values").items()) {
     ASSERT_TRUE(values.contains(name)) << name;
     if (expected.is_number()) {
-      EXPECT_NEAR(values[name].get<double>(), expected.get<double>(), kTolerance * (1e-30 + std::abs(expected.get<double>())))
+      EXPECT_NEAR(values[name].get<double>(), expected.get<double>(),
+                  kTolerance * (1e-30 + std::abs(expected.get<double>())))
           << kind << " " << name << " changed without a version bump (now " << version << ")";
     } else {
       EXPECT_EQ(values[name], expected) << kind << " " << name << " changed without a version bump";

@@ -21,13 +21,15 @@ struct MillSample {
 // Builds and settles `setup`'s mill, turns it at its speed fraction for `spin_up` s, then writes
 // one segment of `frames_per_segment` frames `interval` s apart to each of `segments`; each frame
 // carries the collisions of the interval before it. Returns what the macro task would report.
-inline nlohmann::json run_and_write_mill_frames(const dem::MillSetup& setup, double spin_up, double interval,
+inline nlohmann::json run_and_write_mill_frames(const dem::MillSetup& setup, double spin_up,
+                                                double interval,
                                                 const std::vector<std::filesystem::path>& segments,
                                                 int frames_per_segment) {
   dem::System system = dem::build_mill(setup);
   system.set_time_step_from_collisions(20);
   dem::settle_charge(system, 1.0, 1e-6);
-  const double omega = setup.speed_fraction * dem::critical_speed(2 * setup.shell.radius, setup.ball_diameter);
+  const double omega =
+      setup.speed_fraction * dem::critical_speed(2 * setup.shell.radius, setup.ball_diameter);
   dem::set_mill_speed(system, omega);
   system.step(static_cast<std::size_t>(spin_up / system.time_step()));
   system.set_record_collisions(true);
@@ -39,16 +41,21 @@ inline nlohmann::json run_and_write_mill_frames(const dem::MillSetup& setup, dou
     for (int f = 0; f < frames_per_segment; ++f) {
       system.step(steps);
       const auto events = system.take_collision_events();
-      frames.push_back(dem::capture_frame(system, std::get<dem::MillWall>(system.wall(0).shape).angle, events));
+      frames.push_back(
+          dem::capture_frame(system, std::get<dem::MillWall>(system.wall(0).shape).angle, events));
     }
     dem::write_flow_segment(segment, frames);
   }
   double mass = 0.0;
   for (double m : system.masses()) mass += m;
   std::vector<std::string> categories;
-  for (std::uint32_t k = 0; k < system.category_count(); ++k) categories.push_back(system.category_name(k));
-  return {{"mill", {{"radius_m", setup.shell.radius}, {"length_m", setup.shell.length}, {"axial_ends", "periodic"},
-                    {"lifter_count", setup.shell.lifter_count}}},
+  for (std::uint32_t k = 0; k < system.category_count(); ++k)
+    categories.push_back(system.category_name(k));
+  return {{"mill",
+           {{"radius_m", setup.shell.radius},
+            {"length_m", setup.shell.length},
+            {"axial_ends", "periodic"},
+            {"lifter_count", setup.shell.lifter_count}}},
           {"gravity_m_s2", setup.gravity},
           {"angular_velocity_rad_s", omega},
           {"measure_start_s", start},

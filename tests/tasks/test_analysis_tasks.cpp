@@ -22,15 +22,16 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 struct Scratch {
-  Scratch() : path(fs::temp_directory_path() / ("millflow_analysis_" + std::to_string(::getpid()))) {
+  Scratch()
+      : path(fs::temp_directory_path() / ("millflow_analysis_" + std::to_string(::getpid()))) {
     fs::create_directories(path);
   }
   ~Scratch() { fs::remove_all(path); }
   fs::path path;
 };
 
-engine::TaskOutcome run(engine::RunFunction function, const json& params, const engine::TaskInput& input,
-                        const fs::path& work_dir) {
+engine::TaskOutcome run(engine::RunFunction function, const json& params,
+                        const engine::TaskInput& input, const fs::path& work_dir) {
   const std::vector<engine::TaskInput> inputs{input};
   fs::create_directories(work_dir);
   engine::TaskContext context{.key = "test",
@@ -53,11 +54,13 @@ engine::TaskInput as_input(const std::string& kind, const engine::TaskOutcome& o
 
 engine::TaskInput macro_input(const std::vector<fs::path>& segments, const json& result) {
   engine::TaskInput input{.key = "macro", .kind = "macro", .result = result, .artifacts = {}};
-  for (std::size_t s = 0; s < segments.size(); ++s) input.artifacts[fmt::format("flow/segment_{:04d}.mfs", s)] = segments[s];
+  for (std::size_t s = 0; s < segments.size(); ++s)
+    input.artifacts[fmt::format("flow/segment_{:04d}.mfs", s)] = segments[s];
   return input;
 }
 
-const json kAverageParams = {{"average", {{"grid_cells", {20, 20}}, {"kernel_width_diameters", 1.5}}}};
+const json kAverageParams = {
+    {"average", {{"grid_cells", {20, 20}}, {"kernel_width_diameters", 1.5}}}};
 const json kSitesParams = {{"sites", {{"per_region", 2}, {"regions", region_names()}}}};
 
 json read_json(const fs::path& file) {
@@ -68,13 +71,17 @@ json read_json(const fs::path& file) {
 TEST(AnalysisTasks, SlowMillBulkTurnsWithTheShellAndTheSurfaceShears) {
   const auto& sample = testing::small_mill_sample();
   Scratch scratch;
-  const auto average = run(run_average, kAverageParams, macro_input(sample.segments, sample.macro_result),
-                           scratch.path / "average");
-  EXPECT_LT(std::abs(average.result.at("mass_conservation").at("relative_error").get<double>()), 0.01);
+  const auto average =
+      run(run_average, kAverageParams, macro_input(sample.segments, sample.macro_result),
+          scratch.path / "average");
+  EXPECT_LT(std::abs(average.result.at("mass_conservation").at("relative_error").get<double>()),
+            0.01);
   ASSERT_EQ(average.artifacts.size(), 2u);
-  for (const auto& artifact : average.artifacts) EXPECT_GT(fs::file_size(artifact.file), 1000u) << artifact.name;
+  for (const auto& artifact : average.artifacts)
+    EXPECT_GT(fs::file_size(artifact.file), 1000u) << artifact.name;
 
-  const auto sites = run(run_sites, kSitesParams, as_input("average", average), scratch.path / "sites");
+  const auto sites =
+      run(run_sites, kSitesParams, as_input("average", average), scratch.path / "sites");
   double weights = 0.0;
   for (const auto& site : sites.result.at("sites")) weights += site.at("weight_m3").get<double>();
   EXPECT_NEAR(weights, sites.result.at("charge_volume_m3").get<double>(), 1e-12);
@@ -90,9 +97,11 @@ TEST(AnalysisTasks, SlowMillBulkTurnsWithTheShellAndTheSurfaceShears) {
   for (std::size_t c = 0; c < map.grid.size(); ++c) {
     if (selection.region_of_cell[c] != 5) continue;  // bulk
     const double x = map.grid.x_of(c), y = map.grid.y_of(c), nu = map.solid_fraction[c];
-    slip += nu * std::hypot(velocity[3 * c].get<double>() + omega * y, velocity[3 * c + 1].get<double>() - omega * x);
+    slip += nu * std::hypot(velocity[3 * c].get<double>() + omega * y,
+                            velocity[3 * c + 1].get<double>() - omega * x);
     speed += nu * omega * std::hypot(x, y);
-    spin += nu * (x * velocity[3 * c + 1].get<double>() - y * velocity[3 * c].get<double>()) / (x * x + y * y);
+    spin += nu * (x * velocity[3 * c + 1].get<double>() - y * velocity[3 * c].get<double>()) /
+            (x * x + y * y);
     solid += nu;
   }
   auto region = [&](int r) { return selection.regions[static_cast<std::size_t>(r)]; };
@@ -100,9 +109,9 @@ TEST(AnalysisTasks, SlowMillBulkTurnsWithTheShellAndTheSurfaceShears) {
   std::cout << "bulk: angular velocity about the axis " << spin / solid << " rad/s (shell " << omega
             << "), slip / shell-rotation speed " << slip / speed << "\n";
   for (const auto& r : selection.regions) {
-    std::cout << r.name << ": " << r.cells << " cells, shear " << r.mean_shear_rate << " 1/s, dissipation "
-              << (r.volume_m3 > 0 ? r.dissipation_w / r.volume_m3 : 0.0) << " W/m^3, share " << r.dissipation_share
-              << "\n";
+    std::cout << r.name << ": " << r.cells << " cells, shear " << r.mean_shear_rate
+              << " 1/s, dissipation " << (r.volume_m3 > 0 ? r.dissipation_w / r.volume_m3 : 0.0)
+              << " W/m^3, share " << r.dissipation_share << "\n";
   }
   ASSERT_GT(bulk.cells, 5u);
   ASSERT_GT(cascading.cells, 0u);
@@ -113,7 +122,8 @@ TEST(AnalysisTasks, SlowMillBulkTurnsWithTheShellAndTheSurfaceShears) {
   EXPECT_GT(spin / solid, 0.5 * omega);
   EXPECT_LT(spin / solid, 1.1 * omega);
   EXPECT_GT(cascading.mean_shear_rate, 2.0 * bulk.mean_shear_rate);
-  const double surface_power = (cascading.dissipation_w + toe.dissipation_w) / (cascading.volume_m3 + toe.volume_m3);
+  const double surface_power =
+      (cascading.dissipation_w + toe.dissipation_w) / (cascading.volume_m3 + toe.volume_m3);
   EXPECT_GT(surface_power, bulk.dissipation_w / bulk.volume_m3);
 }
 
@@ -127,8 +137,10 @@ std::vector<fs::path> synthetic_segments(const fs::path& dir) {
     for (auto& f : frames) {
       for (int p = 0; p < 150; ++p) {
         const double r = 0.09 * std::sqrt(rng.uniform()), a = -std::numbers::pi * rng.uniform();
-        f.position.push_back({static_cast<float>(r * std::cos(a)), static_cast<float>(r * std::sin(a)), 0.0f});
-        f.velocity.push_back({static_cast<float>(rng.uniform(-1, 1)), static_cast<float>(rng.uniform(-1, 1)), 0.0f});
+        f.position.push_back(
+            {static_cast<float>(r * std::cos(a)), static_cast<float>(r * std::sin(a)), 0.0f});
+        f.velocity.push_back(
+            {static_cast<float>(rng.uniform(-1, 1)), static_cast<float>(rng.uniform(-1, 1)), 0.0f});
         f.angular_velocity.push_back({0.0f, 0.0f, 0.0f});
         f.radius.push_back(0.005f);
         f.material.push_back(0);
@@ -157,36 +169,42 @@ std::vector<fs::path> synthetic_segments(const fs::path& dir) {
   return files;
 }
 
-const json kSyntheticMacro = {{"mill", {{"radius_m", 0.1}, {"length_m", 0.04}}},
-                              {"angular_velocity_rad_s", 4.0},
-                              {"sample_interval_s", 0.01},
-                              {"frame_count", 4},
-                              {"categories", {"steel-steel", "steel-wall:shell"}},
-                              {"ball_mass_kg", 150 * 7800.0 * 4.0 / 3.0 * std::numbers::pi * 1.25e-7},
-                              {"media_diameter_m", 0.01}};
+const json kSyntheticMacro = {
+    {"mill", {{"radius_m", 0.1}, {"length_m", 0.04}}},
+    {"angular_velocity_rad_s", 4.0},
+    {"sample_interval_s", 0.01},
+    {"frame_count", 4},
+    {"categories", {"steel-steel", "steel-wall:shell"}},
+    {"ball_mass_kg", 150 * 7800.0 * 4.0 / 3.0 * std::numbers::pi * 1.25e-7},
+    {"media_diameter_m", 0.01}};
 
 TEST(AnalysisTasks, AverageGolden) {
   Scratch scratch;
-  const auto average = run(run_average, kAverageParams, macro_input(synthetic_segments(scratch.path), kSyntheticMacro),
-                           scratch.path / "average");
+  const auto average =
+      run(run_average, kAverageParams,
+          macro_input(synthetic_segments(scratch.path), kSyntheticMacro), scratch.path / "average");
   const json& r = average.result;
   EXPECT_NEAR(r.at("media_density_kg_m3").get<double>(), 7800.0, 1e-3);
-  millflow::testing::check_golden("average", kAverageVersion,
-               {{"integrated_volume_m3", r["mass_conservation"]["integrated_volume_m3"]},
-                {"max_pressure_pa", r["fields"]["pressure_pa"]["max"]},
-                {"max_shear_rate_per_s", r["fields"]["shear_rate_per_s"]["max"]},
-                {"mean_granular_temperature_m2_s2", r["fields"]["granular_temperature_m2_s2"]["mean_over_charge"]},
-                {"max_normal_stress_pa", r["fields"]["normal_stress_pa"]["max"]},
-                {"max_dissipation_w_m3", r["fields"]["dissipation_w_m3"]["max"]},
-                {"collisions_per_s", r["mill_wide"]["total"]["collisions_per_s"]},
-                {"dissipation_w", r["mill_wide"]["total"]["dissipation_w"]}});
+  millflow::testing::check_golden(
+      "average", kAverageVersion,
+      {{"integrated_volume_m3", r["mass_conservation"]["integrated_volume_m3"]},
+       {"max_pressure_pa", r["fields"]["pressure_pa"]["max"]},
+       {"max_shear_rate_per_s", r["fields"]["shear_rate_per_s"]["max"]},
+       {"mean_granular_temperature_m2_s2",
+        r["fields"]["granular_temperature_m2_s2"]["mean_over_charge"]},
+       {"max_normal_stress_pa", r["fields"]["normal_stress_pa"]["max"]},
+       {"max_dissipation_w_m3", r["fields"]["dissipation_w_m3"]["max"]},
+       {"collisions_per_s", r["mill_wide"]["total"]["collisions_per_s"]},
+       {"dissipation_w", r["mill_wide"]["total"]["dissipation_w"]}});
 }
 
 TEST(AnalysisTasks, SitesGolden) {
   Scratch scratch;
-  const auto average = run(run_average, kAverageParams, macro_input(synthetic_segments(scratch.path), kSyntheticMacro),
-                           scratch.path / "average");
-  const auto sites = run(run_sites, kSitesParams, as_input("average", average), scratch.path / "sites");
+  const auto average =
+      run(run_average, kAverageParams,
+          macro_input(synthetic_segments(scratch.path), kSyntheticMacro), scratch.path / "average");
+  const auto sites =
+      run(run_sites, kSitesParams, as_input("average", average), scratch.path / "sites");
   json values = {{"charge_volume_m3", sites.result["charge_volume_m3"]},
                  {"site_count", sites.result["sites"].size()},
                  {"toe_angle_deg", sites.result["toe_angle_deg"]},
@@ -206,8 +224,12 @@ TEST(AnalysisTasks, SitesViewJoinsTheMacroRunsFillAndSpeed) {
   engine::SystemClock clock;
   engine::Store store(scratch.path / "view.db", {macro_lineage_view(), sites_view()}, clock);
   const json macro_params = {{"macro", {{"fill", 0.35}, {"speed_fraction", 0.7}}}};
-  const json result = {{"sites", {{{"site_id", "toe-0"}, {"region", "toe"}, {"position_m", {0.1, -0.2}},
-                                   {"weight_m3", 0.5}, {"shear_rate_per_s", 30.0}}}}};
+  const json result = {{"sites",
+                        {{{"site_id", "toe-0"},
+                          {"region", "toe"},
+                          {"position_m", {0.1, -0.2}},
+                          {"weight_m3", 0.5},
+                          {"shear_rate_per_s", 30.0}}}}};
   store.connection().exec(fmt::format(R"sql(
 INSERT INTO campaigns (id, name, format, document, submitted_at) VALUES (1, 'c', 'millflow_campaign', '{{}}', 0);
 INSERT INTO tasks (key, kind, kind_version, params, key_text, status, created_at) VALUES
@@ -218,8 +240,9 @@ INSERT INTO edges VALUES ('a', 0, 'm'), ('s', 0, 'a');
 INSERT INTO results VALUES ('s', '{}', 0);
 )sql",
                                       macro_params.dump(), result.dump()));
-  auto rows = store.connection().prepare("SELECT campaign, fill, speed_fraction, site_id, region, weight_m3, "
-                                         "shear_rate_per_s, x_m, y_m FROM sites");
+  auto rows = store.connection().prepare(
+      "SELECT campaign, fill, speed_fraction, site_id, region, weight_m3, "
+      "shear_rate_per_s, x_m, y_m FROM sites");
   ASSERT_TRUE(rows.step());
   EXPECT_EQ(rows.text(0), "c");
   EXPECT_EQ(rows.real(1), 0.35);

@@ -24,7 +24,8 @@ void collect_paths(const json& schema, const std::string& path, std::set<std::st
   paths.insert(path);
   if (path == "/sweep") return;
   if (schema.contains("properties")) {
-    for (const auto& [key, field] : schema["properties"].items()) collect_paths(field, path + "/" + key, paths);
+    for (const auto& [key, field] : schema["properties"].items())
+      collect_paths(field, path + "/" + key, paths);
   }
   if (schema.contains("additionalProperties") && schema["additionalProperties"].is_object()) {
     collect_paths(schema["additionalProperties"], path + "/*", paths);
@@ -38,8 +39,10 @@ TEST(CampaignSchema, DescribesExactlyTheFieldsOfTheTable) {
   collect_paths(schema, "", schema_paths);
   std::set<std::string> table_paths;
   for (const auto& rule : millflow::tasks::campaign_table().rules()) table_paths.insert(rule.path);
-  for (const auto& path : table_paths) EXPECT_TRUE(schema_paths.count(path)) << path << " is missing in the schema";
-  for (const auto& path : schema_paths) EXPECT_TRUE(table_paths.count(path)) << path << " is not in the table";
+  for (const auto& path : table_paths)
+    EXPECT_TRUE(schema_paths.count(path)) << path << " is missing in the schema";
+  for (const auto& path : schema_paths)
+    EXPECT_TRUE(table_paths.count(path)) << path << " is not in the table";
 }
 
 TEST(CampaignSchema, CheckedInFileEqualsTheRenderingOfTheTable) {
@@ -48,7 +51,8 @@ TEST(CampaignSchema, CheckedInFileEqualsTheRenderingOfTheTable) {
   if (rendered != checked_in) {
     const std::string fresh = MILLFLOW_BINARY_DIR "/campaign.schema.json";
     std::ofstream(fresh) << rendered.dump(2) << '\n';
-    FAIL() << "schemas/campaign.schema.json is out of date; review and copy " << fresh << " over it\n"
+    FAIL() << "schemas/campaign.schema.json is out of date; review and copy " << fresh
+           << " over it\n"
            << json::diff(checked_in, rendered).dump(2);
   }
 }

@@ -56,7 +56,8 @@ TEST(CampaignCorpus, EveryBadFileGivesExactlyItsExpectedMessages) {
   for (const auto& file : files) {
     const auto name = file.filename().string();
     ASSERT_TRUE(expected.contains(name)) << name << " has no entry in expected.json";
-    EXPECT_EQ(messages_of(file), expected[name]["messages"].get<std::vector<std::string>>()) << name;
+    EXPECT_EQ(messages_of(file), expected[name]["messages"].get<std::vector<std::string>>())
+        << name;
   }
   EXPECT_EQ(expected.size(), files.size()) << "expected.json names a file the corpus does not hold";
 }
@@ -109,7 +110,8 @@ TEST(CampaignLoading, MissingFileIsReportedAsInput) {
 TEST(CampaignLoading, FillsEveryDefault) {
   const auto campaign = load_campaign(source_dir / "tests/tasks/good_campaigns/minimal.json");
   EXPECT_EQ(campaign["description"], "");
-  EXPECT_EQ(campaign["dem"], json({{"steps_per_collision", 20}, {"neighbor_skin_fraction", 0.3}, {"seed", 1}}));
+  EXPECT_EQ(campaign["dem"],
+            json({{"steps_per_collision", 20}, {"neighbor_skin_fraction", 0.3}, {"seed", 1}}));
   EXPECT_EQ(campaign["mill"]["axial_ends"], "periodic");
   EXPECT_EQ(campaign["macro"]["settle_time"], 0.5);
   EXPECT_EQ(campaign["macro"]["warmup_revolutions"], 2.0);
@@ -139,7 +141,7 @@ TEST(CampaignLoading, FillsEveryDefault) {
 TEST(CampaignLoading, StoresNumbersAsFloatsAndCountsAsIntegers) {
   // One spelling per value, so the same settings always hash to the same task key.
   const auto campaign = load_campaign(source_dir / "tests/tasks/good_campaigns/minimal.json");
-  EXPECT_TRUE(campaign["materials"]["steel"]["density"].is_number_float());  // written as 7800
+  EXPECT_TRUE(campaign["materials"]["steel"]["density"].is_number_float());      // written as 7800
   EXPECT_TRUE(campaign["mill"]["lifters"]["face_angle_deg"].is_number_float());  // written as 15
   EXPECT_TRUE(campaign["mill"]["lifters"]["count"].is_number_integer());
   EXPECT_TRUE(campaign["dem"]["seed"].is_number_integer());
@@ -169,9 +171,10 @@ TEST(CampaignExpansion, QuickCampaignIsTwoFillsTimesTwoSpeedsTimesThreeLoads) {
     for (const double speed : {0.65, 0.8}) {
       for (const double load : {0.0, 0.5, 1.0}) {
         const auto& point = points[i++];
-        EXPECT_EQ(coordinates_of(point), (std::map<std::string, double>{{"/macro/fill", fill},
-                                                                         {"/macro/speed_fraction", speed},
-                                                                         {"/shear_cell/powder/load", load}}));
+        EXPECT_EQ(coordinates_of(point),
+                  (std::map<std::string, double>{{"/macro/fill", fill},
+                                                 {"/macro/speed_fraction", speed},
+                                                 {"/shear_cell/powder/load", load}}));
         EXPECT_EQ(point.document["macro"]["fill"], fill);
         EXPECT_EQ(point.document["macro"]["speed_fraction"], speed);
         EXPECT_EQ(point.document["shear_cell"]["powder"]["load"], load);

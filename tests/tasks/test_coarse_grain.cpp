@@ -61,8 +61,10 @@ TEST(CoarseGrain, SolidFractionIntegratesToTheParticleVolumeEvenNextToTheShell) 
   double volume = 0.0;
   for (auto& frame : frames) {
     for (int p = 0; p < 300; ++p) {
-      const double r = 0.095 * std::sqrt(rng.uniform()), angle = 2 * std::numbers::pi * rng.uniform();
-      add_particle(frame, {r * std::cos(angle), r * std::sin(angle), 0.01}, Vector3d::Zero(), 0.004);
+      const double r = 0.095 * std::sqrt(rng.uniform()),
+                   angle = 2 * std::numbers::pi * rng.uniform();
+      add_particle(frame, {r * std::cos(angle), r * std::sin(angle), 0.01}, Vector3d::Zero(),
+                   0.004);
       volume += 4.0 / 3.0 * std::numbers::pi * std::pow(double{0.004f}, 3) / 2.0;
     }
   }
@@ -78,8 +80,11 @@ TEST(CoarseGrain, SolidFractionIntegratesToTheParticleVolumeEvenNextToTheShell) 
 
 TEST(CoarseGrain, RigidRotationHasTheShellVelocityAndNoShear) {
   const double omega = 3.0, edge = 0.09, w = 0.005;
-  const auto rotation = [&](const Vector3d& x) { return Vector3d(-omega * x.y(), omega * x.x(), 0.0); };
-  const auto frame = lattice(0.0025, 0.001, [&](double x, double y) { return std::hypot(x, y) < edge; }, rotation);
+  const auto rotation = [&](const Vector3d& x) {
+    return Vector3d(-omega * x.y(), omega * x.x(), 0.0);
+  };
+  const auto frame = lattice(
+      0.0025, 0.001, [&](double x, double y) { return std::hypot(x, y) < edge; }, rotation);
   const CoarseFields f = grain(settings(40, w), {frame, frame});
   int checked = 0;
   for (std::size_t c = 0; c < f.grid.size(); ++c) {
@@ -97,12 +102,14 @@ TEST(CoarseGrain, RigidRotationHasTheShellVelocityAndNoShear) {
 TEST(CoarseGrain, SimpleShearGivesItsShearRateAndNoStress) {
   const double gdot = 12.0, half = 0.06, w = 0.005;
   const auto shear = [&](const Vector3d& x) { return Vector3d(gdot * x.y(), 0.0, 0.0); };
-  const auto frame =
-      lattice(0.0025, 0.001, [&](double x, double y) { return std::abs(x) < half && std::abs(y) < half; }, shear);
+  const auto frame = lattice(
+      0.0025, 0.001, [&](double x, double y) { return std::abs(x) < half && std::abs(y) < half; },
+      shear);
   const CoarseFields f = grain(settings(40, w), {frame});
   int checked = 0;
   for (std::size_t c = 0; c < f.grid.size(); ++c) {
-    if (std::abs(f.grid.x_of(c)) > half - 7 * w || std::abs(f.grid.y_of(c)) > half - 7 * w) continue;
+    if (std::abs(f.grid.x_of(c)) > half - 7 * w || std::abs(f.grid.y_of(c)) > half - 7 * w)
+      continue;
     ++checked;
     EXPECT_NEAR(f.shear_rate[c], gdot, 1e-4 * gdot) << "cell " << c;
     EXPECT_NEAR(f.strain_rate[c](0, 1), gdot / 2, 1e-4 * gdot) << "cell " << c;
@@ -148,9 +155,11 @@ TEST(CoarseGrain, TwoPressedParticlesGiveTheVirialPressure) {
   EXPECT_NEAR(f.integral(f.pressure), virial, 1e-6 * virial);
   // At the contact: the virial times the line kernel's mean along the branch.
   const double peak = 1.0 / (2 * std::numbers::pi * w * w * (1 - std::exp(-4.5)));
-  const double line_mean = std::sqrt(2 * std::numbers::pi) * w / d * std::erf(d / (2 * std::sqrt(2.0) * w));
+  const double line_mean =
+      std::sqrt(2 * std::numbers::pi) * w / d * std::erf(d / (2 * std::sqrt(2.0) * w));
   const std::size_t centre = s.grid.index(20, 20);
-  EXPECT_NEAR(f.pressure[centre], virial / s.slice_length * peak * line_mean, 0.01 * f.pressure[centre]);
+  EXPECT_NEAR(f.pressure[centre], virial / s.slice_length * peak * line_mean,
+              0.01 * f.pressure[centre]);
   EXPECT_LT(f.contact_stress[centre](0, 0), 0.0);
   EXPECT_NEAR(f.contact_stress[centre](1, 1), 0.0, 1e-12);
 }
@@ -195,14 +204,17 @@ TEST(CoarseGrain, SameBitsAtOneAndTwoThreads) {
   }
   auto run = [&](int threads) {
     CoarseFields f;
-    tbb::task_arena(threads).execute(
-        [&] { f = coarse_grain(settings(24, 0.01), segments.size(), [&](std::size_t k) { return segments[k]; }); });
+    tbb::task_arena(threads).execute([&] {
+      f = coarse_grain(settings(24, 0.01), segments.size(),
+                       [&](std::size_t k) { return segments[k]; });
+    });
     return cell_arrays(f);
   };
   const auto one = run(1), two = run(2);
   ASSERT_EQ(one.size(), two.size());
   for (std::size_t a = 0; a < one.size(); ++a) {
-    EXPECT_EQ(0, std::memcmp(one[a].values.data(), two[a].values.data(), one[a].values.size() * sizeof(double)))
+    EXPECT_EQ(0, std::memcmp(one[a].values.data(), two[a].values.data(),
+                             one[a].values.size() * sizeof(double)))
         << one[a].name;
   }
 }
@@ -211,9 +223,11 @@ TEST(CoarseGrain, RealMillFramesConserveTheMediaVolumeWithinOnePercent) {
   const auto& sample = testing::small_mill_sample();
   CoarseGrainSettings s = settings(20, 1.5 * 0.01);
   s.categories = sample.macro_result.at("categories").get<std::vector<std::string>>();
-  const CoarseFields f = coarse_grain(s, sample.segments.size(),
-                                      [&](std::size_t k) { return dem::read_flow_segment(sample.segments[k]); });
-  const double balls = sample.macro_result.at("n_balls").get<double>() * 4.0 / 3.0 * std::numbers::pi * std::pow(0.005, 3);
+  const CoarseFields f = coarse_grain(s, sample.segments.size(), [&](std::size_t k) {
+    return dem::read_flow_segment(sample.segments[k]);
+  });
+  const double balls = sample.macro_result.at("n_balls").get<double>() * 4.0 / 3.0 *
+                       std::numbers::pi * std::pow(0.005, 3);
   EXPECT_NEAR(f.media_volume, balls, 1e-5 * balls);
   EXPECT_NEAR(f.solid_volume(), balls, 0.01 * balls);
   EXPECT_EQ(f.frame_count, 24u);

@@ -27,52 +27,98 @@ using nlohmann::json;
 
 const std::vector<double> kFills = {0.2, 0.3}, kSpeeds = {0.6, 0.75}, kLoads = {0.0, 0.5};
 
-std::string average_key(double fill, double speed) { return fmt::format("average-{}-{}", fill, speed); }
-std::string upscale_key(double fill, double speed, double load) { return fmt::format("upscale-{}-{}-{}", fill, speed, load); }
+std::string average_key(double fill, double speed) {
+  return fmt::format("average-{}-{}", fill, speed);
+}
+std::string upscale_key(double fill, double speed, double load) {
+  return fmt::format("upscale-{}-{}-{}", fill, speed, load);
+}
 
 // A toe and a bulk region; the bulk's cushioning is unknown (null) without powder, and the bulk
 // site's cell was skipped, so its cell values are null.
 json upscale_result(double fill, double speed, double load) {
   const double draw = 2000.0 * fill + 1000.0 * speed, powder = 100.0 * load;
   auto region = [&](const char* name, double share, json cushioning) {
-    return json{{"region", name}, {"sites", 1}, {"volume_m3", 0.001 * share}, {"powder_power_w", share * powder},
-                {"powder_power_share", load > 0 ? json(share) : json(nullptr)}, {"media_power_w", 300.0 * share},
+    return json{{"region", name},
+                {"sites", 1},
+                {"volume_m3", 0.001 * share},
+                {"powder_power_w", share * powder},
+                {"powder_power_share", load > 0 ? json(share) : json(nullptr)},
+                {"media_power_w", 300.0 * share},
                 {"media_collision_power_w", 60.0 * share * (1.0 - 0.2 * load)},
-                {"media_collision_power_no_powder_w", 60.0 * share}, {"cushioning", cushioning}};
+                {"media_collision_power_no_powder_w", 60.0 * share},
+                {"cushioning", cushioning}};
   };
-  const json toe_site = {{"site_id", "toe-0"}, {"region", "toe"}, {"x_m", 0.1}, {"y_m", -0.3}, {"weight_m3", 0.0006},
-                         {"shear_rate_per_s", 12.0 * speed}, {"normal_stress_pa", 4000.0 * fill},
-                         {"macro_shear_stress_pa", 1500.0 * fill}, {"cell_shear_stress_pa", 1400.0 * fill},
-                         {"coupling_ratio", 1400.0 / 1500.0}, {"power_density_w_m3", 9000.0},
-                         {"powder_dissipation_w_m3", 800.0 * load}, {"skipped", nullptr}};
-  const json bulk_site = {{"site_id", "bulk-0"}, {"region", "bulk"}, {"x_m", -0.1}, {"y_m", -0.1}, {"weight_m3", 0.0004},
-                          {"shear_rate_per_s", 2.0}, {"normal_stress_pa", 3000.0}, {"macro_shear_stress_pa", 900.0},
-                          {"cell_shear_stress_pa", nullptr}, {"coupling_ratio", nullptr}, {"power_density_w_m3", nullptr},
-                          {"powder_dissipation_w_m3", nullptr}, {"skipped", "no steady state"}};
-  return {{"fill", fill}, {"speed_fraction", speed}, {"powder_load", load}, {"average_task", average_key(fill, speed)},
-          {"mill", {{"diameter_m", 1.0}, {"slice_length_m", 0.15}, {"ball_mass_kg", 123.0}, {"power_draw_w", draw},
-                    {"specific_power_kw_per_t", draw / 123.0}}},
-          {"power_draw_with_powder_w", draw * (1.0 + 0.1 * load)}, {"powder_power_w", powder}, {"media_power_w", 300.0},
-          {"regions", {region("toe", 0.6, 1.0 - 0.2 * load), region("bulk", 0.4, load > 0 ? json(0.9) : json(nullptr))}},
+  const json toe_site = {{"site_id", "toe-0"},
+                         {"region", "toe"},
+                         {"x_m", 0.1},
+                         {"y_m", -0.3},
+                         {"weight_m3", 0.0006},
+                         {"shear_rate_per_s", 12.0 * speed},
+                         {"normal_stress_pa", 4000.0 * fill},
+                         {"macro_shear_stress_pa", 1500.0 * fill},
+                         {"cell_shear_stress_pa", 1400.0 * fill},
+                         {"coupling_ratio", 1400.0 / 1500.0},
+                         {"power_density_w_m3", 9000.0},
+                         {"powder_dissipation_w_m3", 800.0 * load},
+                         {"skipped", nullptr}};
+  const json bulk_site = {{"site_id", "bulk-0"},
+                          {"region", "bulk"},
+                          {"x_m", -0.1},
+                          {"y_m", -0.1},
+                          {"weight_m3", 0.0004},
+                          {"shear_rate_per_s", 2.0},
+                          {"normal_stress_pa", 3000.0},
+                          {"macro_shear_stress_pa", 900.0},
+                          {"cell_shear_stress_pa", nullptr},
+                          {"coupling_ratio", nullptr},
+                          {"power_density_w_m3", nullptr},
+                          {"powder_dissipation_w_m3", nullptr},
+                          {"skipped", "no steady state"}};
+  return {{"fill", fill},
+          {"speed_fraction", speed},
+          {"powder_load", load},
+          {"average_task", average_key(fill, speed)},
+          {"mill",
+           {{"diameter_m", 1.0},
+            {"slice_length_m", 0.15},
+            {"ball_mass_kg", 123.0},
+            {"power_draw_w", draw},
+            {"specific_power_kw_per_t", draw / 123.0}}},
+          {"power_draw_with_powder_w", draw * (1.0 + 0.1 * load)},
+          {"powder_power_w", powder},
+          {"media_power_w", 300.0},
+          {"regions",
+           {region("toe", 0.6, 1.0 - 0.2 * load),
+            region("bulk", 0.4, load > 0 ? json(0.9) : json(nullptr))}},
           {"dominant_region", load > 0 ? json("toe") : json(nullptr)},  // none without powder
-          {"spectra", {{"bin_edges_j", {1e-9, 1e-8, 1e-7, 1e-6}},
-                       {"powder_rate_per_s", {10.0 * load, 20.0 * load, 5.0 * load}},
-                       {"media_rate_per_s", {100.0, 50.0 * speed, 10.0 * fill}}}},
+          {"spectra",
+           {{"bin_edges_j", {1e-9, 1e-8, 1e-7, 1e-6}},
+            {"powder_rate_per_s", {10.0 * load, 20.0 * load, 5.0 * load}},
+            {"media_rate_per_s", {100.0, 50.0 * speed, 10.0 * fill}}}},
           {"sites", {toe_site, bulk_site}},
-          {"coupling", {{"sites", 1}, {"median_ratio", 1400.0 / 1500.0}, {"tolerance", 0.5}, {"within_tolerance", 1}}}};
+          {"coupling",
+           {{"sites", 1},
+            {"median_ratio", 1400.0 / 1500.0},
+            {"tolerance", 0.5},
+            {"within_tolerance", 1}}}};
 }
 
 // A 4 x 4 grid over a mill of radius 0.5 m with made-up fields.
 json fields_document(double fill) {
   json arrays = json::object();
-  for (const char* name : {"solid_fraction", "shear_rate_per_s", "normal_stress_pa", "shear_stress_pa", "pressure_pa",
-                           "granular_temperature_m2_s2", "collision_frequency_per_m3_s", "dissipation_w_m3"}) {
+  for (const char* name :
+       {"solid_fraction", "shear_rate_per_s", "normal_stress_pa", "shear_stress_pa", "pressure_pa",
+        "granular_temperature_m2_s2", "collision_frequency_per_m3_s", "dissipation_w_m3"}) {
     std::vector<double> values;
     for (int c = 0; c < 16; ++c) values.push_back(fill * (c + 1));
     arrays[name] = {{"components", 1}, {"values", values}};
   }
-  return {{"grid", {{"nx", 4}, {"ny", 4}, {"half_width_m", 0.5}}}, {"slice_length_m", 0.15},
-          {"media_diameter_m", 0.04}, {"angular_velocity_rad_s", 4.0}, {"arrays", arrays}};
+  return {{"grid", {{"nx", 4}, {"ny", 4}, {"half_width_m", 0.5}}},
+          {"slice_length_m", 0.15},
+          {"media_diameter_m", 0.04},
+          {"angular_velocity_rad_s", 4.0},
+          {"arrays", arrays}};
 }
 
 std::string read_text(const fs::path& file) {
@@ -99,7 +145,8 @@ std::vector<std::map<std::string, std::string>> read_csv(const fs::path& file) {
     const auto cells = split(line);
     EXPECT_EQ(cells.size(), header.size()) << line;
     std::map<std::string, std::string> row;
-    for (std::size_t i = 0; i < std::min(cells.size(), header.size()); ++i) row[header[i]] = cells[i];
+    for (std::size_t i = 0; i < std::min(cells.size(), header.size()); ++i)
+      row[header[i]] = cells[i];
     rows.push_back(row);
   }
   return rows;
@@ -118,9 +165,11 @@ class Report : public ::testing::Test {
       for (double speed : kSpeeds) {
         const fs::path fields = dir_.path() / (average_key(fill, speed) + ".json");
         std::ofstream(fields) << fields_document(fill).dump();
-        inputs_.push_back({average_key(fill, speed), "average", json::object(), {{"fields.json", fields}}});
+        inputs_.push_back(
+            {average_key(fill, speed), "average", json::object(), {{"fields.json", fields}}});
         for (double load : kLoads) {
-          inputs_.push_back({upscale_key(fill, speed, load), "upscale", upscale_result(fill, speed, load), {}});
+          inputs_.push_back(
+              {upscale_key(fill, speed, load), "upscale", upscale_result(fill, speed, load), {}});
         }
       }
     }
@@ -159,11 +208,13 @@ class Report : public ::testing::Test {
   std::vector<engine::TaskInput> inputs_;
 };
 
-const std::vector<std::string> kExpectedFiles = {
-    "power_draw.svg",        "powder_power_shares.svg", "cushioning.svg",       "powder_spectra.svg",
-    "maps_0.2_0.6.svg",      "maps_0.2_0.75.svg",       "maps_0.3_0.6.svg",     "maps_0.3_0.75.svg",
-    "coupling.svg",          "upscaled.csv",            "sites.csv",            "spectra.csv",
-    "index.md"};
+const std::vector<std::string> kExpectedFiles = {"power_draw.svg",   "powder_power_shares.svg",
+                                                 "cushioning.svg",   "powder_spectra.svg",
+                                                 "maps_0.2_0.6.svg", "maps_0.2_0.75.svg",
+                                                 "maps_0.3_0.6.svg", "maps_0.3_0.75.svg",
+                                                 "coupling.svg",     "upscaled.csv",
+                                                 "sites.csv",        "spectra.csv",
+                                                 "index.md"};
 
 TEST_F(Report, WritesEveryFileAsAnArtifact) {
   const auto outcome = run(inputs_, "work");
@@ -186,9 +237,11 @@ TEST_F(Report, ReadsTheUpscaleKindsResultsWithAndWithoutPowder) {
   const std::vector<engine::TaskInput> point = testing::point_inputs(0.3, 0.75);
   const fs::path fields = dir_.path() / "point-fields.json";
   std::ofstream(fields) << fields_document(0.3).dump();
-  std::vector<engine::TaskInput> inputs = {{"average-key", "average", json::object(), {{"fields.json", fields}}}};
+  std::vector<engine::TaskInput> inputs = {
+      {"average-key", "average", json::object(), {{"fields.json", fields}}}};
   for (double load : {0.0, 1.0}) {
-    inputs.push_back({fmt::format("upscale-{}", load), "upscale", testing::upscale(point, load), {}});
+    inputs.push_back(
+        {fmt::format("upscale-{}", load), "upscale", testing::upscale(point, load), {}});
   }
   const auto outcome = run(inputs, "own");
   EXPECT_EQ(outcome.result.at("points"), 2);
@@ -197,7 +250,8 @@ TEST_F(Report, ReadsTheUpscaleKindsResultsWithAndWithoutPowder) {
   EXPECT_TRUE(dominant.at(0).at("region").is_null()) << "no powder, no dominant region";
   EXPECT_EQ(dominant.at(1).at("region"), "toe");
   for (const auto& row : read_csv(dir_.path() / "own" / "upscaled.csv")) {
-    EXPECT_EQ(row.at("powder_power_share").empty(), row.at("powder_load") == "0") << row.at("region");
+    EXPECT_EQ(row.at("powder_power_share").empty(), row.at("powder_load") == "0")
+        << row.at("region");
   }
 }
 
@@ -214,10 +268,14 @@ TEST_F(Report, UpscaledTableHoldsTheInputsInPointOrder) {
     const json expected = upscale_result(fill, speed, load);
     const json& region = expected.at("regions").at(row.at("region") == "toe" ? 0 : 1);
     EXPECT_EQ(std::stod(row.at("powder_power_w")), region.at("powder_power_w").get<double>());
-    EXPECT_EQ(std::stod(row.at("media_collision_power_w")), region.at("media_collision_power_w").get<double>());
-    EXPECT_EQ(std::stod(row.at("power_draw_with_powder_w")), expected.at("power_draw_with_powder_w").get<double>());
-    if (region.at("cushioning").is_null()) EXPECT_EQ(row.at("cushioning"), "");
-    else EXPECT_EQ(std::stod(row.at("cushioning")), region.at("cushioning").get<double>());
+    EXPECT_EQ(std::stod(row.at("media_collision_power_w")),
+              region.at("media_collision_power_w").get<double>());
+    EXPECT_EQ(std::stod(row.at("power_draw_with_powder_w")),
+              expected.at("power_draw_with_powder_w").get<double>());
+    if (region.at("cushioning").is_null())
+      EXPECT_EQ(row.at("cushioning"), "");
+    else
+      EXPECT_EQ(std::stod(row.at("cushioning")), region.at("cushioning").get<double>());
   }
   EXPECT_TRUE(std::is_sorted(order.begin(), order.end()));
 }
@@ -227,25 +285,31 @@ TEST_F(Report, SitesAndSpectraTablesHoldTheInputs) {
   const auto sites = read_csv(dir_.path() / "work" / "sites.csv");
   ASSERT_EQ(sites.size(), 8u * 2u);
   for (const auto& row : sites) {
-    const json expected = upscale_result(std::stod(row.at("fill")), std::stod(row.at("speed_fraction")),
-                                         std::stod(row.at("powder_load")));
+    const json expected =
+        upscale_result(std::stod(row.at("fill")), std::stod(row.at("speed_fraction")),
+                       std::stod(row.at("powder_load")));
     const json& site = expected.at("sites").at(row.at("site_id") == "toe-0" ? 0 : 1);
-    EXPECT_EQ(std::stod(row.at("macro_shear_stress_pa")), site.at("macro_shear_stress_pa").get<double>());
+    EXPECT_EQ(std::stod(row.at("macro_shear_stress_pa")),
+              site.at("macro_shear_stress_pa").get<double>());
     if (site.at("cell_shear_stress_pa").is_null()) {
       EXPECT_EQ(row.at("cell_shear_stress_pa"), "");
       EXPECT_EQ(row.at("skipped"), "no steady state");
     } else {
-      EXPECT_EQ(std::stod(row.at("cell_shear_stress_pa")), site.at("cell_shear_stress_pa").get<double>());
+      EXPECT_EQ(std::stod(row.at("cell_shear_stress_pa")),
+                site.at("cell_shear_stress_pa").get<double>());
     }
   }
   const auto spectra = read_csv(dir_.path() / "work" / "spectra.csv");
   ASSERT_EQ(spectra.size(), 8u * 3u);
   for (const auto& row : spectra) {
-    const json expected = upscale_result(std::stod(row.at("fill")), std::stod(row.at("speed_fraction")),
-                                         std::stod(row.at("powder_load")));
+    const json expected =
+        upscale_result(std::stod(row.at("fill")), std::stod(row.at("speed_fraction")),
+                       std::stod(row.at("powder_load")));
     const std::size_t bin = std::stoul(row.at("bin"));
-    EXPECT_EQ(std::stod(row.at("energy_low_j")), expected.at("spectra").at("bin_edges_j").at(bin).get<double>());
-    EXPECT_EQ(std::stod(row.at("media_rate_per_s")), expected.at("spectra").at("media_rate_per_s").at(bin).get<double>());
+    EXPECT_EQ(std::stod(row.at("energy_low_j")),
+              expected.at("spectra").at("bin_edges_j").at(bin).get<double>());
+    EXPECT_EQ(std::stod(row.at("media_rate_per_s")),
+              expected.at("spectra").at("media_rate_per_s").at(bin).get<double>());
   }
 }
 
@@ -274,27 +338,34 @@ TEST_F(Report, SameInputsInAnyOrderGiveTheSameBytes) {
   std::reverse(reversed.begin(), reversed.end());
   run(reversed, "second");
   for (const std::string& file : kExpectedFiles) {
-    EXPECT_EQ(read_text(dir_.path() / "first" / file), read_text(dir_.path() / "second" / file)) << file;
+    EXPECT_EQ(read_text(dir_.path() / "first" / file), read_text(dir_.path() / "second" / file))
+        << file;
   }
 }
 
 TEST_F(Report, MissingOrIllTypedFieldNamesTheTaskAndTheField) {
   const std::string key = upscale_key(0.3, 0.6, 0.5);
-  const std::string missing = error_after(key, [](json& r) { r["regions"][1].erase("powder_power_w"); });
+  const std::string missing =
+      error_after(key, [](json& r) { r["regions"][1].erase("powder_power_w"); });
   EXPECT_NE(missing.find("upscale task " + key), std::string::npos) << missing;
   EXPECT_NE(missing.find("/regions/1/powder_power_w is missing"), std::string::npos) << missing;
 
   const std::string ill_typed = error_after(key, [](json& r) { r["fill"] = "high"; });
   EXPECT_NE(ill_typed.find("/fill is \"high\", not a number"), std::string::npos) << ill_typed;
 
-  const std::string short_spectrum = error_after(key, [](json& r) { r["spectra"]["media_rate_per_s"] = {1.0}; });
-  EXPECT_NE(short_spectrum.find("/spectra/media_rate_per_s does not hold 3 bins"), std::string::npos) << short_spectrum;
+  const std::string short_spectrum =
+      error_after(key, [](json& r) { r["spectra"]["media_rate_per_s"] = {1.0}; });
+  EXPECT_NE(short_spectrum.find("/spectra/media_rate_per_s does not hold 3 bins"),
+            std::string::npos)
+      << short_spectrum;
 }
 
 TEST_F(Report, UnknownAverageTaskIsNamed) {
   const std::string key = upscale_key(0.2, 0.6, 0.0);
   const std::string error = error_after(key, [](json& r) { r["average_task"] = "nowhere"; });
-  EXPECT_NE(error.find("upscale task " + key + ": field /average_task names nowhere"), std::string::npos) << error;
+  EXPECT_NE(error.find("upscale task " + key + ": field /average_task names nowhere"),
+            std::string::npos)
+      << error;
 }
 
 TEST_F(Report, UnreadableFieldsNameTheAverageTask) {
@@ -311,7 +382,9 @@ TEST_F(Report, UnreadableFieldsNameTheAverageTask) {
     run(inputs, "bad");
     FAIL() << "expected std::invalid_argument";
   } catch (const std::invalid_argument& error) {
-    EXPECT_NE(std::string(error.what()).find("average task " + key + ": fields.json"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("average task " + key + ": fields.json"),
+              std::string::npos)
+        << error.what();
   }
 }
 

@@ -39,16 +39,19 @@ json tiny_cell_params(double powder_load) {
                    "powder": {"material": "clinker", "diameter_ratio": 0.5, "load": 0}},
     "slot": {"region": "toe", "index": 0}
   })")
-      .patch(json::array({{{"op", "replace"}, {"path", "/shear_cell/powder/load"}, {"value", powder_load}}}));
+      .patch(json::array(
+          {{{"op", "replace"}, {"path", "/shear_cell/powder/load"}, {"value", powder_load}}}));
 }
 
 json tiny_site() {
-  return {{"site_id", "toe-0"}, {"region", "toe"}, {"shear_rate_per_s", 20.0}, {"normal_stress_pa", 2000.0},
-          {"shear_stress_pa", 900.0}, {"weight_m3", 0.001}, {"dissipation_share", 0.2}, {"position_m", {0.1, -0.3}}};
+  return {{"site_id", "toe-0"},         {"region", "toe"},          {"shear_rate_per_s", 20.0},
+          {"normal_stress_pa", 2000.0}, {"shear_stress_pa", 900.0}, {"weight_m3", 0.001},
+          {"dissipation_share", 0.2},   {"position_m", {0.1, -0.3}}};
 }
 
 engine::TaskInput sites_input() {
-  return engine::TaskInput{.key = "sites-key", .kind = "sites", .result = {{"sites", {tiny_site()}}}, .artifacts = {}};
+  return engine::TaskInput{
+      .key = "sites-key", .kind = "sites", .result = {{"sites", {tiny_site()}}}, .artifacts = {}};
 }
 
 struct Direct {
@@ -84,7 +87,8 @@ std::vector<engine::TaskSpec> quick_plan(bool shear_cells) {
 
 TEST(ShearCellsPlan, DisabledShearCellsStopTheDagAtTheSites) {
   for (const auto& task : quick_plan(false)) {
-    EXPECT_TRUE(task.kind == "macro" || task.kind == "average" || task.kind == "sites") << task.kind;
+    EXPECT_TRUE(task.kind == "macro" || task.kind == "average" || task.kind == "sites")
+        << task.kind;
   }
 }
 
@@ -128,30 +132,41 @@ TEST(ShearCellsPlan, EverySlotAndLoadHasACellBelowSharedSitesAndEveryPointAnUpsc
     for (const auto& key : task.upstream) {
       const engine::TaskSpec& up = *by_key.at(key);
       ++upstream_kinds[up.kind];
-      if (up.kind == "shear_cell") cell_loads.insert(up.params.at("shear_cell").at("powder").at("load").get<double>());
+      if (up.kind == "shear_cell")
+        cell_loads.insert(up.params.at("shear_cell").at("powder").at("load").get<double>());
     }
     EXPECT_EQ(upstream_kinds["macro"], 1);
     EXPECT_EQ(upstream_kinds["average"], 1);
     EXPECT_EQ(upstream_kinds["sites"], 1);
     EXPECT_EQ(upstream_kinds["shear_cell"], load == 0.0 ? 10 : 20);
-    const std::set<double> expected = load == 0.0 ? std::set<double>{0.0} : std::set<double>{0.0, load};
+    const std::set<double> expected =
+        load == 0.0 ? std::set<double>{0.0} : std::set<double>{0.0, load};
     EXPECT_EQ(cell_loads, expected);
   }
 }
 
 json site(const std::string& id, double shear_rate, double normal_stress) {
-  return {{"site_id", id},          {"region", "toe"},       {"shear_rate_per_s", shear_rate},
-          {"normal_stress_pa", normal_stress}, {"weight_m3", 0.002}, {"dissipation_share", 0.1},
-          {"shear_stress_pa", 800.0}, {"pressure_pa", 5.0},     {"position_m", {0.1, -0.2}}};
+  return {{"site_id", id},
+          {"region", "toe"},
+          {"shear_rate_per_s", shear_rate},
+          {"normal_stress_pa", normal_stress},
+          {"weight_m3", 0.002},
+          {"dissipation_share", 0.1},
+          {"shear_stress_pa", 800.0},
+          {"pressure_pa", 5.0},
+          {"position_m", {0.1, -0.2}}};
 }
 
 TEST(ShearCellSlot, FindsItsSiteOrSaysWhyThereIsNone) {
-  const json sites = {{"sites", {site("toe-0", 4.0, 100.0), site("toe-1", 0.0, 100.0), site("toe-2", 3.0, -1.0)}}};
+  const json sites = {
+      {"sites", {site("toe-0", 4.0, 100.0), site("toe-1", 0.0, 100.0), site("toe-2", 3.0, -1.0)}}};
   const SlotSite found = find_slot_site(sites, {{"region", "toe"}, {"index", 0}});
   EXPECT_TRUE(found.skipped.empty());
   EXPECT_EQ(found.site, sites["sites"][0]);
-  EXPECT_EQ(find_slot_site(sites, {{"region", "toe"}, {"index", 1}}).skipped, "shear_rate_per_s = 0 is not positive");
-  EXPECT_EQ(find_slot_site(sites, {{"region", "toe"}, {"index", 2}}).skipped, "normal_stress_pa = -1 is not positive");
+  EXPECT_EQ(find_slot_site(sites, {{"region", "toe"}, {"index", 1}}).skipped,
+            "shear_rate_per_s = 0 is not positive");
+  EXPECT_EQ(find_slot_site(sites, {{"region", "toe"}, {"index", 2}}).skipped,
+            "normal_stress_pa = -1 is not positive");
   EXPECT_EQ(find_slot_site(sites, {{"region", "bulk"}, {"index", 0}}).skipped,
             "the sites task chose no site bulk-0 (region bulk has fewer cells or none)");
 }
@@ -160,7 +175,8 @@ TEST(ShearCellSlot, AnEmptySlotFinishesAtOnceAndSaysWhy) {
   json params = tiny_cell_params(0.5);
   params["slot"] = {{"region", "bulk"}, {"index", 3}};
   const auto outcome = Direct{.params = params, .inputs = {sites_input()}}.run(run_shear_cell);
-  EXPECT_EQ(outcome.result.at("skipped"), "the sites task chose no site bulk-3 (region bulk has fewer cells or none)");
+  EXPECT_EQ(outcome.result.at("skipped"),
+            "the sites task chose no site bulk-3 (region bulk has fewer cells or none)");
   EXPECT_EQ(outcome.result.at("powder_load"), 0.5);
   EXPECT_FALSE(outcome.result.contains("shear_stress_pa"));
 }
@@ -174,7 +190,8 @@ TEST(ShearCellSetup, CollisionTimesHoldForEachPairsReferenceParticles) {
   EXPECT_DOUBLE_EQ(setup.powder_load, 0.3);
   EXPECT_EQ(setup.boundary, dem::ShearCellSetup::Boundary::RoughWalls);
   const double pi = 3.14159265358979323846;
-  const double ball = 7800.0 * pi * std::pow(0.01, 3) / 6.0, grain = 3150.0 * pi * std::pow(0.005, 3) / 6.0;
+  const double ball = 7800.0 * pi * std::pow(0.01, 3) / 6.0,
+               grain = 3150.0 * pi * std::pow(0.005, 3) / 6.0;
   auto duration = [](const dem::InteractionSpec& spec, double m_a, double m_b) {
     return dem::collision_duration(spec.normal_stiffness, m_a * m_b / (m_a + m_b),
                                    dem::damping_ratio_for_restitution(spec.restitution));
@@ -208,12 +225,15 @@ TEST(ShearCell, TinyMediaCellGivesFiniteStressesAndNoPowderDissipation) {
   ASSERT_EQ(outcome.artifacts.size(), 1u);
   EXPECT_EQ(outcome.artifacts[0].name, "cell.vtp");
   std::ifstream snapshot(outcome.artifacts[0].file);
-  const std::string text((std::istreambuf_iterator<char>(snapshot)), std::istreambuf_iterator<char>());
-  EXPECT_NE(text.find(fmt::format("NumberOfPoints=\"{}\"", r.at("media_count").get<int>())), std::string::npos);
+  const std::string text((std::istreambuf_iterator<char>(snapshot)),
+                         std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find(fmt::format("NumberOfPoints=\"{}\"", r.at("media_count").get<int>())),
+            std::string::npos);
 }
 
 TEST(ShearCell, PowderInTheCellDissipates) {
-  const auto outcome = Direct{.params = tiny_cell_params(0.1), .inputs = {sites_input()}}.run(run_shear_cell);
+  const auto outcome =
+      Direct{.params = tiny_cell_params(0.1), .inputs = {sites_input()}}.run(run_shear_cell);
   const json& r = outcome.result;
   EXPECT_GT(r.at("powder_count").get<int>(), 0);
   EXPECT_GT(r.at("powder_dissipation_w_m3").get<double>(), 0.0);
@@ -233,11 +253,16 @@ Attempt attempt(const json& params, const std::filesystem::path& work_dir, int s
   if (stop_at == -1) stop.request_stop();
   int reports = 0;
   Attempt result;
-  engine::TaskContext context{.key = "tiny-cell", .params = params, .inputs = inputs, .work_dir = work_dir,
-                              .threads = 2, .stop = stop.get_token(),
-                              .progress = [&](double, std::string_view) {
-                                if (++reports == stop_at) stop.request_stop();
-                              },
+  engine::TaskContext context{.key = "tiny-cell",
+                              .params = params,
+                              .inputs = inputs,
+                              .work_dir = work_dir,
+                              .threads = 2,
+                              .stop = stop.get_token(),
+                              .progress =
+                                  [&](double, std::string_view) {
+                                    if (++reports == stop_at) stop.request_stop();
+                                  },
                               .log = [&](std::string_view line) { result.log.emplace_back(line); }};
   tbb::task_arena arena(2);
   arena.execute([&] { result.outcome = run_shear_cell(context); });
@@ -255,10 +280,11 @@ TEST(ShearCell, Golden) {
   const millflow::testing::ScratchDir dir;
   const json r = attempt(tiny_cell_params(0.1), dir.path() / "work", 0).outcome.result;
   json values;
-  for (const char* pointer : {"/media_count", "/powder_count", "/steps", "/bulk_shear_rate_per_s", "/gap_m",
-                              "/shear_stress_pa", "/normal_stress_pa", "/power_density_w_m3",
-                              "/dissipation_w_m3/total", "/powder_dissipation_w_m3", "/collisions/media/count",
-                              "/collisions/powder/count", "/energy/balance_error", "/media_solid_fraction"}) {
+  for (const char* pointer :
+       {"/media_count", "/powder_count", "/steps", "/bulk_shear_rate_per_s", "/gap_m",
+        "/shear_stress_pa", "/normal_stress_pa", "/power_density_w_m3", "/dissipation_w_m3/total",
+        "/powder_dissipation_w_m3", "/collisions/media/count", "/collisions/powder/count",
+        "/energy/balance_error", "/media_solid_fraction"}) {
     values[pointer] = r.at(json::json_pointer(pointer));
   }
   millflow::testing::check_golden("shear_cell", kShearCellVersion, values);
@@ -291,12 +317,15 @@ TEST(ShearCell, AnInterruptedCellContinuesFromItsCheckpointToTheSameResult) {
   EXPECT_NE(stops[2].find("(measuring)"), std::string::npos) << stops[2];
   const Attempt last = attempt(params, work, 0);
   ASSERT_FALSE(last.outcome.interrupted);
-  EXPECT_NE(last.log.front().find("shear cell: continuing from the checkpoint at step"), std::string::npos)
+  EXPECT_NE(last.log.front().find("shear cell: continuing from the checkpoint at step"),
+            std::string::npos)
       << last.log.front();
   EXPECT_EQ(last.outcome.result.dump(), reference.outcome.result.dump());
   ASSERT_EQ(last.outcome.artifacts.size(), 1u);
-  EXPECT_EQ(file_bytes(last.outcome.artifacts[0].file), file_bytes(reference.outcome.artifacts[0].file));
-  EXPECT_FALSE(std::filesystem::exists(work / "cell.ckpt")) << "a finished cell leaves no checkpoint";
+  EXPECT_EQ(file_bytes(last.outcome.artifacts[0].file),
+            file_bytes(reference.outcome.artifacts[0].file));
+  EXPECT_FALSE(std::filesystem::exists(work / "cell.ckpt"))
+      << "a finished cell leaves no checkpoint";
 }
 
 TEST(ShearCell, AnUnusableCheckpointIsLoggedAndTheCellStartsAgainFromScratch) {
@@ -313,11 +342,13 @@ TEST(ShearCell, AnUnusableCheckpointIsLoggedAndTheCellStartsAgainFromScratch) {
     std::ofstream(work / "cell.ckpt", std::ios::binary | std::ios::trunc) << bytes;
     const Attempt again = attempt(params, work, 0);
     ASSERT_FALSE(again.log.empty());
-    EXPECT_NE(again.log.front().find("shear cell: the checkpoint " + (work / "cell.ckpt").string() + " cannot be used ("),
+    EXPECT_NE(again.log.front().find("shear cell: the checkpoint " + (work / "cell.ckpt").string() +
+                                     " cannot be used ("),
               std::string::npos)
         << again.log.front();
     EXPECT_NE(again.log.front().find(damage), std::string::npos) << again.log.front();
-    EXPECT_NE(again.log.front().find("); starting again from scratch"), std::string::npos) << again.log.front();
+    EXPECT_NE(again.log.front().find("); starting again from scratch"), std::string::npos)
+        << again.log.front();
     EXPECT_EQ(again.outcome.result.dump(), reference.outcome.result.dump()) << damage;
   }
 }

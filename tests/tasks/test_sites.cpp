@@ -27,8 +27,9 @@ FlowMap synthetic_map(bool with_flight = true, bool mirror = false) {
   map.media_diameter = kD;
   map.angular_velocity = mirror ? -4.0 : 4.0;
   const std::size_t n = map.grid.size();
-  for (auto* field : {&map.solid_fraction, &map.shear_rate, &map.normal_stress, &map.shear_stress, &map.pressure,
-                      &map.granular_temperature, &map.collision_frequency, &map.dissipation}) {
+  for (auto* field :
+       {&map.solid_fraction, &map.shear_rate, &map.normal_stress, &map.shear_stress, &map.pressure,
+        &map.granular_temperature, &map.collision_frequency, &map.dissipation}) {
     field->assign(n, 0.0);
   }
   for (std::size_t c = 0; c < n; ++c) {
@@ -52,7 +53,8 @@ FlowMap synthetic_map(bool with_flight = true, bool mirror = false) {
 }
 
 int region_at(const FlowMap& map, const SiteSelection& s, double x, double y) {
-  const int i = static_cast<int>((x + kR) / map.grid.dx()), j = static_cast<int>((y + kR) / map.grid.dy());
+  const int i = static_cast<int>((x + kR) / map.grid.dx()),
+            j = static_cast<int>((y + kR) / map.grid.dy());
   return s.region_of_cell[map.grid.index(i, j)];
 }
 
@@ -63,15 +65,20 @@ int region(const std::string& name) {
 
 // Where the free surface crosses the circle just inside the liner layer: {left, right} angles.
 std::pair<double, double> surface_meets_shell() {
-  const double r = kR - 1.5 * kD, a = 1 + kSlope * kSlope, b = 2 * kSurface0 * kSlope, c = kSurface0 * kSurface0 - r * r;
+  const double r = kR - 1.5 * kD, a = 1 + kSlope * kSlope, b = 2 * kSurface0 * kSlope,
+               c = kSurface0 * kSurface0 - r * r;
   const double root = std::sqrt(b * b - 4 * a * c);
   const double left = (-b - root) / (2 * a), right = (-b + root) / (2 * a);
-  auto angle = [](double x) { return std::atan2(kSurface0 + kSlope * x, x) * 180.0 / std::numbers::pi; };
+  auto angle = [](double x) {
+    return std::atan2(kSurface0 + kSlope * x, x) * 180.0 / std::numbers::pi;
+  };
   return {angle(left), angle(right)};
 }
 
 // a - b in degrees, in [-180, 180).
-double angle_between(double a, double b) { return std::remainder(a - b, 360.0); }
+double angle_between(double a, double b) {
+  return std::remainder(a - b, 360.0);
+}
 
 TEST(Sites, RegionsFollowTheRules) {
   const FlowMap map = synthetic_map();
@@ -89,7 +96,8 @@ TEST(Sites, RegionsFollowTheRules) {
   const double toe = (*s.toe_angle_deg + 10) * std::numbers::pi / 180;
   const double shoulder = (*s.shoulder_angle_deg - 10) * std::numbers::pi / 180;
   EXPECT_EQ(region_at(map, s, 0.075 * std::cos(toe), 0.075 * std::sin(toe)), region("toe"));
-  EXPECT_EQ(region_at(map, s, 0.075 * std::cos(shoulder), 0.075 * std::sin(shoulder)), region("shoulder"));
+  EXPECT_EQ(region_at(map, s, 0.075 * std::cos(shoulder), 0.075 * std::sin(shoulder)),
+            region("shoulder"));
   EXPECT_EQ(region_at(map, s, 0.0, 0.05), -1);  // empty space above the charge
 }
 
@@ -106,7 +114,8 @@ TEST(Sites, WeightsSumToTheChargeAndSitesLieInTheirRegions) {
     shares += site.dissipation_share;
     EXPECT_EQ(region_at(map, s, site.x, site.y), region(site.region)) << site.site_id;
     // Both stresses are means with the same (solid) weights.
-    EXPECT_NEAR(site.shear_stress, 0.4 * site.normal_stress, 1e-9 * site.normal_stress) << site.site_id;
+    EXPECT_NEAR(site.shear_stress, 0.4 * site.normal_stress, 1e-9 * site.normal_stress)
+        << site.site_id;
   }
   EXPECT_EQ(s.sites.size(), 6u * 3u);
   EXPECT_NEAR(s.charge_volume_m3, charge, 1e-12);

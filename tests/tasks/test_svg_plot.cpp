@@ -33,21 +33,26 @@ std::map<std::string, int> elements_of(const std::string& xml) {
     const std::size_t name_end = tag.find_first_of(" /");
     if (tag.starts_with('/')) {
       const std::string name = tag.substr(1);
-      if (open.empty() || open.back() != name) ADD_FAILURE() << "closing </" << name << "> does not match";
-      else open.pop_back();
+      if (open.empty() || open.back() != name)
+        ADD_FAILURE() << "closing </" << name << "> does not match";
+      else
+        open.pop_back();
     } else {
       const std::string name = tag.substr(0, name_end);
-      if (open.empty() && !counts.empty()) ADD_FAILURE() << "a second root element <" << name << ">";
+      if (open.empty() && !counts.empty())
+        ADD_FAILURE() << "a second root element <" << name << ">";
       ++counts[name];
       if (!tag.ends_with('/')) open.push_back(name);
     }
     at = end + 1;
   }
-  EXPECT_TRUE(open.empty()) << "unclosed elements, innermost <" << (open.empty() ? "" : open.back()) << ">";
+  EXPECT_TRUE(open.empty()) << "unclosed elements, innermost <" << (open.empty() ? "" : open.back())
+                            << ">";
   for (std::size_t amp = xml.find('&'); amp != std::string::npos; amp = xml.find('&', amp + 1)) {
     const std::string rest = xml.substr(amp, 6);
-    const bool entity = rest.starts_with("&amp;") || rest.starts_with("&lt;") || rest.starts_with("&gt;") ||
-                        rest.starts_with("&quot;") || rest.starts_with("&apos;");
+    const bool entity = rest.starts_with("&amp;") || rest.starts_with("&lt;") ||
+                        rest.starts_with("&gt;") || rest.starts_with("&quot;") ||
+                        rest.starts_with("&apos;");
     EXPECT_TRUE(entity) << "raw & at " << amp;
   }
   return counts;
@@ -76,7 +81,8 @@ TEST(NiceTicks, RangeAcrossZeroStepsByFive) {
 
 TEST(NiceTicks, HundredsOfWatts) {
   // [900, 1234]: 10 -> 34, 20 -> 17, 50 -> 18..25 = 7, 100 -> 9..13 = 4 intervals.
-  EXPECT_EQ(nice_ticks(900.0, 1234.0), (std::vector<double>{900.0, 1000.0, 1100.0, 1200.0, 1300.0}));
+  EXPECT_EQ(nice_ticks(900.0, 1234.0),
+            (std::vector<double>{900.0, 1000.0, 1100.0, 1200.0, 1300.0}));
 }
 
 TEST(NiceTicks, SingleValueIsWidenedByTenPercent) {
@@ -92,7 +98,8 @@ TEST(NiceTicks, RefusesAnUnusableRange) {
 
 TEST(LogTicks, DecadesCoveringTheRange) {
   // 3e-16 lies above 1e-16 and 2e-12 above 1e-12: the covering decades are 1e-16 .. 1e-11.
-  EXPECT_EQ(log_ticks(3e-16, 2e-12), (std::vector<double>{1e-16, 1e-15, 1e-14, 1e-13, 1e-12, 1e-11}));
+  EXPECT_EQ(log_ticks(3e-16, 2e-12),
+            (std::vector<double>{1e-16, 1e-15, 1e-14, 1e-13, 1e-12, 1e-11}));
   EXPECT_EQ(log_ticks(1.0, 1000.0), (std::vector<double>{1.0, 10.0, 100.0, 1000.0}));
   // Within one decade the axis still spans a whole decade.
   EXPECT_EQ(log_ticks(2.0, 3.0), (std::vector<double>{1.0, 10.0}));
@@ -100,10 +107,13 @@ TEST(LogTicks, DecadesCoveringTheRange) {
 
 TEST(LogTicks, WideRangeTakesEveryThirdDecade) {
   // 10^-20 .. 10^1 is 21 decades; at most 8 intervals -> stride ceil(21 / 8) = 3.
-  EXPECT_EQ(log_ticks(5e-20, 5.0), (std::vector<double>{1e-20, 1e-17, 1e-14, 1e-11, 1e-8, 1e-5, 1e-2, 10.0}));
+  EXPECT_EQ(log_ticks(5e-20, 5.0),
+            (std::vector<double>{1e-20, 1e-17, 1e-14, 1e-11, 1e-8, 1e-5, 1e-2, 10.0}));
 }
 
-TEST(LogTicks, RefusesNonPositiveRange) { EXPECT_THROW(log_ticks(0.0, 1.0), std::invalid_argument); }
+TEST(LogTicks, RefusesNonPositiveRange) {
+  EXPECT_THROW(log_ticks(0.0, 1.0), std::invalid_argument);
+}
 
 TEST(EscapeXml, EscapesTheFiveSpecialCharacters) {
   EXPECT_EQ(escape_xml(R"(a<b & "c" > 'd')"), "a&lt;b &amp; &quot;c&quot; &gt; &apos;d&apos;");
@@ -111,22 +121,26 @@ TEST(EscapeXml, EscapesTheFiveSpecialCharacters) {
 }
 
 TEST(LineChart, OnePathPerSeriesAndOneCirclePerPoint) {
-  LineChart chart{.title = "power <draw> & speed",
-                  .x = {"speed fraction (-)"},
-                  .y = {"power draw (W)"},
-                  .series = {{.name = "J=0.2", .x = {0.6, 0.7, 0.8}, .y = {900, 1000, 1100}},
-                             {.name = "J=0.3", .x = {0.6, 0.7}, .y = {1200, 1300}, .dashed = true}}};
+  LineChart chart{
+      .title = "power <draw> & speed",
+      .x = {"speed fraction (-)"},
+      .y = {"power draw (W)"},
+      .series = {{.name = "J=0.2", .x = {0.6, 0.7, 0.8}, .y = {900, 1000, 1100}},
+                 {.name = "J=0.3", .x = {0.6, 0.7}, .y = {1200, 1300}, .dashed = true}}};
   const Figure figure = line_chart(chart);
   const auto counts = elements_of(figure.svg);
   EXPECT_EQ(counts.at("svg"), 1);
   EXPECT_EQ(counts.at("path"), 2);
   EXPECT_EQ(counts.at("circle"), 5);
   EXPECT_NE(figure.svg.find("power &lt;draw&gt; &amp; speed"), std::string::npos);
-  EXPECT_EQ(occurrences(figure.svg, "stroke-dasharray"), 2u);  // the dashed series and its legend swatch
+  EXPECT_EQ(occurrences(figure.svg, "stroke-dasharray"),
+            2u);  // the dashed series and its legend swatch
 }
 
 TEST(LineChart, NaNPointsAreSkippedAndBreakTheLine) {
-  LineChart chart{.title = "t", .x = {"x"}, .y = {"y"},
+  LineChart chart{.title = "t",
+                  .x = {"x"},
+                  .y = {"y"},
                   .series = {{.name = "gappy", .x = {1, 2, 3, 4}, .y = {1, kNaN, 3, 4}}}};
   const Figure figure = line_chart(chart);
   const auto counts = elements_of(figure.svg);
@@ -139,19 +153,26 @@ TEST(LineChart, NaNPointsAreSkippedAndBreakTheLine) {
 }
 
 TEST(LineChart, NonPositiveValuesAreSkippedOnALogAxis) {
-  LineChart chart{.title = "t", .x = {"x"}, .y = {"y", Scale::log},
+  LineChart chart{.title = "t",
+                  .x = {"x"},
+                  .y = {"y", Scale::log},
                   .series = {{.name = "s", .x = {1, 2, 3}, .y = {0.0, 10.0, 100.0}}}};
   EXPECT_EQ(elements_of(line_chart(chart).svg).at("circle"), 2);
 }
 
 TEST(LineChart, EmptySeriesIsNamedInTheLegendAndAnEmptyChartSaysNoData) {
-  LineChart chart{.title = "t", .x = {"x"}, .y = {"y"},
-                  .series = {{.name = "full", .x = {1, 2}, .y = {1, 2}}, {.name = "hollow", .x = {}, .y = {}}}};
+  LineChart chart{
+      .title = "t",
+      .x = {"x"},
+      .y = {"y"},
+      .series = {{.name = "full", .x = {1, 2}, .y = {1, 2}}, {.name = "hollow", .x = {}, .y = {}}}};
   const std::string svg = line_chart(chart).svg;
   EXPECT_EQ(elements_of(svg).at("path"), 1);
   EXPECT_NE(svg.find("hollow (no data)"), std::string::npos);
 
-  const std::string empty = line_chart({.title = "nothing", .x = {"x"}, .y = {"y"},
+  const std::string empty = line_chart({.title = "nothing",
+                                        .x = {"x"},
+                                        .y = {"y"},
                                         .series = {{.name = "nan", .x = {kNaN}, .y = {1.0}}}})
                                 .svg;
   EXPECT_EQ(elements_of(empty).count("path"), 0u);
@@ -159,7 +180,8 @@ TEST(LineChart, EmptySeriesIsNamedInTheLegendAndAnEmptyChartSaysNoData) {
 }
 
 TEST(LineChart, MismatchedSizesNameTheSeries) {
-  LineChart chart{.title = "t", .x = {"x"}, .y = {"y"}, .series = {{.name = "broken", .x = {1, 2}, .y = {1}}}};
+  LineChart chart{
+      .title = "t", .x = {"x"}, .y = {"y"}, .series = {{.name = "broken", .x = {1, 2}, .y = {1}}}};
   try {
     line_chart(chart);
     FAIL() << "expected std::invalid_argument";
@@ -170,7 +192,8 @@ TEST(LineChart, MismatchedSizesNameTheSeries) {
 
 TEST(LineChart, LegendBeyondItsLimitIsSummarised) {
   LineChart chart{.title = "t", .x = {"x"}, .y = {"y"}, .legend_limit = 3};
-  for (int s = 0; s < 5; ++s) chart.series.push_back({.name = "s" + std::to_string(s), .x = {1, 2}, .y = {1.0 * s, 2.0}});
+  for (int s = 0; s < 5; ++s)
+    chart.series.push_back({.name = "s" + std::to_string(s), .x = {1, 2}, .y = {1.0 * s, 2.0}});
   const std::string svg = line_chart(chart).svg;
   EXPECT_NE(svg.find(">+ 3 more<"), std::string::npos);
   EXPECT_EQ(svg.find(">s2<"), std::string::npos);
@@ -178,9 +201,12 @@ TEST(LineChart, LegendBeyondItsLimitIsSummarised) {
 }
 
 TEST(HistogramChart, StepsOverEveryPlottableBin) {
-  HistogramChart chart{.title = "spectra", .x = {"energy (J)", Scale::log}, .y = {"rate (1/s)", Scale::log},
-                       .series = {{.name = "U=0.5", .edges = {1e-9, 1e-8, 1e-7, 1e-6}, .values = {5, 0, 2}},
-                                  {.name = "U=1", .edges = {1e-9, 1e-8}, .values = {7}}}};
+  HistogramChart chart{
+      .title = "spectra",
+      .x = {"energy (J)", Scale::log},
+      .y = {"rate (1/s)", Scale::log},
+      .series = {{.name = "U=0.5", .edges = {1e-9, 1e-8, 1e-7, 1e-6}, .values = {5, 0, 2}},
+                 {.name = "U=1", .edges = {1e-9, 1e-8}, .values = {7}}}};
   const std::string svg = histogram_chart(chart).svg;
   const auto counts = elements_of(svg);
   EXPECT_EQ(counts.at("path"), 2);
@@ -190,7 +216,8 @@ TEST(HistogramChart, StepsOverEveryPlottableBin) {
   const std::string path = svg.substr(d, svg.find('"', d + 9) - d);
   EXPECT_EQ(occurrences(path, "M"), 2u) << path;
   EXPECT_EQ(occurrences(path, "L"), 2u) << path;
-  EXPECT_THROW(histogram_chart({.title = "bad", .series = {{.name = "h", .edges = {1, 2}, .values = {1, 2}}}}),
+  EXPECT_THROW(histogram_chart(
+                   {.title = "bad", .series = {{.name = "h", .edges = {1, 2}, .values = {1, 2}}}}),
                std::invalid_argument);
 }
 
@@ -204,17 +231,20 @@ TEST(HeatMap, CellsInsideTheCircleOnlyAndOneCirclePerSite) {
   const std::string svg = heat_map(map).svg;
   const auto counts = elements_of(svg);
   constexpr int kBarSteps = 32;
-  EXPECT_EQ(counts.at("rect"), 1 + 11 + kBarSteps);  // background, the 11 plottable cells, colour bar
-  EXPECT_EQ(counts.at("circle"), 1 + 2);              // the mill outline and the sites
+  EXPECT_EQ(counts.at("rect"),
+            1 + 11 + kBarSteps);          // background, the 11 plottable cells, colour bar
+  EXPECT_EQ(counts.at("circle"), 1 + 2);  // the mill outline and the sites
   EXPECT_NE(svg.find(">bulk&lt;1&gt;<"), std::string::npos);
 }
 
 TEST(HeatMap, ValuesMustMatchTheGrid) {
-  EXPECT_THROW(heat_map({.title = "m", .grid = {2, 2, 1.0}, .values = {1, 2, 3}}), std::invalid_argument);
+  EXPECT_THROW(heat_map({.title = "m", .grid = {2, 2, 1.0}, .values = {1, 2, 3}}),
+               std::invalid_argument);
 }
 
 TEST(PanelGrid, NestsEveryPanelInOneDocument) {
-  const Figure a = line_chart({.title = "a", .x = {"x"}, .y = {"y"}, .series = {{.name = "s", .x = {1}, .y = {1}}}});
+  const Figure a = line_chart(
+      {.title = "a", .x = {"x"}, .y = {"y"}, .series = {{.name = "s", .x = {1}, .y = {1}}}});
   const Figure b = heat_map({.title = "b", .grid = {2, 2, 1.0}, .values = {1, 2, 3, 4}});
   const Figure grid = panel_grid({a, b, a}, 2, "panels");
   const auto counts = elements_of(grid.svg);

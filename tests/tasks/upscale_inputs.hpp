@@ -12,7 +12,8 @@ namespace millflow::tasks::testing {
 
 using nlohmann::json;
 
-inline json site(const std::string& id, const std::string& region, double weight, double macro_shear_stress) {
+inline json site(const std::string& id, const std::string& region, double weight,
+                 double macro_shear_stress) {
   return {{"site_id", id},
           {"region", region},
           {"position_m", {0.1, -0.2}},
@@ -28,19 +29,23 @@ struct CellValues {
 };
 
 inline engine::TaskInput cell(const std::string& site_id, double load, const CellValues& v) {
-  json result = {{"site", {{"site_id", site_id}}},
-                 {"powder_load", load},
-                 {"power_density_w_m3", v.power_density},
-                 {"powder_dissipation_w_m3", v.powder_dissipation},
-                 {"dissipation_w_m3", {{"media-media", v.media_media}, {"wall-media", v.wall_media}}},
-                 {"shear_stress_pa", v.shear_stress},
-                 {"volume_m3", 1e-4},
-                 {"duration_s", 2.0},
-                 {"spectra",
-                  {{"bin_edges_j", {1e-6, 1e-5, 1e-4}},
-                   {"media", {{"counts", v.media_counts}}},
-                   {"powder", {{"counts", v.powder_counts}}}}}};
-  return {.key = site_id + "@" + std::to_string(load), .kind = "shear_cell", .result = result, .artifacts = {}};
+  json result = {
+      {"site", {{"site_id", site_id}}},
+      {"powder_load", load},
+      {"power_density_w_m3", v.power_density},
+      {"powder_dissipation_w_m3", v.powder_dissipation},
+      {"dissipation_w_m3", {{"media-media", v.media_media}, {"wall-media", v.wall_media}}},
+      {"shear_stress_pa", v.shear_stress},
+      {"volume_m3", 1e-4},
+      {"duration_s", 2.0},
+      {"spectra",
+       {{"bin_edges_j", {1e-6, 1e-5, 1e-4}},
+        {"media", {{"counts", v.media_counts}}},
+        {"powder", {{"counts", v.powder_counts}}}}}};
+  return {.key = site_id + "@" + std::to_string(load),
+          .kind = "shear_cell",
+          .result = result,
+          .artifacts = {}};
 }
 
 inline engine::TaskInput skipped_cell(const std::string& site_id, double load) {
@@ -50,23 +55,28 @@ inline engine::TaskInput skipped_cell(const std::string& site_id, double load) {
           .artifacts = {}};
 }
 
-inline std::vector<engine::TaskInput> point_inputs(double fill = 0.3, double speed = 0.75, double power_scale = 1.0) {
+inline std::vector<engine::TaskInput> point_inputs(double fill = 0.3, double speed = 0.75,
+                                                   double power_scale = 1.0) {
   std::vector<engine::TaskInput> inputs;
-  inputs.push_back({.key = "macro-key",
-                    .kind = "macro",
-                    .result = {{"fill", fill},
-                               {"speed_fraction", speed},
-                               {"ball_mass_kg", 100.0},
-                               {"mill", {{"radius_m", 0.5}, {"length_m", 0.1}}},
-                               {"power", {{"mean_w", 1000.0 * power_scale}, {"kw_per_t_balls", 10.0 * power_scale}}}},
-                    .artifacts = {}});
-  inputs.push_back({.key = "average-key", .kind = "average", .result = json::object(), .artifacts = {}});
-  inputs.push_back({.key = "sites-key",
-                    .kind = "sites",
-                    .result = {{"sites",
-                                {site("toe-0", "toe", 0.002, 800.0), site("bulk-0", "bulk", 0.003, 500.0),
-                                 site("bulk-1", "bulk", 0.001, 400.0)}}},
-                    .artifacts = {}});
+  inputs.push_back(
+      {.key = "macro-key",
+       .kind = "macro",
+       .result = {{"fill", fill},
+                  {"speed_fraction", speed},
+                  {"ball_mass_kg", 100.0},
+                  {"mill", {{"radius_m", 0.5}, {"length_m", 0.1}}},
+                  {"power",
+                   {{"mean_w", 1000.0 * power_scale}, {"kw_per_t_balls", 10.0 * power_scale}}}},
+       .artifacts = {}});
+  inputs.push_back(
+      {.key = "average-key", .kind = "average", .result = json::object(), .artifacts = {}});
+  inputs.push_back(
+      {.key = "sites-key",
+       .kind = "sites",
+       .result = {{"sites",
+                   {site("toe-0", "toe", 0.002, 800.0), site("bulk-0", "bulk", 0.003, 500.0),
+                    site("bulk-1", "bulk", 0.001, 400.0)}}},
+       .artifacts = {}});
   inputs.push_back(cell("toe-0", 1.0, {1000.0, 400.0, 250.0, 50.0, 950.0, {10, 0}, {5, 5}}));
   inputs.push_back(cell("bulk-0", 1.0, {500.0, 100.0, 200.0, 0.0, 520.0, {2, 2}, {0, 4}}));
   inputs.push_back(cell("toe-0", 0.0, {800.0, 0.0, 500.0, 100.0, 880.0, {20, 1}, {0, 0}}));
