@@ -3,8 +3,7 @@
 // one job array (`sbatch --parsable --array=0-(n-1)%K --job-name=millflow-<batch>`); element i
 // runs `millflow exec` on the spec file <batch>/<i>.json and writes its output, marker and Slurm
 // stdout/stderr into the batch directory. Layout of the run directory (on a filesystem the
-// compute nodes share; never the database's directory on a cluster, see README "Running on a
-// Slurm cluster"):
+// compute nodes share; never the database's directory on a cluster, see docs/slurm.md):
 //   batches/<batch>/job.sh, <i>.json, <i>/ (output), <i>.out, <i>.err
 //   inputs/<sha[0:2]>/<sha>   upstream artifacts staged for the jobs (content-addressed)
 //   work/<task key>/          task work directories, kept across attempts for checkpoints
@@ -31,7 +30,7 @@ namespace millflow::engine {
 // sbatch's --signal takes a lead of at most 65535 s.
 inline constexpr int kSlurmMaxSignalLeadS = 65535;
 
-// The campaign file's executor.slurm block (README "Running on a Slurm cluster") plus what the
+// The campaign file's executor.slurm block (docs/slurm.md) plus what the
 // command line adds (run_dir, program, poll_interval_s).
 struct SlurmSettings {
   std::string partition;  // empty: the cluster's default
