@@ -13,9 +13,10 @@ jobs=${JOBS:-$(nproc)}
 packages=(build-essential cmake ninja-build ccache git pkg-config
           libtbb-dev libeigen3-dev libsqlite3-dev sqlite3 nlohmann-json3-dev libfmt-dev libspdlog-dev
           libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libssl-dev python3 python3-jsonschema)
-# The tests also start a private Slurm cluster (tests/slurm/run_slurm_test.sh) and check the
-# sources against .clang-format.
-test_packages=(slurm-wlm munge clang-format)
+# The tests also start a private Slurm cluster (tests/slurm/run_slurm_test.sh), check the
+# sources against .clang-format, read the VTK files with VTK's own readers (python3-vtk9) and
+# render the report's figures (librsvg2-bin).
+test_packages=(slurm-wlm munge clang-format python3-vtk9 librsvg2-bin)
 
 install_missing() {
   local missing=()

@@ -1,6 +1,13 @@
 #pragma once
-// ParaView files without the VTK library: XML PolyData (.vtp, ASCII) of the particles and of the
-// mill's outline, and .pvd collections that put a series of files on a time axis.
+// ParaView files without the VTK library: XML PolyData (.vtp) of the particles and of the mill's
+// outline, and .pvd collections that put a series of files on a time axis.
+//
+// Format of the .vtp files (VTK XML, version 1.0, byte_order LittleEndian, header_type UInt64):
+// every DataArray is format="appended" and its bytes follow in one <AppendedData
+// encoding="raw"> block after a '_': per array a UInt64 byte count, then the values in
+// little-endian binary, in the order the arrays appear in the XML (offset = where its count
+// starts, from the byte after the '_'). No compression. Any VTK reader (ParaView, VisIt,
+// Python's vtkXMLPolyDataReader) reads them; tests/cli/check_vtk_files.py does in the tests.
 #include <filesystem>
 #include <span>
 #include <string>
@@ -11,10 +18,12 @@
 
 namespace millflow::dem {
 
-// The free particles as points at their centres (Float32), with point data "radius",
+// The free particles as points at their centres (Float32), with point data "id" (Int64: the
+// particle's index in the system, the same particle in every file of a run), "radius",
 // "velocity", "angular_velocity" (Float32) and "material" (Int32, the material id), each one
-// row per particle. Render with a Glyph filter (sphere, scale by radius, factor 2). Written
-// atomically (temp file + rename); std::runtime_error on I/O failure.
+// row per particle, and one vertex cell holding every point. Render with a Glyph filter
+// (sphere, scale by radius, factor 2). Written atomically (temp file + rename);
+// std::runtime_error on I/O failure.
 void write_particles_vtp(const System& system, const std::filesystem::path& path);
 
 // The mill's cross-section outline (liner between the lifters and the lifter profiles) with the
@@ -22,7 +31,8 @@ void write_particles_vtp(const System& system, const std::filesystem::path& path
 // first wall, star-shaped, each point found by bisection to 1e-9 of the radius.
 std::vector<Vec3> mill_outline(const MillShell& shell, double angle, int samples);
 
-// The outline as two closed polylines, at z = 0 and z = length (atomic write).
+// The outline as two closed polylines, at z = 0 and z = length (atomic write), with the field
+// data "angle_rad" (Float64, the shell's angle).
 void write_mill_outline_vtp(const MillShell& shell, double angle, const std::filesystem::path& path,
                             int samples = 720);
 

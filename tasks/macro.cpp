@@ -73,6 +73,9 @@ std::string segment_name(std::uint64_t index) {
 std::string vtk_name(std::size_t index) {
   return fmt::format("particles_{:04d}.vtp", index);
 }
+std::string outline_name(std::size_t index) {
+  return fmt::format("mill_{:04d}.vtp", index);
+}
 fs::path checkpoint_file(const fs::path& dir, std::uint64_t step) {
   return dir / fmt::format("checkpoint_{}.ckpt", step);
 }
@@ -198,8 +201,11 @@ class MacroRun {
     }
   }
 
+  // The particles and the shell with its lifters at the same moment, so they turn together.
   void write_vtk() {
     dem::write_particles_vtp(system_, dir_ / "vtk" / vtk_name(vtk_times_.size()));
+    dem::write_mill_outline_vtp(settings_.mill.shell, mill_angle(),
+                                dir_ / "vtk" / outline_name(vtk_times_.size()));
     vtk_times_.push_back(system_.time());
   }
 
@@ -443,15 +449,17 @@ class MacroRun {
     write_power_csv(dir_ / "power.csv");
     add("power.csv");
     for (std::uint64_t k = 0; k < segments_; ++k) add(segment_name(k));
-    std::vector<dem::PvdEntry> entries;
+    std::vector<dem::PvdEntry> particles, outlines;
     for (std::size_t k = 0; k < vtk_times_.size(); ++k) {
-      entries.push_back({vtk_times_[k], vtk_name(k)});
+      particles.push_back({vtk_times_[k], vtk_name(k)});
+      outlines.push_back({vtk_times_[k], outline_name(k)});
       add("vtk/" + vtk_name(k));
+      add("vtk/" + outline_name(k));
     }
-    dem::write_pvd(dir_ / "vtk/particles.pvd", entries);
+    dem::write_pvd(dir_ / "vtk/particles.pvd", particles);
     add("vtk/particles.pvd");
-    dem::write_mill_outline_vtp(settings_.mill.shell, mill_angle(), dir_ / "vtk/mill.vtp");
-    add("vtk/mill.vtp");
+    dem::write_pvd(dir_ / "vtk/mill.pvd", outlines);
+    add("vtk/mill.pvd");
     remove_checkpoints_except(std::nullopt);
     fs::remove(dir_ / "state.bin");
     const json& power = outcome.result["power"];

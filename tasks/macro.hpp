@@ -28,7 +28,8 @@
 //   spectra {bin_edges_j, ball_ball, ball_liner: impact_energy and dissipated_energy histograms}.
 // Artifacts: power.csv (time_s, power_w, torque_arm_power_w), flow/segment_NNNN.mfs (flow
 // frames every sample interval of the measurement, dem/flow_sample.hpp, 16 frames a segment),
-// vtk/particles_NNNN.vtp every vtk_interval from the start, vtk/particles.pvd, vtk/mill.vtp.
+// vtk/particles_NNNN.vtp and vtk/mill_NNNN.vtp (the shell and lifters at the same angle) every
+// vtk_interval from the start, and their collections vtk/particles.pvd and vtk/mill.pvd.
 //
 // Interruption: the stop token is polled every step; on a stop, and every
 // checkpoint_interval_s of wall time, the DEM state, the measurement accumulators and the frames

@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <fstream>
 #include <numbers>
 #include <sstream>
@@ -19,13 +21,42 @@ std::string read_file(const std::filesystem::path& path) {
   return text.str();
 }
 
-// The numbers of the DataArray named `name`.
+// An XML attribute's value in `element`.
+std::string attribute(const std::string& element, const std::string& name) {
+  const auto start = element.find(" " + name + "=\"") + name.size() + 3;
+  return element.substr(start, element.find('"', start) - start);
+}
+
+// The values of the appended DataArray named `name` (dem/vtk.hpp's layout), as doubles.
 std::vector<double> data_array(const std::string& text, const std::string& name) {
-  const auto start = text.find(">", text.find("Name=\"" + name + "\"")) + 1;
-  std::istringstream values(text.substr(start, text.find("</DataArray>", start) - start));
-  std::vector<double> numbers;
-  for (double v; values >> v;) numbers.push_back(v);
-  return numbers;
+  const auto at = text.find("Name=\"" + name + "\"");
+  if (at == std::string::npos) return {};
+  const auto open = text.rfind('<', at);
+  const std::string element = text.substr(open, text.find('>', at) - open);
+  const std::string raw = text.substr(text.find('_', text.find("<AppendedData")) + 1);
+  const auto offset = std::stoull(attribute(element, "offset"));
+  std::uint64_t bytes = 0;
+  std::memcpy(&bytes, raw.data() + offset, sizeof bytes);
+  const char* data = raw.data() + offset + sizeof bytes;
+  const std::string type = attribute(element, "type");
+  std::vector<double> values;
+  auto read = [&]<class T>(T) {
+    for (std::size_t k = 0; k < bytes / sizeof(T); ++k) {
+      T value;
+      std::memcpy(&value, data + k * sizeof(T), sizeof(T));
+      values.push_back(static_cast<double>(value));
+    }
+  };
+  if (type == "Float32") read(float{});
+  if (type == "Float64") read(double{});
+  if (type == "Int32") read(std::int32_t{});
+  if (type == "Int64") read(std::int64_t{});
+  return values;
+}
+
+std::vector<double> as_floats(std::vector<double> values) {
+  for (double& v : values) v = static_cast<float>(v);
+  return values;
 }
 
 TEST(Vtk, ParticlesCarryTheirStateAsPointData) {
@@ -38,9 +69,10 @@ TEST(Vtk, ParticlesCarryTheirStateAsPointData) {
   const std::string text = read_file(path);
   std::filesystem::remove(path);
   EXPECT_NE(text.find("NumberOfPoints=\"2\""), std::string::npos);
-  // Float32 written in its shortest form reads back as the decimal it came from.
-  EXPECT_EQ(data_array(text, "position"), (std::vector<double>{0.1, 0.2, 0.3, -0.1, 0, 0}));
-  EXPECT_EQ(data_array(text, "radius"), (std::vector<double>{0.01, 0.02}));
+  EXPECT_NE(text.find("<AppendedData encoding=\"raw\">"), std::string::npos);
+  EXPECT_EQ(data_array(text, "position"), as_floats({0.1, 0.2, 0.3, -0.1, 0, 0}));
+  EXPECT_EQ(data_array(text, "id"), (std::vector<double>{0, 1}));
+  EXPECT_EQ(data_array(text, "radius"), as_floats({0.01, 0.02}));
   EXPECT_EQ(data_array(text, "velocity"), (std::vector<double>{1, 2, 3, 0, 0, 0}));
   EXPECT_EQ(data_array(text, "angular_velocity"), (std::vector<double>{0, 0, 0, 0, 0, 5}));
   EXPECT_EQ(data_array(text, "material"), (std::vector<double>{0, 0}));
@@ -70,6 +102,23 @@ TEST(Vtk, MillOutlineFollowsTheLinerAndTheLifters) {
   }
   EXPECT_NEAR(sample_near(angle + std::numbers::pi / 4).first, 0.5,
               1e-8);  // between lifters: the liner
+}
+
+TEST(Vtk, MillOutlineFileHoldsTwoClosedRingsAtTheShellsAngle) {
+  const MillShell shell{.radius = 0.5,
+                        .length = 0.1,
+                        .lifter_count = 4,
+                        .lifter = {.height = 0.05, .base_width = 0.08, .face_angle_deg = 0.0},
+                        .end_walls = false};
+  const auto path = std::filesystem::temp_directory_path() / "millflow_test_mill.vtp";
+  write_mill_outline_vtp(shell, 0.3, path, 8);
+  const std::string text = read_file(path);
+  std::filesystem::remove(path);
+  EXPECT_NE(text.find("NumberOfPoints=\"16\" NumberOfLines=\"2\""), std::string::npos);
+  EXPECT_EQ(data_array(text, "angle_rad"), (std::vector<double>{0.3}));
+  EXPECT_EQ(data_array(text, "connectivity"),
+            (std::vector<double>{0, 1, 2, 3, 4, 5, 6, 7, 0, 8, 9, 10, 11, 12, 13, 14, 15, 8}));
+  EXPECT_EQ(data_array(text, "offsets"), (std::vector<double>{9, 18}));
 }
 
 TEST(Vtk, CollectionListsEveryFileWithItsTime) {

@@ -228,8 +228,8 @@ TEST_F(MacroRunTest, FlowSegmentsHoldEveryFrameInOrder) {
 TEST_F(MacroRunTest, WritesPowerCsvAndVtkFiles) {
   std::map<std::string, std::filesystem::path> files;
   for (const auto& a : outcome_->artifacts) files[a.name] = a.file;
-  for (const char* name :
-       {"power.csv", "vtk/particles.pvd", "vtk/particles_0000.vtp", "vtk/mill.vtp"}) {
+  for (const char* name : {"power.csv", "vtk/particles.pvd", "vtk/particles_0000.vtp",
+                           "vtk/mill.pvd", "vtk/mill_0000.vtp"}) {
     ASSERT_TRUE(files.count(name)) << name;
     ASSERT_TRUE(std::filesystem::exists(files[name])) << name;
   }
@@ -238,9 +238,14 @@ TEST_F(MacroRunTest, WritesPowerCsvAndVtkFiles) {
   EXPECT_NEAR(static_cast<double>(lines - 1), 200.0, 2.0);  // ~200 points per revolution
   const std::string pvd = read_file(files["vtk/particles.pvd"]);
   std::size_t vtp = 0;
-  for (const auto& [name, path] : files) vtp += name.starts_with("vtk/particles_") ? 1 : 0;
+  std::size_t outlines = 0;
+  for (const auto& [name, path] : files) {
+    vtp += name.starts_with("vtk/particles_") ? 1 : 0;
+    outlines += name.starts_with("vtk/mill_") ? 1 : 0;
+  }
   EXPECT_EQ(static_cast<std::size_t>(std::count(pvd.begin(), pvd.end(), '\n')),
-            vtp + 5);  // 5 lines of header and footer
+            vtp + 5);        // 5 lines of header and footer
+  EXPECT_EQ(outlines, vtp);  // the shell and lifters beside every particle frame
   const std::string particles = read_file(files["vtk/particles_0000.vtp"]);
   EXPECT_NE(particles.find(fmt::format("NumberOfPoints=\"{}\"", result()["n_balls"].get<int>())),
             std::string::npos);
