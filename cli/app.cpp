@@ -1,5 +1,8 @@
 #include "cli/app.hpp"
 
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
 #include <CLI/CLI.hpp>
 
 #include "cli/commands.hpp"
@@ -12,6 +15,8 @@ namespace millflow::cli {
 int run(int argc, char** argv) {
   CLI::App app{"millflow: multiscale DEM campaigns of grinding mills"};
   app.require_subcommand(1);
+  // Log lines go to stderr; stdout carries only what a command answers (tables, paths, CSV).
+  spdlog::set_default_logger(spdlog::stderr_color_mt("millflow"));
   engine::Registry registry;
   engine::add_testing(registry);
   tasks::register_millflow(registry);

@@ -1,6 +1,7 @@
 #include "cli/commands.hpp"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <iostream>
@@ -10,6 +11,7 @@
 #include "engine/coordinator_lock.hpp"
 #include "engine/inspect.hpp"
 #include "engine/interrupt.hpp"
+#include "engine/outputs.hpp"
 #include "engine/slurm_executor.hpp"
 #include "engine/validation.hpp"
 
@@ -101,6 +103,21 @@ TableFormat parse_format(const std::string& name) {
   return TableFormat::json;
 }
 
+// While it lives, what the libraries log goes to stderr through the progress view (above its
+// status line).
+class LogThrough {
+ public:
+  explicit LogThrough(engine::ProgressView& view) : previous_(spdlog::default_logger()) {
+    spdlog::set_default_logger(engine::progress_logger(view));
+  }
+  ~LogThrough() { spdlog::set_default_logger(previous_); }
+  LogThrough(const LogThrough&) = delete;
+  LogThrough& operator=(const LogThrough&) = delete;
+
+ private:
+  std::shared_ptr<spdlog::logger> previous_;
+};
+
 int run_campaign(const engine::Registry& registry, engine::Campaign campaign,
                  const RunFlags& flags) {
   const ExecutorChoice choice = choose_executor(campaign.document, flags.executor);
@@ -117,6 +134,7 @@ int run_campaign(const engine::Registry& registry, engine::Campaign campaign,
   options.run.stop_requested = engine::interrupt_requested;
   options.jobs = jobs.executor.get();
   options.progress = ::isatty(STDERR_FILENO) ? static_cast<engine::ProgressView*>(&live) : &plain;
+  const LogThrough logging(*options.progress);
   const auto summary = engine::submit_campaign(registry, campaign, flags.db, options);
   std::cout << "campaign " << campaign.name << ": " << summary.describe() << '\n';
   return summary.exit_code();
@@ -318,6 +336,47 @@ void add_report(CLI::App& app, std::optional<int>& code) {
   });
 }
 
+// Writes a task's or a campaign's artifacts under their own names, for ParaView and scripts.
+void add_files(CLI::App& app, std::optional<int>& code) {
+  auto* command = app.add_subcommand(
+      "files", "Write a task's or a campaign's files (VTK, CSV...) under their own names");
+  command->footer(
+      "A task's files go to DIR/<name> (e.g. DIR/vtk/particles.pvd), a campaign's to "
+      "DIR/<kind>/<sweep point>_<key>/<name>, listed in DIR/tasks.csv.");
+  auto name = std::make_shared<std::string>();
+  auto db = std::make_shared<std::string>("millflow.db");
+  auto out = std::make_shared<std::string>();
+  command->add_option("TASK|CAMPAIGN", *name, "Campaign name, or task key or a unique prefix")
+      ->required();
+  add_db_option(command, *db);
+  command->add_option("--out", *out, "Output directory")->required();
+  command->callback([&code, name, db, out] {
+    code = guarded([&] {
+      const auto files = engine::export_files(*db, *name, *out);
+      for (const auto& file : files) {
+        if (file.extension() == ".pvd" || file.filename() == "tasks.csv")
+          std::cout << file.string() << '\n';
+      }
+      std::cout << files.size() << " file(s) written under " << *out << '\n';
+      return 0;
+    });
+  });
+}
+
+void add_logs(CLI::App& app, std::optional<int>& code) {
+  auto* command = app.add_subcommand("logs", "A task's log lines, oldest first");
+  auto task = std::make_shared<std::string>();
+  auto db = std::make_shared<std::string>("millflow.db");
+  command->add_option("TASK", *task, "Task key or a unique prefix of it")->required();
+  add_db_option(command, *db);
+  command->callback([&code, task, db] {
+    code = guarded([&] {
+      for (const auto& line : engine::task_log(*db, *task)) std::cout << line << '\n';
+      return 0;
+    });
+  });
+}
+
 }  // namespace
 
 void add_engine_commands(CLI::App& app, const engine::Registry& registry,
@@ -336,6 +395,8 @@ void add_engine_commands(CLI::App& app, const engine::Registry& registry,
   add_dag(app, exit_code);
   add_gc(app, exit_code);
   add_report(app, exit_code);
+  add_files(app, exit_code);
+  add_logs(app, exit_code);
 }
 
 }  // namespace millflow::cli

@@ -12,6 +12,7 @@
 #include "engine/canonical_json.hpp"
 #include "engine/clock.hpp"
 #include "engine/coordinator_lock.hpp"
+#include "engine/outputs.hpp"
 #include "engine/store.hpp"
 #include "engine/validation.hpp"
 
@@ -80,8 +81,16 @@ nlohmann::json cell_json(sql::Statement& statement, int column) {
       return statement.integer(column);
     case SQLITE_FLOAT:
       return statement.real(column);
-    default:
-      return statement.text(column);
+    default: {
+      // Text holding a JSON object or array (params, result, json_extract of a nested value)
+      // is answered as that JSON, not as a string of it.
+      std::string text = statement.text(column);
+      if (!text.empty() && (text.front() == '{' || text.front() == '[')) {
+        auto parsed = nlohmann::json::parse(text, nullptr, false);
+        if (!parsed.is_discarded()) return parsed;
+      }
+      return text;
+    }
   }
 }
 
@@ -115,6 +124,13 @@ std::vector<std::string> param_diff(const nlohmann::json& before, const nlohmann
       lines.push_back(fmt::format("{}: {} -> {}", path, old_value, new_value));
   }
   return lines;
+}
+
+// A task's status as shown (t: tasks, r: results): "skipped" for a done task whose result says
+// it skipped its work (engine/runtime.hpp, RunSummary::skipped_their_work).
+std::string shown_status_sql() {
+  return "CASE WHEN t.status = 'done' AND json_extract(r.result, '$.skipped') IS NOT NULL THEN "
+         "'skipped' ELSE t.status END";
 }
 
 std::int64_t campaign_id(sql::Connection& db, const std::string& name) {
@@ -258,9 +274,10 @@ void print_status(const fs::path& db, const std::string& campaign, std::ostream&
     return;
   }
   auto rows = connection.prepare(
-      "SELECT t.kind, t.status, count(*) AS tasks FROM campaign_tasks ct JOIN tasks t ON t.key = "
-      "ct.task_key "
-      "WHERE ct.campaign_id = ? GROUP BY t.kind, t.status ORDER BY t.kind, t.status");
+      "SELECT t.kind, " + shown_status_sql() +
+      " AS status, count(*) AS tasks FROM campaign_tasks ct JOIN tasks t ON t.key = "
+      "ct.task_key LEFT JOIN results r ON r.task_key = t.key "
+      "WHERE ct.campaign_id = ? GROUP BY t.kind, 2 ORDER BY t.kind, 2");
   const std::int64_t id = campaign_id(connection, campaign);
   rows.bind_all(id);
   print_aligned(read_table(rows), out);
@@ -370,10 +387,10 @@ void print_dag_dot(const fs::path& db, const std::string& campaign, std::ostream
       {"done", "palegreen"},    {"failed", "salmon"},     {"running", "lightblue"},
       {"skipped", "lightgrey"}, {"interrupted", "khaki"}, {"pending", "white"}};
   out << "digraph \"" << campaign << "\" {\n  node [shape=box, style=filled];\n";
-  auto nodes = connection.prepare(
-      "SELECT t.key, t.kind, t.status FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
-      "WHERE ct.campaign_id = ? "
-      "ORDER BY t.rowid");
+  auto nodes = connection.prepare("SELECT t.key, t.kind, " + shown_status_sql() +
+                                  " FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
+                                  "LEFT JOIN results r ON r.task_key = t.key "
+                                  "WHERE ct.campaign_id = ? ORDER BY t.rowid");
   nodes.bind_all(id);
   while (nodes.step()) {
     out << fmt::format("  \"{}\" [label=\"{}\\n{}\", fillcolor={}];\n", nodes.text(0),
@@ -412,20 +429,25 @@ std::vector<fs::path> export_campaign(const fs::path& db, const std::string& cam
   }
   std::map<std::string, std::vector<const nlohmann::json*>> by_kind;
   for (const auto& task : tasks) by_kind[task["kind"].get<std::string>()].push_back(&task);
+  const SweepPoints points = read_sweep_points(connection, campaign_id(connection, campaign));
   std::vector<fs::path> files;
   for (const auto& [kind, members] : by_kind) {
     std::vector<std::map<std::string, std::string>> flat;
     std::set<std::string> columns;
     for (const auto* task : members) {
       std::map<std::string, std::string> row;
-      for (const auto& [path, value] : leaves_of((*task)["params"])) row["params" + path] = value;
-      for (const auto& [path, value] : leaves_of((*task)["result"])) row["result" + path] = value;
+      for (const auto& [path, value] : csv_columns((*task)["params"])) row["params" + path] = value;
+      for (const auto& [path, value] : csv_columns((*task)["result"])) row["result" + path] = value;
       for (const auto& [column, value] : row) columns.insert(column);
       row["task_key"] = (*task)["task_key"];
       row["status"] = (*task)["status"];
+      if (const auto point = points.by_task.find(row["task_key"]); point != points.by_task.end())
+        row.insert(point->second.begin(), point->second.end());
       flat.push_back(std::move(row));
     }
+    // The sweep point first (engine/outputs.hpp), so every kind's table can be joined on it.
     Table table{{"task_key", "status"}, {}};
+    table.header.insert(table.header.end(), points.columns.begin(), points.columns.end());
     table.header.insert(table.header.end(), columns.begin(), columns.end());
     for (const auto& row : flat) {
       Row cells;

@@ -1,8 +1,14 @@
 #pragma once
-// What the coordinator shows while a campaign runs: a live status line on a terminal, plain log
-// lines otherwise, nothing for benchmarks.
+// What the coordinator shows while a campaign runs: a live status line on a terminal (fitted to
+// its width, log lines printed above it), plain lines at a steady pace otherwise, nothing for
+// benchmarks.
+#include <spdlog/logger.h>
+
 #include <cstdio>
 #include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,11 +23,30 @@ struct RunningTask {
 
 struct ProgressSnapshot {
   std::map<std::string, std::pair<int, int>> done_total_by_kind;  // done or cached / total
+  std::map<std::string, int> remaining_by_kind;                   // pending or running
+  std::map<std::string, int> skipped_by_kind;
+  // Tasks that finished well in this run, per kind: their seconds in all, and how many.
+  std::map<std::string, std::pair<double, int>> task_seconds_by_kind;
   std::vector<RunningTask> running;
   double elapsed_s = 0.0;
-  int finished_this_run = 0;  // tasks that ran to an end in this run (for the ETA)
+  int jobs = 1;               // tasks that may run at once
+  int finished_this_run = 0;  // tasks that ran to an end in this run
   int remaining = 0;
 };
+
+// The time left, from a cost per kind: each kind's mean task time in this run so far, times
+// its tasks still to run (less what the running ones have done), over the tasks that run at
+// once. `lower_bound` when some kind still to run has no finished task yet (its tasks are not
+// counted); none when no kind still to run has one.
+struct Eta {
+  double seconds = 0.0;
+  bool lower_bound = false;
+};
+std::optional<Eta> estimate_remaining(const ProgressSnapshot& snapshot);
+
+// The status line, at most `width` characters: elapsed time, ETA, per kind done/total (and
+// skipped), then the running tasks, dropping from the end what does not fit.
+std::string format_status_line(const ProgressSnapshot& snapshot, std::size_t width = 1000);
 
 class ProgressView {
  public:
@@ -29,6 +54,8 @@ class ProgressView {
   virtual void task_event(const std::string& kind, const std::string& key,
                           const std::string& what) = 0;
   virtual void refresh(const ProgressSnapshot& snapshot) = 0;
+  // A log line from anywhere (any thread).
+  virtual void message(const std::string& line) = 0;
   virtual void finish() {}
 };
 
@@ -36,34 +63,51 @@ class QuietProgress final : public ProgressView {
  public:
   void task_event(const std::string&, const std::string&, const std::string&) override {}
   void refresh(const ProgressSnapshot&) override {}
+  void message(const std::string&) override {}
 };
 
-// One line per task event on `out`.
+// One line per task event and per log line on `out`, and the status line every
+// `status_every_s` of the run (for logs and pipes, where a redrawn line would be garbage).
 class PlainProgress final : public ProgressView {
  public:
-  explicit PlainProgress(std::FILE* out) : out_(out) {}
+  explicit PlainProgress(std::FILE* out, double status_every_s = 30.0)
+      : out_(out), status_every_s_(status_every_s) {}
   void task_event(const std::string& kind, const std::string& key,
                   const std::string& what) override;
-  void refresh(const ProgressSnapshot&) override {}
+  void refresh(const ProgressSnapshot& snapshot) override;
+  void message(const std::string& line) override;
+  void finish() override;
 
  private:
   std::FILE* out_;
+  double status_every_s_;
+  double next_status_s_ = 0.0;
+  std::string line_;
+  std::mutex mutex_;
 };
 
-// A status line redrawn in place (carriage return), task events above it.
+// A status line redrawn in place (carriage return, erase line), fitted to the terminal's width
+// at each redraw so it never wraps; task events and log lines are printed above it.
 class LiveProgress final : public ProgressView {
  public:
   explicit LiveProgress(std::FILE* out) : out_(out) {}
   void task_event(const std::string& kind, const std::string& key,
                   const std::string& what) override;
   void refresh(const ProgressSnapshot& snapshot) override;
+  void message(const std::string& line) override;
   void finish() override;
 
  private:
   std::FILE* out_;
   std::string line_;
+  std::mutex mutex_;
 };
 
-std::string format_status_line(const ProgressSnapshot& snapshot);
+// A logger whose lines go through `view` (above a live status line, never into it), e.g. as
+// spdlog's default logger while a campaign runs, for what the libraries log.
+std::shared_ptr<spdlog::logger> progress_logger(ProgressView& view);
+
+// Columns of the terminal `out` writes to: its window size, else $COLUMNS, else 80.
+std::size_t terminal_width(std::FILE* out);
 
 }  // namespace millflow::engine

@@ -484,6 +484,11 @@ class Coordinator {
     --running_;
     board_.finish(event.key);
     ++finished_this_run_;
+    if (!event.error && !event.outcome.interrupted) {
+      auto& timing = snapshot_timings_[nodes_.at(event.key).spec.kind];
+      timing.first += event.duration_s;
+      ++timing.second;
+    }
     if (event.error) {
       handle_failure(event);
     } else if (event.outcome.interrupted) {
@@ -501,7 +506,10 @@ class Coordinator {
     node.result = std::move(event.outcome.result);
     node.artifacts = std::move(event.stored);
     ++done_;
-    report(event.key, fmt::format("done in {:.3f} s", event.duration_s));
+    report(event.key, skipped_its_work(node)
+                          ? fmt::format("skipped its work in {:.3f} s: {}", event.duration_s,
+                                        (*node.result)["skipped"].dump())
+                          : fmt::format("done in {:.3f} s", event.duration_s));
     finished_work_.push_back(event.key);
     for (const auto& downstream : node.downstream) {
       Node& below = nodes_.at(downstream);
@@ -589,14 +597,30 @@ class Coordinator {
     for (const auto& [key, node] : nodes_) {
       auto& counts = snapshot.done_total_by_kind[node.spec.kind];
       ++counts.second;
-      if (node.state == State::done || node.state == State::cached) ++counts.first;
-      if (node.state == State::pending || node.state == State::running) ++remaining;
+      if (skipped_its_work(node))
+        ++snapshot.skipped_by_kind[node.spec.kind];
+      else if (node.state == State::done || node.state == State::cached)
+        ++counts.first;
+      if (node.state == State::pending || node.state == State::running) {
+        ++remaining;
+        ++snapshot.remaining_by_kind[node.spec.kind];
+      }
+      if (node.state == State::skipped) ++snapshot.skipped_by_kind[node.spec.kind];
     }
+    snapshot.task_seconds_by_kind = snapshot_timings_;
+    snapshot.jobs = env_.jobs ? env_.jobs->max_in_flight() : options_.jobs;
     snapshot.running = board_.running();
     snapshot.elapsed_s = env_.clock.now() - started_;
     snapshot.finished_this_run = finished_this_run_;
     snapshot.remaining = remaining;
     return snapshot;
+  }
+
+  // Done (or cached), but its result says it skipped its work (RunSummary). Cached tasks are
+  // known only once their result was read (as the input of a task that ran).
+  static bool skipped_its_work(const Node& node) {
+    return (node.state == State::done || node.state == State::cached) && node.result &&
+           node.result->is_object() && node.result->contains("skipped");
   }
 
   RunSummary summarize() const {
@@ -609,6 +633,7 @@ class Coordinator {
     for (const auto& [key, node] : nodes_) {
       if (node.state == State::cached) ++summary.cached;
       if (node.state == State::skipped) ++summary.skipped;
+      if (skipped_its_work(node)) ++summary.skipped_their_work;
       if (node.state == State::interrupted) ++summary.interrupted;
       if (node.state == State::pending) ++summary.not_started;
       if (node.state == State::running) ++summary.detached;
@@ -637,6 +662,8 @@ class Coordinator {
   int done_ = 0;
   int failed_ = 0;
   int finished_this_run_ = 0;
+  // Per kind: task seconds and count of the attempts that finished well in this run (the ETA).
+  std::map<std::string, std::pair<double, int>> snapshot_timings_;
 };
 
 }  // namespace
@@ -647,8 +674,10 @@ int RunSummary::exit_code() const {
 }
 
 std::string RunSummary::describe() const {
-  std::string text = fmt::format("{} tasks: {} done, {} cached, {} failed, {} skipped", total, done,
-                                 cached, failed, skipped);
+  const int skipped_ran = std::min(skipped_their_work, done);  // those counted in `done` first
+  std::string text = fmt::format("{} tasks: {} done, {} cached, {} failed, {} skipped", total,
+                                 done - skipped_ran, cached - (skipped_their_work - skipped_ran),
+                                 failed, skipped + skipped_their_work);
   if (interrupted > 0 || not_started > 0) {
     text += fmt::format(", {} interrupted, {} not started", interrupted, not_started);
   }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <set>
 
+#include "engine/outputs.hpp"
 #include "tasks/campaign.hpp"
 #include "tasks/kinds.hpp"
 
@@ -111,6 +112,22 @@ void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
     plan.add("report", {{"campaign", campaign.at("name")}}, std::move(report_inputs));
 }
 
+// Each task's place in the sweep (engine/outputs.hpp): fill and speed from its macro run
+// (view macro_lineage), the powder load of a cell or an upscale, a cell's site and region.
+engine::ViewDefinition sweep_points_view() {
+  return {engine::kSweepPointsView, R"sql(
+SELECT t.key AS task_key,
+       lineage.fill AS fill,
+       lineage.speed_fraction AS speed_fraction,
+       CASE t.kind WHEN 'shear_cell' THEN json_extract(t.params, '$.shear_cell.powder.load')
+                   WHEN 'upscale' THEN json_extract(t.params, '$.powder_load') END AS powder_load,
+       CASE t.kind WHEN 'shear_cell' THEN json_extract(t.params, '$.slot.region') || '-' ||
+                                          json_extract(t.params, '$.slot.index') END AS site_id,
+       CASE t.kind WHEN 'shear_cell' THEN json_extract(t.params, '$.slot.region') END AS region
+FROM tasks t LEFT JOIN macro_lineage lineage ON lineage.task_key = t.key
+)sql"};
+}
+
 void register_millflow(engine::Registry& registry) {
   registry.add_format(engine::CampaignFormat{
       .name = "millflow_campaign", .load = load_campaign, .plan = plan_millflow});
@@ -120,6 +137,7 @@ void register_millflow(engine::Registry& registry) {
   register_shear_cells(registry);
   register_upscale(registry);
   register_report(registry);
+  registry.views.push_back(sweep_points_view());  // after macro_lineage, which it reads
 }
 
 }  // namespace millflow::tasks

@@ -1,0 +1,155 @@
+#include "engine/outputs.hpp"
+
+#include <fmt/format.h>
+
+#include <fstream>
+#include <optional>
+
+#include "engine/artifacts.hpp"
+#include "engine/clock.hpp"
+#include "engine/inspect.hpp"
+#include "engine/store.hpp"
+#include "engine/validation.hpp"
+
+namespace millflow::engine {
+namespace fs = std::filesystem;
+namespace {
+
+std::optional<std::int64_t> find_campaign(sql::Connection& db, const std::string& name) {
+  auto row = db.prepare("SELECT id FROM campaigns WHERE name = ?");
+  row.bind_all(name);
+  if (!row.step()) return std::nullopt;
+  return row.integer(0);
+}
+
+bool has_view(sql::Connection& db, const std::string& name) {
+  auto row = db.prepare("SELECT 1 FROM sqlite_master WHERE type = 'view' AND name = ?");
+  row.bind_all(name);
+  return row.step();
+}
+
+// A folder name from a sweep point: "fill0.3_speed_fraction0.75_<key8>", characters that do not
+// belong in a file name replaced by '-'.
+std::string folder_label(const TaskCoordinates& point, const std::string& key) {
+  std::string label;
+  for (const auto& [name, value] : point) label += fmt::format("{}{}_", name, value);
+  label += key.substr(0, 8);
+  for (char& c : label) {
+    const bool plain =
+        std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-';
+    if (!plain) c = '-';
+  }
+  return label;
+}
+
+std::string csv_cell(const std::string& text) {
+  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (const char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+void add_csv_columns(const nlohmann::json& value, const std::string& path,
+                     std::map<std::string, std::string>& columns) {
+  if (value.is_object() && !value.empty()) {
+    for (const auto& [key, member] : value.items())
+      add_csv_columns(member, fmt::format("{}/{}", path, key), columns);
+    return;
+  }
+  const std::string name = path.empty() ? "/" : path;
+  if (value.is_string())
+    columns[name] = value.get<std::string>();
+  else if (value.is_null())
+    columns[name] = "";
+  else
+    columns[name] = value.dump();
+}
+
+}  // namespace
+
+std::map<std::string, std::string> csv_columns(const nlohmann::json& value) {
+  std::map<std::string, std::string> columns;
+  add_csv_columns(value, "", columns);
+  return columns;
+}
+
+SweepPoints read_sweep_points(sql::Connection& db, std::int64_t campaign_id) {
+  SweepPoints points;
+  if (!has_view(db, kSweepPointsView)) return points;
+  auto rows = db.prepare(
+      fmt::format("SELECT s.* FROM {} s JOIN campaign_tasks ct ON ct.task_key = s.task_key "
+                  "WHERE ct.campaign_id = ?",
+                  kSweepPointsView));
+  rows.bind_all(campaign_id);
+  int key_column = -1;
+  for (int column = 0; column < rows.columns(); ++column) {
+    if (rows.column_name(column) == "task_key")
+      key_column = column;
+    else
+      points.columns.push_back(rows.column_name(column));
+  }
+  if (key_column < 0) throw std::logic_error("the sweep_points view has no task_key column");
+  while (rows.step()) {
+    TaskCoordinates point;
+    for (int column = 0; column < rows.columns(); ++column) {
+      if (column == key_column || rows.is_null(column)) continue;
+      point.emplace_back(rows.column_name(column), rows.text(column));
+    }
+    points.by_task[rows.text(key_column)] = std::move(point);
+  }
+  return points;
+}
+
+std::vector<fs::path> export_files(const fs::path& db, const std::string& task_or_campaign,
+                                   const fs::path& out_dir) {
+  auto connection = open_read_only(db);
+  const auto campaign = find_campaign(connection, task_or_campaign);
+  if (!campaign) {
+    const std::string key = resolve_task(connection, task_or_campaign);
+    return copy_artifacts(db, find_artifacts(connection, key), out_dir);
+  }
+  const SweepPoints points = read_sweep_points(connection, *campaign);
+  auto tasks = connection.prepare(
+      "SELECT t.kind, t.key FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
+      "WHERE ct.campaign_id = ? AND t.status = 'done' AND EXISTS (SELECT 1 FROM artifacts a "
+      "WHERE a.task_key = t.key) ORDER BY t.kind, t.key");
+  tasks.bind_all(*campaign);
+  std::vector<std::pair<std::string, std::string>> kinds_and_keys;
+  while (tasks.step()) kinds_and_keys.emplace_back(tasks.text(0), tasks.text(1));
+  std::vector<fs::path> written;
+  std::string index = "kind,task_key,folder";
+  for (const auto& column : points.columns) index += fmt::format(",{}", csv_cell(column));
+  index += '\n';
+  for (const auto& [kind, key] : kinds_and_keys) {
+    const auto found = points.by_task.find(key);
+    const TaskCoordinates point = found == points.by_task.end() ? TaskCoordinates{} : found->second;
+    const fs::path folder = fs::path(kind) / folder_label(point, key);
+    const auto files = copy_artifacts(db, find_artifacts(connection, key), out_dir / folder);
+    written.insert(written.end(), files.begin(), files.end());
+    index += fmt::format("{},{},{}", kind, key, folder.string());
+    for (const auto& column : points.columns) {
+      std::string value;
+      for (const auto& [name, text] : point) value = name == column ? text : value;
+      index += fmt::format(",{}", csv_cell(value));
+    }
+    index += '\n';
+  }
+  fs::create_directories(out_dir);
+  written.push_back(out_dir / "tasks.csv");
+  std::ofstream(written.back()) << index;
+  return written;
+}
+
+std::vector<std::string> task_log(const fs::path& db, const std::string& task) {
+  auto connection = open_read_only(db);
+  const std::string key = resolve_task(connection, task);
+  auto rows =
+      connection.prepare("SELECT at, level, message FROM log_lines WHERE task_key = ? ORDER BY id");
+  rows.bind_all(key);
+  std::vector<std::string> lines;
+  while (rows.step())
+    lines.push_back(fmt::format("{} {} {}", iso8601_utc(rows.real(0)), rows.text(1), rows.text(2)));
+  return lines;
+}
+
+}  // namespace millflow::engine
