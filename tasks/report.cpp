@@ -82,8 +82,12 @@ svg::Figure power_draw_figure(const std::vector<UpscalePoint>& points,
   svg::LineChart chart{.title = "Mill power draw",
                        .x = {"speed fraction of critical (-)"},
                        .y = {"power draw of the slice (W)"}};
-  for (double fill : distinct(points, &UpscalePoint::fill)) {
-    svg::Series macro{.name = fmt::format("J = {:g} macro", fill)};
+  // One colour per fill (macro solid, with powder dashed), so the fills tell apart.
+  const auto fills = distinct(points, &UpscalePoint::fill);
+  for (std::size_t f = 0; f < fills.size(); ++f) {
+    const double fill = fills[f];
+    const int colour = static_cast<int>(f);
+    svg::Series macro{.name = fmt::format("J = {:g} macro", fill), .colour = colour};
     std::map<double, svg::Series> with_powder;
     for (const Slice& slice : slices) {
       if (slice.fill != fill) continue;
@@ -93,6 +97,7 @@ svg::Figure power_draw_figure(const std::vector<UpscalePoint>& points,
         if (point->powder_load <= 0.0) continue;
         svg::Series& series = with_powder[point->powder_load];
         series.name = fmt::format("J = {:g}, U = {:g} with powder", fill, point->powder_load);
+        series.colour = colour;
         series.dashed = true;
         series.x.push_back(slice.speed_fraction);
         series.y.push_back(point->power_draw_with_powder_w);
@@ -157,6 +162,10 @@ svg::Figure maps_figure(const Slice& slice, const FlowMap& map) {
   std::vector<svg::MapMarker> sites;
   for (const report::SiteResult& site : slice.first().sites)
     sites.push_back({site.x_m, site.y_m, site.site_id});
+  // Cells outside the charge (the sites task's rule) hold averages of a few balls in flight.
+  std::vector<bool> outside_charge;
+  for (double nu : map.solid_fraction)
+    outside_charge.push_back(!(nu >= RegionRules{}.charge_solid_fraction));
   auto panel = [&](const char* title, const char* quantity, const std::vector<double>& values,
                    svg::Scale scale) {
     return svg::heat_map({.title = title,
@@ -164,7 +173,8 @@ svg::Figure maps_figure(const Slice& slice, const FlowMap& map) {
                           .grid = map.grid,
                           .values = values,
                           .scale = scale,
-                          .markers = sites});
+                          .markers = sites,
+                          .blank = outside_charge});
   };
   return svg::panel_grid(
       {panel("Shear rate", "shear rate (1/s)", map.shear_rate, svg::Scale::linear),
@@ -178,19 +188,24 @@ svg::Figure coupling_figure(const std::vector<Slice>& slices) {
   svg::LineChart chart{.title = "Coupling check: media-only cell vs macro shear stress",
                        .x = {"macro shear stress at the site (Pa)", svg::Scale::log},
                        .y = {"media-only cell shear stress (Pa)", svg::Scale::log}};
+  // One series per region (its colour in every figure), over every fill and speed.
   double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
-  for (const Slice& slice : slices) {
-    svg::Series series{.name = slice_label(slice), .line = false};
-    for (const report::SiteResult& site : slice.first().sites) {
-      series.x.push_back(site.macro_shear_stress_pa);
-      series.y.push_back(site.cell_shear_stress_pa.value_or(kNaN));
-      for (double value : {site.macro_shear_stress_pa, site.cell_shear_stress_pa.value_or(kNaN)}) {
-        if (!std::isfinite(value) || value <= 0.0) continue;
-        lo = std::min(lo, value);
-        hi = std::max(hi, value);
+  for (const std::string& region : region_names()) {
+    svg::Series series{.name = region, .colour = region_colour(region), .line = false};
+    for (const Slice& slice : slices) {
+      for (const report::SiteResult& site : slice.first().sites) {
+        if (site.region != region) continue;
+        series.x.push_back(site.macro_shear_stress_pa);
+        series.y.push_back(site.cell_shear_stress_pa.value_or(kNaN));
+        for (double value :
+             {site.macro_shear_stress_pa, site.cell_shear_stress_pa.value_or(kNaN)}) {
+          if (!std::isfinite(value) || value <= 0.0) continue;
+          lo = std::min(lo, value);
+          hi = std::max(hi, value);
+        }
       }
     }
-    chart.series.push_back(std::move(series));
+    if (!series.x.empty()) chart.series.push_back(std::move(series));
   }
   if (lo <= hi) {
     chart.series.push_back({.name = "cell = macro",

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 namespace millflow::tasks::svg {
@@ -122,6 +123,20 @@ std::string dash_attribute(bool dashed) {
   return dashed ? " stroke-dasharray=\"6 4\"" : "";
 }
 
+constexpr double kLegendFont = 11;
+
+std::string legend_name(const LegendEntry& entry) {
+  return entry.has_data ? entry.name : entry.name + " (no data)";
+}
+
+// The chart's width: the frame's, or wider where the legend's longest name needs it.
+double chart_width(const std::vector<LegendEntry>& entries) {
+  double widest = 0.0;
+  for (const LegendEntry& entry : entries)
+    widest = std::max(widest, text_width(legend_name(entry), kLegendFont));
+  return std::max(ChartFrame::kWidth, std::ceil(ChartFrame::kRight + 14 + 28 + widest + 8));
+}
+
 std::string legend(const std::vector<LegendEntry>& entries, std::size_t limit) {
   std::string out;
   const double x = ChartFrame::kRight + 14;
@@ -136,8 +151,7 @@ std::string legend(const std::vector<LegendEntry>& entries, std::size_t limit) {
       out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"6\" height=\"6\" fill=\"{}\"/>\n",
                          px(x + 8), px(y - 3), entry.colour);
     }
-    out += text(x + 28, y + 4, entry.has_data ? entry.name : entry.name + " (no data)",
-                "font-size=\"11\"");
+    out += text(x + 28, y + 4, legend_name(entry), "font-size=\"11\"");
     y += 18;
   }
   if (shown < entries.size())
@@ -148,7 +162,8 @@ std::string legend(const std::vector<LegendEntry>& entries, std::size_t limit) {
 std::string axes(const std::string& title, const Axis& x_axis, const Axis& y_axis, const AxisMap& x,
                  const AxisMap& y) {
   using F = ChartFrame;
-  std::string out = text(F::kWidth / 2, 22, title, "text-anchor=\"middle\" font-size=\"14\"");
+  std::string out =
+      text((F::kLeft + F::kRight) / 2, 22, title, "text-anchor=\"middle\" font-size=\"14\"");
   for (double tick : x.ticks()) {
     out += line(x(tick), F::kTop, x(tick), F::kBottom, "#dddddd");
     out += text(x(tick), F::kBottom + 16, tick_label(tick), "text-anchor=\"middle\"");
@@ -263,6 +278,10 @@ std::vector<double> axis_ticks(Scale scale, double lo, double hi) {
   return scale == Scale::log ? log_ticks(lo, hi) : nice_ticks(lo, hi);
 }
 
+double text_width(std::string_view content, double font_size) {
+  return static_cast<double>(content.size()) * kCharWidthEm * font_size;
+}
+
 std::string escape_xml(std::string_view raw) {
   std::string out;
   out.reserve(raw.size());
@@ -312,7 +331,8 @@ Figure line_chart(const LineChart& chart) {
 
   const AxisMap x(chart.x.scale, x_range, F::kLeft, F::kRight),
       y(chart.y.scale, y_range, F::kBottom, F::kTop);
-  std::string out = svg_open(F::kWidth, F::kHeight) + axes(chart.title, chart.x, chart.y, x, y);
+  const double width = chart_width(entries);
+  std::string out = svg_open(width, F::kHeight) + axes(chart.title, chart.x, chart.y, x, y);
   for (std::size_t s = 0; s < chart.series.size(); ++s) {
     const Series& series = chart.series[s];
     PathBuilder path;
@@ -333,7 +353,7 @@ Figure line_chart(const LineChart& chart) {
     out += markers;
   }
   out += legend(entries, chart.legend_limit);
-  return {F::kWidth, F::kHeight, out + "</svg>\n"};
+  return {width, F::kHeight, out + "</svg>\n"};
 }
 
 Figure histogram_chart(const HistogramChart& chart) {
@@ -361,7 +381,8 @@ Figure histogram_chart(const HistogramChart& chart) {
 
   const AxisMap x(chart.x.scale, x_range, F::kLeft, F::kRight),
       y(chart.y.scale, y_range, F::kBottom, F::kTop);
-  std::string out = svg_open(F::kWidth, F::kHeight) + axes(chart.title, chart.x, chart.y, x, y);
+  const double width = chart_width(entries);
+  std::string out = svg_open(width, F::kHeight) + axes(chart.title, chart.x, chart.y, x, y);
   for (std::size_t s = 0; s < chart.series.size(); ++s) {
     const Histogram& h = chart.series[s];
     if (!entries[s].has_data) continue;
@@ -377,70 +398,156 @@ Figure histogram_chart(const HistogramChart& chart) {
     out += path_element(path.d(), entries[s].colour, h.dashed);
   }
   out += legend(entries, chart.legend_limit);
-  return {F::kWidth, F::kHeight, out + "</svg>\n"};
+  return {width, F::kHeight, out + "</svg>\n"};
 }
 
+namespace {
+
+// A label's box on the canvas (x0, y0 top left).
+struct Box {
+  double x0, y0, x1, y1;
+  bool overlaps(const Box& o) const { return x0 < o.x1 && o.x0 < x1 && y0 < o.y1 && o.y0 < y1; }
+};
+
+Box text_box(double x, double baseline, std::string_view content, double font_size) {
+  return {x, baseline - kAscentEm * font_size, x + text_width(content, font_size),
+          baseline + kDescentEm * font_size};
+}
+
+// Site labels beside their markers: the first of a few spots, farther out in steps, where the
+// label covers no marker or label placed before it and stays inside `area`.
+std::string site_labels(const std::vector<std::pair<double, double>>& at,
+                        const std::vector<MapMarker>& markers, const Box& area) {
+  constexpr double kFont = 9, kMarker = 4;
+  std::vector<Box> taken;
+  for (const auto& [x, y] : at)
+    taken.push_back({x - kMarker, y - kMarker, x + kMarker, y + kMarker});
+  std::string out;
+  for (std::size_t k = 0; k < markers.size(); ++k) {
+    const auto [x, y] = at[k];
+    const double w = text_width(markers[k].label, kFont);
+    std::optional<Box> chosen;
+    for (double reach = 5; reach <= 60 && !chosen; reach += 7) {
+      const double below = reach + kAscentEm * kFont;
+      for (const auto& [dx, dy] : {std::pair{reach, -reach},
+                                   {reach, below},
+                                   {-reach - w, -reach},
+                                   {-reach - w, below},
+                                   {-w / 2, -reach - kMarker},
+                                   {-w / 2, below + kMarker}}) {
+        const Box box = text_box(x + dx, y + dy, markers[k].label, kFont);
+        const bool inside =
+            box.x0 >= area.x0 && box.x1 <= area.x1 && box.y0 >= area.y0 && box.y1 <= area.y1;
+        if (!inside || std::any_of(taken.begin(), taken.end(),
+                                   [&](const Box& other) { return box.overlaps(other); }))
+          continue;
+        chosen = box;
+        break;
+      }
+    }
+    if (!chosen) chosen = text_box(x + 5, y - 5, markers[k].label, kFont);  // crowded: beside it
+    taken.push_back(*chosen);
+    if (std::hypot(chosen->x0 - x, chosen->y1 - y) > 16) {  // far out: a leader to its marker
+      const double lx = std::clamp(x, chosen->x0, chosen->x1),
+                   ly = std::clamp(y, chosen->y0, chosen->y1);
+      out += line(x, y, lx, ly, "#555555");
+    }
+    out += text(chosen->x0, chosen->y1 - kDescentEm * kFont, markers[k].label, "font-size=\"9\"");
+  }
+  return out;
+}
+
+}  // namespace
+
 Figure heat_map(const HeatMap& map) {
-  constexpr double kSide = 300, kLeft = 16, kTop = 36, kBarX = kLeft + kSide + 24, kBarWidth = 16;
-  constexpr double kWidth = kBarX + kBarWidth + 90, kHeight = kTop + kSide + 24;
+  constexpr double kSide = 300, kLeft = 60, kTop = 36, kBarX = kLeft + kSide + 20, kBarWidth = 16;
+  constexpr double kTickFont = 10, kHeight = kTop + kSide + 46;
   constexpr int kBarSteps = 32;
   const CrossSectionGrid& grid = map.grid;
-  if (grid.nx < 1 || grid.ny < 1 || !(grid.half_width > 0.0) || map.values.size() != grid.size()) {
-    throw std::invalid_argument(
-        fmt::format("heat map \"{}\": {} values for a {} x {} grid of half width {}: give one "
-                    "value per cell over a grid of positive size",
-                    map.title, map.values.size(), grid.nx, grid.ny, grid.half_width));
+  if (grid.nx < 1 || grid.ny < 1 || !(grid.half_width > 0.0) || map.values.size() != grid.size() ||
+      (!map.blank.empty() && map.blank.size() != grid.size())) {
+    throw std::invalid_argument(fmt::format(
+        "heat map \"{}\": {} values ({} blank flags) for a {} x {} grid of half width "
+        "{}: give one value (and none or one flag) per cell over a grid of positive "
+        "size",
+        map.title, map.values.size(), map.blank.size(), grid.nx, grid.ny, grid.half_width));
   }
   const double scale = kSide / (2.0 * grid.half_width);
   auto to_x = [&](double x) { return kLeft + (x + grid.half_width) * scale; };
   auto to_y = [&](double y) { return kTop + (grid.half_width - y) * scale; };
   auto shown = [&](std::size_t c) {
-    return grid.inside_mill(c) && plottable(map.values[c], map.scale);
+    return grid.inside_mill(c) && (map.blank.empty() || !map.blank[c]) &&
+           plottable(map.values[c], map.scale);
   };
 
   Range range;
   for (std::size_t c = 0; c < grid.size(); ++c) {
     if (shown(c)) range.add(map.values[c]);
   }
-  std::string out = svg_open(kWidth, kHeight);
-  out += text(kWidth / 2, 22, map.title, "text-anchor=\"middle\" font-size=\"14\"");
+  std::string body;
+  double width = kBarX + 8;
   if (range.empty()) {
-    out += text(kLeft + kSide / 2, kTop + kSide / 2, "no data", "text-anchor=\"middle\"");
+    body += text(kLeft + kSide / 2, kTop + kSide / 2, "no data", "text-anchor=\"middle\"");
   } else {
     const AxisMap colour(map.scale, range, 0.0, 1.0);
-    out += "<g shape-rendering=\"crispEdges\">\n";
+    body += "<g shape-rendering=\"crispEdges\">\n";
     for (std::size_t c = 0; c < grid.size(); ++c) {
       if (!shown(c)) continue;
-      out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\"/>\n",
-                         px(to_x(grid.x_of(c) - grid.dx() / 2)),
-                         px(to_y(grid.y_of(c) + grid.dy() / 2)), px(grid.dx() * scale),
-                         px(grid.dy() * scale), colour_at(colour(map.values[c])));
+      body += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\"/>\n",
+                          px(to_x(grid.x_of(c) - grid.dx() / 2)),
+                          px(to_y(grid.y_of(c) + grid.dy() / 2)), px(grid.dx() * scale),
+                          px(grid.dy() * scale), colour_at(colour(map.values[c])));
     }
     const double step = kSide / kBarSteps;
     for (int k = 0; k < kBarSteps; ++k) {
-      out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\"/>\n",
-                         px(kBarX), px(kTop + kSide - (k + 1) * step), px(kBarWidth), px(step),
-                         colour_at((k + 0.5) / kBarSteps));
+      body += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\"/>\n",
+                          px(kBarX), px(kTop + kSide - (k + 1) * step), px(kBarWidth), px(step),
+                          colour_at((k + 0.5) / kBarSteps));
     }
-    out += "</g>\n";
+    body += "</g>\n";
+    double widest_tick = 0.0;
     for (double tick : colour.ticks()) {
       const double y = kTop + kSide * (1.0 - colour(tick));
-      out += line(kBarX + kBarWidth, y, kBarX + kBarWidth + 4, y, "black");
-      out += text(kBarX + kBarWidth + 6, y + 4, tick_label(tick), "font-size=\"10\"");
+      body += line(kBarX + kBarWidth, y, kBarX + kBarWidth + 4, y, "black");
+      body += text(kBarX + kBarWidth + 6, y + 4, tick_label(tick), "font-size=\"10\"");
+      widest_tick = std::max(widest_tick, text_width(tick_label(tick), kTickFont));
     }
-    const double mid_y = kTop + kSide / 2, label_x = kWidth - 8;
-    out += text(label_x, mid_y, map.quantity,
-                fmt::format("text-anchor=\"middle\" transform=\"rotate(-90 {} {})\"", px(label_x),
-                            px(mid_y)));
+    // The colour bar's title right of its tick labels, reading upwards.
+    const double mid_y = kTop + kSide / 2, label_x = kBarX + kBarWidth + 6 + widest_tick + 14;
+    body += text(label_x, mid_y, map.quantity,
+                 fmt::format("text-anchor=\"middle\" transform=\"rotate(-90 {} {})\"", px(label_x),
+                             px(mid_y)));
+    width = label_x + 6;
   }
-  out += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"{}\" fill=\"none\" stroke=\"black\"/>\n",
-                     px(to_x(0)), px(to_y(0)), px(kSide / 2));
+  // Axes in metres along the bottom and the left of the map.
+  for (double tick : nice_ticks(-grid.half_width, grid.half_width, 4)) {
+    if (std::abs(tick) > grid.half_width * (1 + 1e-9)) continue;
+    body += line(to_x(tick), kTop + kSide, to_x(tick), kTop + kSide + 4, "black");
+    body += text(to_x(tick), kTop + kSide + 15, tick_label(tick),
+                 "text-anchor=\"middle\" font-size=\"10\"");
+    body += line(kLeft - 4, to_y(tick), kLeft, to_y(tick), "black");
+    body +=
+        text(kLeft - 6, to_y(tick) + 4, tick_label(tick), "text-anchor=\"end\" font-size=\"10\"");
+  }
+  body += fmt::format(
+      "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"#999999\"/>\n",
+      px(kLeft), px(kTop), px(kSide), px(kSide));
+  body += text(kLeft + kSide / 2, kTop + kSide + 36, "x (m)", "text-anchor=\"middle\"");
+  body += text(
+      16, kTop + kSide / 2, "y (m)",
+      fmt::format("text-anchor=\"middle\" transform=\"rotate(-90 16 {})\"", px(kTop + kSide / 2)));
+  body += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"{}\" fill=\"none\" stroke=\"black\"/>\n",
+                      px(to_x(0)), px(to_y(0)), px(kSide / 2));
+  std::vector<std::pair<double, double>> at;
   for (const MapMarker& marker : map.markers) {
-    out += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"4\" fill=\"white\" stroke=\"black\"/>\n",
-                       px(to_x(marker.x)), px(to_y(marker.y)));
-    out += text(to_x(marker.x) + 5, to_y(marker.y) - 5, marker.label, "font-size=\"9\"");
+    at.emplace_back(to_x(marker.x), to_y(marker.y));
+    body += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"4\" fill=\"white\" stroke=\"black\"/>\n",
+                        px(at.back().first), px(at.back().second));
   }
-  return {kWidth, kHeight, out + "</svg>\n"};
+  body += site_labels(at, map.markers, {kLeft, kTop, kLeft + kSide, kTop + kSide});
+  std::string out = svg_open(width, kHeight);
+  out += text(kLeft + kSide / 2, 22, map.title, "text-anchor=\"middle\" font-size=\"14\"");
+  return {width, kHeight, out + body + "</svg>\n"};
 }
 
 Figure panel_grid(const std::vector<Figure>& panels, int columns, const std::string& title) {
@@ -452,6 +559,7 @@ Figure panel_grid(const std::vector<Figure>& panels, int columns, const std::str
     cell_width = std::max(cell_width, panel.width);
     cell_height = std::max(cell_height, panel.height);
   }
+  cell_width += kPanelGap;
   const auto count = static_cast<int>(panels.size());
   const int used_columns = std::max(1, std::min(columns, count));
   const int rows = (count + columns - 1) / columns;

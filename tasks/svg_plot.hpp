@@ -38,6 +38,13 @@ std::vector<double> log_ticks(double lo, double hi, int max_intervals = 8);
 // Ticks of an axis of either scale over a data range.
 std::vector<double> axis_ticks(Scale scale, double lo, double hi);
 
+// Text boxes. Every label is laid out with this estimate of its extent (sans-serif: a
+// character at most 0.64 em wide, e.g. DejaVu Sans digits; 0.75 em above the baseline, 0.22 em
+// below), so labels neither leave the canvas nor cover each other (tests/tasks/check_svg_text.py
+// checks the written SVG with the same estimate and renders it with rsvg-convert).
+inline constexpr double kCharWidthEm = 0.64, kAscentEm = 0.75, kDescentEm = 0.22;
+double text_width(std::string_view content, double font_size);
+
 // & < > " ' as XML entities.
 std::string escape_xml(std::string_view text);
 
@@ -98,8 +105,11 @@ struct MapMarker {
   std::string label{};
 };
 
-// A field over the cross-section grid; cells whose centre lies outside the mill circle (radius
-// grid.half_width) or whose value is not plottable on the colour scale stay blank.
+// A field over the cross-section grid, with x and y axes in metres; cells whose centre lies
+// outside the mill circle (radius grid.half_width), that `blank` marks (e.g. cells outside the
+// charge, whose averages rest on a few balls passing by) or whose value is not plottable on the
+// colour scale stay blank and out of the colour range. Site labels are placed beside their
+// marker where they cover no other label.
 struct HeatMap {
   std::string title{};
   std::string quantity{};  // colour-bar label with unit
@@ -107,12 +117,15 @@ struct HeatMap {
   std::vector<double> values{};  // grid.size(), index j * nx + i
   Scale scale = Scale::linear;
   std::vector<MapMarker> markers{};
+  std::vector<bool> blank{};  // empty, or one per cell
 };
 
 // Throws std::invalid_argument when values do not match the grid.
 Figure heat_map(const HeatMap& map);
 
-// Panels in rows of `columns` (each cell as large as the largest panel), under a title.
+// Panels in rows of `columns` (each cell as large as the largest panel, kPanelGap apart), under
+// a title.
+inline constexpr double kPanelGap = 24;
 Figure panel_grid(const std::vector<Figure>& panels, int columns, const std::string& title);
 
 }  // namespace millflow::tasks::svg

@@ -7,6 +7,9 @@
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
 
 #include <algorithm>
 #include <fstream>
@@ -330,6 +333,18 @@ TEST_F(Report, FiguresDrawOneMarkerPerComparedSite) {
   EXPECT_EQ(count_of(read_text(dir_.path() / "work" / "coupling.svg"), "<circle"), 4u);
   // Three panels, each with the mill outline and the two sites.
   EXPECT_EQ(count_of(read_text(dir_.path() / "work" / "maps_0.3_0.75.svg"), "<circle"), 3u * 3u);
+}
+
+// Every figure renders (rsvg-convert) and no label leaves the canvas or covers another one,
+// from the SVG's own text boxes (tests/tasks/check_svg_text.py).
+TEST_F(Report, FiguresRenderWithEveryLabelInsideTheCanvasAndApart) {
+  run(inputs_, "work");
+  const std::string command = std::string("/usr/bin/python3 ") + MILLFLOW_SOURCE_DIR +
+                              "/tests/tasks/check_svg_text.py " + (dir_.path() / "work").string();
+  const int status = std::system(command.c_str());
+  ASSERT_TRUE(WIFEXITED(status)) << command;
+  if (WEXITSTATUS(status) == 77) GTEST_SKIP() << "rsvg-convert is not installed (librsvg2-bin)";
+  EXPECT_EQ(WEXITSTATUS(status), 0) << command;
 }
 
 TEST_F(Report, SameInputsInAnyOrderGiveTheSameBytes) {

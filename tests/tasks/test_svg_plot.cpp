@@ -3,6 +3,7 @@
 // datum (see the element conventions in tasks/svg_plot.hpp).
 #include "tasks/svg_plot.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -232,9 +233,43 @@ TEST(HeatMap, CellsInsideTheCircleOnlyAndOneCirclePerSite) {
   const auto counts = elements_of(svg);
   constexpr int kBarSteps = 32;
   EXPECT_EQ(counts.at("rect"),
-            1 + 11 + kBarSteps);          // background, the 11 plottable cells, colour bar
+            1 + 11 + kBarSteps + 1);      // background, the 11 plottable cells, colour bar, frame
   EXPECT_EQ(counts.at("circle"), 1 + 2);  // the mill outline and the sites
   EXPECT_NE(svg.find(">bulk&lt;1&gt;<"), std::string::npos);
+}
+
+TEST(HeatMap, BlankCellsStayOutOfTheMapAndItsColourRange) {
+  HeatMap map{.title = "m", .quantity = "q", .grid = {2, 2, 1.0}, .values = {1, 2, 3, 1000}};
+  map.blank = {false, false, false, true};
+  const std::string svg = heat_map(map).svg;
+  EXPECT_EQ(elements_of(svg).at("rect"), 1 + 3 + 32 + 1);
+  EXPECT_EQ(svg.find(">1000<"), std::string::npos);  // no colour-bar tick reaches the blank value
+  map.blank = {true};
+  EXPECT_THROW(heat_map(map), std::invalid_argument);
+}
+
+TEST(HeatMap, CrowdedSiteLabelsDoNotCoverEachOther) {
+  HeatMap map{.title = "m", .quantity = "q", .grid = {2, 2, 1.0}, .values = {1, 2, 3, 4}};
+  for (int k = 0; k < 6; ++k)
+    map.markers.push_back({0.01 * k, 0.0, fmt::format("cascading-{}", k)});
+  const std::string svg = heat_map(map).svg;
+  std::vector<std::pair<double, double>> starts;  // x, baseline of each 9 px label
+  for (auto at = svg.find("font-size=\"9\""); at != std::string::npos;
+       at = svg.find("font-size=\"9\"", at + 1)) {
+    const auto open = svg.rfind("<text", at);
+    const auto x = std::stod(svg.substr(svg.find("x=\"", open) + 3));
+    const auto y = std::stod(svg.substr(svg.find("y=\"", open) + 3));
+    starts.emplace_back(x, y);
+  }
+  ASSERT_EQ(starts.size(), 6u);
+  const double width = text_width("cascading-0", 9), height = 9 * (kAscentEm + kDescentEm);
+  for (std::size_t a = 0; a < starts.size(); ++a) {
+    for (std::size_t b = a + 1; b < starts.size(); ++b) {
+      const bool apart = std::abs(starts[a].first - starts[b].first) >= width ||
+                         std::abs(starts[a].second - starts[b].second) >= height;
+      EXPECT_TRUE(apart) << a << " and " << b;
+    }
+  }
 }
 
 TEST(HeatMap, ValuesMustMatchTheGrid) {
@@ -250,7 +285,7 @@ TEST(PanelGrid, NestsEveryPanelInOneDocument) {
   const auto counts = elements_of(grid.svg);
   EXPECT_EQ(counts.at("svg"), 4);
   EXPECT_EQ(counts.at("g"), 3 + 1);  // one translate per panel, the heat map's cell group
-  EXPECT_DOUBLE_EQ(grid.width, 2 * std::max(a.width, b.width));
+  EXPECT_DOUBLE_EQ(grid.width, 2 * (std::max(a.width, b.width) + kPanelGap));
   EXPECT_DOUBLE_EQ(grid.height, 32 + 2 * std::max(a.height, b.height));
 }
 
