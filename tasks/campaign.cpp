@@ -243,7 +243,8 @@ std::vector<engine::FieldRule> micro_fields() {
             "gain of the normal-stress control (wall servo or Lees-Edwards barostat)")
           .defaults(0.5)
           .range(above(0), at_most(1)),
-      Field("/shear_cell/powder", FieldType::object, "the powder in the shear cell").required(),
+      Field("/shear_cell/powder", FieldType::object,
+            "the powder in the shear cell (required unless /shear_cell/enabled is false)"),
       Field("/shear_cell/powder/material", FieldType::string, "material of the powder")
           .required()
           .pattern(material_name),
@@ -273,6 +274,23 @@ std::vector<engine::FieldRule> executor_fields() {
       Field("/executor/slurm/cpus_per_task", FieldType::integer, "CPUs per Slurm job")
           .range(at_least(1), at_most(1024)),
       Field("/executor/slurm/memory", FieldType::string, "memory per Slurm job")
+          .pattern("[0-9]+[KMGT]?")
+          .hint("write a size such as 16G"),
+      Field("/executor/slurm/per_kind", FieldType::object,
+            "Slurm resources of one task kind's jobs, over the ones above (e.g. longer and larger "
+            "for macro runs of a large mill than for powder cells)")
+          .pattern("macro|average|sites|shear_cell|upscale|report")
+          .hint("use a task kind: macro, average, sites, shear_cell, upscale or report"),
+      Field("/executor/slurm/per_kind/*", FieldType::object, "one task kind's Slurm resources"),
+      Field("/executor/slurm/per_kind/*/time_limit", FieldType::string,
+            "Slurm time limit of this kind's jobs")
+          .pattern("([0-9]+-)?[0-9]+(:[0-9]{2}){0,2}")
+          .hint("write minutes, HH:MM:SS or D-HH:MM:SS"),
+      Field("/executor/slurm/per_kind/*/cpus_per_task", FieldType::integer,
+            "CPUs of this kind's Slurm jobs (also its tasks' threads)")
+          .range(at_least(1), at_most(1024)),
+      Field("/executor/slurm/per_kind/*/memory", FieldType::string,
+            "memory of this kind's Slurm jobs")
           .pattern("[0-9]+[KMGT]?")
           .hint("write a size such as 16G"),
       Field("/executor/slurm/extra_args", FieldType::array, "extra sbatch arguments"),

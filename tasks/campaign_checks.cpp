@@ -113,6 +113,7 @@ class ConsistencyChecker {
 
   std::vector<ValidationError> run() {
     check_material_names();
+    check_powder_given();
     check_powder_material();
     check_interaction_pairs();
     check_lifters();
@@ -161,6 +162,17 @@ class ConsistencyChecker {
         check_material_reference("/interactions/" + std::to_string(i) + "/materials" + side);
       }
     }
+  }
+
+  // A macro-only campaign (shear cells disabled) needs no powder, nor its interactions.
+  void check_powder_given() {
+    const auto* shear_cell = campaign_.node("/shear_cell");
+    if (shear_cell == nullptr || campaign_.node("/shear_cell/powder") != nullptr) return;
+    const auto* enabled = campaign_.node("/shear_cell/enabled");
+    if (enabled != nullptr && enabled->is_boolean() && !enabled->get<bool>()) return;
+    error("/shear_cell/powder", "required field is missing when /shear_cell/enabled is true",
+          "give the powder's material, diameter_ratio and load, or set /shear_cell/enabled to "
+          "false for a macro-only campaign");
   }
 
   void check_powder_material() {

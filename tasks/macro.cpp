@@ -395,6 +395,17 @@ class MacroRun {
             {"contact_angle_counts", charge_.counts()}};
   }
 
+  // The frame means (tasks/macro_measure.hpp) from the flow segments written so far.
+  json frame_means_json() const {
+    FrameMeans means(settings_.mill.shell, system_.masses(),
+                     0.5 * smallest_diameter(settings_.mill));
+    for (std::uint64_t k = 0; k < segments_; ++k) {
+      for (const dem::FlowFrame& frame : dem::read_flow_segment(dir_ / segment_name(k)))
+        means.add_frame(frame);
+    }
+    return means.to_json(schedule_.omega);
+  }
+
   json result() const {
     const auto& mill = settings_.mill;
     const double duration = system_.time() - measure_start_s_;
@@ -429,6 +440,7 @@ class MacroRun {
         {"charge", charge_json()},
     };
     result["correlations"] = correlations_json(result["power"]["kw_per_t_balls"].get<double>());
+    result["frame_means"] = frame_means_json();
     result.update(collisions_.to_json(duration, system_));
     return result;
   }
@@ -443,11 +455,40 @@ class MacroRun {
     if (!out) throw std::runtime_error("cannot write " + path.string());
   }
 
+  // The collision energy spectra of the result as a table: a row per bin, a column per
+  // category and energy (collisions in the bin over the measurement).
+  static void write_spectra_csv(const json& spectra, const fs::path& path) {
+    std::ofstream out(path, std::ios::trunc);
+    const auto& edges = spectra.at("bin_edges_j");
+    std::vector<std::string> columns;
+    out << "energy_low_j,energy_high_j";
+    for (const auto& [label, histograms] : spectra.items()) {
+      if (label == "bin_edges_j") continue;
+      for (const char* energy : {"impact_energy", "dissipated_energy"}) {
+        out << ',' << label << '_' << energy << "_count";
+        columns.push_back(label + "/" + energy);
+      }
+    }
+    out << '\n';
+    for (std::size_t bin = 0; bin + 1 < edges.size(); ++bin) {
+      out << fmt::format("{},{}", edges[bin].get<double>(), edges[bin + 1].get<double>());
+      for (const auto& column : columns) {
+        const auto slash = column.find('/');
+        out << ','
+            << spectra.at(column.substr(0, slash)).at(column.substr(slash + 1)).at("counts")[bin];
+      }
+      out << '\n';
+    }
+    if (!out) throw std::runtime_error("cannot write " + path.string());
+  }
+
   engine::TaskOutcome finish() {
     engine::TaskOutcome outcome = engine::TaskOutcome::with_result(result());
     auto add = [&](const std::string& name) { outcome.artifacts.push_back({name, dir_ / name}); };
     write_power_csv(dir_ / "power.csv");
     add("power.csv");
+    write_spectra_csv(outcome.result.at("spectra"), dir_ / "collision_spectra.csv");
+    add("collision_spectra.csv");
     for (std::uint64_t k = 0; k < segments_; ++k) add(segment_name(k));
     std::vector<dem::PvdEntry> particles, outlines;
     for (std::size_t k = 0; k < vtk_times_.size(); ++k) {
@@ -544,6 +585,13 @@ engine::ViewDefinition macro_results_view() {
       result_field("power_kw_per_t_balls", "$.power.kw_per_t_balls"),
       result_field("power_std_kw", "$.power.std_kw"),
       result_field("torque_arm_power_kw", "$.power.torque_arm_kw"),
+      result_field("liner_torque_n_m", "$.frame_means.drive_torque_n_m.liner"),
+      result_field("lifter_torque_n_m", "$.frame_means.drive_torque_n_m.lifters"),
+      result_field("kinetic_energy_translational_j",
+                   "$.frame_means.kinetic_energy_j.translational"),
+      result_field("kinetic_energy_rotational_j", "$.frame_means.kinetic_energy_j.rotational"),
+      result_field("centre_of_mass_x_m", "$.frame_means.centre_of_mass_m.x"),
+      result_field("centre_of_mass_y_m", "$.frame_means.centre_of_mass_m.y"),
       result_field("toe_angle_deg", "$.charge.toe_angle_deg"),
       result_field("shoulder_angle_deg", "$.charge.shoulder_angle_deg"),
       result_field("n_balls", "$.n_balls"),

@@ -25,8 +25,13 @@
 //   convention,
 //           contact_angle_bin_deg, contact_angle_counts} (see tasks/macro_measure.hpp),
 //   collisions {ball_ball, ball_liner: count, rate_per_s, mean energies, dissipated_power_w},
-//   spectra {bin_edges_j, ball_ball, ball_liner: impact_energy and dissipated_energy histograms}.
-// Artifacts: power.csv (time_s, power_w, torque_arm_power_w), flow/segment_NNNN.mfs (flow
+//   spectra {bin_edges_j, ball_ball, ball_liner: impact_energy and dissipated_energy histograms},
+//   frame_means {frames, kinetic_energy_j {translational, rotational}, centre_of_mass_m {x, y},
+//   drive_torque_n_m {liner, lifters, end_walls, total}, drive_power_w} (means over the flow
+//   frames, tasks/macro_measure.hpp FrameMeans).
+// Artifacts: power.csv (time_s, power_w, torque_arm_power_w), collision_spectra.csv (per
+// energy bin: energy_low_j, energy_high_j and <category>_<impact|dissipated>_energy_count, the
+// spectra of the result as a table), flow/segment_NNNN.mfs (flow
 // frames every sample interval of the measurement, dem/flow_sample.hpp, 16 frames a segment),
 // vtk/particles_NNNN.vtp and vtk/mill_NNNN.vtp (the shell and lifters at the same angle) every
 // vtk_interval from the start, and their collections vtk/particles.pvd and vtk/mill.pvd.
@@ -42,7 +47,7 @@
 namespace millflow::tasks {
 
 // Bump whenever the results of the same parameters change.
-inline constexpr const char* kMacroVersion = "2";
+inline constexpr const char* kMacroVersion = "3";
 
 engine::TaskOutcome run_macro(engine::TaskContext& context);
 

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
+
+#include <fmt/format.h>
 
 namespace millflow::tasks {
 namespace {
@@ -247,6 +250,59 @@ std::vector<dem::CollisionEvent> read_events(dem::BinaryReader& in) {
     for (int axis = 0; axis < 3; ++axis) e.point[axis] = in.get<double>();
   }
   return events;
+}
+
+void FrameMeans::add_frame(const dem::FlowFrame& frame) {
+  if (frame.position.size() != masses_.size()) {
+    throw std::invalid_argument(fmt::format("flow frame at t = {} holds {} balls, the run {}",
+                                            frame.time, frame.position.size(), masses_.size()));
+  }
+  double mass = 0.0, x = 0.0, y = 0.0, translational = 0.0, rotational = 0.0;
+  for (std::size_t p = 0; p < masses_.size(); ++p) {
+    const double m = masses_[p], r = frame.radius[p];
+    const auto& v = frame.velocity[p];
+    const auto& w = frame.angular_velocity[p];
+    mass += m;
+    x += m * frame.position[p][0];
+    y += m * frame.position[p][1];
+    translational += 0.5 * m * (double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]);
+    rotational +=
+        0.5 * 0.4 * m * r * r * (double(w[0]) * w[0] + double(w[1]) * w[1] + double(w[2]) * w[2]);
+  }
+  for (std::size_t c = 0; c < frame.contact_a.size(); ++c) {
+    if (frame.contact_with_wall[c] == 0) continue;
+    const auto& point = frame.contact_point[c];
+    const auto& force = frame.contact_force[c];
+    const double torque = double(point[0]) * force[1] - double(point[1]) * force[0];
+    const double radius = std::hypot(double(point[0]), double(point[1]));
+    if (point[2] <= tolerance_ || point[2] >= shell_.length - tolerance_) {
+      if (shell_.end_walls) {
+        end_walls_ += torque;
+        continue;
+      }
+    }
+    (radius >= shell_.radius - tolerance_ ? liner_ : lifters_) += torque;
+  }
+  translational_ += translational;
+  rotational_ += rotational;
+  com_x_ += x / mass;
+  com_y_ += y / mass;
+  ++frames_;
+}
+
+nlohmann::json FrameMeans::to_json(double omega) const {
+  const double n = frames_ > 0 ? static_cast<double>(frames_) : 1.0;
+  const double total = (liner_ + lifters_ + end_walls_) / n;
+  return {{"frames", frames_},
+          {"kinetic_energy_j",
+           {{"translational", translational_ / n}, {"rotational", rotational_ / n}}},
+          {"centre_of_mass_m", {{"x", com_x_ / n}, {"y", com_y_ / n}}},
+          {"drive_torque_n_m",
+           {{"liner", liner_ / n},
+            {"lifters", lifters_ / n},
+            {"end_walls", end_walls_ / n},
+            {"total", total}}},
+          {"drive_power_w", total * omega}};
 }
 
 }  // namespace millflow::tasks

@@ -11,6 +11,7 @@
 #include "dem/flow_sample.hpp"
 #include "dem/spectrum.hpp"
 #include "dem/system.hpp"
+#include "dem/wall_geometry.hpp"
 
 namespace millflow::tasks {
 
@@ -104,6 +105,34 @@ class CollisionStats {
     double impact_sum = 0.0, dissipated_sum = 0.0;
   };
   std::vector<Category> categories_;
+};
+
+// Means over the measurement's flow frames (sampled every sample interval, so they fluctuate
+// more than the every-step power): the charge's kinetic energy, translational sum m v^2 / 2 and
+// rotational sum I w^2 / 2 (I = 2 m r^2 / 5), its centre of mass in the cross-section, and the
+// torque about the axis the drive supplies against the balls' contacts, split by where they
+// touch: the liner (contact points within a tenth of the smallest ball radius of the shell
+// radius), the end walls (as close to z = 0 or z = length) and the lifters (every other wall
+// contact). Torque z = sum (p x F)_z over the wall contacts, F the force on the ball, positive
+// when the drive works against the charge (the power it draws is torque x omega).
+class FrameMeans {
+ public:
+  FrameMeans(const dem::MillShell& shell, std::span<const double> masses, double smallest_radius)
+      : shell_(shell), masses_(masses.begin(), masses.end()), tolerance_(0.1 * smallest_radius) {}
+
+  // Throws std::invalid_argument for a frame whose balls are not the masses' balls.
+  void add_frame(const dem::FlowFrame& frame);
+  // {kinetic_energy_j {translational, rotational}, centre_of_mass_m {x, y}, drive_torque_n_m
+  // {liner, lifters, end_walls, total}, frames}; the power omega x total torque beside it.
+  nlohmann::json to_json(double omega) const;
+
+ private:
+  dem::MillShell shell_;
+  std::vector<double> masses_;
+  double tolerance_;
+  std::uint64_t frames_ = 0;
+  double translational_ = 0.0, rotational_ = 0.0, com_x_ = 0.0, com_y_ = 0.0;
+  double liner_ = 0.0, lifters_ = 0.0, end_walls_ = 0.0;
 };
 
 // Collision events as the checkpoint state stores them (taken before a checkpoint, handed to the

@@ -165,6 +165,40 @@ TEST_F(MacroRunTest, PowerIsPositiveAndAgreesWithTheTorqueArmAndTheDissipation) 
   EXPECT_GT(power["std_kw"].get<double>(), 0.0);
 }
 
+TEST_F(MacroRunTest, FrameMeansAgreeWithTheEveryStepPowerAndTheTorqueArm) {
+  const json& r = result();
+  const json& means = r["frame_means"];
+  EXPECT_EQ(means["frames"], r["frame_count"]);
+  const double omega = r["angular_velocity_rad_s"].get<double>();
+  const double power_w = r["power"]["mean_w"].get<double>();
+  const json& torque = means["drive_torque_n_m"];
+  // Both the liner and the lifters carry the charge; without end walls they take no torque.
+  EXPECT_GT(torque["liner"].get<double>(), 0.0);
+  EXPECT_GT(torque["lifters"].get<double>(), 0.0);
+  EXPECT_EQ(torque["end_walls"].get<double>(), 0.0);
+  EXPECT_DOUBLE_EQ(torque["total"].get<double>(),
+                   torque["liner"].get<double>() + torque["lifters"].get<double>());
+  EXPECT_DOUBLE_EQ(means["drive_power_w"].get<double>(), torque["total"].get<double>() * omega);
+  // Sampled at the ~50 flow frames of one revolution, not every step: within 15% of the power.
+  EXPECT_NEAR(means["drive_power_w"].get<double>(), power_w, 0.15 * power_w);
+  // The centre of mass held right of the axis (mill turning counter-clockwise) is the torque
+  // arm: M g x_com omega within 10% of the torque-arm power of the blocks.
+  const double x_com = means["centre_of_mass_m"]["x"].get<double>();
+  EXPECT_GT(x_com, 0.0);
+  EXPECT_LT(means["centre_of_mass_m"]["y"].get<double>(), 0.0);  // below the axis
+  EXPECT_NEAR(r["ball_mass_kg"].get<double>() * 9.81 * x_com * omega,
+              1000 * r["power"]["torque_arm_kw"].get<double>(),
+              0.10 * 1000 * r["power"]["torque_arm_kw"].get<double>());
+  // A tumbling charge: the balls' spin energy is a fraction of their translational energy
+  // (a ball rolling without slip holds 2/7 of its energy in spin, 2/5 of the translational).
+  const double translational = means["kinetic_energy_j"]["translational"].get<double>();
+  const double rotational = means["kinetic_energy_j"]["rotational"].get<double>();
+  EXPECT_GT(rotational, 0.0);
+  EXPECT_LT(rotational, 0.4 * translational * 1.05);
+  // The charge moves at most as fast as the shell: sum m v^2 / 2 < M (omega R)^2 / 2.
+  EXPECT_LT(translational, 0.5 * r["ball_mass_kg"].get<double>() * std::pow(omega * 0.1, 2));
+}
+
 TEST_F(MacroRunTest, ChargeIsLiftedOnTheRisingSide) {
   const json& charge = result()["charge"];
   ASSERT_TRUE(charge["toe_angle_deg"].is_number());
@@ -246,6 +280,14 @@ TEST_F(MacroRunTest, WritesPowerCsvAndVtkFiles) {
   EXPECT_EQ(static_cast<std::size_t>(std::count(pvd.begin(), pvd.end(), '\n')),
             vtp + 5);        // 5 lines of header and footer
   EXPECT_EQ(outlines, vtp);  // the shell and lifters beside every particle frame
+  ASSERT_TRUE(files.count("collision_spectra.csv"));
+  const std::string spectra = read_file(files["collision_spectra.csv"]);
+  EXPECT_EQ(spectra.substr(0, spectra.find('\n')),
+            "energy_low_j,energy_high_j,ball_ball_impact_energy_count,"
+            "ball_ball_dissipated_energy_count,ball_liner_impact_energy_count,"
+            "ball_liner_dissipated_energy_count");
+  EXPECT_EQ(static_cast<std::size_t>(std::count(spectra.begin(), spectra.end(), '\n')),
+            result()["spectra"]["bin_edges_j"].size());  // the header and a row per bin
   const std::string particles = read_file(files["vtk/particles_0000.vtp"]);
   EXPECT_NE(particles.find(fmt::format("NumberOfPoints=\"{}\"", result()["n_balls"].get<int>())),
             std::string::npos);

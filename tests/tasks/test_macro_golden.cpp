@@ -38,7 +38,13 @@ const std::vector<std::string> kPinned = {"/n_balls",
                                           "/collisions/ball_ball/count",
                                           "/collisions/ball_liner/count",
                                           "/collisions/ball_ball/mean_impact_energy_j",
-                                          "/collisions/ball_liner/mean_dissipated_j"};
+                                          "/collisions/ball_liner/mean_dissipated_j",
+                                          "/frame_means/drive_torque_n_m/liner",
+                                          "/frame_means/drive_torque_n_m/lifters",
+                                          "/frame_means/kinetic_energy_j/translational",
+                                          "/frame_means/kinetic_energy_j/rotational",
+                                          "/frame_means/centre_of_mass_m/x",
+                                          "/frame_means/centre_of_mass_m/y"};
 
 json golden_params() {
   json params = testing::tiny_macro_params(0.3, 0.8);

@@ -92,6 +92,16 @@ TEST(ShearCellsPlan, DisabledShearCellsStopTheDagAtTheSites) {
   }
 }
 
+TEST(ShearCellsPlan, MacroOnlyCampaignNeedsNoPowder) {
+  engine::Registry registry;
+  register_millflow(registry);
+  const auto campaign = engine::load_campaign_file(
+      registry, MILLFLOW_SOURCE_DIR "/tests/tasks/good_campaigns/macro_only.json");
+  std::vector<std::string> kinds;
+  for (const auto& task : engine::plan_campaign(registry, campaign)) kinds.push_back(task.kind);
+  EXPECT_EQ(kinds, (std::vector<std::string>{"macro", "average", "sites"}));
+}
+
 TEST(ShearCellsPlan, EverySlotAndLoadHasACellBelowSharedSitesAndEveryPointAnUpscaleAndOneReport) {
   const auto tasks = quick_plan(true);
   std::map<std::string, int> per_kind;
