@@ -13,7 +13,8 @@ using nlohmann::json;
 
 class BlockReader {
  public:
-  explicit BlockReader(const json& block) : block_(block) {}
+  explicit BlockReader(const json& block, std::string path = "/executor/slurm/")
+      : block_(block), path_(std::move(path)) {}
 
   void text(const char* name, std::string& into) {
     if (const json* value = member(name, json::value_t::string, "a string"))
@@ -55,12 +56,12 @@ class BlockReader {
     return &value;
   }
   void wrong(const char* name, const std::string& expected) {
-    errors_.push_back({std::string("/executor/slurm/") + name,
-                       "must be " + expected + ", got " + block_[name].dump(),
+    errors_.push_back({path_ + name, "must be " + expected + ", got " + block_[name].dump(),
                        "fix the campaign file's executor block"});
   }
 
   const json& block_;
+  std::string path_;  // of the block, ending in '/'
   std::vector<engine::ValidationError> errors_;
 };
 
@@ -88,6 +89,15 @@ ExecutorChoice choose_executor(const json& campaign_document, const std::string&
   slurm.count("max_squeue_failures", choice.slurm.max_squeue_failures);
   slurm.texts("extra_args", choice.slurm.extra_args);
   slurm.finish();
+  const json per_kind = executor["slurm"].value("per_kind", json::object());
+  for (const auto& [kind, block] : per_kind.items()) {
+    BlockReader own(block, "/executor/slurm/per_kind/" + kind + "/");
+    engine::SlurmResources& resources = choice.slurm.per_kind[kind];
+    own.text("time_limit", resources.time_limit);
+    own.text("memory", resources.memory);
+    own.count("cpus_per_task", resources.cpus_per_task);
+    own.finish();
+  }
   return choice;
 }
 

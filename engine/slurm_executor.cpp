@@ -45,7 +45,19 @@ SlurmExecutor::SlurmExecutor(SlurmSettings settings, SlurmCommands& commands)
   settings_.max_in_flight = std::max(1, settings_.max_in_flight);
 }
 
-std::vector<std::string> SlurmExecutor::sbatch_options(int count, const fs::path& batch_dir) const {
+SlurmResources SlurmExecutor::resources_of(const std::string& kind) const {
+  SlurmResources resources{settings_.time_limit, settings_.memory, settings_.cpus_per_task};
+  const auto own = settings_.per_kind.find(kind);
+  if (own == settings_.per_kind.end()) return resources;
+  if (!own->second.time_limit.empty()) resources.time_limit = own->second.time_limit;
+  if (!own->second.memory.empty()) resources.memory = own->second.memory;
+  if (own->second.cpus_per_task > 0) resources.cpus_per_task = own->second.cpus_per_task;
+  return resources;
+}
+
+std::vector<std::string> SlurmExecutor::sbatch_options(int count, const fs::path& batch_dir,
+                                                       const std::string& kind) const {
+  const SlurmResources resources = resources_of(kind);
   const int throttle = std::min(count, settings_.max_in_flight);
   std::vector<std::string> options = {
       "--parsable",
@@ -55,13 +67,13 @@ std::vector<std::string> SlurmExecutor::sbatch_options(int count, const fs::path
       "--error=" + (batch_dir / "%a.err").string(),
       "--chdir=" + settings_.run_dir.string(),
       fmt::format("--signal=B:USR1@{}", settings_.checkpoint_signal_s),
-      fmt::format("--cpus-per-task={}", settings_.cpus_per_task),
+      fmt::format("--cpus-per-task={}", resources.cpus_per_task),
   };
   const std::pair<const char*, const std::string*> optional[] = {
       {"--partition=", &settings_.partition},
       {"--account=", &settings_.account},
-      {"--time=", &settings_.time_limit},
-      {"--mem=", &settings_.memory}};
+      {"--time=", &resources.time_limit},
+      {"--mem=", &resources.memory}};
   for (const auto& [flag, value] : optional) {
     if (!value->empty()) options.push_back(flag + *value);
   }
@@ -105,19 +117,36 @@ void SlurmExecutor::write_batch_script(const fs::path& batch_dir) const {
 
 std::vector<JobRecord> SlurmExecutor::submit(const std::vector<AttemptOrder>& attempts,
                                              const RecordJobs& record_before_sending) {
+  // One array per kind with resources of its own (an array's elements share them), in the
+  // order the kinds first appear; the other kinds together.
+  std::vector<std::string> groups;
+  std::map<std::string, std::vector<AttemptOrder>> by_group;
+  for (const AttemptOrder& order : attempts) {
+    const std::string group = settings_.per_kind.count(order.spec->kind) ? order.spec->kind : "";
+    if (!by_group.count(group)) groups.push_back(group);
+    by_group[group].push_back(order);
+  }
+  std::vector<JobRecord> jobs;
+  for (const std::string& group : groups) {
+    const auto submitted = submit_array(by_group[group], group, record_before_sending);
+    jobs.insert(jobs.end(), submitted.begin(), submitted.end());
+  }
+  return jobs;
+}
+
+std::vector<JobRecord> SlurmExecutor::submit_array(const std::vector<AttemptOrder>& attempts,
+                                                   const std::string& kind,
+                                                   const RecordJobs& record_before_sending) {
   if (attempts.empty()) return {};
+  const int threads = resources_of(kind).cpus_per_task;
   std::vector<JobRecord> jobs;
   try {
     const fs::path batch = new_batch_dir();
     for (size_t i = 0; i < attempts.size(); ++i) {
       const TaskSpec& task = *attempts[i].spec;
       const std::string element = std::to_string(i);
-      const AttemptSpec spec{task,
-                             staged(*attempts[i].inputs),
-                             attempts[i].attempt,
-                             settings_.cpus_per_task,
-                             work_root() / task.key,
-                             batch / element};
+      const AttemptSpec spec{task,    staged(*attempts[i].inputs), attempts[i].attempt,
+                             threads, work_root() / task.key,      batch / element};
       write_attempt_spec(spec, batch / (element + ".json"));
       jobs.push_back(JobRecord{task.key, spec.attempt, "slurm", "", "SUBMITTING",
                                job_name_of(batch), spec.output_dir, batch / (element + ".out"),
@@ -126,7 +155,7 @@ std::vector<JobRecord> SlurmExecutor::submit(const std::vector<AttemptOrder>& at
     write_batch_script(batch);
     record_before_sending(jobs);
     const std::string array_id = commands_.sbatch(
-        sbatch_options(static_cast<int>(attempts.size()), batch), batch / "job.sh");
+        sbatch_options(static_cast<int>(attempts.size()), batch, kind), batch / "job.sh");
     for (size_t i = 0; i < jobs.size(); ++i) {
       jobs[i].job_id = array_id + "_" + std::to_string(i);
       jobs[i].state = "PENDING";

@@ -30,6 +30,14 @@ namespace millflow::engine {
 // sbatch's --signal takes a lead of at most 65535 s.
 inline constexpr int kSlurmMaxSignalLeadS = 65535;
 
+// What one task kind's jobs ask Slurm for, where it differs from the campaign-wide settings
+// (a macro run of a large mill and a powder cell differ by orders of magnitude).
+struct SlurmResources {
+  std::string time_limit;  // empty: the campaign-wide one
+  std::string memory;      // empty: the campaign-wide one
+  int cpus_per_task = 0;   // 0: the campaign-wide one
+};
+
 // The campaign file's executor.slurm block (docs/slurm.md) plus what the
 // command line adds (run_dir, program, poll_interval_s).
 struct SlurmSettings {
@@ -39,7 +47,8 @@ struct SlurmSettings {
   std::string memory;      // sbatch --mem, e.g. "16G"
   int cpus_per_task = 1;   // also the threads of each task
   std::vector<std::string> extra_args;
-  int max_in_flight = 100;        // jobs queued or running at once
+  std::map<std::string, SlurmResources> per_kind;  // by task kind
+  int max_in_flight = 100;                         // jobs queued or running at once
   int checkpoint_signal_s = 300;  // --signal=B:USR1@N: checkpoint N s before the time limit
   // squeue failures in a row (a controller restarting, a network blip) ridden out before poll()
   // gives up; at the default poll interval of 10 s, 30 are five minutes.
@@ -61,12 +70,18 @@ class SlurmExecutor final : public JobExecutor {
   std::optional<JobRecord> reattach(const JobRecord& job) override;
   Poll poll() override;
 
-  // The sbatch options of an array of `count` attempts writing into batch_dir.
-  std::vector<std::string> sbatch_options(int count, const std::filesystem::path& batch_dir) const;
+  // The sbatch options of an array of `count` attempts of `kind` writing into batch_dir.
+  std::vector<std::string> sbatch_options(int count, const std::filesystem::path& batch_dir,
+                                          const std::string& kind = {}) const;
+  // The campaign-wide settings with `kind`'s own resources over them.
+  SlurmResources resources_of(const std::string& kind) const;
   // "millflow-<batch dir name>": unique per array, so squeue finds an array by it.
   static std::string job_name_of(const std::filesystem::path& batch_dir);
 
  private:
+  std::vector<JobRecord> submit_array(const std::vector<AttemptOrder>& attempts,
+                                      const std::string& kind,
+                                      const RecordJobs& record_before_sending);
   struct Tracked {
     JobRecord job;
     std::chrono::steady_clock::time_point since;

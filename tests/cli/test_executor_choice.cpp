@@ -39,6 +39,28 @@ TEST(ExecutorChoice, ReadsTheSlurmBlockAndKeepsDefaultsForWhatItLeavesOut) {
   EXPECT_EQ(choose_executor({{"executor", {{"kind", "slurm"}}}}, "local").kind, "local");
 }
 
+TEST(ExecutorChoice, ReadsEachKindsOwnResources) {
+  const auto choice =
+      choose_executor({{"executor",
+                        {{"slurm",
+                          {{"time_limit", "30"},
+                           {"per_kind",
+                            {{"macro", {{"time_limit", "4:00:00"}, {"cpus_per_task", 8}}},
+                             {"shear_cell", {{"memory", "2G"}}}}}}}}}},
+                      "");
+  EXPECT_EQ(choice.slurm.time_limit, "30");
+  ASSERT_EQ(choice.slurm.per_kind.size(), 2u);
+  EXPECT_EQ(choice.slurm.per_kind.at("macro").time_limit, "4:00:00");
+  EXPECT_EQ(choice.slurm.per_kind.at("macro").cpus_per_task, 8);
+  EXPECT_EQ(choice.slurm.per_kind.at("shear_cell").memory, "2G");
+  EXPECT_EQ(choice.slurm.per_kind.at("shear_cell").cpus_per_task, 0);  // the campaign-wide one
+  EXPECT_EQ(
+      messages_of({{"executor", {{"slurm", {{"per_kind", {{"macro", {{"cpus_per_task", 0}}}}}}}}}}),
+      (std::vector<std::string>{"/executor/slurm/per_kind/macro/cpus_per_task: must be a "
+                                "positive integer, got 0; fix the campaign file's executor "
+                                "block"}));
+}
+
 TEST(ExecutorChoice, OutOfRangeOrMistypedSettingsNameTheirPath) {
   EXPECT_EQ(messages_of({{"executor",
                           {{"slurm",

@@ -241,6 +241,50 @@ TEST(SlurmExecutor, SubmitsReadyAttemptsAsOneThrottledArray) {
   EXPECT_EQ(jobs[2].attempt, 2);
 }
 
+TEST(SlurmExecutor, KindsWithResourcesOfTheirOwnGoOutAsArraysOfTheirOwn) {
+  ScratchDir dir;
+  FakeSlurm cluster;
+  SlurmSettings settings = settings_for(dir);
+  settings.time_limit = "30";
+  settings.memory = "2G";
+  settings.cpus_per_task = 1;
+  settings.per_kind["fail"] = {.time_limit = "1-00:00:00", .memory = "64G", .cpus_per_task = 16};
+  settings.per_kind["fanout"] = {.time_limit = "", .memory = "8G", .cpus_per_task = 0};
+  SlurmExecutor executor(settings, cluster);
+  const std::vector<TaskSpec> specs = {make_task_spec("sum", "1", {{"value", 1}}, {}),
+                                       make_task_spec("fail", "1", {{"failures", 0}}, {}),
+                                       make_task_spec("sum", "1", {{"value", 2}}, {}),
+                                       make_task_spec("fanout", "1", {{"value", 3}}, {})};
+  const auto no_inputs = std::make_shared<const std::vector<TaskInput>>();
+  const auto jobs = executor.submit({{&specs[0], no_inputs, 1},
+                                     {&specs[1], no_inputs, 1},
+                                     {&specs[2], no_inputs, 1},
+                                     {&specs[3], no_inputs, 1}},
+                                    [](const std::vector<JobRecord>&) {});
+  ASSERT_EQ(cluster.arrays.size(), 3u);  // the sums together, then fail, then fanout
+  auto option = [&](std::size_t array, const std::string& flag) {
+    for (const auto& o : cluster.arrays[array].options) {
+      if (o.rfind(flag, 0) == 0) return o.substr(flag.size());
+    }
+    return std::string("(none)");
+  };
+  const std::vector<std::vector<std::string>> expected = {
+      {"0-1%2", "30", "2G", "1"}, {"0-0%1", "1-00:00:00", "64G", "16"}, {"0-0%1", "30", "8G", "1"}};
+  for (std::size_t a = 0; a < 3; ++a) {
+    EXPECT_EQ((std::vector<std::string>{option(a, "--array="), option(a, "--time="),
+                                        option(a, "--mem="), option(a, "--cpus-per-task=")}),
+              expected[a])
+        << a;
+  }
+  ASSERT_EQ(jobs.size(), 4u);
+  const std::vector<std::string> keys = {jobs[0].task_key, jobs[1].task_key, jobs[2].task_key,
+                                         jobs[3].task_key};
+  EXPECT_EQ(keys,
+            (std::vector<std::string>{specs[0].key, specs[2].key, specs[1].key, specs[3].key}));
+  const fs::path fail_batch = cluster.arrays[1].script.parent_path();
+  EXPECT_EQ(read_attempt_spec(fail_batch / "0.json").threads, 16);  // the kind's CPUs
+}
+
 TEST(SlurmExecutor, ActiveStatesKeepWaitingEndedOnesSettle) {
   for (const char* state : {"PENDING", "RUNNING", "COMPLETING", "SUSPENDED", "REQUEUED"}) {
     EXPECT_TRUE(slurm_state_is_active(state)) << state;
