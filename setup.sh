@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # One entry point for a fresh Debian 12 machine (README.md, "Getting started").
-#   ./setup.sh run   install what is missing, build (Release), run the default campaign
+#   ./setup.sh run   install what is missing, build the program (Release), run the default campaign
 #                    (campaigns/quick.json) and print its power draw table
 #   ./setup.sh test  install what is missing, build (Release), run every CTest test
 # Environment: BUILD_DIR (default build), JOBS (default: nproc).
@@ -31,15 +31,16 @@ install_missing() {
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
+# build [TARGET...]: configure, then build the targets (default: everything, tests included).
 build() {
   cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release -DMILLFLOW_WERROR=ON
-  cmake --build "$build_dir" -j "$jobs"
+  cmake --build "$build_dir" -j "$jobs" ${1:+--target "$@"}
 }
 
 case "$mode" in
   run)
     install_missing
-    build
+    build millflow  # only the program: the first result comes before the tests are compiled
     # The default campaign: local executor, ./millflow.db, no server. Finished tasks are cached,
     # so running it again only prints the results.
     "$build_dir/millflow" submit campaigns/quick.json --jobs "$jobs"
