@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <fmt/ostream.h>
 
+#include <algorithm>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -445,9 +446,14 @@ std::vector<fs::path> export_campaign(const fs::path& db, const std::string& cam
         row.insert(point->second.begin(), point->second.end());
       flat.push_back(std::move(row));
     }
-    // The sweep point first (engine/outputs.hpp), so every kind's table can be joined on it.
+    // The sweep point first (engine/outputs.hpp), so every kind's table can be joined on it:
+    // the coordinates the kind's tasks have.
     Table table{{"task_key", "status"}, {}};
-    table.header.insert(table.header.end(), points.columns.begin(), points.columns.end());
+    for (const auto& coordinate : points.columns) {
+      if (std::any_of(flat.begin(), flat.end(),
+                      [&](const auto& row) { return row.count(coordinate) > 0; }))
+        table.header.push_back(coordinate);
+    }
     table.header.insert(table.header.end(), columns.begin(), columns.end());
     for (const auto& row : flat) {
       Row cells;
