@@ -42,13 +42,6 @@ std::string folder_label(const TaskCoordinates& point, const std::string& key) {
   return label;
 }
 
-std::string csv_cell(const std::string& text) {
-  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
-  std::string quoted = "\"";
-  for (const char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return quoted + "\"";
-}
-
 void add_csv_columns(const nlohmann::json& value, const std::string& path,
                      std::map<std::string, std::string>& columns) {
   if (value.is_object() && !value.empty()) {
@@ -66,6 +59,13 @@ void add_csv_columns(const nlohmann::json& value, const std::string& path,
 }
 
 }  // namespace
+
+std::string csv_field(const std::string& text) {
+  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (const char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
 
 std::map<std::string, std::string> csv_columns(const nlohmann::json& value) {
   std::map<std::string, std::string> columns;
@@ -118,7 +118,7 @@ std::vector<fs::path> export_files(const fs::path& db, const std::string& task_o
   while (tasks.step()) kinds_and_keys.emplace_back(tasks.text(0), tasks.text(1));
   std::vector<fs::path> written;
   std::string index = "kind,task_key,folder";
-  for (const auto& column : points.columns) index += fmt::format(",{}", csv_cell(column));
+  for (const auto& column : points.columns) index += fmt::format(",{}", csv_field(column));
   index += '\n';
   for (const auto& [kind, key] : kinds_and_keys) {
     const auto found = points.by_task.find(key);
@@ -130,7 +130,7 @@ std::vector<fs::path> export_files(const fs::path& db, const std::string& task_o
     for (const auto& column : points.columns) {
       std::string value;
       for (const auto& [name, text] : point) value = name == column ? text : value;
-      index += fmt::format(",{}", csv_cell(value));
+      index += fmt::format(",{}", csv_field(value));
     }
     index += '\n';
   }

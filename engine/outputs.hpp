@@ -28,6 +28,9 @@ struct SweepPoints {
 };
 SweepPoints read_sweep_points(sql::Connection& db, std::int64_t campaign_id);
 
+// `text` as one CSV field: quoted (quotes doubled) when it holds a comma, quote or line break.
+std::string csv_field(const std::string& text);
+
 // The scalar leaves of a JSON value as CSV cells, by path ("/power/mean_kw"; "/" for a scalar
 // value itself): strings as their plain text (no JSON quotes), numbers and booleans as JSON
 // writes them, null as an empty cell, and an array or empty object as its compact JSON text

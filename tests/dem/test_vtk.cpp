@@ -59,6 +59,15 @@ std::vector<double> as_floats(std::vector<double> values) {
   return values;
 }
 
+// A 1 m mill slice with four radial lifters of 50 mm.
+MillShell four_lifter_shell() {
+  return {.radius = 0.5,
+          .length = 0.1,
+          .lifter_count = 4,
+          .lifter = {.height = 0.05, .base_width = 0.08, .face_angle_deg = 0.0},
+          .end_walls = false};
+}
+
 TEST(Vtk, ParticlesCarryTheirStateAsPointData) {
   System system(testing::steel_table(0.5, 0.5), testing::open_box(1.0), Vec3(0, -9.81, 0));
   system.add_particle({.position = Vec3(0.1, 0.2, 0.3), .velocity = Vec3(1, 2, 3), .radius = 0.01});
@@ -80,11 +89,7 @@ TEST(Vtk, ParticlesCarryTheirStateAsPointData) {
 }
 
 TEST(Vtk, MillOutlineFollowsTheLinerAndTheLifters) {
-  const MillShell shell{.radius = 0.5,
-                        .length = 0.1,
-                        .lifter_count = 4,
-                        .lifter = {.height = 0.05, .base_width = 0.08, .face_angle_deg = 0.0},
-                        .end_walls = false};
+  const MillShell shell = four_lifter_shell();
   const double angle = 0.3;
   const auto outline = mill_outline(shell, angle, 720);
   ASSERT_EQ(outline.size(), 720u);
@@ -105,11 +110,7 @@ TEST(Vtk, MillOutlineFollowsTheLinerAndTheLifters) {
 }
 
 TEST(Vtk, MillOutlineFileHoldsTwoClosedRingsAtTheShellsAngle) {
-  const MillShell shell{.radius = 0.5,
-                        .length = 0.1,
-                        .lifter_count = 4,
-                        .lifter = {.height = 0.05, .base_width = 0.08, .face_angle_deg = 0.0},
-                        .end_walls = false};
+  const MillShell shell = four_lifter_shell();
   const auto path = std::filesystem::temp_directory_path() / "millflow_test_mill.vtp";
   write_mill_outline_vtp(shell, 0.3, path, 8);
   const std::string text = read_file(path);
