@@ -129,6 +129,7 @@ TaskOutcome run_sum(TaskContext& context) {
   if (!sleep_unless_stopped(context, integer_param(context.params, "sleep_ms", 0)))
     return TaskOutcome::stopped();
   auto outcome = TaskOutcome::with_result({{"sum", total}});
+  if (context.params.contains("skipped")) outcome.result["skipped"] = context.params["skipped"];
   if (context.params.value("artifact", false)) {
     std::filesystem::create_directories(context.work_dir);
     const auto file = context.work_dir / "sum.txt";

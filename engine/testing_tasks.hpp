@@ -11,8 +11,9 @@
 //          (step, state) in its work directory after every step, stops at a stop request and
 //          continues from the checkpoint when run again (logging "continuing from step k of N");
 //          result {"steps": N, "state": "<16 hex digits>"}
-//   sum    {"value": N, "sleep_ms": M, "artifact": true}
-//          result {"sum": N + the "sum" of each input}; with "artifact" it also writes sum.txt
+//   sum    {"value": N, "sleep_ms": M, "artifact": true, "skipped": "reason"}
+//          result {"sum": N + the "sum" of each input}, plus {"skipped": reason} when given (a
+//          task that skipped its work); with "artifact" it also writes sum.txt
 //          (and checks its inputs' sum.txt); with MILLFLOW_TEST_TRACE set it appends its key to
 //          that file when it starts (crash tests count runs with it)
 //   fanout {"children": K, "value": N} result {"sum": N}, declares K sum tasks {"value": i}

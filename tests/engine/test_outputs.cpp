@@ -118,6 +118,24 @@ TEST_F(Outputs, FilesOfAnUnknownNameIsBadInput) {
   EXPECT_THROW(export_files(dir_.db(), "nope", dir_.path() / "x"), InvalidInput);
 }
 
+TEST(SkippedWork, ATaskWhoseResultSaysSkippedIsShownAsSkipped) {
+  ScratchDir dir;
+  const json tasks = json::array(
+      {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}}}},
+       {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}, {"skipped", "no usable site"}}}}});
+  const RunSummary summary = submit(test_campaign("skipping", tasks), dir.db());
+  EXPECT_EQ(summary.exit_code(), 0);
+  EXPECT_EQ(summary.describe(), "2 tasks: 1 done, 0 cached, 0 failed, 1 skipped");
+  std::ostringstream status;
+  print_status(dir.db(), "skipping", status);
+  EXPECT_NE(status.str().find("sum   done     1"), std::string::npos) << status.str();
+  EXPECT_NE(status.str().find("sum   skipped  1"), std::string::npos) << status.str();
+  std::ostringstream dag;
+  print_dag_dot(dir.db(), "skipping", dag);
+  EXPECT_NE(dag.str().find("fillcolor=lightgrey"), std::string::npos) << dag.str();
+  EXPECT_NE(dag.str().find("fillcolor=palegreen"), std::string::npos) << dag.str();
+}
+
 TEST(TaskLog, HoldsEachFailedAttemptWithItsTimeAndLevel) {
   ScratchDir dir;
   const json tasks = json::array({{{"id", "f"}, {"kind", "fail"}, {"params", {{"failures", 2}}}}});
