@@ -32,6 +32,7 @@
 
 #include "tasks/average.hpp"
 #include "tasks/coarse_grain.hpp"
+#include "tasks/macro_measure.hpp"
 #include "tasks/sites.hpp"
 #include "tests/dem/scenes.hpp"
 #include "tests/tasks/macro_fixtures.hpp"
@@ -130,6 +131,12 @@ void SlowMillFlow(benchmark::State& state) {
       .media_density = 7800.0,
       .event_window = run.frames.size() * run.macro.at("sample_interval_s").get<double>(),
       .categories = run.macro.at("categories").get<std::vector<std::string>>()};
+  // The toe and shoulder where the balls touch the shell, as the macro task finds them.
+  ChargeShape shape;
+  for (const auto& frame : run.frames) shape.add_frame(frame, 0);
+  ChargeAngles angles;
+  if (const auto found = shape.angles())
+    angles = {.toe_deg = found->toe_deg, .shoulder_deg = found->shoulder_deg};
   CoarseFields fields;
   SiteSelection selection;
   FlowMap map;
@@ -138,7 +145,7 @@ void SlowMillFlow(benchmark::State& state) {
     const json mill = {
         {"mill_radius_m", radius}, {"media_diameter_m", kBall}, {"angular_velocity_rad_s", omega}};
     map = flow_map_from_document(fields_document(fields, mill));
-    selection = select_sites(map, RegionRules{}, region_names(), 1);
+    selection = select_sites(map, RegionRules{}, angles, region_names(), 1);
   }
   const CrossSectionGrid& g = fields.grid;
   double spin = 0.0, slip = 0.0, speed = 0.0, solid = 0.0;

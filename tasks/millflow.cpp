@@ -92,7 +92,7 @@ void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
     const nlohmann::json& document = point.document;
     const std::string macro = plan.add("macro", macro_params(document));
     const std::string average = plan.add("average", average_params(document), {macro});
-    const std::string sites = plan.add("sites", sites_params(document), {average});
+    const std::string sites = plan.add("sites", sites_params(document), {average, macro});
     if (!document.at("shear_cell").at("enabled").get<bool>()) continue;
     const double load = document.at("shear_cell").at("powder").at("load").get<double>();
     std::vector<std::string> upstream = {macro, average, sites};
