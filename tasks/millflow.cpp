@@ -113,9 +113,10 @@ void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
         upstream.push_back(cell);
     }
     report_inputs.push_back(plan.add("upscale", upscale_params(document), std::move(upstream)));
-    // The loads of a fill and speed share one average: the report needs it once.
-    if (std::find(report_inputs.begin(), report_inputs.end(), average) == report_inputs.end()) {
-      report_inputs.push_back(average);
+    // The loads of a fill and speed share one average and sites task: the report needs each once.
+    for (const std::string& shared : {average, sites}) {
+      if (std::find(report_inputs.begin(), report_inputs.end(), shared) == report_inputs.end())
+        report_inputs.push_back(shared);
     }
   }
   if (!report_inputs.empty())

@@ -454,6 +454,10 @@ engine::TaskOutcome run_sites(engine::TaskContext& context) {
   write_vtk_image(vti, map.grid, arrays);
 
   json result = selection_json(selection, rules);
+  const json& macro = input_of_kind(context, "macro").result;
+  result["fill"] = macro.at("fill");
+  result["speed_fraction"] = macro.at("speed_fraction");
+  result["average_task"] = input_of_kind(context, "average").key;
   result["region_index"] = region_names();
   json rule_sets = json::array({rule_set_json("default", rules, selection)});
   for (const json& alternative : params.at("alternatives")) {

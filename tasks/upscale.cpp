@@ -485,6 +485,7 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
       {"speed_fraction", macro.at("speed_fraction")},
       {"powder_load", load},
       {"average_task", only_input(context, "average").key},
+      {"sites_task", only_input(context, "sites").key},
       {"mill", mill_json(macro)},
       {"powder_to_media_mass_ratio", mass_ratio},
       {"power_draw_with_powder_w", all.input_no_powder.value > 0.0

@@ -78,6 +78,8 @@ engine::TaskInput macro_with_charge(const std::vector<fs::path>& segments, json 
   const auto angles = shape.angles();
   result["charge"] = {{"toe_angle_deg", angles ? json(angles->toe_deg) : json(nullptr)},
                       {"shoulder_angle_deg", angles ? json(angles->shoulder_deg) : json(nullptr)}};
+  result["fill"] = 0.4;  // tests/dem/scenes.hpp's slowly turning mill
+  result["speed_fraction"] = 0.2;
   return {.key = "macro", .kind = "macro", .result = result, .artifacts = {}};
 }
 
@@ -248,6 +250,8 @@ TEST(AnalysisTasks, SitesGolden) {
                            scratch.path / "average");
   json macro = kSyntheticMacro;
   macro["charge"] = {{"toe_angle_deg", 200.0}, {"shoulder_angle_deg", -20.0}};
+  macro["fill"] = 0.3;
+  macro["speed_fraction"] = 0.7;
   const auto sites = run(run_sites, kSitesParams,
                          {as_input("average", average),
                           {.key = "macro", .kind = "macro", .result = macro, .artifacts = {}}},
