@@ -10,6 +10,7 @@
 #include <limits>
 #include <numbers>
 #include <stdexcept>
+#include <utility>
 
 #include "tasks/kinds.hpp"
 #include "tasks/vtk_image.hpp"
@@ -318,15 +319,21 @@ const engine::TaskInput& input_of_kind(const engine::TaskContext& context,
 
 }  // namespace
 
-json region_rules_json(const RegionRules& r) {
-  return {{"charge_solid_fraction", r.charge_solid_fraction},
-          {"flight_solid_fraction", r.flight_solid_fraction},
-          {"liner_layer_diameters", r.liner_layer_diameters},
-          {"toe_search_radius_fraction", r.toe_search_radius_fraction},
-          {"impact_dissipation_fraction", r.impact_dissipation_fraction},
-          {"toe_min_radius_fraction", r.toe_min_radius_fraction},
-          {"shoulder_radius_fraction", r.shoulder_radius_fraction},
-          {"en_masse_max_slip", r.en_masse_max_slip}};
+// Each rule's name in /sites/rules.
+constexpr std::pair<const char*, double RegionRules::*> kRuleFields[] = {
+    {"charge_solid_fraction", &RegionRules::charge_solid_fraction},
+    {"flight_solid_fraction", &RegionRules::flight_solid_fraction},
+    {"liner_layer_diameters", &RegionRules::liner_layer_diameters},
+    {"toe_search_radius_fraction", &RegionRules::toe_search_radius_fraction},
+    {"impact_dissipation_fraction", &RegionRules::impact_dissipation_fraction},
+    {"toe_min_radius_fraction", &RegionRules::toe_min_radius_fraction},
+    {"shoulder_radius_fraction", &RegionRules::shoulder_radius_fraction},
+    {"en_masse_max_slip", &RegionRules::en_masse_max_slip}};
+
+json region_rules_json(const RegionRules& rules) {
+  json out = json::object();
+  for (const auto& [name, field] : kRuleFields) out[name] = rules.*field;
+  return out;
 }
 
 const std::vector<std::string>& region_names() {
@@ -366,14 +373,9 @@ FlowMap flow_map_from_document(const json& fields) {
 RegionRules region_rules_from_json(const json& rules, const json& overrides) {
   json merged = rules;
   merged.update(overrides);
-  return {.charge_solid_fraction = merged.at("charge_solid_fraction").get<double>(),
-          .flight_solid_fraction = merged.at("flight_solid_fraction").get<double>(),
-          .liner_layer_diameters = merged.at("liner_layer_diameters").get<double>(),
-          .toe_search_radius_fraction = merged.at("toe_search_radius_fraction").get<double>(),
-          .impact_dissipation_fraction = merged.at("impact_dissipation_fraction").get<double>(),
-          .toe_min_radius_fraction = merged.at("toe_min_radius_fraction").get<double>(),
-          .shoulder_radius_fraction = merged.at("shoulder_radius_fraction").get<double>(),
-          .en_masse_max_slip = merged.at("en_masse_max_slip").get<double>()};
+  RegionRules out;
+  for (const auto& [name, field] : kRuleFields) out.*field = merged.at(name).get<double>();
+  return out;
 }
 
 Classification classify_regions(const FlowMap& map, const RegionRules& rules,
