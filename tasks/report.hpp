@@ -18,8 +18,10 @@
 //   maps_<fill>_<speed>.svg  shear rate, normal stress and dissipation over the cross-section with
 //                            the sites marked (from the average task of that fill and speed);
 //   regions_<fill>_<speed>.svg  the flow regions over the cross-section with the charge outline,
-//                            toe and shoulder, and index.md's region and sensitivity tables
-//                            (tasks/report_regions.hpp; from the sites inputs, none without);
+//                            toe and shoulder, and index.md's region, sensitivity and
+//                            both-upscalings tables and its list of the cells left out of the
+//                            upscaling (tasks/report_regions.hpp; from the sites inputs, none
+//                            without);
 //   coupling.svg             media-only cell vs macro shear stress per site, with the 1:1 line;
 //   upscaled.csv             one row per point x region;  sites.csv  one row per point x site;
 //   spectra.csv              one row per point x energy bin;

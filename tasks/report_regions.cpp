@@ -85,6 +85,36 @@ std::string sensitivity_table(const std::map<double, json>& by_load) {
   return out;
 }
 
+// Per region with cells: the powder power share by both methods and the media-only cells' power
+// over the macro dissipation (tasks/upscale.hpp).
+std::string methods_table(const json& upscale) {
+  std::string out =
+      "| region | powder power share, cells | powder power share, macro-anchored | cell power / "
+      "macro dissipation |\n|---|---|---|---|\n";
+  const json& anchored = upscale.at("macro_anchored").at("regions");
+  for (std::size_t r = 0; r < upscale.at("regions").size(); ++r) {
+    const json& cells = upscale.at("regions").at(r);
+    out += fmt::format("| {} | {} | {} | {} |\n", cells.at("region").get<std::string>(),
+                       number(cells.at("powder_power_share")),
+                       number(anchored.at(r).at("powder_power_share")),
+                       number(cells.at("cell_to_macro_power_ratio")));
+  }
+  return out;
+}
+
+// The cells an upscale left out (or counted against their flags), one row each.
+std::string left_out_rows(const json& upscale) {
+  std::string out;
+  for (const json& cell : upscale.at("left_out_cells")) {
+    out += fmt::format(
+        "| {:g} | {:g} | {:g} | {} | {:g} | {} | {} |\n", upscale.at("fill").get<double>(),
+        upscale.at("speed_fraction").get<double>(), upscale.at("powder_load").get<double>(),
+        cell.at("site_id").get<std::string>(), cell.at("powder_load").get<double>(),
+        cell.at("reason").get<std::string>(), cell.at("counted").get<bool>() ? "yes" : "no");
+  }
+  return out;
+}
+
 }  // namespace
 
 RegionSection region_section(const std::vector<engine::TaskInput>& inputs,
@@ -92,13 +122,16 @@ RegionSection region_section(const std::vector<engine::TaskInput>& inputs,
   // Sites tasks by fill and speed, and the sensitivity of each of their upscales by load.
   std::map<std::pair<double, double>, const engine::TaskInput*> sites_tasks;
   std::map<std::string, std::map<double, json>> sensitivity;
+  std::map<std::string, std::map<double, const json*>> upscales;  // by sites task and load
   for (const auto& input : inputs) {
     const json& r = input.result;
     if (input.kind == "sites")
       sites_tasks[{r.at("fill").get<double>(), r.at("speed_fraction").get<double>()}] = &input;
     if (input.kind == "upscale" && r.contains("sites_task")) {
-      sensitivity[r.at("sites_task").get<std::string>()][r.at("powder_load").get<double>()] =
-          r.at("sensitivity");
+      const std::string sites = r.at("sites_task").get<std::string>();
+      const double load = r.at("powder_load").get<double>();
+      sensitivity[sites][load] = r.at("sensitivity");
+      upscales[sites][load] = &r;
     }
   }
   RegionSection section;
@@ -131,7 +164,26 @@ RegionSection region_section(const std::vector<engine::TaskInput>& inputs,
         regions_table(sites) + "\n";
     if (const auto found = sensitivity.find(input->key); found != sensitivity.end())
       section.markdown += sensitivity_table(found->second) + "\n";
+    if (const auto found = upscales.find(input->key); found != upscales.end()) {
+      for (const auto& [load, upscale] : found->second) {
+        if (load == 0.0) continue;
+        section.markdown +=
+            fmt::format("Both upscalings at U = {:g}:\n\n", load) + methods_table(*upscale) + "\n";
+      }
+    }
   }
+  std::string left_out;
+  for (const auto& [sites, by_load] : upscales) {
+    for (const auto& [load, upscale] : by_load) left_out += left_out_rows(*upscale);
+  }
+  section.markdown +=
+      "## Cells left out of the upscaling\n\n"
+      "Cells that did not reach a steady state or did not converge count in no upscale unless "
+      "/upscale/include_unsteady is set (then `counted` is yes).\n\n" +
+      (left_out.empty() ? std::string("None: every cell that ran was steady and converged.\n")
+                        : "| J | phi | upscale U | site | cell U | reason | counted |\n"
+                          "|---|---|---|---|---|---|---|\n" +
+                              left_out);
   return section;
 }
 

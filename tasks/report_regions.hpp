@@ -4,7 +4,9 @@
 // the charge outlined, the toe's disc and the shoulder marked), a table of each region's volume,
 // solid volume and share of the macro dissipation under the default rules and each alternative,
 // and, per powder load, each rule set's dominant region and toe share of the powder power (the
-// upscales' `sensitivity`, tasks/upscale.hpp). docs/regions.md explains the rules.
+// upscales' `sensitivity`, tasks/upscale.hpp), and per powder load above 0 each region's powder
+// share by both upscalings with the media-only cells' power over the macro dissipation; then the
+// cells the upscales left out. docs/regions.md explains the rules.
 #include <map>
 #include <string>
 #include <utility>

@@ -109,6 +109,22 @@ TEST(ReportRegions, NoSitesInputsMeansNoSection) {
   EXPECT_TRUE(section.markdown.empty());
 }
 
+TEST(ReportRegions, ListsTheCellsLeftOut) {
+  auto point = testing::point_inputs(0.3, 0.75);
+  for (auto& input : point) {
+    if (input.key == "bulk-0@" + std::to_string(1.0))
+      input.result["steady_state"]["steady"] = false;
+  }
+  const std::map<std::string, FlowMap> maps = {
+      {"average-key", flow_map_from_document(fields_document())}};
+  const std::vector<engine::TaskInput> inputs = {
+      {"sites-key", "sites", sites_result(), {}},
+      {"upscale-1", "upscale", testing::upscale(point, 1.0), {}}};
+  const std::string markdown = report::region_section(inputs, maps).markdown;
+  EXPECT_NE(markdown.find("| 0.3 | 0.75 | 1 | bulk-0 | 1 | not steady | no |"), std::string::npos)
+      << markdown;
+}
+
 TEST(ReportRegions, TheReportWritesTheMapAndEachRuleSetsDominantRegion) {
   millflow::testing::ScratchDir dir;
   const fs::path fields = dir.path() / "fields.json";
@@ -142,6 +158,10 @@ TEST(ReportRegions, TheReportWritesTheMapAndEachRuleSetsDominantRegion) {
   // 1.8 W under the wide rules.
   EXPECT_NE(page.find("| default | 1 | toe | 0.5714 |"), std::string::npos) << page;
   EXPECT_NE(page.find("| wide | 1 | toe | 0.8889 |"), std::string::npos);
+  // Both methods side by side: the toe's share 0.8 / 1.1 from its cells, 0.8 / 1.4 anchored on
+  // the macro dissipation; its media-only cell draws 0.8 of the macro run's 2 W.
+  EXPECT_NE(page.find("| toe | 0.7273 | 0.5714 | 0.8 |"), std::string::npos);
+  EXPECT_NE(page.find("None: every cell that ran was steady and converged."), std::string::npos);
 }
 
 }  // namespace
