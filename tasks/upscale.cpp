@@ -154,7 +154,7 @@ std::pair<json, json> ratio(const Sum& a, const Sum& b) {
 // load U over the sites with a loaded cell; at load 0 (and `input_paired`, at load U) over those
 // that also have a baseline cell.
 struct PowerSums {
-  int sites = 0;
+  int sites = 0, paired_sites = 0;
   double volume = 0.0, solid_volume = 0.0;
   Sum powder, input, collisions, rate;
   Sum input_paired, input_no_powder, collisions_no_powder, rate_no_powder;
@@ -170,6 +170,7 @@ struct PowerSums {
     collisions.add(w, u.collisions, u.collisions_se);
     rate.add(w, u.collision_rate, u.collision_rate_se);
     if (!baseline) return;
+    ++paired_sites;
     const double w0 = weight(site, *baseline, basis);
     const CellFigures b = figures_of(*baseline);
     input_paired.add(w, u.input, u.input_se);
@@ -180,6 +181,7 @@ struct PowerSums {
 
   void merge(const PowerSums& r) {
     sites += r.sites;
+    paired_sites += r.paired_sites;
     volume += r.volume;
     solid_volume += r.solid_volume;
     for (auto [mine, theirs] : {std::pair{&powder, &r.powder},
@@ -263,8 +265,10 @@ json dominant_of(const std::map<std::string, double>& powder) {
 }
 
 // The regions of one method in region_names() order, with the totals, from its per-region sums.
+// `cells` (the unscaled sums) give each region's cell_to_macro_power_ratio under both methods.
 json method_result(const std::string& method, const std::map<std::string, PowerSums>& regions,
-                   const std::map<std::string, double>& macro) {
+                   const std::map<std::string, double>& macro,
+                   const std::map<std::string, PowerSums>& cells) {
   PowerSums all;
   for (const auto& [name, sums] : regions) all.merge(sums);
   json rows = json::array();
@@ -277,8 +281,10 @@ json method_result(const std::string& method, const std::map<std::string, PowerS
     row["region"] = name;
     row["method"] = method;
     row["macro_dissipation_w"] = dissipation;
-    row["cell_to_macro_power_ratio"] =
-        ratio_or_null(found->second.input_no_powder.value, dissipation);
+    const PowerSums& own = cells.at(name);
+    row["cell_to_macro_power_ratio"] = own.paired_sites > 0
+                                           ? ratio_or_null(own.input_no_powder.value, dissipation)
+                                           : json(nullptr);
     rows.push_back(std::move(row));
     powder[name] = found->second.powder.value;
   }
@@ -471,11 +477,11 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   }
   double regions_dissipation = 0.0;
   for (const auto& [name, dissipation] : macro_by_region) regions_dissipation += dissipation;
-  json macro_anchored = method_result("macro_anchored", anchored, macro_by_region);
+  json macro_anchored = method_result("macro_anchored", anchored, macro_by_region, by_region);
   macro_anchored["macro_dissipation_w"] = covered;
   macro_anchored["uncovered_macro_dissipation_w"] = regions_dissipation - covered;
 
-  json result = method_result("cells", by_region, macro_by_region);
+  json result = method_result("cells", by_region, macro_by_region, by_region);
   PowerSums all;
   for (const auto& [name, sums] : by_region) all.merge(sums);
   const double mass_ratio = solid_volume > 0.0 ? powder_mass / solid_volume : 0.0;
@@ -500,7 +506,6 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
       {"sites", site_rows},
   });
   result["coupling"] = coupling_summary(site_rows);
-  if (all.sites == 0 || all.powder.value <= 0.0) result["dominant_region"] = nullptr;
   context.log(fmt::format(
       "upscale U = {}: powder {:.4g} W ({} dominates; macro-anchored {:.4g} W, {}), cushioning {}, "
       "{} cells left out, {} of {} sites couple within {:.0f}%",

@@ -125,6 +125,7 @@ TEST(Upscale, MacroAnchoredConservesTheMacroDissipationOfTheRegionsWithCells) {
   EXPECT_DOUBLE_EQ(r.at("regions").at(0).at("cell_to_macro_power_ratio"), 0.8);
   EXPECT_DOUBLE_EQ(r.at("regions").at(1).at("cell_to_macro_power_ratio"), 0.4);
   EXPECT_EQ(r.at("regions").at(0).at("method"), "cells");
+  EXPECT_DOUBLE_EQ(anchored.at("regions").at(0).at("cell_to_macro_power_ratio"), 0.8);
 }
 
 TEST(Upscale, SensitivityGivesEachRuleSetsDominantRegionAndToeShare) {
@@ -148,6 +149,7 @@ TEST(Upscale, UnsteadyAndUnconvergedCellsAreLeftOutAndListed) {
   EXPECT_EQ(r.at("left_out_cells").at(1).at("counted"), false);
   EXPECT_DOUBLE_EQ(r.at("powder_power_w"), 0.002 * 400);  // the toe's loaded cell alone
   EXPECT_TRUE(r.at("cushioning").is_null());              // no baseline left to compare with
+  EXPECT_TRUE(r.at("regions").at(0).at("cell_to_macro_power_ratio").is_null());
   const json kept = upscale(inputs, 1.0, true);
   EXPECT_DOUBLE_EQ(kept.at("powder_power_w"), 1.1);
   EXPECT_EQ(kept.at("left_out_cells").at(0).at("counted"), true);
