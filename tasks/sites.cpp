@@ -179,20 +179,35 @@ Site site_of(const FlowMap& map, const std::vector<std::size_t>& cells, double t
   return s;
 }
 
+// The region's cells sorted by shear rate, split into up to `per_region` contiguous groups of
+// nearly equal weight (cell count, or solid volume: a cell goes to the group its solid midpoint
+// falls in, so a group can come out empty and is then dropped).
 std::vector<Site> sites_of_region(const FlowMap& map, std::vector<std::size_t> cells,
-                                  const std::string& name, int per_region,
-                                  double total_dissipation) {
+                                  const std::string& name, int per_region, double total_dissipation,
+                                  WeightBasis weight_by) {
   std::stable_sort(cells.begin(), cells.end(), [&](std::size_t a, std::size_t b) {
     return map.shear_rate[a] < map.shear_rate[b];
   });
   const std::size_t groups = std::min(cells.size(), static_cast<std::size_t>(per_region));
+  std::vector<std::vector<std::size_t>> members(groups);
+  double solid = 0.0;
+  for (std::size_t c : cells) solid += map.solid_fraction[c];
+  double before = 0.0;
+  for (std::size_t k = 0; k < cells.size(); ++k) {
+    const double nu = map.solid_fraction[cells[k]];
+    const double position =
+        weight_by == WeightBasis::solid_volume
+            ? (before + 0.5 * nu) / solid
+            : (static_cast<double>(k) + 0.5) / static_cast<double>(cells.size());
+    before += nu;
+    members[std::min(groups - 1, static_cast<std::size_t>(position * static_cast<double>(groups)))]
+        .push_back(cells[k]);
+  }
   std::vector<Site> sites;
-  for (std::size_t k = 0; k < groups; ++k) {
-    const std::vector<std::size_t> group(
-        cells.begin() + static_cast<std::ptrdiff_t>(k * cells.size() / groups),
-        cells.begin() + static_cast<std::ptrdiff_t>((k + 1) * cells.size() / groups));
+  for (const auto& group : members) {
+    if (group.empty()) continue;
     Site site = site_of(map, group, total_dissipation);
-    site.site_id = fmt::format("{}-{}", name, k);
+    site.site_id = fmt::format("{}-{}", name, sites.size());
     site.region = name;
     sites.push_back(std::move(site));
   }
@@ -423,7 +438,8 @@ SiteSelection select_sites(const FlowMap& map, const RegionRules& rules, const C
     for (std::size_t c = 0; c < map.grid.size(); ++c) {
       if (selection.region_of_cell[c] == static_cast<int>(r)) cells.push_back(c);
     }
-    auto sites = sites_of_region(map, cells, name, per_region, selection.total_dissipation_w);
+    auto sites =
+        sites_of_region(map, cells, name, per_region, selection.total_dissipation_w, weight_by);
     selection.regions[r].sites = sites.size();
     selection.sites.insert(selection.sites.end(), sites.begin(), sites.end());
   }

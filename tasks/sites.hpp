@@ -23,7 +23,9 @@
 // (a centrifuging charge) there is no toe or shoulder.
 //
 // Sites. Each region's cells, sorted by shear rate (then index), are split into
-// min(per_region, cells) contiguous groups of nearly equal cell counts; each group is a site:
+// min(per_region, cells) contiguous groups of nearly equal weight (`weight_by`: solid volume, the
+// group of a cell being the one its solid midpoint falls in, empty groups dropped; or cell count);
+// each group is a site:
 //   position        the centre of the group's cell nearest the group's solid-weighted centroid
 //                   (so a site always lies in its region);
 //   weight_m3       the group's volume (cell area x slice length x cells), and

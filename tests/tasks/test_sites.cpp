@@ -189,6 +189,27 @@ TEST(Sites, WeightsSumToTheChargeVolumeAndSolidVolume) {
   EXPECT_GT(cascading.dissipation_w / cascading.volume_m3, 5 * bulk.dissipation_w / bulk.volume_m3);
 }
 
+TEST(Sites, SitesSplitTheirRegionIntoNearlyEqualWeights) {
+  const FlowMap map = synthetic_map();
+  const double cell_volume = map.grid.cell_area() * map.slice_length;
+  // The toe mixes bed (0.6) and flight (0.1) cells: equal solid volumes need unequal counts.
+  const SiteSelection by_solid =
+      select_sites(map, RegionRules{}, macro_angles(), {"toe"}, 3, WeightBasis::solid_volume);
+  const SiteSelection by_volume =
+      select_sites(map, RegionRules{}, macro_angles(), {"toe"}, 3, WeightBasis::volume);
+  ASSERT_EQ(by_solid.sites.size(), 3u);
+  ASSERT_EQ(by_volume.sites.size(), 3u);
+  const double toe_solid =
+      by_solid.regions[static_cast<std::size_t>(region("toe"))].solid_volume_m3;
+  for (const Site& site : by_solid.sites)
+    EXPECT_NEAR(site.solid_volume_m3, toe_solid / 3, 0.6 * cell_volume) << site.site_id;
+  for (const Site& site : by_volume.sites) {
+    EXPECT_NEAR(site.weight_m3 / cell_volume,
+                by_volume.regions[static_cast<std::size_t>(region("toe"))].cells / 3.0, 1.0)
+        << site.site_id;
+  }
+}
+
 TEST(Sites, OnlyRequestedRegionsGetSites) {
   const FlowMap map = synthetic_map();
   const SiteSelection s = select_sites(map, RegionRules{}, macro_angles(), {"shoulder", "toe"}, 2);
