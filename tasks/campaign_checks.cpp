@@ -116,14 +116,15 @@ class ConsistencyChecker {
     check_powder_material();
     check_interaction_pairs();
     check_lifters();
-    if (const auto balls = campaign_.balls()) {
+    const auto balls = campaign_.balls();
+    if (balls) {
       check_mass_fractions(*balls);
       check_balls_fit_mill(*balls);
       check_ball_count(*balls);
       check_sample_interval(*balls);
       check_powder_count();
-      check_region_rules(mean_diameter(*balls));
     }
+    check_region_rules(balls ? std::optional(mean_diameter(*balls)) : std::nullopt);
     return std::move(errors_);
   }
 
@@ -377,7 +378,7 @@ class ConsistencyChecker {
   // Rules that leave part of the charge in no region, or make one region swallow the others, are
   // refused for the default set and for every alternative (an alternative's error is reported
   // only where it sets one of the values).
-  void check_region_rules(double ball_diameter) {
+  void check_region_rules(const std::optional<double>& ball_diameter) {
     std::vector<std::string> rule_sets = {"/sites/rules"};
     if (const auto* alternatives = campaign_.node("/sites/alternatives");
         alternatives && alternatives->is_array()) {
@@ -387,7 +388,7 @@ class ConsistencyChecker {
     for (const std::string& own : rule_sets) check_rule_set(own, ball_diameter);
   }
 
-  void check_rule_set(const std::string& own, double ball_diameter) {
+  void check_rule_set(const std::string& own, const std::optional<double>& ball_diameter) {
     auto reported = [&](const RuleValue& a, const RuleValue& b) {
       return own == "/sites/rules" || a.path.starts_with(own) || b.path.starts_with(own);
     };
@@ -411,7 +412,7 @@ class ConsistencyChecker {
             "use a smallest toe radius of at most " + quantity(search->value) + " R, or widen " +
                 search->path);
     }
-    check_liner_layer(own, ball_diameter);
+    if (ball_diameter) check_liner_layer(own, *ball_diameter);
   }
 
   // The near-liner layer must leave the charge at rest a core for the bulk and cascading regions.
