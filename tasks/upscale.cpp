@@ -198,10 +198,15 @@ struct PowerSums {
 
   // The region's sums with its cells' power at each load set to the macro dissipation D
   // (tasks/upscale.hpp, macro_anchored; the scaling is taken as exact in the errors).
+  // The factors that set the cells' power input at load U and at load 0 to D.
+  std::pair<double, double> anchor_factors(double macro_dissipation) const {
+    return {input.value > 0.0 ? macro_dissipation / input.value : 0.0,
+            input_no_powder.value > 0.0 ? macro_dissipation / input_no_powder.value : 0.0};
+  }
+
   PowerSums anchored(double macro_dissipation) const {
     PowerSums a = *this;
-    const double k = input.value > 0.0 ? macro_dissipation / input.value : 0.0;
-    const double k0 = input_no_powder.value > 0.0 ? macro_dissipation / input_no_powder.value : 0.0;
+    const auto [k, k0] = anchor_factors(macro_dissipation);
     for (Sum* loaded : {&a.powder, &a.input, &a.collisions, &a.rate, &a.input_paired})
       *loaded = loaded->scaled(k);
     for (Sum* reference : {&a.input_no_powder, &a.collisions_no_powder, &a.rate_no_powder})
@@ -305,6 +310,22 @@ class SpectrumSum {
   }
   void add_baseline(double weight, const json& cell) {
     accumulate(cell, "media", weight, media_no_powder_);
+  }
+  // Another sum, its loaded spectra scaled by k and its baseline spectrum by k0.
+  void add_scaled(const SpectrumSum& other, double k, double k0) {
+    if (other.edges_.empty()) return;
+    if (edges_.empty()) {
+      edges_ = other.edges_;
+      for (auto* r : {&media_, &powder_, &media_no_powder_}) r->assign(edges_.size() - 1, 0.0);
+    } else if (other.edges_ != edges_) {
+      throw std::invalid_argument(
+          "upscale: shear cells with different spectrum bins: re-run them with one version");
+    }
+    for (std::size_t b = 0; b < media_.size(); ++b) {
+      media_[b] += k * other.media_[b];
+      powder_[b] += k * other.powder_[b];
+      media_no_powder_[b] += k0 * other.media_no_powder_[b];
+    }
   }
 
   json to_json() const {
@@ -451,7 +472,7 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
       usable_cells(context, load, params.at("upscale").at("include_unsteady").get<bool>());
 
   std::map<std::string, PowerSums> by_region;
-  SpectrumSum spectra;
+  std::map<std::string, SpectrumSum> region_spectra;
   double powder_mass = 0.0, solid_volume = 0.0;
   json site_rows = json::array();
   for (const json& site : sites_result.at("sites")) {
@@ -461,6 +482,7 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
     site_rows.push_back(site_row(site, cell, reference));
     if (!cell) continue;
     by_region[site.at("region").get<std::string>()].add(site, basis, *cell, reference);
+    SpectrumSum& spectra = region_spectra[site.at("region").get<std::string>()];
     spectra.add(weight(site, *cell, basis), *cell);
     if (reference) spectra.add_baseline(weight(site, *reference, basis), *reference);
     powder_mass += site.at("solid_volume_m3").get<double>() * powder_mass_ratio(*cell, params);
@@ -469,17 +491,23 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
 
   const auto macro_by_region = macro_dissipation(sites_result.at("regions"));
   std::map<std::string, PowerSums> anchored;
+  SpectrumSum spectra, anchored_spectra;
   double covered = 0.0;
   for (const auto& [name, sums] : by_region) {
     const double dissipation = macro_by_region.count(name) ? macro_by_region.at(name) : 0.0;
     anchored[name] = sums.anchored(dissipation);
     covered += dissipation;
+    spectra.add_scaled(region_spectra.at(name), 1.0, 1.0);
+    const auto [k, k0] = sums.anchor_factors(dissipation);
+    anchored_spectra.add_scaled(region_spectra.at(name), k, k0);
   }
   double regions_dissipation = 0.0;
   for (const auto& [name, dissipation] : macro_by_region) regions_dissipation += dissipation;
   json macro_anchored = method_result("macro_anchored", anchored, macro_by_region, by_region);
   macro_anchored["macro_dissipation_w"] = covered;
   macro_anchored["uncovered_macro_dissipation_w"] = regions_dissipation - covered;
+  macro_anchored["spectra"] = anchored_spectra.to_json();
+  macro_anchored["media_spectrum_shift"] = anchored_spectra.media_shift();
 
   json result = method_result("cells", by_region, macro_by_region, by_region);
   PowerSums all;

@@ -37,7 +37,8 @@
 // at load U is scaled by D_r / sum_s w_s p_in,s(U), and at load 0 by D_r / sum_s w_s p_in,s(0).
 // So powder + media power = D_r in every region with cells: the method conserves the macro
 // dissipation of the regions it covers (`macro_dissipation_w`; the regions without cells are
-// `uncovered_macro_dissipation_w`).
+// `uncovered_macro_dissipation_w`). Its spectra and media spectrum shift are the regions' cell
+// spectra scaled by the same factors.
 //
 // Power draw with powder = P_macro (1 + M) sum_s w_s p_in,s(U) / sum_s w_s p_in,s(0) over the
 // sites with both cells. P_macro is the balls-only run's draw; the ratio is how much harder the

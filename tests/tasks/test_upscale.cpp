@@ -53,6 +53,18 @@ TEST(Upscale, SpectraAreCollisionsPerSecondInTheSlice) {
   EXPECT_DOUBLE_EQ(s.at("powder_rate_per_s").at(1), 5 * toe + 4 * bulk);
 }
 
+TEST(Upscale, MacroAnchoredSpectraScaleEachRegionsCellsToItsMacroDissipation) {
+  const json r = upscale(point_inputs(), 1.0);
+  // Loaded cells scaled by 2 W / 2 W at the toe and 3 W / 1.5 W in the bulk; the media-only cells
+  // by 2 W / 1.6 W and 3 W / 1.2 W.
+  const json& s = r.at("macro_anchored").at("spectra");
+  const double toe = 0.002 / 2e-4, bulk = 0.003 / 2e-4;
+  EXPECT_DOUBLE_EQ(s.at("powder_rate_per_s").at(1), 1.0 * 5 * toe + 2.0 * 4 * bulk);
+  EXPECT_DOUBLE_EQ(s.at("media_rate_no_powder_per_s").at(0), 1.25 * 20 * toe + 2.5 * 4 * bulk);
+  // The cells' own spectra are the same sums unscaled.
+  EXPECT_DOUBLE_EQ(r.at("spectra").at("powder_rate_per_s").at(1), 5 * toe + 4 * bulk);
+}
+
 TEST(Upscale, CouplingComparesTheMediaOnlyCellWithTheMacroShearStress) {
   const json r = upscale(point_inputs(), 1.0);
   const json& sites = r.at("sites");
