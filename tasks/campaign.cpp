@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -180,8 +181,124 @@ std::vector<engine::FieldRule> macro_fields() {
   };
 }
 
-std::vector<engine::FieldRule> micro_fields() {
+struct RegionRuleField {
+  const char* name;
+  const char* description;
+  double default_value;
+  std::optional<engine::Bound> minimum, maximum;
+};
+
+// The region rules (tasks/sites.hpp; docs/regions.md gives the reasons for the defaults).
+const std::vector<RegionRuleField>& region_rule_fields() {
+  static const std::vector<RegionRuleField> fields = {
+      {"charge_solid_fraction", "solid fraction from which a cell belongs to the charge", 0.02,
+       above(0), below(0.6)},
+      {"flight_solid_fraction",
+       "solid fraction below which the charge is in free flight (cataracting)", 0.2, above(0),
+       below(0.6)},
+      {"liner_layer_diameters", "thickness of the near-liner layer in ball diameters", 1.5,
+       at_least(0), at_most(10)},
+      {"toe_search_radius_fraction",
+       "radius around the macro run's toe point searched for the impact zone, and the toe's "
+       "largest radius, as a fraction of the mill radius",
+       0.5, above(0), at_most(1)},
+      {"impact_dissipation_fraction",
+       "fraction of the highest dissipation density near the toe point from which a cell is in "
+       "the impact zone",
+       0.5, above(0), at_most(1)},
+      {"toe_min_radius_fraction", "smallest toe radius as a fraction of the mill radius", 0.2,
+       at_least(0), at_most(1)},
+      {"shoulder_radius_fraction", "shoulder radius as a fraction of the mill radius", 0.2,
+       at_least(0), at_most(1)},
+      {"en_masse_max_slip",
+       "largest |V - omega x r| / (|omega| |r|) of a cell moving en masse with the shell (bulk)",
+       0.5, above(0), at_most(2)},
+  };
+  return fields;
+}
+
+// The rule fields below `prefix`: with their defaults for /sites/rules, without them for an
+// alternative rule set (whose absent fields are the default set's).
+std::vector<engine::FieldRule> region_rule_table(const std::string& prefix, bool with_defaults) {
+  std::vector<engine::FieldRule> rules;
+  for (const RegionRuleField& field : region_rule_fields()) {
+    Field rule(prefix + "/" + field.name, FieldType::number, field.description);
+    rule.range(field.minimum, field.maximum);
+    if (with_defaults) rule.defaults(field.default_value);
+    rules.push_back(rule);
+  }
+  return rules;
+}
+
+// Two alternatives that move the contested boundaries (toe, shoulder, en masse) both ways, so no
+// conclusion rests on one choice.
+json default_alternative_rules() {
+  return json::array({{{"name", "narrow"},
+                       {"rules",
+                        {{"impact_dissipation_fraction", 0.7},
+                         {"toe_min_radius_fraction", 0.1},
+                         {"shoulder_radius_fraction", 0.1},
+                         {"en_masse_max_slip", 0.3}}}},
+                      {{"name", "wide"},
+                       {"rules",
+                        {{"impact_dissipation_fraction", 0.3},
+                         {"toe_min_radius_fraction", 0.3},
+                         {"shoulder_radius_fraction", 0.3},
+                         {"en_masse_max_slip", 0.7}}}}});
+}
+
+std::vector<engine::FieldRule> site_fields() {
+  std::vector<engine::FieldRule> rules = {
+      Field("/sites", FieldType::object, "representative sites for the shear cells")
+          .defaults(json::object()),
+      Field("/sites/per_region", FieldType::integer, "sites chosen per flow region")
+          .defaults(2)
+          .range(at_least(1), at_most(20)),
+      Field("/sites/regions", FieldType::array, "flow regions that get sites")
+          .defaults(flow_regions)
+          .items(1, flow_regions.size())
+          .unique(),
+      Field("/sites/regions/*", FieldType::enumeration, "a flow region").choices(flow_regions),
+      Field("/sites/weight_by", FieldType::enumeration,
+            "what a site's weight in the upscaling is: the balls' volume in it (solid_volume) or "
+            "its geometric volume")
+          .defaults("solid_volume")
+          .choices({"solid_volume", "volume"}),
+      Field("/sites/rules", FieldType::object, "the rules that split the charge into regions")
+          .defaults(json::object()),
+      Field("/sites/alternatives", FieldType::array,
+            "alternative rule sets whose regions the results are also given for (sensitivity)")
+          .defaults(default_alternative_rules())
+          .items(0, 4),
+      Field("/sites/alternatives/*", FieldType::object, "one alternative rule set"),
+      Field("/sites/alternatives/*/name", FieldType::string, "the rule set's name")
+          .required()
+          .pattern("[a-z][a-z0-9_]*")
+          .hint("names are lower-case letters, digits and '_', starting with a letter"),
+      Field("/sites/alternatives/*/rules", FieldType::object,
+            "the rules that differ from /sites/rules")
+          .defaults(json::object()),
+  };
+  for (const auto& part : {region_rule_table("/sites/rules", true),
+                           region_rule_table("/sites/alternatives/*/rules", false)}) {
+    rules.insert(rules.end(), part.begin(), part.end());
+  }
+  return rules;
+}
+
+std::vector<engine::FieldRule> upscale_fields() {
   return {
+      Field("/upscale", FieldType::object, "the upscaling of the shear cells to the mill")
+          .defaults(json::object()),
+      Field("/upscale/include_unsteady", FieldType::boolean,
+            "whether cells that did not reach a steady state or converge count in the upscaling "
+            "(they are listed either way)")
+          .defaults(false),
+  };
+}
+
+std::vector<engine::FieldRule> micro_fields() {
+  std::vector<engine::FieldRule> rules = {
       Field("/average", FieldType::object, "coarse-graining over the mill cross-section")
           .defaults(json::object()),
       Field("/average/grid_cells", FieldType::array, "grid cells across the cross-section [nx, ny]")
@@ -193,16 +310,10 @@ std::vector<engine::FieldRule> micro_fields() {
             "coarse-graining kernel width in ball diameters")
           .defaults(1.5)
           .range(at_least(0.5), at_most(5)),
-      Field("/sites", FieldType::object, "representative sites for the shear cells")
-          .defaults(json::object()),
-      Field("/sites/per_region", FieldType::integer, "sites chosen per flow region")
-          .defaults(2)
-          .range(at_least(1), at_most(20)),
-      Field("/sites/regions", FieldType::array, "flow regions that get sites")
-          .defaults(flow_regions)
-          .items(1, flow_regions.size())
-          .unique(),
-      Field("/sites/regions/*", FieldType::enumeration, "a flow region").choices(flow_regions),
+  };
+  const auto sites = site_fields();
+  rules.insert(rules.end(), sites.begin(), sites.end());
+  const std::vector<engine::FieldRule> cells = {
       Field("/shear_cell", FieldType::object, "the microscale shear cells").required(),
       Field("/shear_cell/enabled", FieldType::boolean,
             "whether the campaign runs the microscale shear cells below its sites (false stops at "
@@ -257,6 +368,8 @@ std::vector<engine::FieldRule> micro_fields() {
           .required()
           .range(at_least(0), at_most(3)),
   };
+  rules.insert(rules.end(), cells.begin(), cells.end());
+  return rules;
 }
 
 std::vector<engine::FieldRule> executor_fields() {
@@ -327,8 +440,8 @@ engine::FieldTable make_campaign_table() {
             "the parameter study: the Cartesian product of the product axes and the zip groups")
           .opaque(),
   };
-  for (const auto& part :
-       {material_fields(), macro_fields(), micro_fields(), executor_fields(), sweep}) {
+  for (const auto& part : {material_fields(), macro_fields(), micro_fields(), upscale_fields(),
+                           executor_fields(), sweep}) {
     rules.insert(rules.end(), part.begin(), part.end());
   }
   return engine::FieldTable(std::move(rules));

@@ -117,13 +117,15 @@ class ConsistencyChecker {
     check_powder_material();
     check_interaction_pairs();
     check_lifters();
-    if (const auto balls = campaign_.balls()) {
+    const auto balls = campaign_.balls();
+    if (balls) {
       check_mass_fractions(*balls);
       check_balls_fit_mill(*balls);
       check_ball_count(*balls);
       check_sample_interval(*balls);
       check_powder_count();
     }
+    check_region_rules(balls ? std::optional(mean_diameter(*balls)) : std::nullopt);
     return std::move(errors_);
   }
 
@@ -368,6 +370,89 @@ class ConsistencyChecker {
           "use a diameter ratio of at least " + quantity(smallest) +
               ", a smaller cell or a lower load (at most " +
               fmt::format("{:.0f}", max_powder_particles) + " particles)");
+  }
+
+  // One rule set's values, each with the path it was written at (an alternative's own path, or
+  // /sites/rules for what it takes from there).
+  struct RuleValue {
+    double value;
+    std::string path;
+  };
+
+  std::optional<RuleValue> rule(const std::string& own_rules, const std::string& name) const {
+    if (const auto value = campaign_.number(own_rules + "/" + name))
+      return RuleValue{*value, own_rules + "/" + name};
+    if (const auto value = campaign_.number("/sites/rules/" + name))
+      return RuleValue{*value, "/sites/rules/" + name};
+    return std::nullopt;
+  }
+
+  // Rules that leave part of the charge in no region, or make one region swallow the others, are
+  // refused for the default set and for every alternative (an alternative's error is reported
+  // only where it sets one of the values).
+  void check_region_rules(const std::optional<double>& ball_diameter) {
+    std::vector<std::string> rule_sets = {"/sites/rules"};
+    if (const auto* alternatives = campaign_.node("/sites/alternatives");
+        alternatives && alternatives->is_array()) {
+      for (std::size_t i = 0; i < alternatives->size(); ++i)
+        rule_sets.push_back("/sites/alternatives/" + std::to_string(i) + "/rules");
+    }
+    for (const std::string& own : rule_sets) check_rule_set(own, ball_diameter);
+  }
+
+  void check_rule_set(const std::string& own, const std::optional<double>& ball_diameter) {
+    auto reported = [&](const RuleValue& a, const RuleValue& b) {
+      return own == "/sites/rules" || a.path.starts_with(own) || b.path.starts_with(own);
+    };
+    const auto charge = rule(own, "charge_solid_fraction");
+    const auto flight = rule(own, "flight_solid_fraction");
+    if (charge && flight && charge->value >= flight->value && reported(*charge, *flight)) {
+      error(charge->path,
+            "a charge threshold of " + quantity(charge->value) +
+                " is not below the free-flight threshold " + flight->path + " = " +
+                quantity(flight->value) +
+                ": the balls in flight between the two would belong to no region",
+            "use a charge solid fraction below " + quantity(flight->value) +
+                " (default 0.02), or raise " + flight->path);
+    }
+    const auto smallest = rule(own, "toe_min_radius_fraction");
+    const auto search = rule(own, "toe_search_radius_fraction");
+    if (smallest && search && smallest->value > search->value && reported(*smallest, *search)) {
+      error(smallest->path,
+            "a smallest toe radius of " + quantity(smallest->value) + " R exceeds the largest, " +
+                search->path + " = " + quantity(search->value) + " R",
+            "use a smallest toe radius of at most " + quantity(search->value) + " R, or widen " +
+                search->path);
+    }
+    if (ball_diameter) check_liner_layer(own, *ball_diameter);
+  }
+
+  // The near-liner layer must leave the charge at rest a core for the bulk and cascading regions.
+  void check_liner_layer(const std::string& own, double ball_diameter) {
+    const auto layer = rule(own, "liner_layer_diameters");
+    const auto fill = campaign_.number("/macro/fill");
+    const auto diameter = campaign_.number("/mill/diameter");
+    if (!layer || !fill || !diameter || !(own == "/sites/rules" || layer->path.starts_with(own)))
+      return;
+    const double depth = 0.5 * *diameter * (1.0 - std::cos(0.5 * segment_angle(*fill)));
+    if (layer->value * ball_diameter < 0.5 * depth) return;
+    error(layer->path,
+          "a near-liner layer " + quantity(layer->value) + " ball diameters (" +
+              quantity(layer->value * ball_diameter) + " m) thick is half or more of the " +
+              quantity(depth) + " m deep charge at fill " + quantity(*fill) +
+              ": it would leave no bulk or cascading region",
+          "use a layer of fewer than " + quantity(0.5 * depth / ball_diameter) + " ball diameters");
+  }
+
+  // The central angle theta of the circular segment that holds a fraction `fill` of the disc:
+  // fill = (theta - sin theta) / (2 pi), by bisection.
+  static double segment_angle(double fill) {
+    double low = 0.0, high = 2.0 * std::numbers::pi;
+    for (int i = 0; i < 60; ++i) {
+      const double mid = 0.5 * (low + high);
+      ((mid - std::sin(mid)) / (2.0 * std::numbers::pi) < fill ? low : high) = mid;
+    }
+    return 0.5 * (low + high);
   }
 
   const Campaign& campaign_;

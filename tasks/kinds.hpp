@@ -14,7 +14,8 @@ namespace millflow::tasks {
 void register_macro(engine::Registry& registry);
 // average: coarse-grained fields of one macro run. Upstream: the macro task.
 void register_average(engine::Registry& registry);
-// sites: flow regions and representative sites of one average. Upstream: the average task.
+// sites: flow regions and representative sites of one average. Upstream: the average and macro
+// tasks.
 void register_sites(engine::Registry& registry);
 // shear_cell: one microscale shear cell per site slot and powder load (tasks/shear_cell.hpp).
 // Upstream: the sites task.
@@ -31,6 +32,8 @@ nlohmann::json macro_params(const nlohmann::json& point);    // materials and in
                                                              // and liner, dem, mill, media, macro
 nlohmann::json average_params(const nlohmann::json& point);  // average
 nlohmann::json sites_params(const nlohmann::json& point);    // sites
+nlohmann::json upscale_params(const nlohmann::json& point);  // powder load, upscale, and the
+                                                             // media's and powder's densities
 nlohmann::json shear_cells_params(const nlohmann::json& point);  // shear_cell, dem.seed, media, and
                                                                  // the materials and interactions
                                                                  // of media and powder

@@ -60,6 +60,17 @@ nlohmann::json sites_params(const nlohmann::json& point) {
   return {{"sites", point.at("sites")}};
 }
 
+nlohmann::json upscale_params(const nlohmann::json& point) {
+  const nlohmann::json& materials = point.at("materials");
+  const nlohmann::json& powder = point.at("shear_cell").at("powder");
+  return {{"powder_load", powder.at("load")},
+          {"upscale", point.at("upscale")},
+          {"media_density_kg_m3",
+           materials.at(point.at("media").at("material").get<std::string>()).at("density")},
+          {"powder_density_kg_m3",
+           materials.at(powder.at("material").get<std::string>()).at("density")}};
+}
+
 std::vector<std::string> plan_shear_cells(engine::Plan& plan, const nlohmann::json& point,
                                           const std::string& sites) {
   const nlohmann::json base = shear_cells_params(point);
@@ -93,7 +104,7 @@ void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
     const nlohmann::json& document = point.document;
     const std::string macro = plan.add("macro", macro_params(document));
     const std::string average = plan.add("average", average_params(document), {macro});
-    const std::string sites = plan.add("sites", sites_params(document), {average});
+    const std::string sites = plan.add("sites", sites_params(document), {average, macro});
     if (!document.at("shear_cell").at("enabled").get<bool>()) continue;
     const double load = document.at("shear_cell").at("powder").at("load").get<double>();
     std::vector<std::string> upstream = {macro, average, sites};
@@ -102,10 +113,11 @@ void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
       for (const auto& cell : plan_shear_cells(plan, without_powder(document), sites))
         upstream.push_back(cell);
     }
-    report_inputs.push_back(plan.add("upscale", {{"powder_load", load}}, std::move(upstream)));
-    // The loads of a fill and speed share one average: the report needs it once.
-    if (std::find(report_inputs.begin(), report_inputs.end(), average) == report_inputs.end()) {
-      report_inputs.push_back(average);
+    report_inputs.push_back(plan.add("upscale", upscale_params(document), std::move(upstream)));
+    // The loads of a fill and speed share one average and sites task: the report needs each once.
+    for (const std::string& shared : {average, sites}) {
+      if (std::find(report_inputs.begin(), report_inputs.end(), shared) == report_inputs.end())
+        report_inputs.push_back(shared);
     }
   }
   if (!report_inputs.empty())

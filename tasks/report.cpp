@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "tasks/report_inputs.hpp"
+#include "tasks/report_regions.hpp"
 #include "tasks/sites.hpp"
 #include "tasks/svg_plot.hpp"
 
@@ -476,11 +477,13 @@ engine::TaskOutcome run_report(engine::TaskContext& context) {
   for (const Slice& slice : slices)
     out.write(maps_file(slice),
               maps_figure(slice, inputs.flow_maps.at(slice.first().average_task)).svg);
+  const report::RegionSection regions = report::region_section(context.inputs, inputs.flow_maps);
+  for (const auto& [name, svg] : regions.files) out.write(name, svg);
   out.write("coupling.svg", coupling_figure(slices).svg);
   out.write("upscaled.csv", upscaled_csv(points));
   out.write("sites.csv", sites_csv(points));
   out.write("spectra.csv", spectra_csv(points));
-  out.write("index.md", index_page(campaign, points, slices));
+  out.write("index.md", index_page(campaign, points, slices) + "\n" + regions.markdown);
 
   engine::TaskOutcome outcome =
       engine::TaskOutcome::with_result(result_of(campaign, points, slices, out.names()));

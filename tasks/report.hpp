@@ -3,7 +3,8 @@
 // index.md page over every upscale point of the campaign.
 //
 // Parameters: {"campaign": name} (the page's title). Inputs, found by kind (never by position):
-// every "upscale" task of the campaign and the "average" tasks they name (their fields.json), see
+// every "upscale" task of the campaign, the "average" tasks they name (their fields.json) and
+// the "sites" tasks of the same points (their regions), see
 // tasks/report_inputs.hpp. Files, written into the work directory and returned as artifacts of
 // the same names:
 //   power_draw.svg           macro power draw vs speed fraction per fill (solid), and the draw
@@ -16,6 +17,11 @@
 //                            speed, a step line per powder load;
 //   maps_<fill>_<speed>.svg  shear rate, normal stress and dissipation over the cross-section with
 //                            the sites marked (from the average task of that fill and speed);
+//   regions_<fill>_<speed>.svg  the flow regions over the cross-section with the charge outline,
+//                            toe and shoulder, and index.md's region, sensitivity and
+//                            both-upscalings tables and its list of the cells left out of the
+//                            upscaling (tasks/report_regions.hpp; from the sites inputs, none
+//                            without);
 //   coupling.svg             media-only cell vs macro shear stress per site, with the 1:1 line;
 //   upscaled.csv             one row per point x region;  sites.csv  one row per point x site;
 //   spectra.csv              one row per point x energy bin;
@@ -31,7 +37,7 @@
 namespace millflow::tasks {
 
 // Bump whenever the report's files or result change.
-inline constexpr const char* kReportVersion = "2";
+inline constexpr const char* kReportVersion = "3";
 
 engine::TaskOutcome run_report(engine::TaskContext& context);
 

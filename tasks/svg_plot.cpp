@@ -550,6 +550,81 @@ Figure heat_map(const HeatMap& map) {
   return {width, kHeight, out + body + "</svg>\n"};
 }
 
+Figure category_map(const CategoryMap& map) {
+  constexpr double kSide = 300, kLeft = 16, kTop = 36, kLegendX = kLeft + kSide + 24;
+  constexpr double kWidth = kLegendX + 130, kHeight = kTop + kSide + 24;
+  const CrossSectionGrid& grid = map.grid;
+  const auto categories = static_cast<int>(map.names.size());
+  if (grid.nx < 1 || grid.ny < 1 || !(grid.half_width > 0.0) ||
+      map.category.size() != grid.size() ||
+      std::any_of(map.category.begin(), map.category.end(),
+                  [&](int c) { return c < -1 || c >= categories; })) {
+    throw std::invalid_argument(fmt::format(
+        "category map \"{}\": {} categories for a {} x {} grid, {} names: give one category per "
+        "cell, -1 or an index into the names",
+        map.title, map.category.size(), grid.nx, grid.ny, map.names.size()));
+  }
+  const double scale = kSide / (2.0 * grid.half_width);
+  auto to_x = [&](double x) { return kLeft + (x + grid.half_width) * scale; };
+  auto to_y = [&](double y) { return kTop + (grid.half_width - y) * scale; };
+  auto categorised = [&](int i, int j) {
+    return i >= 0 && j >= 0 && i < grid.nx && j < grid.ny && map.category[grid.index(i, j)] >= 0;
+  };
+  std::string out = svg_open(kWidth, kHeight);
+  out += text(kWidth / 2, 22, map.title, "text-anchor=\"middle\" font-size=\"14\"");
+  out += "<g shape-rendering=\"crispEdges\">\n";
+  std::string outline;
+  for (int j = 0; j < grid.ny; ++j) {
+    for (int i = 0; i < grid.nx; ++i) {
+      if (!categorised(i, j)) continue;
+      const double x0 = to_x(grid.x(i) - grid.dx() / 2), x1 = to_x(grid.x(i) + grid.dx() / 2);
+      const double y0 = to_y(grid.y(j) - grid.dy() / 2), y1 = to_y(grid.y(j) + grid.dy() / 2);
+      out +=
+          fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"{}\"/>\n", px(x0),
+                      px(y1), px(x1 - x0), px(y0 - y1), palette(map.category[grid.index(i, j)], 0));
+      // An edge of the outline wherever the neighbour across it has no category.
+      const std::array<std::array<double, 4>, 4> edges = {
+          {{x0, y0, x0, y1}, {x1, y0, x1, y1}, {x0, y0, x1, y0}, {x0, y1, x1, y1}}};
+      const std::array<bool, 4> open = {!categorised(i - 1, j), !categorised(i + 1, j),
+                                        !categorised(i, j - 1), !categorised(i, j + 1)};
+      for (std::size_t e = 0; e < edges.size(); ++e) {
+        if (!open[e]) continue;
+        outline += fmt::format("M{} {}L{} {}", px(edges[e][0]), px(edges[e][1]), px(edges[e][2]),
+                               px(edges[e][3]));
+      }
+    }
+  }
+  for (int c = 0; c < categories; ++c) {
+    const double y = kTop + 8 + 18 * c;
+    out += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"12\" height=\"12\" fill=\"{}\"/>\n",
+                       px(kLegendX), px(y), palette(c, 0));
+  }
+  out += "</g>\n";
+  for (int c = 0; c < categories; ++c)
+    out += text(kLegendX + 18, kTop + 18 + 18 * c, map.names[static_cast<std::size_t>(c)]);
+  if (!outline.empty()) {
+    out += fmt::format("<path d=\"{}\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\"/>\n",
+                       outline);
+  }
+  out += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"{}\" fill=\"none\" stroke=\"black\"/>\n",
+                     px(to_x(0)), px(to_y(0)), px(kSide / 2));
+  for (const MapDisc& disc : map.discs) {
+    out += fmt::format(
+        "<circle cx=\"{}\" cy=\"{}\" r=\"{}\" fill=\"none\" stroke=\"black\" "
+        "stroke-dasharray=\"4 3\"/>\n",
+        px(to_x(disc.x)), px(to_y(disc.y)), px(disc.radius * scale));
+    out += text(to_x(disc.x), to_y(disc.y), disc.label,
+                "text-anchor=\"middle\" font-size=\"11\" font-weight=\"bold\"");
+  }
+  for (const MapMarker& marker : map.markers) {
+    out += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"4\" fill=\"black\"/>\n", px(to_x(marker.x)),
+                       px(to_y(marker.y)));
+    out += text(to_x(marker.x) + 6, to_y(marker.y) - 6, marker.label,
+                "font-size=\"11\" font-weight=\"bold\"");
+  }
+  return {kWidth, kHeight, out + "</svg>\n"};
+}
+
 Figure panel_grid(const std::vector<Figure>& panels, int columns, const std::string& title) {
   if (columns < 1)
     throw std::invalid_argument(fmt::format("{} panel columns: give at least 1", columns));

@@ -123,6 +123,28 @@ struct HeatMap {
 // Throws std::invalid_argument when values do not match the grid.
 Figure heat_map(const HeatMap& map);
 
+// A map of categories (e.g. flow regions) over the cross-section grid: each cell with a category
+// (index into `names`, -1 for none) is filled with that category's palette colour; the boundary
+// of the categorised cells is one <path> (the outline); the legend lists the names with <rect>
+// swatches. The mill outline and each marker are one <circle>; each disc is one dashed <circle>
+// of its radius. Throws std::invalid_argument when the categories do not match the grid or name
+// an unknown category.
+struct MapDisc {
+  double x = 0.0, y = 0.0, radius = 0.0;  // m
+  std::string label{};
+};
+
+struct CategoryMap {
+  std::string title{};
+  CrossSectionGrid grid{};
+  std::vector<int> category{};  // grid.size()
+  std::vector<std::string> names{};
+  std::vector<MapMarker> markers{};
+  std::vector<MapDisc> discs{};
+};
+
+Figure category_map(const CategoryMap& map);
+
 // Panels in rows of `columns` (each cell as large as the largest panel, kPanelGap apart), under
 // a title.
 inline constexpr double kPanelGap = 24;

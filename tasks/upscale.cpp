@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -28,13 +30,39 @@ const engine::TaskInput& only_input(const engine::TaskContext& context, const st
   return *found;
 }
 
-// Finished (not skipped) cells at one powder load, by site id.
-std::map<std::string, const json*> cells_at_load(const engine::TaskContext& context, double load) {
-  std::map<std::string, const json*> cells;
+// Why a finished cell does not count by default (empty when it does): tasks/upscale.hpp.
+std::string left_out_reason(const json& cell) {
+  const bool steady = cell.contains("steady") ? cell.at("steady").get<bool>()
+                                              : cell.at("steady_state").at("steady").get<bool>();
+  const bool converged = cell.contains("converged") ? cell.at("converged").get<bool>() : steady;
+  if (!steady) return "not steady";
+  if (!converged) return "not converged";
+  return {};
+}
+
+// The finished (not skipped) cells that count, at load U and at load 0, by site id, and the
+// cells left out or counted against their flags.
+struct UsableCells {
+  std::map<std::string, const json*> loaded, baseline;
+  json flagged = json::array();
+};
+
+UsableCells usable_cells(const engine::TaskContext& context, double load, bool include_unsteady) {
+  UsableCells cells;
   for (const auto& input : context.inputs) {
     if (input.kind != "shear_cell" || input.result.contains("skipped")) continue;
-    if (input.result.at("powder_load").get<double>() != load) continue;
-    cells[input.result.at("site").at("site_id").get<std::string>()] = &input.result;
+    const double cell_load = input.result.at("powder_load").get<double>();
+    if (cell_load != load && cell_load != 0.0) continue;
+    const std::string id = input.result.at("site").at("site_id").get<std::string>();
+    if (const std::string reason = left_out_reason(input.result); !reason.empty()) {
+      cells.flagged.push_back({{"site_id", id},
+                               {"powder_load", cell_load},
+                               {"reason", reason},
+                               {"counted", include_unsteady}});
+      if (!include_unsteady) continue;
+    }
+    if (cell_load == load) cells.loaded[id] = &input.result;
+    if (cell_load == 0.0) cells.baseline[id] = &input.result;
   }
   return cells;
 }
@@ -44,83 +72,342 @@ const json* cell_of(const std::map<std::string, const json*>& cells, const std::
   return found == cells.end() ? nullptr : found->second;
 }
 
-double powder_dissipation(const json& cell) {
-  return cell.at("powder_dissipation_w_m3").get<double>();
-}
-double power_input(const json& cell) {
-  return cell.at("power_density_w_m3").get<double>();
-}
-double media_collision_dissipation(const json& cell) {
-  const json& d = cell.at("dissipation_w_m3");
-  return d.at("media-media").get<double>() + d.at("wall-media").get<double>();
-}
-
 json ratio_or_null(double numerator, double denominator) {
   return denominator > 0.0 ? json(numerator / denominator) : json(nullptr);
 }
 
-// Sums over the sites of one region (or of all), W in the simulated slice.
-struct PowerSums {
-  int sites = 0;
-  double volume = 0.0, powder = 0.0, media = 0.0, collisions = 0.0, collisions_no_powder = 0.0;
-  double input = 0.0, input_no_powder = 0.0;  // over the sites with both cells
+// The cell's standard error at `path` under "standard_errors", when it reports one.
+std::optional<double> standard_error(const json& cell, std::initializer_list<const char*> path) {
+  if (!cell.contains("standard_errors")) return std::nullopt;
+  const json* node = &cell.at("standard_errors");
+  for (const char* key : path) {
+    if (!node->is_object() || !node->contains(key)) return std::nullopt;
+    node = &node->at(key);
+  }
+  return node->is_number() ? std::optional(node->get<double>()) : std::nullopt;
+}
 
-  void add(double weight, const json& loaded, const json* baseline) {
+// The figures of one cell the upscaling sums, per unit cell volume, with their standard errors.
+struct CellFigures {
+  double input, powder, collisions, collision_rate;
+  std::optional<double> input_se, powder_se, collisions_se, collision_rate_se;
+};
+
+CellFigures figures_of(const json& cell) {
+  const json& d = cell.at("dissipation_w_m3");
+  const json& media = cell.at("collisions").at("media");
+  const double count = media.at("count").get<double>(),
+               rate = media.at("rate_per_m3_s").get<double>();
+  const auto media_media = standard_error(cell, {"dissipation_w_m3", "media-media"});
+  const auto wall_media = standard_error(cell, {"dissipation_w_m3", "wall-media"});
+  return {.input = cell.at("power_density_w_m3").get<double>(),
+          .powder = cell.at("powder_dissipation_w_m3").get<double>(),
+          .collisions = d.at("media-media").get<double>() + d.at("wall-media").get<double>(),
+          .collision_rate = rate,
+          .input_se = standard_error(cell, {"power_density_w_m3"}),
+          .powder_se = standard_error(cell, {"powder_dissipation_w_m3"}),
+          .collisions_se =
+              media_media && wall_media ? std::optional(*media_media + *wall_media) : std::nullopt,
+          .collision_rate_se = count > 0.0 ? std::optional(rate / std::sqrt(count)) : std::nullopt};
+}
+
+// What a cell at `site` counts for (tasks/upscale.hpp, Weights).
+double weight(const json& site, const json& cell, WeightBasis basis) {
+  if (basis == WeightBasis::volume) return site.at("weight_m3").get<double>();
+  return site.at("solid_volume_m3").get<double>() / cell.at("media_solid_fraction").get<double>();
+}
+
+// A weighted sum of cells' figures and its variance; unknown once a cell lacks its error.
+struct Sum {
+  double value = 0.0, variance = 0.0;
+  bool known = true;
+
+  void add(double w, double x, const std::optional<double>& se) {
+    value += w * x;
+    if (se)
+      variance += w * w * *se * *se;
+    else
+      known = false;
+  }
+  void merge(const Sum& other) {
+    value += other.value;
+    variance += other.variance;
+    known = known && other.known;
+  }
+  Sum scaled(double k) const { return {k * value, k * k * variance, known}; }
+  std::optional<double> relative_error() const {
+    if (!known || value == 0.0) return std::nullopt;
+    return std::sqrt(variance) / std::abs(value);
+  }
+  json se() const { return known ? json(std::sqrt(variance)) : json(nullptr); }
+};
+
+// a / b with its standard error (relative errors in quadrature), null when b is not positive.
+std::pair<json, json> ratio(const Sum& a, const Sum& b) {
+  if (b.value <= 0.0) return {nullptr, nullptr};
+  const double r = a.value / b.value;
+  const auto ea = a.relative_error(), eb = b.relative_error();
+  return {r, ea && eb ? json(std::abs(r) * std::hypot(*ea, *eb)) : json(nullptr)};
+}
+
+// Sums over the sites of one region (or of all), W or collisions per second in the slice: at
+// load U over the sites with a loaded cell; at load 0 (and `input_paired`, at load U) over those
+// that also have a baseline cell.
+struct PowerSums {
+  int sites = 0, paired_sites = 0;
+  double volume = 0.0, solid_volume = 0.0;
+  Sum powder, input, collisions, rate;
+  Sum input_paired, input_no_powder, collisions_no_powder, rate_no_powder;
+
+  void add(const json& site, WeightBasis basis, const json& loaded, const json* baseline) {
     ++sites;
-    volume += weight;
-    powder += weight * powder_dissipation(loaded);
-    media += weight * (power_input(loaded) - powder_dissipation(loaded));
-    collisions += weight * media_collision_dissipation(loaded);
+    volume += site.at("weight_m3").get<double>();
+    solid_volume += site.at("solid_volume_m3").get<double>();
+    const double w = weight(site, loaded, basis);
+    const CellFigures u = figures_of(loaded);
+    powder.add(w, u.powder, u.powder_se);
+    input.add(w, u.input, u.input_se);
+    collisions.add(w, u.collisions, u.collisions_se);
+    rate.add(w, u.collision_rate, u.collision_rate_se);
     if (!baseline) return;
-    collisions_no_powder += weight * media_collision_dissipation(*baseline);
-    input += weight * power_input(loaded);
-    input_no_powder += weight * power_input(*baseline);
+    ++paired_sites;
+    const double w0 = weight(site, *baseline, basis);
+    const CellFigures b = figures_of(*baseline);
+    input_paired.add(w, u.input, u.input_se);
+    input_no_powder.add(w0, b.input, b.input_se);
+    collisions_no_powder.add(w0, b.collisions, b.collisions_se);
+    rate_no_powder.add(w0, b.collision_rate, b.collision_rate_se);
+  }
+
+  void merge(const PowerSums& r) {
+    sites += r.sites;
+    paired_sites += r.paired_sites;
+    volume += r.volume;
+    solid_volume += r.solid_volume;
+    for (auto [mine, theirs] : {std::pair{&powder, &r.powder},
+                                {&input, &r.input},
+                                {&collisions, &r.collisions},
+                                {&rate, &r.rate},
+                                {&input_paired, &r.input_paired},
+                                {&input_no_powder, &r.input_no_powder},
+                                {&collisions_no_powder, &r.collisions_no_powder},
+                                {&rate_no_powder, &r.rate_no_powder}}) {
+      mine->merge(*theirs);
+    }
+  }
+
+  // The region's sums with its cells' power at each load set to the macro dissipation D
+  // (tasks/upscale.hpp, macro_anchored; the scaling is taken as exact in the errors).
+  // The factors that set the cells' power input at load U and at load 0 to D.
+  std::pair<double, double> anchor_factors(double macro_dissipation) const {
+    return {input.value > 0.0 ? macro_dissipation / input.value : 0.0,
+            input_no_powder.value > 0.0 ? macro_dissipation / input_no_powder.value : 0.0};
+  }
+
+  PowerSums anchored(double macro_dissipation) const {
+    PowerSums a = *this;
+    const auto [k, k0] = anchor_factors(macro_dissipation);
+    for (Sum* loaded : {&a.powder, &a.input, &a.collisions, &a.rate, &a.input_paired})
+      *loaded = loaded->scaled(k);
+    for (Sum* reference : {&a.input_no_powder, &a.collisions_no_powder, &a.rate_no_powder})
+      *reference = reference->scaled(k0);
+    return a;
   }
 };
 
-json region_json(const std::string& name, const PowerSums& r, double total_powder) {
-  return {{"region", name},
-          {"sites", r.sites},
+// The figures of one region (or of all) under one method.
+json method_json(const PowerSums& r, const Sum& total_powder) {
+  const auto [share, share_se] = ratio(r.powder, total_powder);
+  const auto [cushioning, cushioning_se] = ratio(r.collisions, r.collisions_no_powder);
+  const auto [rate_factor, rate_factor_se] = ratio(r.rate, r.rate_no_powder);
+  json energy_factor = nullptr, energy_factor_se = nullptr;
+  if (cushioning.is_number() && rate_factor.is_number() && rate_factor.get<double>() > 0.0) {
+    energy_factor = cushioning.get<double>() / rate_factor.get<double>();
+    if (cushioning_se.is_number() && rate_factor_se.is_number()) {
+      energy_factor_se = energy_factor.get<double>() *
+                         std::hypot(cushioning_se.get<double>() / cushioning.get<double>(),
+                                    rate_factor_se.get<double>() / rate_factor.get<double>());
+    }
+  }
+  return {{"sites", r.sites},
           {"volume_m3", r.volume},
-          {"powder_power_w", r.powder},
-          {"powder_power_share", ratio_or_null(r.powder, total_powder)},
-          {"media_power_w", r.media},
-          {"media_collision_power_w", r.collisions},
-          {"media_collision_power_no_powder_w", r.collisions_no_powder},
-          {"cushioning", ratio_or_null(r.collisions, r.collisions_no_powder)}};
+          {"solid_volume_m3", r.solid_volume},
+          {"powder_power_w", r.powder.value},
+          {"powder_power_w_se", r.powder.se()},
+          {"powder_power_share", share},
+          {"powder_power_share_se", share_se},
+          {"media_power_w", r.input.value - r.powder.value},
+          {"media_collision_power_w", r.collisions.value},
+          {"media_collision_power_no_powder_w", r.collisions_no_powder.value},
+          {"cushioning", cushioning},
+          {"cushioning_se", cushioning_se},
+          {"cushioning_rate_factor", rate_factor},
+          {"cushioning_rate_factor_se", rate_factor_se},
+          {"cushioning_energy_factor", energy_factor},
+          {"cushioning_energy_factor_se", energy_factor_se}};
 }
 
-// Collision rates per energy bin in the slice, for the "media" and "powder" spectra of the cells.
+// The macro run's dissipation per region, from a sites result's regions (or a rule set's).
+std::map<std::string, double> macro_dissipation(const json& regions) {
+  std::map<std::string, double> by_region;
+  for (const json& r : regions)
+    by_region[r.at("name").get<std::string>()] = r.at("dissipation_w").get<double>();
+  return by_region;
+}
+
+// The region with the most powder power, or null when none has any.
+json dominant_of(const std::map<std::string, double>& powder) {
+  json dominant = nullptr;
+  double most = 0.0;
+  for (const std::string& name : region_names()) {
+    const auto found = powder.find(name);
+    if (found != powder.end() && found->second > most) {
+      most = found->second;
+      dominant = name;
+    }
+  }
+  return dominant;
+}
+
+// The regions of one method in region_names() order, with the totals, from its per-region sums.
+// `cells` (the unscaled sums) give each region's cell_to_macro_power_ratio under both methods.
+json method_result(const std::string& method, const std::map<std::string, PowerSums>& regions,
+                   const std::map<std::string, double>& macro,
+                   const std::map<std::string, PowerSums>& cells) {
+  PowerSums all;
+  for (const auto& [name, sums] : regions) all.merge(sums);
+  json rows = json::array();
+  std::map<std::string, double> powder;
+  for (const std::string& name : region_names()) {
+    const auto found = regions.find(name);
+    if (found == regions.end()) continue;
+    json row = method_json(found->second, all.powder);
+    const double dissipation = macro.count(name) ? macro.at(name) : 0.0;
+    row["region"] = name;
+    row["method"] = method;
+    row["macro_dissipation_w"] = dissipation;
+    const PowerSums& own = cells.at(name);
+    row["cell_to_macro_power_ratio"] = own.paired_sites > 0
+                                           ? ratio_or_null(own.input_no_powder.value, dissipation)
+                                           : json(nullptr);
+    rows.push_back(std::move(row));
+    powder[name] = found->second.powder.value;
+  }
+  json result = method_json(all, all.powder);
+  result["method"] = method;
+  result["regions"] = std::move(rows);
+  result["dominant_region"] = dominant_of(powder);
+  return result;
+}
+
+// Collision rates per energy bin in the slice: the "media" and "powder" spectra of the loaded
+// cells and the "media" spectrum of the baseline cells.
 class SpectrumSum {
  public:
   void add(double weight, const json& cell) {
+    accumulate(cell, "media", weight, media_);
+    accumulate(cell, "powder", weight, powder_);
+  }
+  void add_baseline(double weight, const json& cell) {
+    accumulate(cell, "media", weight, media_no_powder_);
+  }
+  // Another sum, its loaded spectra scaled by k and its baseline spectrum by k0.
+  void add_scaled(const SpectrumSum& other, double k, double k0) {
+    if (other.edges_.empty()) return;
+    if (edges_.empty()) {
+      edges_ = other.edges_;
+      for (auto* r : {&media_, &powder_, &media_no_powder_}) r->assign(edges_.size() - 1, 0.0);
+    } else if (other.edges_ != edges_) {
+      throw std::invalid_argument(
+          "upscale: shear cells with different spectrum bins: re-run them with one version");
+    }
+    for (std::size_t b = 0; b < media_.size(); ++b) {
+      media_[b] += k * other.media_[b];
+      powder_[b] += k * other.powder_[b];
+      media_no_powder_[b] += k0 * other.media_no_powder_[b];
+    }
+  }
+
+  json to_json() const {
+    return {{"bin_edges_j", edges_},
+            {"powder_rate_per_s", powder_},
+            {"media_rate_per_s", media_},
+            {"media_rate_no_powder_per_s", media_no_powder_}};
+  }
+
+  // tasks/upscale.hpp, spectra: the media spectrum above the media-only median's bin.
+  json media_shift() const {
+    const double total = sum_from(media_no_powder_, 0);
+    if (total <= 0.0) return nullptr;
+    std::size_t median = 0;
+    double below = 0.0;
+    while (median + 1 < media_no_powder_.size() && below + media_no_powder_[median] < 0.5 * total)
+      below += media_no_powder_[median++];
+    const double loaded = sum_from(media_, 0);
+    return {
+        {"threshold_j", edges_[median]},
+        {"fraction_above", loaded > 0.0 ? json(sum_from(media_, median) / loaded) : json(nullptr)},
+        {"fraction_above_no_powder", sum_from(media_no_powder_, median) / total}};
+  }
+
+ private:
+  static double sum_from(const std::vector<double>& rates, std::size_t first) {
+    double sum = 0.0;
+    for (std::size_t k = first; k < rates.size(); ++k) sum += rates[k];
+    return sum;
+  }
+
+  void accumulate(const json& cell, const char* kind, double weight, std::vector<double>& rates) {
     const json& spectra = cell.at("spectra");
     const auto edges = spectra.at("bin_edges_j").get<std::vector<double>>();
     if (edges_.empty()) {
       edges_ = edges;
-      media_.assign(edges.size() - 1, 0.0);
-      powder_.assign(edges.size() - 1, 0.0);
+      for (auto* r : {&media_, &powder_, &media_no_powder_}) r->assign(edges.size() - 1, 0.0);
     } else if (edges != edges_) {
       throw std::invalid_argument(
           "upscale: shear cells with different spectrum bins: re-run them with one version");
     }
     const double scale =
         weight / (cell.at("volume_m3").get<double>() * cell.at("duration_s").get<double>());
-    accumulate(spectra.at("media").at("counts"), scale, media_);
-    accumulate(spectra.at("powder").at("counts"), scale, powder_);
-  }
-
-  json to_json() const {
-    return {{"bin_edges_j", edges_}, {"powder_rate_per_s", powder_}, {"media_rate_per_s", media_}};
-  }
-
- private:
-  static void accumulate(const json& counts, double scale, std::vector<double>& rates) {
+    const json& counts = spectra.at(kind).at("counts");
     for (std::size_t k = 0; k < rates.size(); ++k) rates[k] += scale * counts.at(k).get<double>();
   }
 
-  std::vector<double> edges_, media_, powder_;
+  std::vector<double> edges_, media_, powder_, media_no_powder_;
 };
+
+// Powder mass over media mass in a loaded cell.
+double powder_mass_ratio(const json& cell, const json& params) {
+  return params.at("powder_density_kg_m3").get<double>() *
+         cell.at("powder_solid_fraction").get<double>() /
+         (params.at("media_density_kg_m3").get<double>() *
+          cell.at("media_solid_fraction").get<double>());
+}
+
+// Each rule set's powder power per region with the macro-anchored method (tasks/upscale.hpp).
+json sensitivity(const json& rule_sets, const std::map<std::string, PowerSums>& cells) {
+  json result = json::array();
+  for (const json& set : rule_sets) {
+    std::map<std::string, double> powder;
+    double total = 0.0;
+    json rows = json::array();
+    for (const auto& [name, dissipation] : macro_dissipation(set.at("regions"))) {
+      const auto found = cells.find(name);
+      if (found == cells.end() || found->second.input.value <= 0.0) continue;
+      powder[name] = dissipation * found->second.powder.value / found->second.input.value;
+      total += powder[name];
+      rows.push_back({{"region", name},
+                      {"macro_dissipation_w", dissipation},
+                      {"powder_power_w", powder[name]}});
+    }
+    result.push_back({{"rule_set", set.at("name")},
+                      {"regions", rows},
+                      {"dominant_region", dominant_of(powder)},
+                      {"toe_powder_power_share",
+                       powder.count("toe") ? ratio_or_null(powder["toe"], total) : json(nullptr)}});
+  }
+  return result;
+}
 
 json site_row(const json& site, const json* loaded, const json* baseline) {
   const double macro_tau = site.at("shear_stress_pa").get<double>();
@@ -174,64 +461,85 @@ json mill_json(const json& macro) {
 }  // namespace
 
 engine::TaskOutcome run_upscale(engine::TaskContext& context) {
-  const double load = context.params.at("powder_load").get<double>();
+  const json& params = context.params;
+  const double load = params.at("powder_load").get<double>();
   const json& macro = only_input(context, "macro").result;
-  const json& sites = only_input(context, "sites").result.at("sites");
-  const auto loaded = cells_at_load(context, load), baseline = cells_at_load(context, 0.0);
+  const json& sites_result = only_input(context, "sites").result;
+  const WeightBasis basis = sites_result.at("weight_by").get<std::string>() == "volume"
+                                ? WeightBasis::volume
+                                : WeightBasis::solid_volume;
+  const UsableCells cells =
+      usable_cells(context, load, params.at("upscale").at("include_unsteady").get<bool>());
 
   std::map<std::string, PowerSums> by_region;
-  PowerSums all;
-  SpectrumSum spectra;
+  std::map<std::string, SpectrumSum> region_spectra;
+  double powder_mass = 0.0, solid_volume = 0.0;
   json site_rows = json::array();
-  for (const json& site : sites) {
+  for (const json& site : sites_result.at("sites")) {
     const std::string id = site.at("site_id").get<std::string>();
-    const json* cell = cell_of(loaded, id);
-    const json* reference = cell_of(baseline, id);
+    const json* cell = cell_of(cells.loaded, id);
+    const json* reference = cell_of(cells.baseline, id);
     site_rows.push_back(site_row(site, cell, reference));
     if (!cell) continue;
-    const double weight = site.at("weight_m3").get<double>();
-    by_region[site.at("region").get<std::string>()].add(weight, *cell, reference);
-    all.add(weight, *cell, reference);
-    spectra.add(weight, *cell);
+    by_region[site.at("region").get<std::string>()].add(site, basis, *cell, reference);
+    SpectrumSum& spectra = region_spectra[site.at("region").get<std::string>()];
+    spectra.add(weight(site, *cell, basis), *cell);
+    if (reference) spectra.add_baseline(weight(site, *reference, basis), *reference);
+    powder_mass += site.at("solid_volume_m3").get<double>() * powder_mass_ratio(*cell, params);
+    solid_volume += site.at("solid_volume_m3").get<double>();
   }
 
-  json regions = json::array();
-  std::string dominant;
-  double dominant_power = -1.0;
-  for (const std::string& name : region_names()) {
-    const auto found = by_region.find(name);
-    if (found == by_region.end()) continue;
-    regions.push_back(region_json(name, found->second, all.powder));
-    if (found->second.powder > dominant_power) {
-      dominant_power = found->second.powder;
-      dominant = name;
-    }
+  const auto macro_by_region = macro_dissipation(sites_result.at("regions"));
+  std::map<std::string, PowerSums> anchored;
+  SpectrumSum spectra, anchored_spectra;
+  double covered = 0.0;
+  for (const auto& [name, sums] : by_region) {
+    const double dissipation = macro_by_region.count(name) ? macro_by_region.at(name) : 0.0;
+    anchored[name] = sums.anchored(dissipation);
+    covered += dissipation;
+    spectra.add_scaled(region_spectra.at(name), 1.0, 1.0);
+    const auto [k, k0] = sums.anchor_factors(dissipation);
+    anchored_spectra.add_scaled(region_spectra.at(name), k, k0);
   }
+  double regions_dissipation = 0.0;
+  for (const auto& [name, dissipation] : macro_by_region) regions_dissipation += dissipation;
+  json macro_anchored = method_result("macro_anchored", anchored, macro_by_region, by_region);
+  macro_anchored["macro_dissipation_w"] = covered;
+  macro_anchored["uncovered_macro_dissipation_w"] = regions_dissipation - covered;
+  macro_anchored["spectra"] = anchored_spectra.to_json();
+  macro_anchored["media_spectrum_shift"] = anchored_spectra.media_shift();
+
+  json result = method_result("cells", by_region, macro_by_region, by_region);
+  PowerSums all;
+  for (const auto& [name, sums] : by_region) all.merge(sums);
+  const double mass_ratio = solid_volume > 0.0 ? powder_mass / solid_volume : 0.0;
   const double power_draw = macro.at("power").at("mean_w").get<double>();
-  json result = {
+  result.update(json{
       {"fill", macro.at("fill")},
       {"speed_fraction", macro.at("speed_fraction")},
       {"powder_load", load},
       {"average_task", only_input(context, "average").key},
+      {"sites_task", only_input(context, "sites").key},
       {"mill", mill_json(macro)},
-      {"power_draw_with_powder_w", all.input_no_powder > 0.0
-                                       ? json(power_draw * all.input / all.input_no_powder)
+      {"powder_to_media_mass_ratio", mass_ratio},
+      {"power_draw_with_powder_w", all.input_no_powder.value > 0.0
+                                       ? json(power_draw * (1.0 + mass_ratio) *
+                                              all.input_paired.value / all.input_no_powder.value)
                                        : json(nullptr)},
-      {"powder_power_w", all.powder},
-      {"media_power_w", all.media},
-      {"media_collision_power_w", all.collisions},
-      {"media_collision_power_no_powder_w", all.collisions_no_powder},
-      {"cushioning", ratio_or_null(all.collisions, all.collisions_no_powder)},
-      {"regions", regions},
-      {"dominant_region", all.sites > 0 && all.powder > 0.0 ? json(dominant) : json(nullptr)},
+      {"macro_anchored", macro_anchored},
+      {"sensitivity", sensitivity(sites_result.at("rule_sets"), by_region)},
       {"spectra", spectra.to_json()},
+      {"media_spectrum_shift", spectra.media_shift()},
+      {"left_out_cells", cells.flagged},
       {"sites", site_rows},
-      {"coupling", coupling_summary(site_rows)},
-  };
+  });
+  result["coupling"] = coupling_summary(site_rows);
   context.log(fmt::format(
-      "upscale U = {}: powder {:.4g} W ({} dominates), cushioning {}, {} of {} sites couple "
-      "within {:.0f}%",
-      load, all.powder, dominant.empty() ? "no region" : dominant, result["cushioning"].dump(),
+      "upscale U = {}: powder {:.4g} W ({} dominates; macro-anchored {:.4g} W, {}), cushioning {}, "
+      "{} cells left out, {} of {} sites couple within {:.0f}%",
+      load, all.powder.value, result["dominant_region"].dump(),
+      macro_anchored["powder_power_w"].get<double>(), macro_anchored["dominant_region"].dump(),
+      result["cushioning"].dump(), cells.flagged.size(),
       result["coupling"]["within_tolerance"].dump(), result["coupling"]["sites"].dump(),
       100 * kCouplingTolerance));
   return engine::TaskOutcome::with_result(std::move(result));
@@ -239,29 +547,47 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
 
 engine::ViewDefinition upscaled_results_view() {
   return {"upscaled_results", R"sql(
+WITH methods(task_key, result, method, totals) AS (
+  SELECT r.task_key, r.result, 'cells', r.result FROM results r
+  UNION ALL
+  SELECT r.task_key, r.result, 'macro_anchored', json_extract(r.result, '$.macro_anchored')
+  FROM results r
+)
 SELECT c.name AS campaign,
-       json_extract(r.result, '$.fill') AS fill,
-       json_extract(r.result, '$.speed_fraction') AS speed_fraction,
-       json_extract(r.result, '$.powder_load') AS powder_load,
+       json_extract(m.result, '$.fill') AS fill,
+       json_extract(m.result, '$.speed_fraction') AS speed_fraction,
+       json_extract(m.result, '$.powder_load') AS powder_load,
        up.key AS task_key,
+       m.method AS method,
        json_extract(region.value, '$.region') AS region,
        json_extract(region.value, '$.sites') AS sites,
        json_extract(region.value, '$.volume_m3') AS volume_m3,
+       json_extract(region.value, '$.solid_volume_m3') AS solid_volume_m3,
+       json_extract(region.value, '$.macro_dissipation_w') AS macro_dissipation_w,
+       json_extract(region.value, '$.cell_to_macro_power_ratio') AS cell_to_macro_power_ratio,
        json_extract(region.value, '$.powder_power_w') AS powder_power_w,
+       json_extract(region.value, '$.powder_power_w_se') AS powder_power_w_se,
        json_extract(region.value, '$.powder_power_share') AS powder_power_share,
+       json_extract(region.value, '$.powder_power_share_se') AS powder_power_share_se,
        json_extract(region.value, '$.media_power_w') AS media_power_w,
        json_extract(region.value, '$.media_collision_power_w') AS media_collision_power_w,
        json_extract(region.value, '$.cushioning') AS cushioning,
-       json_extract(r.result, '$.mill.power_draw_w') AS power_draw_w,
-       json_extract(r.result, '$.power_draw_with_powder_w') AS power_draw_with_powder_w,
-       json_extract(r.result, '$.powder_power_w') AS mill_powder_power_w,
-       json_extract(r.result, '$.dominant_region') AS dominant_region,
-       json_extract(r.result, '$.coupling.median_ratio') AS coupling_median_ratio
+       json_extract(region.value, '$.cushioning_se') AS cushioning_se,
+       json_extract(region.value, '$.cushioning_rate_factor') AS cushioning_rate_factor,
+       json_extract(region.value, '$.cushioning_rate_factor_se') AS cushioning_rate_factor_se,
+       json_extract(region.value, '$.cushioning_energy_factor') AS cushioning_energy_factor,
+       json_extract(region.value, '$.cushioning_energy_factor_se') AS cushioning_energy_factor_se,
+       json_extract(m.result, '$.mill.power_draw_w') AS power_draw_w,
+       json_extract(m.result, '$.power_draw_with_powder_w') AS power_draw_with_powder_w,
+       json_extract(m.totals, '$.powder_power_w') AS mill_powder_power_w,
+       json_extract(m.totals, '$.dominant_region') AS dominant_region,
+       json_extract(m.result, '$.coupling.median_ratio') AS coupling_median_ratio,
+       json_array_length(m.result, '$.left_out_cells') AS left_out_cells
 FROM campaign_tasks ct
 JOIN campaigns c ON c.id = ct.campaign_id
 JOIN tasks up ON up.key = ct.task_key AND up.kind = 'upscale' AND up.status = 'done'
-JOIN results r ON r.task_key = up.key
-JOIN json_each(r.result, '$.regions') region
+JOIN methods m ON m.task_key = up.key
+JOIN json_each(m.totals, '$.regions') region
 )sql"};
 }
 

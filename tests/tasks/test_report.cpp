@@ -117,6 +117,7 @@ json fields_document(double fill) {
     for (int c = 0; c < 16; ++c) values.push_back(fill * (c + 1));
     arrays[name] = {{"components", 1}, {"values", values}};
   }
+  arrays["velocity_m_s"] = {{"components", 3}, {"values", std::vector<double>(3 * 16, 0.1)}};
   return {{"grid", {{"nx", 4}, {"ny", 4}, {"half_width_m", 0.5}}},
           {"slice_length_m", 0.15},
           {"media_diameter_m", 0.04},

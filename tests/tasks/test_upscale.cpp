@@ -2,6 +2,9 @@
 // tasks/upscale.hpp worked out by hand.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <tuple>
+
 #include "tasks/upscale.hpp"
 #include "tests/tasks/upscale_inputs.hpp"
 
@@ -21,8 +24,10 @@ TEST(Upscale, PowersSharesAndCushioningAreTheSiteWeightedSums) {
   EXPECT_DOUBLE_EQ(r.at("media_collision_power_w"), 0.002 * 300 + 0.003 * 200);
   EXPECT_DOUBLE_EQ(r.at("media_collision_power_no_powder_w"), 0.002 * 600 + 0.003 * 350);
   EXPECT_DOUBLE_EQ(r.at("cushioning"), 1.2 / 2.25);
-  // The macro draw scaled by the cells' power input with / without powder: 3.5 W / 2.8 W.
-  EXPECT_DOUBLE_EQ(r.at("power_draw_with_powder_w"), 1000.0 * 3.5 / 2.8);
+  // The macro draw scaled by the cells' power input with / without powder, 3.5 W / 2.8 W, and by
+  // the powder's mass: 2000 x 0.2 / (8000 x 0.5) = 0.1 of the media's at every site.
+  EXPECT_DOUBLE_EQ(r.at("powder_to_media_mass_ratio"), 0.1);
+  EXPECT_DOUBLE_EQ(r.at("power_draw_with_powder_w"), 1000.0 * 1.1 * 3.5 / 2.8);
   EXPECT_EQ(r.at("dominant_region"), "toe");
   EXPECT_EQ(r.at("average_task"), "average-key");
   EXPECT_DOUBLE_EQ(r.at("mill").at("diameter_m"), 1.0);
@@ -48,6 +53,18 @@ TEST(Upscale, SpectraAreCollisionsPerSecondInTheSlice) {
   EXPECT_DOUBLE_EQ(s.at("powder_rate_per_s").at(1), 5 * toe + 4 * bulk);
 }
 
+TEST(Upscale, MacroAnchoredSpectraScaleEachRegionsCellsToItsMacroDissipation) {
+  const json r = upscale(point_inputs(), 1.0);
+  // Loaded cells scaled by 2 W / 2 W at the toe and 3 W / 1.5 W in the bulk; the media-only cells
+  // by 2 W / 1.6 W and 3 W / 1.2 W.
+  const json& s = r.at("macro_anchored").at("spectra");
+  const double toe = 0.002 / 2e-4, bulk = 0.003 / 2e-4;
+  EXPECT_DOUBLE_EQ(s.at("powder_rate_per_s").at(1), 1.0 * 5 * toe + 2.0 * 4 * bulk);
+  EXPECT_DOUBLE_EQ(s.at("media_rate_no_powder_per_s").at(0), 1.25 * 20 * toe + 2.5 * 4 * bulk);
+  // The cells' own spectra are the same sums unscaled.
+  EXPECT_DOUBLE_EQ(r.at("spectra").at("powder_rate_per_s").at(1), 5 * toe + 4 * bulk);
+}
+
 TEST(Upscale, CouplingComparesTheMediaOnlyCellWithTheMacroShearStress) {
   const json r = upscale(point_inputs(), 1.0);
   const json& sites = r.at("sites");
@@ -67,6 +84,137 @@ TEST(Upscale, NoPowderMeansNoPowderPowerAndNoCushioning) {
   EXPECT_DOUBLE_EQ(r.at("cushioning"), 1.0);
   EXPECT_DOUBLE_EQ(r.at("power_draw_with_powder_w"), 1000.0);
   EXPECT_TRUE(r.at("dominant_region").is_null());
+  EXPECT_DOUBLE_EQ(r.at("cushioning_rate_factor"), 1.0);
+  EXPECT_DOUBLE_EQ(r.at("cushioning_energy_factor"), 1.0);
+}
+
+// The input whose key `upscale_inputs.hpp` gives a cell.
+json& cell_result(std::vector<engine::TaskInput>& inputs, const std::string& site, double load) {
+  for (auto& input : inputs) {
+    if (input.key == site + "@" + std::to_string(load)) return input.result;
+  }
+  throw std::logic_error("no cell " + site);
+}
+
+TEST(Upscale, CushioningIsTheRateFactorTimesTheEnergyFactor) {
+  const json r = upscale(point_inputs(), 1.0);
+  // Toe: 2e6 / 3e6 media collisions per second (0.002 m^3 x 1e6 and x 1.5e6 per m^3 s), at
+  // 300 / 600 W: each collision loses 0.75 of its energy without powder.
+  const json& toe = r.at("regions").at(0);
+  EXPECT_DOUBLE_EQ(toe.at("cushioning_rate_factor"), 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ(toe.at("cushioning_energy_factor"), 0.75);
+  for (const json& row : {r, r.at("regions").at(0), r.at("regions").at(1), r.at("macro_anchored"),
+                          r.at("macro_anchored").at("regions").at(1)}) {
+    EXPECT_NEAR(row.at("cushioning_rate_factor").get<double>() *
+                    row.at("cushioning_energy_factor").get<double>(),
+                row.at("cushioning").get<double>(), 1e-14);
+  }
+}
+
+TEST(Upscale, MacroAnchoredConservesTheMacroDissipationOfTheRegionsWithCells) {
+  const json r = upscale(point_inputs(), 1.0);
+  const json& anchored = r.at("macro_anchored");
+  // Toe and bulk have cells (2 W + 3 W of the macro run's dissipation); cascading (1 W) has none.
+  EXPECT_DOUBLE_EQ(anchored.at("macro_dissipation_w"), 5.0);
+  EXPECT_DOUBLE_EQ(anchored.at("uncovered_macro_dissipation_w"), 1.0);
+  double total = 0.0;
+  for (const json& region : anchored.at("regions")) {
+    const double power =
+        region.at("powder_power_w").get<double>() + region.at("media_power_w").get<double>();
+    EXPECT_NEAR(power, region.at("macro_dissipation_w").get<double>(), 1e-15);
+    EXPECT_EQ(region.at("method"), "macro_anchored");
+    total += power;
+  }
+  EXPECT_NEAR(total, 5.0, 1e-15);
+  EXPECT_NEAR(
+      anchored.at("powder_power_w").get<double>() + anchored.at("media_power_w").get<double>(), 5.0,
+      1e-15);
+  // The split is the cells': 400 of 1000 W/m^3 at the toe, 100 of 500 in the bulk.
+  EXPECT_DOUBLE_EQ(anchored.at("regions").at(0).at("powder_power_w"), 0.4 * 2.0);
+  EXPECT_DOUBLE_EQ(anchored.at("regions").at(1).at("powder_power_w"), 0.2 * 3.0);
+  EXPECT_EQ(anchored.at("dominant_region"), "toe");
+  // Cell power without powder over the macro dissipation: 0.002 x 800 / 2, 0.003 x 400 / 3.
+  EXPECT_DOUBLE_EQ(r.at("regions").at(0).at("cell_to_macro_power_ratio"), 0.8);
+  EXPECT_DOUBLE_EQ(r.at("regions").at(1).at("cell_to_macro_power_ratio"), 0.4);
+  EXPECT_EQ(r.at("regions").at(0).at("method"), "cells");
+  EXPECT_DOUBLE_EQ(anchored.at("regions").at(0).at("cell_to_macro_power_ratio"), 0.8);
+}
+
+TEST(Upscale, SensitivityGivesEachRuleSetsDominantRegionAndToeShare) {
+  const json s = upscale(point_inputs(), 1.0).at("sensitivity");
+  ASSERT_EQ(s.size(), 2u);
+  EXPECT_EQ(s.at(0).at("rule_set"), "default");
+  EXPECT_DOUBLE_EQ(s.at(0).at("toe_powder_power_share"), 0.8 / (0.8 + 0.6));
+  EXPECT_EQ(s.at(1).at("rule_set"), "wide");
+  EXPECT_DOUBLE_EQ(s.at(1).at("toe_powder_power_share"), 1.6 / (1.6 + 0.2));
+  EXPECT_EQ(s.at(1).at("dominant_region"), "toe");
+}
+
+TEST(Upscale, UnsteadyAndUnconvergedCellsAreLeftOutAndListed) {
+  auto inputs = point_inputs();
+  cell_result(inputs, "bulk-0", 1.0)["steady_state"]["steady"] = false;
+  cell_result(inputs, "toe-0", 0.0)["converged"] = false;
+  const json r = upscale(inputs, 1.0);
+  ASSERT_EQ(r.at("left_out_cells").size(), 2u);
+  EXPECT_EQ(r.at("left_out_cells").at(0).at("reason"), "not steady");
+  EXPECT_EQ(r.at("left_out_cells").at(1).at("reason"), "not converged");
+  EXPECT_EQ(r.at("left_out_cells").at(1).at("counted"), false);
+  EXPECT_DOUBLE_EQ(r.at("powder_power_w"), 0.002 * 400);  // the toe's loaded cell alone
+  EXPECT_TRUE(r.at("cushioning").is_null());              // no baseline left to compare with
+  EXPECT_TRUE(r.at("regions").at(0).at("cell_to_macro_power_ratio").is_null());
+  const json kept = upscale(inputs, 1.0, true);
+  EXPECT_DOUBLE_EQ(kept.at("powder_power_w"), 1.1);
+  EXPECT_EQ(kept.at("left_out_cells").at(0).at("counted"), true);
+}
+
+TEST(Upscale, StandardErrorsOfTheCellsPropagate) {
+  EXPECT_TRUE(upscale(point_inputs(), 1.0).at("powder_power_w_se").is_null())
+      << "cells without standard errors give none";
+  auto inputs = point_inputs();
+  for (const auto& [site, load, powder, collisions] : {std::tuple{"toe-0", 1.0, 10.0, 6.0},
+                                                       {"bulk-0", 1.0, 5.0, 4.0},
+                                                       {"toe-0", 0.0, 0.0, 9.0},
+                                                       {"bulk-0", 0.0, 0.0, 7.0}}) {
+    cell_result(inputs, site, load)["standard_errors"] = {
+        {"powder_dissipation_w_m3", powder},
+        {"power_density_w_m3", 20.0},
+        {"dissipation_w_m3", {{"media-media", collisions}, {"wall-media", 1.0}}}};
+  }
+  const json r = upscale(inputs, 1.0);
+  EXPECT_DOUBLE_EQ(r.at("powder_power_w_se"), std::hypot(0.002 * 10.0, 0.003 * 5.0));
+  // Cushioning C(U) / C(0): relative errors in quadrature; wall-media adds to media-media.
+  const double c = 1.2, c0 = 2.25, c_se = std::hypot(0.002 * 7.0, 0.003 * 5.0),
+               c0_se = std::hypot(0.002 * 10.0, 0.003 * 8.0);
+  EXPECT_NEAR(r.at("cushioning_se").get<double>(), c / c0 * std::hypot(c_se / c, c0_se / c0),
+              1e-15);
+  const json& toe = r.at("regions").at(0);
+  EXPECT_NEAR(toe.at("powder_power_share_se").get<double>(),
+              0.8 / 1.1 * std::hypot(0.02 / 0.8, std::hypot(0.02, 0.015) / 1.1), 1e-15);
+  // Collision rates count as Poisson: 1/sqrt(1e4) and 1/sqrt(1.5e4) for the toe.
+  EXPECT_NEAR(toe.at("cushioning_rate_factor_se").get<double>(),
+              2.0 / 3.0 * std::hypot(0.01, 1.0 / std::sqrt(1.5e4)), 1e-15);
+  EXPECT_TRUE(toe.at("cushioning_energy_factor_se").is_number());
+}
+
+TEST(Upscale, SolidVolumeWeightsCountPowerPerVolumeOfMedia) {
+  auto inputs = point_inputs();
+  inputs.at(2).result["weight_by"] = "solid_volume";
+  // Each site holds 0.6 of its volume in balls, each cell 0.5: weights 1.2 x the volumes.
+  const json r = upscale(inputs, 1.0);
+  EXPECT_NEAR(r.at("powder_power_w").get<double>(), 1.2 * 1.1, 1e-15);
+  EXPECT_NEAR(r.at("cushioning").get<double>(), 1.2 / 2.25, 1e-15);
+}
+
+TEST(Upscale, MediaSpectrumShiftIsMeasuredAboveTheMediaOnlyMedian) {
+  auto inputs = point_inputs();
+  cell_result(inputs, "toe-0", 0.0)["spectra"]["media"]["counts"] = {2, 20};
+  cell_result(inputs, "bulk-0", 0.0)["spectra"]["media"]["counts"] = {0, 0};
+  const json shift = upscale(inputs, 1.0).at("media_spectrum_shift");
+  // Without powder most media collisions lie in the upper bin (20 of 22); with powder 2 of 16
+  // (toe 10, 0 and bulk 2, 2 at 10 and 15 per count).
+  EXPECT_DOUBLE_EQ(shift.at("threshold_j"), 1e-5);
+  EXPECT_DOUBLE_EQ(shift.at("fraction_above_no_powder"), 20.0 / 22.0);
+  EXPECT_DOUBLE_EQ(shift.at("fraction_above"), 30.0 / (100.0 + 60.0));
 }
 
 TEST(Upscale, RefusesAPointWithoutItsMacroRun) {

@@ -1,6 +1,8 @@
 #pragma once
 // One hand-made sweep point for the upscale and report tests: a macro run, its sites (toe-0,
-// bulk-0, and bulk-1 whose cells were skipped) and shear cells at loads 0 and 1 with round values.
+// bulk-0, and bulk-1 whose cells were skipped) weighted by volume, the macro dissipation of its
+// regions under two rule sets, and shear cells at loads 0 and 1 with round values (media solid
+// fraction 0.5, powder 0.2 at load 1; without standard errors, as cells before they had them).
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -18,6 +20,7 @@ inline json site(const std::string& id, const std::string& region, double weight
           {"region", region},
           {"position_m", {0.1, -0.2}},
           {"weight_m3", weight},
+          {"solid_volume_m3", 0.6 * weight},
           {"shear_rate_per_s", 5.0},
           {"normal_stress_pa", 2000.0},
           {"shear_stress_pa", macro_shear_stress}};
@@ -26,6 +29,7 @@ inline json site(const std::string& id, const std::string& region, double weight
 struct CellValues {
   double power_density, powder_dissipation, media_media, wall_media, shear_stress;
   std::vector<double> media_counts, powder_counts;
+  double media_collision_rate = 1e6, media_collision_count = 1e4;
 };
 
 inline engine::TaskInput cell(const std::string& site_id, double load, const CellValues& v) {
@@ -35,6 +39,12 @@ inline engine::TaskInput cell(const std::string& site_id, double load, const Cel
       {"power_density_w_m3", v.power_density},
       {"powder_dissipation_w_m3", v.powder_dissipation},
       {"dissipation_w_m3", {{"media-media", v.media_media}, {"wall-media", v.wall_media}}},
+      {"collisions",
+       {{"media",
+         {{"count", v.media_collision_count}, {"rate_per_m3_s", v.media_collision_rate}}}}},
+      {"media_solid_fraction", 0.5},
+      {"powder_solid_fraction", load > 0.0 ? 0.2 : 0.0},
+      {"steady_state", {{"steady", true}}},
       {"shear_stress_pa", v.shear_stress},
       {"volume_m3", 1e-4},
       {"duration_s", 2.0},
@@ -70,24 +80,42 @@ inline std::vector<engine::TaskInput> point_inputs(double fill = 0.3, double spe
        .artifacts = {}});
   inputs.push_back(
       {.key = "average-key", .kind = "average", .result = json::object(), .artifacts = {}});
+  const json regions = {{{"name", "toe"}, {"dissipation_w", 2.0}},
+                        {{"name", "bulk"}, {"dissipation_w", 3.0}},
+                        {{"name", "cascading"}, {"dissipation_w", 1.0}}};
+  const json wide_toe = {{{"name", "toe"}, {"dissipation_w", 4.0}},
+                         {{"name", "bulk"}, {"dissipation_w", 1.0}},
+                         {{"name", "cascading"}, {"dissipation_w", 1.0}}};
   inputs.push_back(
       {.key = "sites-key",
        .kind = "sites",
-       .result = {{"sites",
+       .result = {{"weight_by", "volume"},
+                  {"regions", regions},
+                  {"rule_sets",
+                   {{{"name", "default"}, {"regions", regions}},
+                    {{"name", "wide"}, {"regions", wide_toe}}}},
+                  {"sites",
                    {site("toe-0", "toe", 0.002, 800.0), site("bulk-0", "bulk", 0.003, 500.0),
                     site("bulk-1", "bulk", 0.001, 400.0)}}},
        .artifacts = {}});
-  inputs.push_back(cell("toe-0", 1.0, {1000.0, 400.0, 250.0, 50.0, 950.0, {10, 0}, {5, 5}}));
-  inputs.push_back(cell("bulk-0", 1.0, {500.0, 100.0, 200.0, 0.0, 520.0, {2, 2}, {0, 4}}));
-  inputs.push_back(cell("toe-0", 0.0, {800.0, 0.0, 500.0, 100.0, 880.0, {20, 1}, {0, 0}}));
-  inputs.push_back(cell("bulk-0", 0.0, {400.0, 0.0, 350.0, 0.0, 450.0, {4, 0}, {0, 0}}));
+  inputs.push_back(
+      cell("toe-0", 1.0, {1000.0, 400.0, 250.0, 50.0, 950.0, {10, 0}, {5, 5}, 1e6, 1e4}));
+  inputs.push_back(
+      cell("bulk-0", 1.0, {500.0, 100.0, 200.0, 0.0, 520.0, {2, 2}, {0, 4}, 4e5, 4e3}));
+  inputs.push_back(
+      cell("toe-0", 0.0, {800.0, 0.0, 500.0, 100.0, 880.0, {20, 1}, {0, 0}, 1.5e6, 1.5e4}));
+  inputs.push_back(cell("bulk-0", 0.0, {400.0, 0.0, 350.0, 0.0, 450.0, {4, 0}, {0, 0}, 5e5, 5e3}));
   inputs.push_back(skipped_cell("bulk-1", 1.0));
   inputs.push_back(skipped_cell("bulk-1", 0.0));
   return inputs;
 }
 
-inline json upscale(const std::vector<engine::TaskInput>& inputs, double load) {
-  const json params = {{"powder_load", load}};
+inline json upscale(const std::vector<engine::TaskInput>& inputs, double load,
+                    bool include_unsteady = false) {
+  const json params = {{"powder_load", load},
+                       {"upscale", {{"include_unsteady", include_unsteady}}},
+                       {"media_density_kg_m3", 8000.0},
+                       {"powder_density_kg_m3", 2000.0}};
   engine::TaskContext context{.key = "upscale-key",
                               .params = params,
                               .inputs = inputs,

@@ -1,0 +1,190 @@
+#include "tasks/report_regions.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "tasks/svg_plot.hpp"
+
+namespace millflow::tasks::report {
+namespace {
+
+using nlohmann::json;
+
+std::string number(const json& value) {
+  return value.is_number() ? fmt::format("{:.4g}", value.get<double>()) : "n/a";
+}
+
+ChargeAngles angles_of(const json& sites) {
+  auto angle = [&](const char* key) {
+    return sites.at(key).is_number() ? std::optional(sites.at(key).get<double>()) : std::nullopt;
+  };
+  return {.toe_deg = angle("toe_angle_deg"), .shoulder_deg = angle("shoulder_angle_deg")};
+}
+
+svg::Figure region_map(const std::string& title, const FlowMap& map, const json& sites) {
+  const ChargeAngles angles = angles_of(sites);
+  const Classification regions =
+      classify_regions(map, region_rules_from_json(sites.at("rules")), angles);
+  svg::CategoryMap figure{.title = title,
+                          .grid = map.grid,
+                          .category = regions.region_of_cell,
+                          .names = region_names()};
+  if (regions.toe) {
+    figure.discs.push_back({.x = regions.toe->x,
+                            .y = regions.toe->y,
+                            .radius = regions.toe->radius_m,
+                            .label = "toe"});
+  }
+  if (angles.shoulder_deg) {  // on the shell, where the macro run's balls leave it
+    const double a = *angles.shoulder_deg * std::numbers::pi / 180.0,
+                 r = 0.97 * map.grid.half_width;
+    figure.markers.push_back({.x = r * std::cos(a), .y = r * std::sin(a), .label = "shoulder"});
+  }
+  return svg::category_map(figure);
+}
+
+// Region | volume | solid volume | share of the macro dissipation under each rule set.
+std::string regions_table(const json& sites) {
+  const json& rule_sets = sites.at("rule_sets");
+  std::string out = "| region | volume (m^3) | solid volume (m^3) |";
+  std::string rule = "|---|---|---|";
+  for (const json& set : rule_sets) {
+    out += fmt::format(" share of the macro dissipation, {} rules |",
+                       set.at("name").get<std::string>());
+    rule += "---|";
+  }
+  out += "\n" + rule + "\n";
+  for (std::size_t r = 0; r < sites.at("regions").size(); ++r) {
+    const json& region = sites.at("regions").at(r);
+    out += fmt::format("| {} | {} | {} |", region.at("name").get<std::string>(),
+                       number(region.at("volume_m3")), number(region.at("solid_volume_m3")));
+    for (const json& set : rule_sets)
+      out += fmt::format(" {} |", number(set.at("regions").at(r).at("dissipation_share")));
+    out += "\n";
+  }
+  return out;
+}
+
+// Rule set | powder load | dominant region | toe share of the powder power, loads above 0.
+std::string sensitivity_table(const std::map<double, json>& by_load) {
+  std::string out =
+      "| rule set | powder load U | dominant region | toe share of the powder power |\n"
+      "|---|---|---|---|\n";
+  for (const auto& [load, sets] : by_load) {
+    if (load == 0.0) continue;
+    for (const json& set : sets) {
+      const json& dominant = set.at("dominant_region");
+      out += fmt::format("| {} | {:g} | {} | {} |\n", set.at("rule_set").get<std::string>(), load,
+                         dominant.is_string() ? dominant.get<std::string>() : "none",
+                         number(set.at("toe_powder_power_share")));
+    }
+  }
+  return out;
+}
+
+// Per region with cells: the powder power share by both methods and the media-only cells' power
+// over the macro dissipation (tasks/upscale.hpp).
+std::string methods_table(const json& upscale) {
+  std::string out =
+      "| region | powder power share, cells | powder power share, macro-anchored | cell power / "
+      "macro dissipation |\n|---|---|---|---|\n";
+  const json& anchored = upscale.at("macro_anchored").at("regions");
+  for (std::size_t r = 0; r < upscale.at("regions").size(); ++r) {
+    const json& cells = upscale.at("regions").at(r);
+    out += fmt::format("| {} | {} | {} | {} |\n", cells.at("region").get<std::string>(),
+                       number(cells.at("powder_power_share")),
+                       number(anchored.at(r).at("powder_power_share")),
+                       number(cells.at("cell_to_macro_power_ratio")));
+  }
+  return out;
+}
+
+// The cells an upscale left out (or counted against their flags), one row each.
+std::string left_out_rows(const json& upscale) {
+  std::string out;
+  for (const json& cell : upscale.at("left_out_cells")) {
+    out += fmt::format(
+        "| {:g} | {:g} | {:g} | {} | {:g} | {} | {} |\n", upscale.at("fill").get<double>(),
+        upscale.at("speed_fraction").get<double>(), upscale.at("powder_load").get<double>(),
+        cell.at("site_id").get<std::string>(), cell.at("powder_load").get<double>(),
+        cell.at("reason").get<std::string>(), cell.at("counted").get<bool>() ? "yes" : "no");
+  }
+  return out;
+}
+
+}  // namespace
+
+RegionSection region_section(const std::vector<engine::TaskInput>& inputs,
+                             const std::map<std::string, FlowMap>& flow_maps) {
+  // Sites tasks by fill and speed, and the sensitivity of each of their upscales by load.
+  std::map<std::pair<double, double>, const engine::TaskInput*> sites_tasks;
+  std::map<std::string, std::map<double, json>> sensitivity;
+  std::map<std::string, std::map<double, const json*>> upscales;  // by sites task and load
+  for (const auto& input : inputs) {
+    const json& r = input.result;
+    if (input.kind == "sites")
+      sites_tasks[{r.at("fill").get<double>(), r.at("speed_fraction").get<double>()}] = &input;
+    if (input.kind == "upscale" && r.contains("sites_task")) {
+      const std::string sites = r.at("sites_task").get<std::string>();
+      const double load = r.at("powder_load").get<double>();
+      sensitivity[sites][load] = r.at("sensitivity");
+      upscales[sites][load] = &r;
+    }
+  }
+  RegionSection section;
+  if (sites_tasks.empty()) return section;
+  section.markdown =
+      "## Flow regions\n\n"
+      "The regions the sites were chosen in (docs/regions.md gives the rules): the charge "
+      "outlined in black, the toe's disc dashed around the macro run's toe, the shoulder where "
+      "the macro run's balls leave the shell. The tables give each region's volume, solid "
+      "volume and share of the macro run's dissipation under the default rules and the "
+      "alternatives, and for each powder load which region takes the most powder power and the "
+      "toe's share of it under each rule set (macro-anchored: each region's macro dissipation "
+      "split as its cells split theirs).\n\n";
+  for (const auto& [point, input] : sites_tasks) {
+    const auto& [fill, speed] = point;
+    const json& sites = input->result;
+    const std::string average = sites.at("average_task").get<std::string>();
+    const auto map = flow_maps.find(average);
+    if (map == flow_maps.end()) {
+      throw std::invalid_argument(fmt::format(
+          "sites task {} names average task {}, which is not an input of the report: re-plan "
+          "the campaign",
+          input->key, average));
+    }
+    const std::string file = fmt::format("regions_{:g}_{:g}.svg", fill, speed);
+    const std::string title = fmt::format("Flow regions, J = {:g}, phi = {:g}", fill, speed);
+    section.files.emplace_back(file, region_map(title, map->second, sites).svg);
+    section.markdown +=
+        fmt::format("### J = {:g}, phi = {:g}\n\n![flow regions]({})\n\n", fill, speed, file) +
+        regions_table(sites) + "\n";
+    if (const auto found = sensitivity.find(input->key); found != sensitivity.end())
+      section.markdown += sensitivity_table(found->second) + "\n";
+    if (const auto found = upscales.find(input->key); found != upscales.end()) {
+      for (const auto& [load, upscale] : found->second) {
+        if (load == 0.0) continue;
+        section.markdown +=
+            fmt::format("Both upscalings at U = {:g}:\n\n", load) + methods_table(*upscale) + "\n";
+      }
+    }
+  }
+  std::string left_out;
+  for (const auto& [sites, by_load] : upscales) {
+    for (const auto& [load, upscale] : by_load) left_out += left_out_rows(*upscale);
+  }
+  section.markdown +=
+      "## Cells left out of the upscaling\n\n"
+      "Cells that did not reach a steady state or did not converge count in no upscale unless "
+      "/upscale/include_unsteady is set (then `counted` is yes).\n\n" +
+      (left_out.empty() ? std::string("None: every cell that ran was steady and converged.\n")
+                        : "| J | phi | upscale U | site | cell U | reason | counted |\n"
+                          "|---|---|---|---|---|---|---|\n" +
+                              left_out);
+  return section;
+}
+
+}  // namespace millflow::tasks::report
