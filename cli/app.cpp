@@ -1,5 +1,7 @@
 #include "cli/app.hpp"
 
+#include <fmt/format.h>
+
 #include <CLI/CLI.hpp>
 
 #include "cli/commands.hpp"
@@ -12,6 +14,8 @@ namespace millflow::cli {
 int run(int argc, char** argv) {
   CLI::App app{"millflow: multiscale DEM campaigns of grinding mills"};
   app.require_subcommand(1);
+  app.set_version_flag("--version",
+                       fmt::format("millflow {} (git {})", MILLFLOW_VERSION, MILLFLOW_GIT_VERSION));
   engine::Registry registry;
   engine::add_testing(registry);
   tasks::register_millflow(registry);

@@ -3,29 +3,15 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <numbers>
 #include <stdexcept>
 
 #include <fmt/format.h>
 
+#include "util/durable_file.hpp"
+
 namespace millflow::dem {
 namespace {
-
-// Temp file + rename: a reader never sees half a file, and a rerun overwrites cleanly.
-void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
-  auto temporary = path;
-  temporary += ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out)
-      throw std::runtime_error(
-          fmt::format("cannot write {}: {}", temporary.string(), std::strerror(errno)));
-  }
-  std::filesystem::rename(temporary, path);
-}
 
 void append_vectors(std::string& text, const char* name, std::span<const Vec3> values,
                     std::span<const GroupId> groups) {
@@ -93,7 +79,7 @@ void write_particles_vtp(const System& system, const std::filesystem::path& path
   append_scalars<std::int32_t>(text, "Int32", "material", material, groups);
   text += "      </PointData>\n    </Piece>\n";
   text += kFooter;
-  write_text_atomically(path, text);
+  util::write_file_durably(path, text);
 }
 
 std::vector<Vec3> mill_outline(const MillShell& shell, double angle, int samples) {
@@ -141,7 +127,7 @@ void write_mill_outline_vtp(const MillShell& shell, double angle, const std::fil
   text += fmt::format("{}\n{}\n        </DataArray>\n      </Lines>\n    </Piece>\n", n + 1,
                       2 * (n + 1));
   text += kFooter;
-  write_text_atomically(path, text);
+  util::write_file_durably(path, text);
 }
 
 void write_pvd(const std::filesystem::path& path, std::span<const PvdEntry> entries) {
@@ -155,7 +141,7 @@ void write_pvd(const std::filesystem::path& path, std::span<const PvdEntry> entr
     text += '\n';
   }
   text += "  </Collection>\n</VTKFile>\n";
-  write_text_atomically(path, text);
+  util::write_file_durably(path, text);
 }
 
 }  // namespace millflow::dem

@@ -9,6 +9,9 @@
 #include <sstream>
 
 #include "engine/coordinator_lock.hpp"
+#include "engine/database_path.hpp"
+#include "engine/files.hpp"
+#include "engine/json_text.hpp"
 #include "engine/validation.hpp"
 #include "engine/version.hpp"
 
@@ -17,17 +20,7 @@ namespace fs = std::filesystem;
 namespace {
 
 nlohmann::json read_json_file(const fs::path& file) {
-  std::ifstream in(file);
-  if (!in)
-    throw InvalidInput({{"", "cannot read campaign file " + file.string(), "check the path"}});
-  std::stringstream text;
-  text << in.rdbuf();
-  try {
-    return nlohmann::json::parse(text.str());
-  } catch (const nlohmann::json::parse_error& error) {
-    throw InvalidInput({{"", fmt::format("{} is not valid JSON: {}", file.string(), error.what()),
-                         "fix the syntax at the byte position given"}});
-  }
+  return parse_json_text(read_input_file(file)).document;
 }
 
 std::string detect_format(const nlohmann::json& document) {
@@ -125,6 +118,12 @@ Campaign load_campaign_file(const Registry& registry, const fs::path& file) {
       document["name"].get<std::string>().empty()) {
     throw InvalidInput({{"/name", "the campaign has no name", "add a non-empty string \"name\""}});
   }
+  if (const auto length = document["name"].get<std::string>().size(); length > kMaxCampaignName) {
+    throw InvalidInput({{"/name",
+                         fmt::format("the campaign name has {} characters, more than {}", length,
+                                     kMaxCampaignName),
+                         "use a shorter name (it names the campaign's log file)"}});
+  }
   return Campaign{document["name"].get<std::string>(), format, std::move(document)};
 }
 
@@ -151,10 +150,11 @@ DryRun dry_run(const Registry& registry, const Campaign& campaign, const fs::pat
   return counter.result();
 }
 
-RunSummary submit_campaign(const Registry& registry, const Campaign& campaign, const fs::path& db,
-                           const SubmitOptions& options) {
+RunSummary submit_campaign(const Registry& registry, const Campaign& campaign,
+                           const fs::path& given_db, const SubmitOptions& options) {
   const auto planned =
       plan_campaign(registry, campaign);  // bad input fails before anything is written
+  const fs::path db = resolve_database(given_db, DatabaseUse::create);
   if (!db.parent_path().empty()) fs::create_directories(db.parent_path());
   CoordinatorLock lock(db);
   const SystemClock system_clock;

@@ -6,6 +6,7 @@
 #include <set>
 #include <sstream>
 
+#include "engine/files.hpp"
 #include "engine/json_text.hpp"
 #include "engine/slurm_executor.hpp"
 #include "tasks/campaign_checks.hpp"
@@ -399,15 +400,7 @@ nlohmann::json parse_campaign(std::string_view text) {
 }
 
 nlohmann::json load_campaign(const std::filesystem::path& file) {
-  std::ifstream stream(file, std::ios::binary);
-  if (!stream) {
-    throw engine::InvalidInput(
-        {{"", "cannot read campaign file " + file.string() + ": " + std::strerror(errno),
-          "check the file name and its permissions"}});
-  }
-  std::ostringstream text;
-  text << stream.rdbuf();
-  return parse_campaign(text.str());
+  return parse_campaign(engine::read_input_file(file));
 }
 
 std::vector<CampaignPoint> expand(const nlohmann::json& campaign) {

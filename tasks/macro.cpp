@@ -18,6 +18,7 @@
 #include "tasks/kinds.hpp"
 #include "tasks/macro_measure.hpp"
 #include "tasks/macro_setup.hpp"
+#include "util/durable_file.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -428,13 +429,12 @@ class MacroRun {
   }
 
   void write_power_csv(const fs::path& path) const {
-    std::ofstream out(path, std::ios::trunc);
-    out << "time_s,power_w,torque_arm_power_w\n";
+    std::string text = "time_s,power_w,torque_arm_power_w\n";
     for (std::size_t k = 0; k < power_.times().size(); ++k) {
-      out << fmt::format("{},{},{}\n", power_.times()[k], power_.powers()[k],
-                         power_.torque_arm_powers()[k]);
+      text += fmt::format("{},{},{}\n", power_.times()[k], power_.powers()[k],
+                          power_.torque_arm_powers()[k]);
     }
-    if (!out) throw std::runtime_error("cannot write " + path.string());
+    util::write_file_durably(path, text);
   }
 
   engine::TaskOutcome finish() {
