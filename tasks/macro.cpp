@@ -493,8 +493,20 @@ std::string param_field(const char* name, const char* path) {
 }  // namespace
 
 engine::TaskOutcome run_macro(engine::TaskContext& context) {
-  MacroRun run(context);
-  return run.run();
+  std::optional<MacroRun> run;
+  try {
+    run.emplace(context);
+  } catch (const dem::CorruptData& error) {
+    // A damaged checkpoint (flipped, truncated, deleted) must not fail every resume the same way:
+    // its work is lost, the run starts again and gives the same result.
+    context.log(fmt::format(
+        "warning: macro: the checkpoint in {} cannot be used ({}); starting again from scratch",
+        context.work_dir.string(), error.what()));
+    fs::remove_all(context.work_dir);
+    fs::create_directories(context.work_dir);
+    run.emplace(context);
+  }
+  return run->run();
 }
 
 double bond_kw_per_tonne(double diameter, double fill, double speed_fraction) {
