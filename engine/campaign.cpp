@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/sinks/stdout_sinks.h>
 #include <unistd.h>
 
 #include <fstream>
@@ -43,8 +44,15 @@ std::string file_safe(const std::string& name) {
 
 std::shared_ptr<spdlog::logger> campaign_logger(const fs::path& db, const std::string& campaign) {
   const fs::path file = logs_dir(db) / (file_safe(campaign) + ".log");
+  // Warnings and errors (a stale lock taken over, a corrupt artifact re-run, a checkpoint
+  // discarded) also go to the terminal, not only to the log file.
+  auto terminal = std::make_shared<spdlog::sinks::stderr_sink_mt>();
+  terminal->set_level(spdlog::level::warn);
+  terminal->set_pattern("millflow: %l: %v");
   auto logger = std::make_shared<spdlog::logger>(
-      "campaign", std::make_shared<spdlog::sinks::basic_file_sink_mt>(file.string()));
+      "campaign",
+      spdlog::sinks_init_list{std::make_shared<spdlog::sinks::basic_file_sink_mt>(file.string()),
+                              terminal});
   logger->flush_on(spdlog::level::warn);  // info lines are buffered; the store holds the state
   return logger;
 }

@@ -496,7 +496,8 @@ class Coordinator {
   // --- outcomes ----------------------------------------------------------------------------
   void handle(Event event) {
     if (event.type == Event::Type::log) {
-      log(event.key, "info", event.message);
+      // A task marks the lines that matter (e.g. a checkpoint it had to discard) "warning: ".
+      log(event.key, event.message.starts_with(kTaskWarning) ? "warn" : "info", event.message);
       return;
     }
     --running_;

@@ -500,8 +500,8 @@ engine::TaskOutcome run_macro(engine::TaskContext& context) {
     // A damaged checkpoint (flipped, truncated, deleted) must not fail every resume the same way:
     // its work is lost, the run starts again and gives the same result.
     context.log(fmt::format(
-        "warning: macro: the checkpoint in {} cannot be used ({}); starting again from scratch",
-        context.work_dir.string(), error.what()));
+        "{}macro: the checkpoint in {} cannot be used ({}); starting again from scratch",
+        engine::kTaskWarning, context.work_dir.string(), error.what()));
     fs::remove_all(context.work_dir);
     fs::create_directories(context.work_dir);
     run.emplace(context);
