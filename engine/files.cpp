@@ -48,30 +48,30 @@ std::vector<fs::path> LocalFileSystem::files_under(const fs::path& root) const {
 }
 
 std::string read_input_file(const fs::path& file) {
+  const auto unreadable = [&file](int error) {
+    return InvalidInput(
+        {{"", fmt::format("cannot read campaign file {}: {}", file.string(), std::strerror(error)),
+          "check the file name and its permissions"}});
+  };
   std::error_code error;
   const auto status = fs::status(file, error);
-  if (!fs::exists(status)) {
-    throw InvalidInput(
-        {{"", fmt::format("cannot read {}: no such file", file.string()), "check the file name"}});
-  }
+  if (!fs::exists(status)) throw unreadable(error ? error.value() : ENOENT);
   if (!fs::is_regular_file(status)) {
     throw InvalidInput({{"", fmt::format("{} is not a regular file", file.string()),
                          "pass a campaign JSON file"}});
   }
   const auto size = fs::file_size(file, error);
-  if (error || size > kMaxInputFileBytes) {
+  if (error) throw unreadable(error.value());
+  if (size > kMaxInputFileBytes) {
     throw InvalidInput(
         {{"",
           fmt::format("{} has {} bytes, more than the {} a campaign file may have", file.string(),
-                      error ? 0 : size, kMaxInputFileBytes),
+                      size, kMaxInputFileBytes),
           "a campaign describes its points by sweeps; split a longer one into several"}});
   }
   std::ifstream in(file, std::ios::binary);
   std::string text(size, '\0');
-  if (!in.read(text.data(), static_cast<std::streamsize>(size))) {
-    throw InvalidInput({{"", fmt::format("cannot read {}: {}", file.string(), std::strerror(errno)),
-                         "check the file's permissions"}});
-  }
+  if (!in.read(text.data(), static_cast<std::streamsize>(size))) throw unreadable(errno);
   return text;
 }
 
