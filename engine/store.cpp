@@ -148,6 +148,7 @@ int readable_user_version(sql::Connection& connection, const fs::path& db) {
   try {
     return connection.user_version();
   } catch (const sql::Error& error) {
+    if (!is_damaged_database_error(error.what())) throw;
     throw InvalidInput(
         {{"--db", damaged_database_problem(db, error.what()), damaged_database_fix(db)}});
   }

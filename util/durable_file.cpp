@@ -2,11 +2,14 @@
 
 #include <fcntl.h>
 #include <fmt/format.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <array>
 #include <atomic>
 #include <cerrno>
+#include <fstream>
+#include <string>
 #include <system_error>
 
 namespace millflow::util {
@@ -36,6 +39,22 @@ std::size_t simulated_room(std::size_t wanted) {
   return wanted;
 }
 
+// The permissions a plain open() would give a new file (0666 less the umask): mkstemp makes 0600,
+// and results are often shared with a group. The umask is read from /proc: umask() itself would
+// change it for every thread while it is read.
+mode_t new_file_mode() {
+  static const mode_t mode = [] {
+    mode_t mask = 022;
+    std::ifstream status("/proc/self/status");
+    for (std::string line; std::getline(status, line);) {
+      if (line.starts_with("Umask:"))
+        mask = static_cast<mode_t>(std::stoul(line.substr(6), nullptr, 8));
+    }
+    return static_cast<mode_t>(0666 & ~mask);
+  }();
+  return mode;
+}
+
 void sync_directory(const fs::path& directory) {
   const int fd = ::open(directory.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (fd < 0) throw_system_error(errno, "cannot open directory", directory);
@@ -53,6 +72,8 @@ DurableFile::DurableFile(fs::path target) : target_(std::move(target)) {
   fd_ = ::mkstemp(name.data());
   if (fd_ < 0) throw_system_error(errno, "cannot create a temporary file beside", target_);
   temporary_ = name;
+  if (::fchmod(fd_, new_file_mode()) != 0)
+    throw_system_error(errno, "cannot set the permissions of a temporary file beside", target_);
 }
 
 DurableFile::~DurableFile() {

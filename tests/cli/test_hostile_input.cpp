@@ -12,6 +12,7 @@
 
 #include "engine/store.hpp"
 #include "tests/common/child_process.hpp"
+#include "tests/common/running_tasks.hpp"
 #include "tests/common/scratch_dir.hpp"
 
 namespace millflow::testing {
@@ -55,16 +56,6 @@ class HostileInput : public ::testing::Test {
     }
     std::sort(names.begin(), names.end());
     return names;
-  }
-  static std::int64_t running_tasks(const fs::path& db) {
-    try {
-      auto connection = engine::open_read_only(db);
-      auto row = connection.prepare("SELECT count(*) FROM tasks WHERE status = 'running'");
-      row.step();
-      return row.integer(0);
-    } catch (const std::exception&) {
-      return 0;  // not created yet
-    }
   }
   // Starts the long campaign on `db` and waits until both of its tasks run.
   pid_t start_long_coordinator(const fs::path& db) {

@@ -1,6 +1,7 @@
 // Durable writes: whole files or nothing, errors as exceptions (a full disk included), and the one
 // SHA-256.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <fstream>
 #include <sstream>
@@ -35,6 +36,15 @@ TEST(DurableFile, WritesAndReplacesAWholeFile) {
   write_file_durably(file, "second, longer");
   EXPECT_EQ(read(file), "second, longer");
   EXPECT_EQ(entries(dir.path()), 1u);  // no temporary left behind
+}
+
+TEST(DurableFile, NewFilesGetThePermissionsOfAPlainOpen) {
+  ScratchDir dir;
+  const mode_t mask = ::umask(027);
+  ::umask(mask);  // read it back: the tests run single-threaded here
+  write_file_durably(dir.path() / "shared", "x");
+  const auto permissions = fs::status(dir.path() / "shared").permissions();
+  EXPECT_EQ(static_cast<mode_t>(permissions) & 0777, 0666 & ~mask);
 }
 
 TEST(DurableFile, AFullDiskIsAnExceptionAndLeavesTheOldFileAndNoTemporary) {
