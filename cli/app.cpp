@@ -2,6 +2,7 @@
 
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
+#include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
 
@@ -17,6 +18,8 @@ int run(int argc, char** argv) {
   app.require_subcommand(1);
   // Log lines go to stderr; stdout carries only what a command answers (tables, paths, CSV).
   spdlog::set_default_logger(spdlog::stderr_color_mt("millflow"));
+  app.set_version_flag("--version",
+                       fmt::format("millflow {} (git {})", MILLFLOW_VERSION, MILLFLOW_GIT_VERSION));
   engine::Registry registry;
   engine::add_testing(registry);
   tasks::register_millflow(registry);

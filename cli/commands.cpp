@@ -9,6 +9,7 @@
 #include "cli/executor_choice.hpp"
 #include "engine/attempt_files.hpp"
 #include "engine/coordinator_lock.hpp"
+#include "engine/database_path.hpp"
 #include "engine/inspect.hpp"
 #include "engine/interrupt.hpp"
 #include "engine/outputs.hpp"
@@ -37,7 +38,15 @@ struct RunFlags {
 // Runs a command body, turning errors into messages and exit codes.
 int guarded(const std::function<int()>& body) {
   try {
-    return body();
+    try {
+      return body();
+    } catch (const engine::sql::Error& error) {
+      if (!engine::is_damaged_database_error(error.what())) throw;
+      std::cerr << "millflow: the database is damaged (SQLite: " << error.what()
+                << "); restore it from a backup (`sqlite3 <db> 'PRAGMA integrity_check'` shows "
+                   "the damage)\n";
+      return kBadInput;
+    }
   } catch (const engine::InvalidInput& error) {
     std::cerr << "millflow: invalid input:\n" << error.what() << '\n';
     return kBadInput;
@@ -53,18 +62,59 @@ int guarded(const std::function<int()>& body) {
   }
 }
 
+constexpr int kMaxJobs = 1024;
+constexpr int kMaxRetries = 100;
+
+// A finite number of seconds in [low, high] (CLI11's number checks let NaN through).
+CLI::Validator seconds_between(double low, double high) {
+  return CLI::Validator(
+      [low, high](std::string& text) -> std::string {
+        double value = 0.0;
+        try {
+          std::size_t used = 0;
+          value = std::stod(text, &used);
+          if (used != text.size()) return "\"" + text + "\" is not a number of seconds";
+        } catch (const std::exception&) {
+          return "\"" + text + "\" is not a number of seconds";
+        }
+        if (!(value >= low && value <= high))
+          return fmt::format("{} s is outside [{}, {}] s", text, low, high);
+        return {};
+      },
+      fmt::format("SECONDS in [{}, {}]", low, high));
+}
+
+// The --db of a command that reads an existing database, checked (engine/database_path.hpp)
+// before the command opens or creates anything.
+fs::path existing_database(const std::string& given) {
+  return engine::resolve_database(given, engine::DatabaseUse::existing);
+}
+
+// An --out directory: created when missing, refused when it names something else.
+fs::path output_directory(const std::string& given) {
+  std::error_code error;
+  if (given.empty() || (fs::exists(given, error) && !fs::is_directory(given, error))) {
+    throw engine::InvalidInput(
+        {{"--out",
+          given.empty() ? "the output directory is empty" : "\"" + given + "\" is not a directory",
+          "pass a directory (it is created when missing)"}});
+  }
+  return given;
+}
+
 void add_db_option(CLI::App* command, std::string& db) {
   command->add_option("--db", db, "Database file (default ./millflow.db)");
 }
 
 void add_run_options(CLI::App* command, RunFlags& flags) {
   add_db_option(command, flags.db);
-  command->add_option("--jobs", flags.jobs, "Tasks running at once")->check(CLI::PositiveNumber);
+  command->add_option("--jobs", flags.jobs, "Tasks running at once")
+      ->check(CLI::Range(1, kMaxJobs));
   command
       ->add_option("--threads-per-task", flags.threads_per_task, "Threads of each task's own arena")
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::Range(1, kMaxJobs));
   command->add_option("--retries", flags.retries, "Extra attempts of a failing task")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, kMaxRetries));
   command
       ->add_option("--executor", flags.executor,
                    "local or slurm (overrides the campaign's executor.kind)")
@@ -72,7 +122,7 @@ void add_run_options(CLI::App* command, RunFlags& flags) {
   command
       ->add_option("--poll-interval", flags.poll_interval_s,
                    "Slurm: seconds between polls of the jobs (default 10)")
-      ->check(CLI::PositiveNumber);
+      ->check(seconds_between(0.1, 86400.0));
   command->add_option(
       "--run-dir", flags.run_dir,
       "Slurm: run directory on a filesystem the compute nodes share (default <db>.jobs)");
@@ -118,8 +168,8 @@ class LogThrough {
   std::shared_ptr<spdlog::logger> previous_;
 };
 
-int run_campaign(const engine::Registry& registry, engine::Campaign campaign,
-                 const RunFlags& flags) {
+int run_campaign(const engine::Registry& registry, engine::Campaign campaign, RunFlags flags) {
+  flags.db = engine::resolve_database(flags.db, engine::DatabaseUse::create);
   const ExecutorChoice choice = choose_executor(campaign.document, flags.executor);
   // The stored document names the executor used, so `resume` goes on with it (and re-attaches).
   if (!flags.executor.empty()) campaign.document["executor"]["kind"] = flags.executor;
@@ -168,7 +218,11 @@ void add_submit(CLI::App& app, const engine::Registry& registry, std::optional<i
     code = guarded([&] {
       const auto campaign = engine::load_campaign_file(registry, *file);
       if (*dry) {
-        std::cout << engine::dry_run(registry, campaign, flags->db).describe() << '\n';
+        std::cout << engine::dry_run(
+                         registry, campaign,
+                         engine::resolve_database(flags->db, engine::DatabaseUse::create))
+                         .describe()
+                  << '\n';
         return 0;
       }
       return run_campaign(registry, campaign, *flags);
@@ -183,8 +237,10 @@ void add_resume(CLI::App& app, const engine::Registry& registry, std::optional<i
   command->add_option("CAMPAIGN", *name, "Campaign name");
   add_run_options(command, *flags);
   command->callback([&registry, &code, name, flags] {
-    code = guarded(
-        [&] { return run_campaign(registry, engine::stored_campaign(flags->db, *name), *flags); });
+    code = guarded([&] {
+      return run_campaign(registry, engine::stored_campaign(existing_database(flags->db), *name),
+                          *flags);
+    });
   });
 }
 
@@ -214,7 +270,7 @@ void add_status(CLI::App& app, std::optional<int>& code) {
   add_db_option(command, *db);
   command->callback([&code, name, db] {
     code = guarded([&] {
-      engine::print_status(*db, *name, std::cout);
+      engine::print_status(existing_database(*db), *name, std::cout);
       return 0;
     });
   });
@@ -232,7 +288,7 @@ void add_query(CLI::App& app, std::optional<int>& code) {
       ->check(CLI::IsMember({"table", "csv", "json"}));
   command->callback([&code, sql, db, format] {
     code = guarded([&] {
-      engine::run_query(*db, *sql, parse_format(*format), std::cout);
+      engine::run_query(existing_database(*db), *sql, parse_format(*format), std::cout);
       return 0;
     });
   });
@@ -253,7 +309,8 @@ void add_export(CLI::App& app, std::optional<int>& code) {
   command->add_option("--out", *out, "Output directory")->required();
   command->callback([&code, name, db, format, out] {
     code = guarded([&] {
-      for (const auto& file : engine::export_campaign(*db, *name, parse_format(*format), *out)) {
+      for (const auto& file : engine::export_campaign(
+               existing_database(*db), *name, parse_format(*format), output_directory(*out))) {
         std::cout << file.string() << '\n';
       }
       return 0;
@@ -271,7 +328,7 @@ void add_task_command(CLI::App& app, std::optional<int>& code, const std::string
   add_db_option(command, *db);
   command->callback([&code, task, db, print] {
     code = guarded([&] {
-      print(*db, *task, std::cout);
+      print(existing_database(*db), *task, std::cout);
       return 0;
     });
   });
@@ -287,7 +344,7 @@ void add_dag(CLI::App& app, std::optional<int>& code) {
   add_db_option(command, *db);
   command->callback([&code, name, db] {
     code = guarded([&] {
-      engine::print_dag_dot(*db, *name, std::cout);
+      engine::print_dag_dot(existing_database(*db), *name, std::cout);
       return 0;
     });
   });
@@ -301,7 +358,7 @@ void add_gc(CLI::App& app, std::optional<int>& code) {
   command->add_flag("--dry-run", *dry, "List them only");
   command->callback([&code, db, dry] {
     code = guarded([&] {
-      const auto removed = engine::collect_garbage(*db, *dry);
+      const auto removed = engine::collect_garbage(existing_database(*db), *dry);
       for (const auto& digest : removed)
         std::cout << (*dry ? "would remove " : "removed ") << digest << '\n';
       std::cout << removed.size() << " unreferenced artifact file(s)\n";
@@ -322,15 +379,18 @@ void add_report(CLI::App& app, std::optional<int>& code) {
   command->add_option("--out", *out, "Output directory (default ./millflow-report)");
   command->callback([&code, name, db, out] {
     code = guarded([&] {
-      const std::string campaign = name->empty() ? engine::stored_campaign(*db, "").name : *name;
-      const auto reports = engine::finished_task_artifacts(*db, campaign, "report");
+      const fs::path database = existing_database(*db);
+      const fs::path out_dir = output_directory(*out);
+      const std::string campaign =
+          name->empty() ? engine::stored_campaign(database, "").name : *name;
+      const auto reports = engine::finished_task_artifacts(database, campaign, "report");
       if (reports.empty()) {
         throw engine::InvalidInput(
             {{"", "campaign \"" + campaign + "\" has no finished report task",
               "run `millflow resume " + campaign + "` until its report task is done"}});
       }
-      engine::copy_artifacts(*db, reports.front().artifacts, *out);
-      std::cout << (fs::path(*out) / "index.md").string() << '\n';
+      engine::copy_artifacts(database, reports.front().artifacts, out_dir);
+      std::cout << (out_dir / "index.md").string() << '\n';
       return 0;
     });
   });
@@ -352,7 +412,8 @@ void add_files(CLI::App& app, std::optional<int>& code) {
   command->add_option("--out", *out, "Output directory")->required();
   command->callback([&code, name, db, out] {
     code = guarded([&] {
-      const auto files = engine::export_files(*db, *name, *out);
+      const auto files =
+          engine::export_files(existing_database(*db), *name, output_directory(*out));
       for (const auto& file : files) {
         if (file.extension() == ".pvd" || file.filename() == "tasks.csv")
           std::cout << file.string() << '\n';
@@ -371,7 +432,7 @@ void add_logs(CLI::App& app, std::optional<int>& code) {
   add_db_option(command, *db);
   command->callback([&code, task, db] {
     code = guarded([&] {
-      for (const auto& line : engine::task_log(*db, *task)) std::cout << line << '\n';
+      for (const auto& line : engine::task_log(existing_database(*db), *task)) std::cout << line << '\n';
       return 0;
     });
   });

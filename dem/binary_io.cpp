@@ -5,13 +5,10 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
-#include <system_error>
-
-#include <fcntl.h>
-#include <unistd.h>
 
 #include <fmt/format.h>
-#include <openssl/evp.h>
+#include "util/durable_file.hpp"
+#include "util/sha256.hpp"
 
 namespace millflow::dem {
 
@@ -21,30 +18,7 @@ constexpr std::size_t kMagicSize = 8;
 constexpr std::size_t kHeaderSize = kMagicSize + sizeof(std::uint32_t) + sizeof(std::uint64_t);
 constexpr std::size_t kDigestSize = 32;
 
-using Digest = std::array<unsigned char, kDigestSize>;
-
-Digest sha256(std::string_view bytes) {
-  Digest digest{};
-  unsigned int size = 0;
-  if (EVP_Digest(bytes.data(), bytes.size(), digest.data(), &size, EVP_sha256(), nullptr) != 1 ||
-      size != kDigestSize) {
-    throw std::runtime_error("sha256: OpenSSL EVP_Digest failed");
-  }
-  return digest;
-}
-
-std::string to_hex(std::string_view bytes) {
-  static constexpr char kDigits[] = "0123456789abcdef";
-  std::string hex;
-  hex.reserve(2 * bytes.size());
-  for (unsigned char byte : bytes) {
-    hex.push_back(kDigits[byte >> 4]);
-    hex.push_back(kDigits[byte & 0xf]);
-  }
-  return hex;
-}
-
-std::string_view as_chars(const Digest& digest) {
+std::string_view as_chars(const util::Sha256Digest& digest) {
   return {reinterpret_cast<const char*>(digest.data()), digest.size()};
 }
 
@@ -54,69 +28,6 @@ void require_magic8(std::string_view magic8) {
         fmt::format("binary file magic '{}' has {} bytes; it must be exactly {}", magic8,
                     magic8.size(), kMagicSize));
   }
-}
-
-[[noreturn]] void throw_system_error(const std::string& what, const std::filesystem::path& path) {
-  throw std::system_error(errno, std::generic_category(),
-                          fmt::format("{} '{}'", what, path.string()));
-}
-
-// Owns a POSIX file descriptor.
-class FileDescriptor {
- public:
-  explicit FileDescriptor(int fd) : fd_(fd) {}
-  FileDescriptor(const FileDescriptor&) = delete;
-  FileDescriptor& operator=(const FileDescriptor&) = delete;
-  ~FileDescriptor() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  int get() const { return fd_; }
-  // Closes now, reporting the error that a destructor would have to swallow.
-  int close() {
-    const int result = ::close(fd_);
-    fd_ = -1;
-    return result;
-  }
-
- private:
-  int fd_;
-};
-
-void write_all(int fd, std::string_view bytes, const std::filesystem::path& path) {
-  while (!bytes.empty()) {
-    const ssize_t written = ::write(fd, bytes.data(), bytes.size());
-    if (written < 0) {
-      if (errno == EINTR) continue;
-      throw_system_error("cannot write", path);
-    }
-    bytes.remove_prefix(static_cast<std::size_t>(written));
-  }
-}
-
-// Makes a rename inside `directory` durable.
-void sync_directory(const std::filesystem::path& directory) {
-  FileDescriptor dir(::open(directory.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
-  if (dir.get() < 0 || ::fsync(dir.get()) != 0)
-    throw_system_error("cannot sync directory", directory);
-}
-
-// Writes `bytes` to a new temporary file next to `path` and returns its name.
-std::filesystem::path write_temporary_beside(const std::filesystem::path& path,
-                                             std::string_view bytes) {
-  const std::filesystem::path directory = path.parent_path().empty() ? "." : path.parent_path();
-  std::string name = (directory / fmt::format(".{}.tmp.XXXXXX", path.filename().string())).string();
-  FileDescriptor file(::mkstemp(name.data()));
-  if (file.get() < 0) throw_system_error("cannot create a temporary file beside", path);
-  const std::filesystem::path temporary = name;
-  try {
-    write_all(file.get(), bytes, temporary);
-    if (::fsync(file.get()) != 0) throw_system_error("cannot sync", temporary);
-    if (file.close() != 0) throw_system_error("cannot close", temporary);
-  } catch (...) {
-    ::unlink(temporary.c_str());
-    throw;
-  }
-  return temporary;
 }
 
 std::string read_whole_file(const std::filesystem::path& path) {
@@ -164,10 +75,6 @@ std::size_t BinaryReader::take_count(std::size_t element_size) {
   return static_cast<std::size_t>(count);
 }
 
-std::string sha256_hex(std::string_view bytes) {
-  return to_hex(as_chars(sha256(bytes)));
-}
-
 void write_checksummed_file(const std::filesystem::path& path, std::string_view magic8,
                             std::uint32_t version, std::string_view payload) {
   require_magic8(magic8);
@@ -177,16 +84,9 @@ void write_checksummed_file(const std::filesystem::path& path, std::string_view 
   std::string bytes(magic8);
   bytes.append(header.bytes());
   bytes.append(payload);
-  bytes.append(as_chars(sha256(bytes)));
+  bytes.append(as_chars(util::sha256(bytes)));
 
-  const std::filesystem::path temporary = write_temporary_beside(path, bytes);
-  if (::rename(temporary.c_str(), path.c_str()) != 0) {
-    const int error = errno;
-    ::unlink(temporary.c_str());
-    errno = error;
-    throw_system_error("cannot rename a temporary file over", path);
-  }
-  sync_directory(path.parent_path().empty() ? "." : path.parent_path());
+  util::write_file_durably(path, bytes);
 }
 
 std::string read_checksummed_file(const std::filesystem::path& path, std::string_view magic8,
@@ -211,10 +111,10 @@ std::string read_checksummed_file(const std::filesystem::path& path, std::string
   }
   const std::string_view checked = std::string_view(bytes).substr(0, kHeaderSize + room);
   const std::string_view stored = std::string_view(bytes).substr(kHeaderSize + room);
-  if (as_chars(sha256(checked)) != stored) {
+  if (as_chars(util::sha256(checked)) != stored) {
     throw CorruptData(
         fmt::format("'{}' is corrupt: checksum mismatch (stored sha256 {}, computed {})", name,
-                    to_hex(stored), sha256_hex(checked)));
+                    util::to_hex(stored), util::sha256_hex(checked)));
   }
   if (version > max_version) {
     throw CorruptData(

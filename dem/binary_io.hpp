@@ -111,9 +111,8 @@ class BinaryReader {
   std::size_t position_ = 0;
 };
 
-// Writes the container atomically: a temporary file in the target's directory is written and
-// fsync'ed, renamed over `path`, and the directory is fsync'ed, so that a crash leaves either the
-// old file or the complete new one. `magic8` must be exactly 8 bytes (std::invalid_argument
+// Writes the container durably (util::write_file_durably): a crash leaves either the old file or
+// the complete new one. `magic8` must be exactly 8 bytes (std::invalid_argument
 // otherwise); I/O failures throw std::runtime_error naming the path and the system error.
 void write_checksummed_file(const std::filesystem::path& path, std::string_view magic8,
                             std::uint32_t version, std::string_view payload);
@@ -124,8 +123,5 @@ void write_checksummed_file(const std::filesystem::path& path, std::string_view 
 // `max_version` ("written by a newer millflow: version X, this build reads up to Y").
 std::string read_checksummed_file(const std::filesystem::path& path, std::string_view magic8,
                                   std::uint32_t max_version, std::uint32_t* version_out = nullptr);
-
-// SHA-256 of the bytes as 64 lowercase hex digits.
-std::string sha256_hex(std::string_view bytes);
 
 }  // namespace millflow::dem

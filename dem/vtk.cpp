@@ -5,29 +5,15 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <fstream>
 #include <numbers>
 #include <stdexcept>
 
 #include <fmt/format.h>
 
+#include "util/durable_file.hpp"
+
 namespace millflow::dem {
 namespace {
-
-// Temp file + rename: a reader never sees half a file, and a rerun overwrites cleanly.
-void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
-  auto temporary = path;
-  temporary += ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out)
-      throw std::runtime_error(
-          fmt::format("cannot write {}: {}", temporary.string(), std::strerror(errno)));
-  }
-  std::filesystem::rename(temporary, path);
-}
 
 // The DataArrays of one file, appended as raw bytes after the XML (dem/vtk.hpp).
 class AppendedArrays {
@@ -121,7 +107,7 @@ void write_particles_vtp(const System& system, const std::filesystem::path& path
                                      }));
   text += "      </PointData>\n    </Piece>\n";
   text += footer(arrays);
-  write_text_atomically(path, text);
+  util::write_file_durably(path, text);
 }
 
 std::vector<Vec3> mill_outline(const MillShell& shell, double angle, int samples) {
@@ -176,7 +162,7 @@ void write_mill_outline_vtp(const MillShell& shell, double angle, const std::fil
   text += arrays.array<std::int64_t>("Int64", "offsets", 1, offsets);
   text += "      </Lines>\n    </Piece>\n";
   text += footer(arrays);
-  write_text_atomically(path, text);
+  util::write_file_durably(path, text);
 }
 
 void write_pvd(const std::filesystem::path& path, std::span<const PvdEntry> entries) {
@@ -190,7 +176,7 @@ void write_pvd(const std::filesystem::path& path, std::span<const PvdEntry> entr
     text += '\n';
   }
   text += "  </Collection>\n</VTKFile>\n";
-  write_text_atomically(path, text);
+  util::write_file_durably(path, text);
 }
 
 }  // namespace millflow::dem

@@ -22,8 +22,8 @@ namespace millflow::dem {
 // particle's index in the system, the same particle in every file of a run), "radius",
 // "velocity", "angular_velocity" (Float32) and "material" (Int32, the material id), each one
 // row per particle, and one vertex cell holding every point. Render with a Glyph filter
-// (sphere, scale by radius, factor 2). Written atomically (temp file + rename);
-// std::runtime_error on I/O failure.
+// (sphere, scale by radius, factor 2). Written durably (util/durable_file.hpp);
+// std::system_error on I/O failure (a full disk included).
 void write_particles_vtp(const System& system, const std::filesystem::path& path);
 
 // The mill's cross-section outline (liner between the lifters and the lifter profiles) with the

@@ -1,6 +1,5 @@
 #include "engine/attempt_files.hpp"
 
-#include <fcntl.h>
 #include <tbb/task_arena.h>
 #include <unistd.h>
 
@@ -12,8 +11,9 @@
 
 #include "engine/canonical_json.hpp"
 #include "engine/files.hpp"
-#include "engine/hash.hpp"
 #include "engine/validation.hpp"
+#include "util/durable_file.hpp"
+#include "util/sha256.hpp"
 
 namespace millflow::engine {
 namespace fs = std::filesystem;
@@ -30,25 +30,10 @@ std::string read_text(const fs::path& file) {
   return text.str();
 }
 
-fs::path temporary_beside(const fs::path& file) {
-  return file.string() + ".tmp." + std::to_string(::getpid());
-}
-
-// Temp-then-rename, flushed first: after a crash the file is whole or absent.
+// Durable (temp, fsync, rename): after a crash the file is whole or absent.
 void write_file_atomically(const fs::path& file, const std::string& text) {
   fs::create_directories(file.parent_path());
-  const fs::path temporary = temporary_beside(file);
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out << text;
-    if (!out.flush()) throw std::runtime_error("cannot write " + temporary.string());
-  }
-  const int fd = ::open(temporary.c_str(), O_RDONLY);
-  if (fd >= 0) {
-    ::fsync(fd);
-    ::close(fd);
-  }
-  fs::rename(temporary, file);
+  util::write_file_durably(file, text);
 }
 
 json input_json(const TaskInput& input) {
@@ -95,15 +80,15 @@ json write_outputs(const fs::path& output_dir, const TaskOutcome& outcome) {
   for (size_t i = 0; i < outcome.artifacts.size(); ++i) {
     const std::string file = "artifacts/" + std::to_string(i);
     const fs::path target = output_dir / file;
-    const fs::path temporary = temporary_beside(target);
-    local_file_system().copy_durably(outcome.artifacts[i].file, temporary);
-    fs::rename(temporary, target);
+    local_file_system().copy_durably(outcome.artifacts[i].file, target);
     artifacts.push_back({{"name", outcome.artifacts[i].name},
                          {"file", file},
-                         {"sha256", sha256_file_hex(target)},
+                         {"sha256", util::sha256_file_hex(target)},
                          {"size", static_cast<std::int64_t>(fs::file_size(target))}});
   }
-  return {{"status", "done"}, {"result_sha256", sha256_hex(result_text)}, {"artifacts", artifacts}};
+  return {{"status", "done"},
+          {"result_sha256", util::sha256_hex(result_text)},
+          {"artifacts", artifacts}};
 }
 
 // Asks the task to stop once stop_requested() turns true (signal handlers only set a flag).
@@ -250,7 +235,7 @@ std::optional<AttemptOutcome> read_attempt_outcome(const fs::path& output_dir,
       finished.outcome = TaskOutcome::stopped();
     } else {
       const std::string result_text = read_text(output_dir / "result.json");
-      if (sha256_hex(result_text) != marker.at("result_sha256").get<std::string>()) {
+      if (util::sha256_hex(result_text) != marker.at("result_sha256").get<std::string>()) {
         throw std::runtime_error("result.json does not match the SHA-256 of its completion marker");
       }
       const json body = json::parse(result_text);
@@ -258,7 +243,7 @@ std::optional<AttemptOutcome> read_attempt_outcome(const fs::path& output_dir,
       finished.outcome.children = children_from(body.at("children"));
       for (const auto& artifact : marker.at("artifacts")) {
         const fs::path file = output_dir / artifact.at("file").get<std::string>();
-        if (sha256_file_hex(file) != artifact.at("sha256").get<std::string>()) {
+        if (util::sha256_file_hex(file) != artifact.at("sha256").get<std::string>()) {
           throw std::runtime_error("artifact " + file.string() +
                                    " does not match the SHA-256 of its completion marker");
         }

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/sinks/stdout_sinks.h>
 #include <unistd.h>
 
 #include <fstream>
@@ -9,6 +10,9 @@
 #include <sstream>
 
 #include "engine/coordinator_lock.hpp"
+#include "engine/database_path.hpp"
+#include "engine/files.hpp"
+#include "engine/json_text.hpp"
 #include "engine/validation.hpp"
 #include "engine/version.hpp"
 
@@ -17,17 +21,7 @@ namespace fs = std::filesystem;
 namespace {
 
 nlohmann::json read_json_file(const fs::path& file) {
-  std::ifstream in(file);
-  if (!in)
-    throw InvalidInput({{"", "cannot read campaign file " + file.string(), "check the path"}});
-  std::stringstream text;
-  text << in.rdbuf();
-  try {
-    return nlohmann::json::parse(text.str());
-  } catch (const nlohmann::json::parse_error& error) {
-    throw InvalidInput({{"", fmt::format("{} is not valid JSON: {}", file.string(), error.what()),
-                         "fix the syntax at the byte position given"}});
-  }
+  return parse_json_text(read_input_file(file)).document;
 }
 
 std::string detect_format(const nlohmann::json& document) {
@@ -50,8 +44,15 @@ std::string file_safe(const std::string& name) {
 
 std::shared_ptr<spdlog::logger> campaign_logger(const fs::path& db, const std::string& campaign) {
   const fs::path file = logs_dir(db) / (file_safe(campaign) + ".log");
+  // Warnings and errors (a stale lock taken over, a corrupt artifact re-run, a checkpoint
+  // discarded) also go to the terminal, not only to the log file.
+  auto terminal = std::make_shared<spdlog::sinks::stderr_sink_mt>();
+  terminal->set_level(spdlog::level::warn);
+  terminal->set_pattern("millflow: %l: %v");
   auto logger = std::make_shared<spdlog::logger>(
-      "campaign", std::make_shared<spdlog::sinks::basic_file_sink_mt>(file.string()));
+      "campaign",
+      spdlog::sinks_init_list{std::make_shared<spdlog::sinks::basic_file_sink_mt>(file.string()),
+                              terminal});
   logger->flush_on(spdlog::level::warn);  // info lines are buffered; the store holds the state
   return logger;
 }
@@ -125,6 +126,12 @@ Campaign load_campaign_file(const Registry& registry, const fs::path& file) {
       document["name"].get<std::string>().empty()) {
     throw InvalidInput({{"/name", "the campaign has no name", "add a non-empty string \"name\""}});
   }
+  if (const auto length = document["name"].get<std::string>().size(); length > kMaxCampaignName) {
+    throw InvalidInput({{"/name",
+                         fmt::format("the campaign name has {} characters, more than {}", length,
+                                     kMaxCampaignName),
+                         "use a shorter name (it names the campaign's log file)"}});
+  }
   return Campaign{document["name"].get<std::string>(), format, std::move(document)};
 }
 
@@ -151,10 +158,11 @@ DryRun dry_run(const Registry& registry, const Campaign& campaign, const fs::pat
   return counter.result();
 }
 
-RunSummary submit_campaign(const Registry& registry, const Campaign& campaign, const fs::path& db,
-                           const SubmitOptions& options) {
+RunSummary submit_campaign(const Registry& registry, const Campaign& campaign,
+                           const fs::path& given_db, const SubmitOptions& options) {
   const auto planned =
       plan_campaign(registry, campaign);  // bad input fails before anything is written
+  const fs::path db = resolve_database(given_db, DatabaseUse::create);
   if (!db.parent_path().empty()) fs::create_directories(db.parent_path());
   CoordinatorLock lock(db);
   const SystemClock system_clock;

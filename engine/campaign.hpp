@@ -44,6 +44,9 @@ struct Campaign {
   nlohmann::json document;
 };
 
+// A campaign's name names its log file: longer names are refused.
+inline constexpr std::size_t kMaxCampaignName = 200;
+
 // Reads, detects and validates a campaign file. Throws InvalidInput.
 Campaign load_campaign_file(const Registry& registry, const std::filesystem::path& file);
 std::vector<TaskSpec> plan_campaign(const Registry& registry, const Campaign& campaign);

@@ -9,12 +9,20 @@
 #include <cstring>
 
 #include "engine/clock.hpp"
+#include "engine/database_path.hpp"
 #include "engine/sqlite.hpp"
 #include "engine/store.hpp"
 
 namespace millflow::engine {
 
-std::optional<std::string> describe_coordinator(const std::filesystem::path& db) {
+namespace {
+
+struct CoordinatorRow {
+  std::int64_t pid = 0;
+  std::string description;
+};
+
+std::optional<CoordinatorRow> coordinator_row(const std::filesystem::path& db) {
   if (!std::filesystem::exists(db)) return std::nullopt;
   // Not open_read_only: a database whose first submit died before creating the schema is one to
   // submit to again, not an error.
@@ -23,12 +31,38 @@ std::optional<std::string> describe_coordinator(const std::filesystem::path& db)
   auto row =
       connection.prepare("SELECT pid, host, started_at, coalesce(campaign, '') FROM coordinator");
   if (!row.step()) return std::nullopt;
-  return fmt::format("pid {} on {} since {} (campaign \"{}\")", row.integer(0), row.text(1),
-                     iso8601_utc(row.real(2)), row.text(3));
+  return CoordinatorRow{row.integer(0),
+                        fmt::format("pid {} on {} since {} (campaign \"{}\")", row.integer(0),
+                                    row.text(1), iso8601_utc(row.real(2)), row.text(3))};
+}
+
+// Whether some process holds the flock of the database's lock file. Creates nothing.
+bool lock_is_held(const std::filesystem::path& db) {
+  const int fd = ::open(lock_file(db).c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool held = ::flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+  ::close(fd);  // drops the shared lock at once if it was granted
+  return held;
+}
+
+}  // namespace
+
+std::optional<std::string> describe_coordinator(const std::filesystem::path& db) {
+  const auto row = coordinator_row(db);
+  if (!row) return std::nullopt;
+  return row->description;
+}
+
+std::optional<CoordinatorState> coordinator_state(const std::filesystem::path& db) {
+  const auto row = coordinator_row(db);
+  if (!row) return std::nullopt;
+  if (lock_is_held(db)) return CoordinatorState{true, row->description};
+  return CoordinatorState{false,
+                          fmt::format("not running (last coordinator pid {} died)", row->pid)};
 }
 
 CoordinatorLock::CoordinatorLock(const std::filesystem::path& db) {
-  const auto file = lock_file(db);
+  const auto file = lock_file(resolve_database(db, DatabaseUse::create));
   fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (fd_ < 0)
     throw std::runtime_error("cannot open lock file " + file.string() + ": " +

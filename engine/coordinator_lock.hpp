@@ -16,7 +16,8 @@ class CoordinatorBusy : public std::runtime_error {
 
 class CoordinatorLock {
  public:
-  // Throws CoordinatorBusy naming the running coordinator when another process holds it.
+  // Throws CoordinatorBusy naming the running coordinator when another process holds it. The
+  // lock file is named from the database's real path (resolve_database).
   explicit CoordinatorLock(const std::filesystem::path& db);
   ~CoordinatorLock();
   CoordinatorLock(const CoordinatorLock&) = delete;
@@ -32,5 +33,15 @@ class CoordinatorLock {
 
 // "pid 123 on host since 2024-..." for the coordinator row of a database, if any.
 std::optional<std::string> describe_coordinator(const std::filesystem::path& db);
+
+// The coordinator row of a database checked against its lock: a row whose process no longer holds
+// the lock was left by a coordinator that died (kill -9, a crash) and is taken over by the next.
+struct CoordinatorState {
+  bool alive = false;
+  // alive: "pid 123 on host since ... (campaign "c")"; dead: "not running (last coordinator pid
+  // 123 died)".
+  std::string description;
+};
+std::optional<CoordinatorState> coordinator_state(const std::filesystem::path& db);
 
 }  // namespace millflow::engine

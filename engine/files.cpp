@@ -1,24 +1,17 @@
 #include "engine/files.hpp"
 
-#include <fcntl.h>
-#include <unistd.h>
+#include <fmt/format.h>
 
-#include "engine/hash.hpp"
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+
+#include "engine/validation.hpp"
+#include "util/durable_file.hpp"
+#include "util/sha256.hpp"
 
 namespace millflow::engine {
 namespace fs = std::filesystem;
-namespace {
-
-void flush_to_disk(const fs::path& file) {
-  const int fd = ::open(file.c_str(), O_RDONLY);
-  if (fd >= 0) {
-    ::fsync(fd);
-    ::close(fd);
-  }
-}
-
-}  // namespace
-
 std::optional<std::int64_t> LocalFileSystem::file_size(const fs::path& file) const {
   std::error_code error;
   const auto size = fs::file_size(file, error);
@@ -27,13 +20,12 @@ std::optional<std::int64_t> LocalFileSystem::file_size(const fs::path& file) con
 }
 
 std::string LocalFileSystem::sha256(const fs::path& file) const {
-  return sha256_file_hex(file);
+  return util::sha256_file_hex(file);
 }
 
 void LocalFileSystem::copy_durably(const fs::path& from, const fs::path& to) const {
   fs::create_directories(to.parent_path());
-  fs::copy_file(from, to, fs::copy_options::overwrite_existing);
-  flush_to_disk(to);
+  util::copy_file_durably(from, to);
 }
 
 void LocalFileSystem::rename(const fs::path& from, const fs::path& to) const {
@@ -53,6 +45,34 @@ std::vector<fs::path> LocalFileSystem::files_under(const fs::path& root) const {
     if (entry.is_regular_file()) files.push_back(entry.path());
   }
   return files;
+}
+
+std::string read_input_file(const fs::path& file) {
+  const auto unreadable = [&file](int error) {
+    return InvalidInput(
+        {{"", fmt::format("cannot read campaign file {}: {}", file.string(), std::strerror(error)),
+          "check the file name and its permissions"}});
+  };
+  std::error_code error;
+  const auto status = fs::status(file, error);
+  if (!fs::exists(status)) throw unreadable(error ? error.value() : ENOENT);
+  if (!fs::is_regular_file(status)) {
+    throw InvalidInput({{"", fmt::format("{} is not a regular file", file.string()),
+                         "pass a campaign JSON file"}});
+  }
+  const auto size = fs::file_size(file, error);
+  if (error) throw unreadable(error.value());
+  if (size > kMaxInputFileBytes) {
+    throw InvalidInput(
+        {{"",
+          fmt::format("{} has {} bytes, more than the {} a campaign file may have", file.string(),
+                      size, kMaxInputFileBytes),
+          "a campaign describes its points by sweeps; split a longer one into several"}});
+  }
+  std::ifstream in(file, std::ios::binary);
+  std::string text(size, '\0');
+  if (!in.read(text.data(), static_cast<std::streamsize>(size))) throw unreadable(errno);
+  return text;
 }
 
 const FileSystem& local_file_system() {

@@ -41,4 +41,12 @@ class LocalFileSystem final : public FileSystem {
 // The process-wide LocalFileSystem.
 const FileSystem& local_file_system();
 
+// Campaign files larger than this are refused (the largest example is a few kB).
+inline constexpr std::uintmax_t kMaxInputFileBytes = 16u << 20;
+
+// The text of a user's input file. Only a regular file of at most kMaxInputFileBytes is read, so
+// that /dev/zero or a named pipe cannot hang the reader. Throws InvalidInput naming the file, the
+// problem and a fix.
+std::string read_input_file(const std::filesystem::path& file);
+
 }  // namespace millflow::engine

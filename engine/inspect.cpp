@@ -8,6 +8,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
 
 #include "engine/artifacts.hpp"
 #include "engine/canonical_json.hpp"
@@ -16,6 +17,7 @@
 #include "engine/outputs.hpp"
 #include "engine/store.hpp"
 #include "engine/validation.hpp"
+#include "util/durable_file.hpp"
 
 namespace millflow::engine {
 namespace fs = std::filesystem;
@@ -254,16 +256,21 @@ void print_unfinished_jobs(sql::Connection& db, std::int64_t campaign, std::ostr
 
 void print_status(const fs::path& db, const std::string& campaign, std::ostream& out) {
   auto connection = open_read_only(db);
-  if (const auto holder = describe_coordinator(db)) out << "coordinator: " << *holder << '\n';
+  const auto coordinator = coordinator_state(db);
+  if (coordinator) out << "coordinator: " << coordinator->description << '\n';
+  // A campaign left 'running' by a coordinator that died is shown as what it is.
+  const bool running = coordinator && coordinator->alive;
   if (campaign.empty()) {
     auto rows = connection.prepare(
-        "SELECT c.name AS campaign, c.outcome, count(t.key) AS tasks, sum(t.status = 'done') AS "
+        "SELECT c.name AS campaign, CASE WHEN c.outcome = 'running' AND NOT ? THEN 'interrupted' "
+        "ELSE c.outcome END AS outcome, count(t.key) AS tasks, sum(t.status = 'done') AS "
         "done, "
         "sum(t.status = 'failed') AS failed, sum(t.status IN ('pending', 'running', "
         "'interrupted')) AS to_run "
         "FROM campaigns c LEFT JOIN campaign_tasks ct ON ct.campaign_id = c.id LEFT JOIN tasks t "
         "ON t.key = ct.task_key "
         "GROUP BY c.id ORDER BY c.submitted_at");
+    rows.bind_all(running ? 1 : 0);
     print_aligned(read_table(rows), out);
     return;
   }
@@ -285,6 +292,9 @@ void run_query(const fs::path& db, const std::string& sql_text, TableFormat form
   try {
     statement.emplace(connection.prepare(sql_text));
   } catch (const sql::Error& error) {
+    if (is_damaged_database_error(error.what()))
+      throw InvalidInput(
+          {{"--db", damaged_database_problem(db, error.what()), damaged_database_fix(db)}});
     throw InvalidInput(
         {{"", error.what(),
           "check the SQL; `millflow query \"SELECT name FROM sqlite_master\"` lists tables"}});
@@ -418,7 +428,7 @@ std::vector<fs::path> export_campaign(const fs::path& db, const std::string& cam
   fs::create_directories(out_dir);
   if (format == TableFormat::json) {
     const fs::path file = out_dir / (campaign + ".json");
-    std::ofstream(file) << tasks.dump(2) << '\n';
+    util::write_file_durably(file, tasks.dump(2) + '\n');
     return {file};
   }
   std::map<std::string, std::vector<const nlohmann::json*>> by_kind;
@@ -455,8 +465,9 @@ std::vector<fs::path> export_campaign(const fs::path& db, const std::string& cam
       table.rows.push_back(std::move(cells));
     }
     files.push_back(out_dir / (kind + ".csv"));
-    std::ofstream out(files.back());
-    print_csv(table, out);
+    std::ostringstream csv;
+    print_csv(table, csv);
+    util::write_file_durably(files.back(), csv.str());
   }
   return files;
 }

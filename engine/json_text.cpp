@@ -41,6 +41,19 @@ class DuplicateKeyFinder {
 
   std::vector<ValidationError> take_errors() { return std::move(errors_); }
 
+  // The path of the value the parser is reading now (where a number overflowed).
+  std::string current_value_path() const {
+    std::string text;
+    for (std::size_t i = 0; i < frames_.size(); ++i) {
+      const auto& frame = frames_[i];
+      const bool innermost = i + 1 == frames_.size();
+      text += '/';
+      text += frame.object ? escape_path_segment(frame.key)
+                           : std::to_string(innermost ? frame.items : frame.items - 1);
+    }
+    return text;
+  }
+
  private:
   struct Frame {
     bool object;
@@ -104,6 +117,11 @@ ParsedJson parse_json_text(std::string_view text) {
     parsed.document = json::parse(text, std::ref(finder));
   } catch (const json::parse_error& error) {
     throw InvalidInput({syntax_error(error, text)});
+  } catch (const json::out_of_range& error) {  // a number beyond a double, e.g. 1e400
+    std::string reason = error.what();
+    if (const auto at = reason.find("] "); at != std::string::npos) reason.erase(0, at + 2);
+    throw InvalidInput({{finder.current_value_path(), reason,
+                         "write a number a double can hold (magnitude below 1.8e308)"}});
   }
   parsed.duplicate_keys = finder.take_errors();
   return parsed;

@@ -10,6 +10,9 @@
 #include <stop_token>
 #include <unordered_map>
 
+#include "engine/canonical_json.hpp"
+#include "engine/validation.hpp"
+
 namespace millflow::engine {
 namespace fs = std::filesystem;
 namespace {
@@ -176,6 +179,20 @@ StoredState load_stored_state(sql::Connection& db, std::int64_t campaign) {
   children.bind_all(campaign);
   while (children.step()) state.children[children.text(0)].push_back(children.text(1));
   return state;
+}
+
+// A result the store cannot hold (NaN or infinity: a simulation that diverged) fails its attempt,
+// with the reason in the task's log; it must not reach the commit and stop the coordinator.
+void require_storable(const nlohmann::json& result) {
+  try {
+    canonical_json(result);
+  } catch (const InvalidInput& error) {
+    const ValidationError& first = error.errors().front();
+    throw std::runtime_error(fmt::format(
+        "its result cannot be stored: {}: {} (a value that is not finite usually means the "
+        "simulation diverged: check the task's parameters, e.g. a stiffness or time step)",
+        first.path, first.problem));
+  }
 }
 
 class Coordinator {
@@ -465,6 +482,7 @@ class Coordinator {
   }
 
   void store_outputs(const std::string& key, Event& event) const {
+    require_storable(event.outcome.result);
     for (const auto& artifact : event.outcome.artifacts)
       event.stored.push_back(artifacts_.put(artifact.name, artifact.file));
     for (auto& child : event.outcome.children) {
@@ -478,7 +496,8 @@ class Coordinator {
   // --- outcomes ----------------------------------------------------------------------------
   void handle(Event event) {
     if (event.type == Event::Type::log) {
-      log(event.key, "info", event.message);
+      // A task marks the lines that matter (e.g. a checkpoint it had to discard) "warning: ".
+      log(event.key, event.message.starts_with(kTaskWarning) ? "warn" : "info", event.message);
       return;
     }
     --running_;

@@ -9,6 +9,7 @@
 
 #include "engine/artifacts.hpp"
 #include "engine/attempt_files.hpp"
+#include "util/durable_file.hpp"
 
 namespace millflow::engine {
 namespace fs = std::filesystem;
@@ -105,14 +106,14 @@ std::vector<TaskInput> SlurmExecutor::staged(const std::vector<TaskInput>& input
 }
 
 void SlurmExecutor::write_batch_script(const fs::path& batch_dir) const {
-  std::ofstream script(batch_dir / "job.sh");
-  script << "#!/bin/sh\n"
-            "# millflow: array element i runs the task attempt of <i>.json; it never opens the "
-            "database.\n"
-         << "exec " << shell_quoted(settings_.program.string()) << " exec "
-         << shell_quoted(batch_dir.string()) << "/\"${SLURM_ARRAY_TASK_ID}.json\"\n";
-  if (!script.flush())
-    throw std::runtime_error("cannot write the batch script in " + batch_dir.string());
+  util::write_file_durably(
+      batch_dir / "job.sh",
+      "#!/bin/sh\n"
+      "# millflow: array element i runs the task attempt of <i>.json; it never opens the "
+      "database.\n"
+      "exec " +
+          shell_quoted(settings_.program.string()) + " exec " + shell_quoted(batch_dir.string()) +
+          "/\"${SLURM_ARRAY_TASK_ID}.json\"\n");
 }
 
 std::vector<JobRecord> SlurmExecutor::submit(const std::vector<AttemptOrder>& attempts,

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "engine/canonical_json.hpp"
+#include "engine/validation.hpp"
 #include "engine/version.hpp"
 
 namespace millflow::engine {
@@ -142,6 +143,17 @@ PRAGMA legacy_alter_table = OFF;
 
 namespace {
 
+// The schema version, or InvalidInput when the file is not a readable SQLite database.
+int readable_user_version(sql::Connection& connection, const fs::path& db) {
+  try {
+    return connection.user_version();
+  } catch (const sql::Error& error) {
+    if (!is_damaged_database_error(error.what())) throw;
+    throw InvalidInput(
+        {{"--db", damaged_database_problem(db, error.what()), damaged_database_fix(db)}});
+  }
+}
+
 void refuse_newer_schema(const fs::path& db, int version) {
   if (version > kSchemaVersion) {
     throw SchemaTooNew(fmt::format(
@@ -194,13 +206,31 @@ fs::path logs_dir(const fs::path& db) {
   return beside(db, ".logs");
 }
 
+bool is_damaged_database_error(std::string_view sqlite_message) {
+  return sqlite_message.find("file is not a database") != std::string_view::npos ||
+         sqlite_message.find("database disk image is malformed") != std::string_view::npos ||
+         sqlite_message.find("malformed database schema") != std::string_view::npos;
+}
+
+std::string damaged_database_problem(const fs::path& db, std::string_view sqlite_message) {
+  return fmt::format("{} is not a readable millflow database (SQLite: {})", db.string(),
+                     sqlite_message);
+}
+
+std::string damaged_database_fix(const fs::path& db) {
+  return fmt::format(
+      "check that --db names the right file; if it does, the file is damaged: restore it from a "
+      "backup (`sqlite3 {} 'PRAGMA integrity_check'` shows the damage)",
+      db.string());
+}
+
 sql::Connection open_read_only(const fs::path& db) {
   if (!fs::exists(db)) {
     throw std::runtime_error("no database at " + db.string() +
                              ": submit a campaign first, or pass --db");
   }
   sql::Connection connection(db, sql::Access::read_only);
-  const int version = connection.user_version();
+  const int version = readable_user_version(connection, db);
   if (version == 0) {  // the schema and its version are committed together
     throw std::runtime_error(
         "the database " + db.string() +
@@ -279,7 +309,7 @@ std::vector<JobRecord> find_jobs(sql::Connection& db, const std::string& key) {
 Store::Store(const fs::path& db, const std::vector<ViewDefinition>& views, const Clock& clock)
     : path_(db), clock_(clock), db_(db, sql::Access::read_write) {
   // Check the version before anything can write (journal_mode changes the file header).
-  refuse_newer_schema(db, db_.user_version());
+  refuse_newer_schema(db, readable_user_version(db_, db));
   db_.exec("PRAGMA journal_mode = WAL");
   db_.exec("PRAGMA synchronous = NORMAL");
   // Checkpoint every ~16 MB of WAL instead of 4 MB: task commits rewrite the same few pages, and

@@ -90,7 +90,15 @@ std::filesystem::path jobs_dir(const std::filesystem::path& db);
 std::filesystem::path lock_file(const std::filesystem::path& db);
 std::filesystem::path logs_dir(const std::filesystem::path& db);
 
-// Read-only connection to an existing database whose schema this build understands.
+// Wording for a database file SQLite cannot read (garbage, truncated, damaged pages): what is
+// wrong, and how to fix it. is_damaged_database_error tells such an SQLite message from others.
+bool is_damaged_database_error(std::string_view sqlite_message);
+std::string damaged_database_problem(const std::filesystem::path& db,
+                                     std::string_view sqlite_message);
+std::string damaged_database_fix(const std::filesystem::path& db);
+
+// Read-only connection to an existing database whose schema this build understands. A file that
+// is not a readable SQLite database is InvalidInput (path "--db").
 sql::Connection open_read_only(const std::filesystem::path& db);
 
 // Reads shared by the writer and the read-only tools.

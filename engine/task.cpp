@@ -3,8 +3,8 @@
 #include <stdexcept>
 
 #include "engine/canonical_json.hpp"
-#include "engine/hash.hpp"
 #include "engine/validation.hpp"
+#include "util/sha256.hpp"
 
 namespace millflow::engine {
 namespace {
@@ -31,7 +31,7 @@ TaskSpec make_task_spec(std::string kind, std::string version, nlohmann::json pa
   spec.key_text = "millflow-task 1\nkind:" + spec.kind + "\nversion:" + spec.version +
                   "\nparams:" + canonical_json(spec.params) +
                   "\nupstream:" + join_keys(spec.upstream) + "\n";
-  spec.key = sha256_hex(spec.key_text);
+  spec.key = util::sha256_hex(spec.key_text);
   return spec;
 }
 

@@ -75,6 +75,10 @@ struct TaskOutcome {
 };
 
 // What a running task gets. Thread-safe to use from the task's own threads.
+// A task's log line starting with this is a warning: the coordinator logs it at warn level, which
+// is also printed on the terminal.
+inline constexpr std::string_view kTaskWarning = "warning: ";
+
 struct TaskContext {
   std::string key;
   const nlohmann::json& params;

@@ -5,9 +5,12 @@
 #include <atomic>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <thread>
 
+#include "engine/files.hpp"
+#include "engine/json_text.hpp"
 #include "engine/validation.hpp"
 
 namespace millflow::engine {
@@ -93,6 +96,8 @@ TaskOutcome run_steps(TaskContext& context) {
 TaskOutcome run_fail(TaskContext& context) {
   const std::int64_t failures = integer_param(context.params, "failures", 0);
   if (context.attempt <= failures) {
+    if (context.params.value("non_finite", false))  // fails by a result the store refuses
+      return TaskOutcome::with_result({{"value", std::numeric_limits<double>::quiet_NaN()}});
     throw std::runtime_error(
         fmt::format("planned failure: attempt {} of a task that fails its first {}",
                     context.attempt, failures));
@@ -150,8 +155,7 @@ TaskOutcome run_fanout(TaskContext& context) {
 
 // Validates a millflow-test document, collecting every error.
 nlohmann::json load_test_campaign(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  const nlohmann::json document = nlohmann::json::parse(in);
+  const nlohmann::json document = parse_json_text(read_input_file(file)).document;
   std::vector<ValidationError> errors;
   if (!document.contains("name") || !document["name"].is_string()) {
     errors.push_back({"/name", "missing or not a string", "add \"name\": \"<campaign name>\""});

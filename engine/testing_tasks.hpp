@@ -6,7 +6,8 @@
 //              {"id": "b", "kind": "sum", "params": {"value": 2}, "after": ["a"]}]}
 // ("after" names earlier tasks: the upstream tasks, in input order). Kinds:
 //   sleep  {"ms": N}                  sleeps N ms in 2 ms steps, polling its stop token
-//   fail   {"failures": N}            throws on its first N attempts ever (counted in the store)
+//   fail   {"failures": N}            throws on its first N attempts ever (counted in the store);
+//          with {"non_finite": true} it returns a NaN result on them instead of throwing
 //   steps  {"steps": N, "step_ms": M} N steps of M ms, each advancing a 64-bit state; checkpoints
 //          (step, state) in its work directory after every step, stops at a stop request and
 //          continues from the checkpoint when run again (logging "continuing from step k of N");

@@ -12,6 +12,7 @@
 #include "engine/validation.hpp"
 #include "tasks/kinds.hpp"
 #include "tasks/vtk_image.hpp"
+#include "util/durable_file.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -88,9 +89,7 @@ json mill_wide_rates(const CoarseFields& fields) {
 }
 
 void write_json(const std::filesystem::path& file, const json& document) {
-  std::ofstream out(file);
-  out << document.dump();
-  if (!out.flush()) throw std::runtime_error("could not write " + file.string());
+  util::write_file_durably(file, document.dump());
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <set>
 #include <sstream>
 
+#include "engine/files.hpp"
 #include "engine/json_text.hpp"
 #include "engine/slurm_executor.hpp"
 #include "tasks/campaign_checks.hpp"
@@ -84,14 +85,14 @@ std::vector<engine::FieldRule> macro_fields() {
       Field("/dem/steps_per_collision", FieldType::integer,
             "time steps per collision time (dt = t_c / N)")
           .defaults(20)
-          .range(at_least(20), {}),
+          .range(at_least(20), at_most(1000)),
       Field("/dem/neighbor_skin_fraction", FieldType::number,
             "neighbour-list skin as a fraction of the smallest particle diameter")
           .defaults(0.3)
           .range(above(0), at_most(2)),
       Field("/dem/seed", FieldType::integer, "random seed, combined with each task's key")
           .defaults(1)
-          .range(at_least(0), {}),
+          .range(at_least(0), at_most(4294967295.0)),
       Field("/mill", FieldType::object, "the mill").required(),
       Field("/mill/diameter", FieldType::number, "inner diameter of the mill shell")
           .unit("m")
@@ -100,7 +101,7 @@ std::vector<engine::FieldRule> macro_fields() {
       Field("/mill/length", FieldType::number, "axial length of the simulated mill slice")
           .unit("m")
           .required()
-          .range(above(0), {}),
+          .range(above(0), at_most(20)),
       Field("/mill/axial_ends", FieldType::enumeration, "axial boundaries of the slice")
           .defaults("periodic")
           .choices({"periodic", "walls"}),
@@ -114,10 +115,10 @@ std::vector<engine::FieldRule> macro_fields() {
           .range(at_least(0), at_most(200)),
       Field("/mill/lifters/height", FieldType::number, "radial height of a lifter bar")
           .unit("m")
-          .range(above(0), {}),
+          .range(above(0), at_most(1)),
       Field("/mill/lifters/base_width", FieldType::number, "width of a lifter bar at the shell")
           .unit("m")
-          .range(above(0), {}),
+          .range(above(0), at_most(1)),
       Field("/mill/lifters/face_angle_deg", FieldType::number,
             "angle of the lifter faces from the radial direction (0: rectangular bar)")
           .unit("deg")
@@ -157,27 +158,48 @@ std::vector<engine::FieldRule> macro_fields() {
             "time the charge settles before the mill turns")
           .unit("s")
           .defaults(0.5)
-          .range(above(0), {}),
+          .range(above(0), at_most(60)),
       Field("/macro/warmup_revolutions", FieldType::number, "mill revolutions before measuring")
           .defaults(2.0)
-          .range(at_least(0), {}),
+          .range(at_least(0), at_most(100)),
       Field("/macro/measure_revolutions", FieldType::number, "mill revolutions measured")
           .defaults(3.0)
-          .range(above(0), {}),
+          .range(above(0), at_most(1000)),
       Field("/macro/sample_interval", FieldType::number,
             "interval between flow samples for averaging")
           .unit("s")
           .defaults(0.01)
-          .range(above(0), {}),
+          .range(at_least(1e-4), at_most(10)),
       Field("/macro/vtk_interval", FieldType::number, "interval between VTK particle files")
           .unit("s")
           .defaults(0.1)
-          .range(above(0), {}),
+          .range(at_least(1e-3), {}),
       Field("/macro/checkpoint_interval_s", FieldType::number,
             "wall-clock interval between checkpoints")
           .unit("s")
           .defaults(60.0)
-          .range(above(0), {}),
+          .range(at_least(1), at_most(86400)),
+  };
+}
+
+// What one task may cost before validation refuses it (campaign_checks.hpp estimates it). A
+// campaign that means it raises them here.
+std::vector<engine::FieldRule> limit_fields() {
+  return {
+      Field("/limits", FieldType::object,
+            "the most one task may cost; raise a limit here to run beyond it")
+          .defaults(json::object()),
+      Field("/limits/max_steps_per_task", FieldType::number,
+            "estimated DEM time steps of one macro run")
+          .defaults(default_max_steps_per_task)
+          .range(at_least(1), at_most(1e12)),
+      Field("/limits/max_particles_per_task", FieldType::number, "balls in one macro run")
+          .defaults(default_max_particles_per_task)
+          .range(at_least(1), at_most(1e9)),
+      Field("/limits/max_output_files_per_task", FieldType::number,
+            "VTK particle files one macro run writes")
+          .defaults(default_max_output_files_per_task)
+          .range(at_least(1), at_most(1e7)),
   };
 }
 
@@ -441,7 +463,7 @@ engine::FieldTable make_campaign_table() {
           .opaque(),
   };
   for (const auto& part : {material_fields(), macro_fields(), micro_fields(), upscale_fields(),
-                           executor_fields(), sweep}) {
+                           executor_fields(), limit_fields(), sweep}) {
     rules.insert(rules.end(), part.begin(), part.end());
   }
   return engine::FieldTable(std::move(rules));
@@ -530,15 +552,7 @@ nlohmann::json parse_campaign(std::string_view text) {
 }
 
 nlohmann::json load_campaign(const std::filesystem::path& file) {
-  std::ifstream stream(file, std::ios::binary);
-  if (!stream) {
-    throw engine::InvalidInput(
-        {{"", "cannot read campaign file " + file.string() + ": " + std::strerror(errno),
-          "check the file name and its permissions"}});
-  }
-  std::ostringstream text;
-  text << stream.rdbuf();
-  return parse_campaign(text.str());
+  return parse_campaign(engine::read_input_file(file));
 }
 
 std::vector<CampaignPoint> expand(const nlohmann::json& campaign) {

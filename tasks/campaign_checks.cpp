@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -123,6 +124,7 @@ class ConsistencyChecker {
       check_balls_fit_mill(*balls);
       check_ball_count(*balls);
       check_sample_interval(*balls);
+      check_macro_budget(*balls);
       check_powder_count();
     }
     check_region_rules(balls ? std::optional(mean_diameter(*balls)) : std::nullopt);
@@ -318,20 +320,26 @@ class ConsistencyChecker {
     }
   }
 
-  void check_ball_count(const std::vector<BallClass>& balls) {
+  // Balls in the charge at rest, from the fill and the bed's voids.
+  std::optional<double> ball_count(const std::vector<BallClass>& balls) const {
     const auto fill = campaign_.number("/macro/fill");
     const auto diameter = campaign_.number("/mill/diameter");
     const auto length = campaign_.number("/mill/length");
-    if (!fill || !diameter || !length) return;
+    if (!fill || !diameter || !length) return std::nullopt;
     const double solid =
         *fill * std::numbers::pi / 4 * *diameter * *diameter * *length * (1 - bed_void_fraction);
     double count = 0.0;
     for (const auto& ball : balls)
       count += ball.mass_fraction * solid / sphere_volume(ball.diameter);
-    if (count >= min_balls_in_charge) return;
+    return count;
+  }
+
+  void check_ball_count(const std::vector<BallClass>& balls) {
+    const auto count = ball_count(balls);
+    if (!count || *count >= min_balls_in_charge) return;
     error("/macro/fill",
-          "fill " + quantity(*fill) + " holds only about " + fmt::format("{:.0f}", count) +
-              " balls in this mill slice",
+          "fill " + quantity(*campaign_.number("/macro/fill")) + " holds only about " +
+              fmt::format("{:.0f}", *count) + " balls in this mill slice",
           fmt::format("raise the fill, lengthen the slice or use smaller balls (a charge needs at "
                       "least {} balls)",
                       min_balls_in_charge));
@@ -351,6 +359,82 @@ class ConsistencyChecker {
           quantity(*interval) + " s gives fewer than " + quantity(min_flow_samples) +
               " flow samples over the " + quantity(measured) + " s measurement",
           "use a sample interval of at most " + quantity(measured / min_flow_samples) + " s");
+  }
+
+  // The shortest contact duration of the media's interactions (see campaign_checks.hpp).
+  std::optional<double> shortest_collision_time(const std::vector<BallClass>& balls) const {
+    const auto media = campaign_.text("/media/material");
+    const auto* interactions = campaign_.node("/interactions");
+    if (!media || interactions == nullptr) return std::nullopt;
+    const auto density = campaign_.number("/materials/" + *media + "/density");
+    double smallest = std::numeric_limits<double>::infinity();
+    for (const auto& ball : balls) smallest = std::min(smallest, ball.diameter);
+    std::optional<double> shortest;
+    for (const auto& interaction : *interactions) {
+      const auto& pair = interaction.at("materials");
+      const int media_sides = (pair[0] == *media ? 1 : 0) + (pair[1] == *media ? 1 : 0);
+      if (media_sides == 0 || !interaction.contains("stiffness")) continue;
+      const auto& stiffness = interaction.at("stiffness");
+      double duration = 0.0;
+      if (stiffness.contains("collision_time")) {
+        duration = stiffness.at("collision_time").get<double>();
+      } else if (stiffness.contains("normal") && density) {
+        const double mass = *density * sphere_volume(smallest);
+        const double effective = media_sides == 2 ? mass / 2 : mass;  // the liner is a wall
+        duration = std::numbers::pi * std::sqrt(effective / stiffness.at("normal").get<double>());
+      } else {
+        continue;
+      }
+      shortest = std::min(shortest.value_or(duration), duration);
+    }
+    return shortest;
+  }
+
+  // What one macro run costs against the campaign's /limits.
+  void check_macro_budget(const std::vector<BallClass>& balls) {
+    const auto count = ball_count(balls);
+    const auto max_particles = campaign_.number("/limits/max_particles_per_task");
+    if (count && max_particles && *count > *max_particles) {
+      error("/media",
+            "about " + fmt::format("{:.3g}", *count) + " balls fill this mill slice, more than " +
+                "/limits/max_particles_per_task = " + quantity(*max_particles),
+            "use larger balls, a shorter slice or a lower fill, or raise "
+            "/limits/max_particles_per_task if the machine has the memory");
+    }
+    const auto diameter = campaign_.number("/mill/diameter");
+    const auto speed = campaign_.number("/macro/speed_fraction");
+    const auto settle = campaign_.number("/macro/settle_time");
+    const auto warmup = campaign_.number("/macro/warmup_revolutions");
+    const auto measure = campaign_.number("/macro/measure_revolutions");
+    const auto steps_per_collision = campaign_.number("/dem/steps_per_collision");
+    const auto collision_time = shortest_collision_time(balls);
+    if (!diameter || !speed || !settle || !warmup || !measure || !steps_per_collision ||
+        !collision_time || *diameter <= mean_diameter(balls))
+      return;
+    const double critical_rpm = 42.3 / std::sqrt(*diameter - mean_diameter(balls));
+    const double simulated = *settle + (*warmup + *measure) * 60.0 / (*speed * critical_rpm);
+    const double time_step = *collision_time / *steps_per_collision;
+    const double steps = simulated / time_step;
+    const auto max_steps = campaign_.number("/limits/max_steps_per_task");
+    if (max_steps && steps > *max_steps) {
+      error("/macro",
+            "a macro run takes about " + fmt::format("{:.3g}", steps) + " time steps (" +
+                quantity(simulated) + " s at dt = " + quantity(time_step) +
+                " s), more than /limits/max_steps_per_task = " + quantity(*max_steps),
+            "measure fewer revolutions, use fewer steps per collision or softer contacts, or "
+            "raise /limits/max_steps_per_task");
+    }
+    const auto vtk_interval = campaign_.number("/macro/vtk_interval");
+    const auto max_files = campaign_.number("/limits/max_output_files_per_task");
+    if (vtk_interval && max_files && simulated / *vtk_interval > *max_files) {
+      error("/macro/vtk_interval",
+            quantity(*vtk_interval) + " s writes about " +
+                fmt::format("{:.3g}", simulated / *vtk_interval) + " VTK files over the " +
+                quantity(simulated) + " s of a macro run, more than " +
+                "/limits/max_output_files_per_task = " + quantity(*max_files),
+            "use a VTK interval of at least " + quantity(simulated / *max_files) +
+                " s, or raise /limits/max_output_files_per_task");
+    }
   }
 
   void check_powder_count() {

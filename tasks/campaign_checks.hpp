@@ -17,6 +17,15 @@ inline constexpr double min_balls_in_charge = 50;
 inline constexpr double max_powder_particles = 2.0e6;
 // The averaging needs at least this many flow samples over the measured revolutions.
 inline constexpr double min_flow_samples = 10;
+// The defaults of a campaign's /limits: what one macro run may cost before validation refuses it
+// (a run past them takes days or exhausts a workstation's memory or disk). Estimates: balls from
+// the fill (bed voids bed_void_fraction); time step t_c / steps_per_collision with t_c the
+// shortest contact among the media's interactions (an undamped estimate for a normal stiffness:
+// pi sqrt(m_eff / k_n) with the smallest ball); steps over settle time and all revolutions; VTK
+// files one per vtk_interval over that time.
+inline constexpr double default_max_steps_per_task = 1e8;
+inline constexpr double default_max_particles_per_task = 2e6;
+inline constexpr double default_max_output_files_per_task = 1e4;
 
 // The errors of `campaign` (the validator's normalized document) that involve several fields.
 // Fields that already have an error in `field_errors` (or sit above or below one) are skipped, so

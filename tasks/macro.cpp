@@ -18,6 +18,7 @@
 #include "tasks/kinds.hpp"
 #include "tasks/macro_measure.hpp"
 #include "tasks/macro_setup.hpp"
+#include "util/durable_file.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -446,13 +447,12 @@ class MacroRun {
   }
 
   void write_power_csv(const fs::path& path) const {
-    std::ofstream out(path, std::ios::trunc);
-    out << "time_s,power_w,torque_arm_power_w\n";
+    std::string text = "time_s,power_w,torque_arm_power_w\n";
     for (std::size_t k = 0; k < power_.times().size(); ++k) {
-      out << fmt::format("{},{},{}\n", power_.times()[k], power_.powers()[k],
-                         power_.torque_arm_powers()[k]);
+      text += fmt::format("{},{},{}\n", power_.times()[k], power_.powers()[k],
+                          power_.torque_arm_powers()[k]);
     }
-    if (!out) throw std::runtime_error("cannot write " + path.string());
+    util::write_file_durably(path, text);
   }
 
   // The collision energy spectra of the result as a table: a row per bin, a column per
@@ -542,8 +542,20 @@ std::string param_field(const char* name, const char* path) {
 }  // namespace
 
 engine::TaskOutcome run_macro(engine::TaskContext& context) {
-  MacroRun run(context);
-  return run.run();
+  std::optional<MacroRun> run;
+  try {
+    run.emplace(context);
+  } catch (const dem::CorruptData& error) {
+    // A damaged checkpoint (flipped, truncated, deleted) must not fail every resume the same way:
+    // its work is lost, the run starts again and gives the same result.
+    context.log(fmt::format(
+        "{}macro: the checkpoint in {} cannot be used ({}); starting again from scratch",
+        engine::kTaskWarning, context.work_dir.string(), error.what()));
+    fs::remove_all(context.work_dir);
+    fs::create_directories(context.work_dir);
+    run.emplace(context);
+  }
+  return run->run();
 }
 
 double bond_kw_per_tonne(double diameter, double fill, double speed_fraction) {

@@ -15,6 +15,7 @@
 #include "tasks/report_regions.hpp"
 #include "tasks/sites.hpp"
 #include "tasks/svg_plot.hpp"
+#include "util/durable_file.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -436,12 +437,7 @@ class ReportWriter {
 
   void write(const std::string& name, const std::string& text) {
     const fs::path file = dir_ / name;
-    std::ofstream out(file, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out)
-      throw std::runtime_error("cannot write " + file.string() +
-                               ": check the disk and the work directory");
+    util::write_file_durably(file, text);
     names_.push_back(name);
   }
   const std::vector<std::string>& names() const { return names_; }

@@ -158,8 +158,8 @@ dem::ShearCellRun resume_or_start(const dem::ShearCellSetup& setup,
       return run;
     } catch (const dem::CorruptData& error) {
       context.log(fmt::format(
-          "shear cell: the checkpoint {} cannot be used ({}); starting again from scratch",
-          checkpoint.string(), error.what()));
+          "{}shear cell: the checkpoint {} cannot be used ({}); starting again from scratch",
+          engine::kTaskWarning, checkpoint.string(), error.what()));
       std::filesystem::remove(checkpoint);
     }
   }

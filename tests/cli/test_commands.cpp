@@ -16,6 +16,7 @@
 
 #include "engine/store.hpp"
 #include "tests/common/child_process.hpp"
+#include "tests/common/running_tasks.hpp"
 #include "tests/common/scratch_dir.hpp"
 
 namespace millflow::testing {
@@ -277,17 +278,6 @@ TEST_F(Cli, GcRemovesOnlyFilesNoTaskReferences) {
   EXPECT_FALSE(fs::exists(kept.parent_path() / leftover));
   EXPECT_TRUE(fs::exists(kept));
   EXPECT_EQ(millflow({"gc"}).out, "0 unreferenced artifact file(s)\n");
-}
-
-std::int64_t running_tasks(const fs::path& db) {
-  try {
-    auto connection = engine::open_read_only(db);
-    auto row = connection.prepare("SELECT count(*) FROM tasks WHERE status = 'running'");
-    row.step();
-    return row.integer(0);
-  } catch (const std::exception&) {
-    return 0;  // not created yet
-  }
 }
 
 TEST_F(Cli, ExitCodesForDoneFailedBadInputBusyAndInterrupted) {

@@ -1,4 +1,5 @@
 #include "dem/binary_io.hpp"
+#include "util/sha256.hpp"
 
 #include <array>
 #include <cstdint>
@@ -135,8 +136,10 @@ TEST(BinaryWriterReader, EveryTruncatedPayloadThrows) {
 }
 
 TEST(Sha256, KnownVectors) {
-  EXPECT_EQ(sha256_hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
-  EXPECT_EQ(sha256_hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  EXPECT_EQ(util::sha256_hex(""),
+            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  EXPECT_EQ(util::sha256_hex("abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
 }
 
 TEST_F(BinaryFile, RoundTripWithVersion) {
@@ -157,7 +160,7 @@ TEST_F(BinaryFile, LayoutIsMagicVersionSizePayloadChecksum) {
   EXPECT_EQ(bytes.substr(20, 3), "xyz");
   std::string stored_hex;
   for (unsigned char c : bytes.substr(23)) stored_hex += fmt::format("{:02x}", c);
-  EXPECT_EQ(stored_hex, sha256_hex(bytes.substr(0, 23)));
+  EXPECT_EQ(stored_hex, util::sha256_hex(bytes.substr(0, 23)));
 }
 
 TEST_F(BinaryFile, TruncationAtEveryLengthIsRejected) {

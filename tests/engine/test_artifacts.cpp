@@ -7,9 +7,9 @@
 
 #include "engine/artifacts.hpp"
 #include "engine/files.hpp"
-#include "engine/hash.hpp"
 #include "engine/store.hpp"
 #include "support_engine.hpp"
+#include "util/sha256.hpp"
 
 namespace millflow::engine::testing {
 namespace {
@@ -56,7 +56,7 @@ TEST(Artifacts, CopyFailingMidwayLeavesNoPartialFile) {
   EXPECT_TRUE(disk.files_under(store.root()).empty());
 
   const StoredArtifact stored = store.put("payload.bin", source);
-  EXPECT_EQ(stored.sha256, sha256_hex(std::string(10000, 'x')));
+  EXPECT_EQ(stored.sha256, util::sha256_hex(std::string(10000, 'x')));
   EXPECT_EQ(stored.size, 10000);
   EXPECT_TRUE(store.verify(stored));
   EXPECT_EQ(disk.files_under(store.root()), std::vector<fs::path>{store.path_of(stored.sha256)});

@@ -6,8 +6,8 @@
 #include <sstream>
 
 #include "engine/attempt_files.hpp"
-#include "engine/hash.hpp"
 #include "support_engine.hpp"
+#include "util/sha256.hpp"
 
 namespace millflow::engine::testing {
 namespace {
@@ -55,7 +55,7 @@ TEST_F(AttemptFiles, DoneWritesResultArtifactsAndAMarkerWithTheirDigests) {
   ASSERT_TRUE(run.outcome && !run.outcome->error);
   EXPECT_EQ(run.outcome->outcome.result, json({{"sum", 5}}));
   const json marker = json::parse(std::ifstream(dir_.path() / "out" / "complete.json"));
-  EXPECT_EQ(marker["result_sha256"], sha256_file_hex(dir_.path() / "out" / "result.json"));
+  EXPECT_EQ(marker["result_sha256"], util::sha256_file_hex(dir_.path() / "out" / "result.json"));
   ASSERT_EQ(run.outcome->outcome.artifacts.size(), 1u);
   EXPECT_EQ(run.outcome->outcome.artifacts[0].name, "sum.txt");
   std::ifstream artifact(run.outcome->outcome.artifacts[0].file);

@@ -235,5 +235,30 @@ TEST(Runtime, StoppedTaskContinuesFromItsCheckpointToTheSameResult) {
   EXPECT_EQ(json::parse(only_result(dir.db()))["steps"], 60);
 }
 
+// A NaN in a result used to throw out of the commit and stop the coordinator, leaving the task
+// running; every resume did the same. It is a failed attempt, logged, and a retry can succeed.
+TEST(Runtime, ANonFiniteResultIsAFailedAttemptWithTheReasonInTheTaskLog) {
+  ScratchDir dir;
+  const json tasks = json::array(
+      {{{"id", "nan"}, {"kind", "fail"}, {"params", {{"failures", 1}, {"non_finite", true}}}},
+       {{"id", "after"}, {"kind", "sum"}, {"params", {{"value", 1}}}, {"after", {"nan"}}},
+       {{"id", "sibling"}, {"kind", "sum"}, {"params", {{"value", 2}}}}});
+  const auto first = submit(test_campaign("diverged", tasks), dir.db());
+  EXPECT_EQ(first.failed, 1);
+  EXPECT_EQ(first.skipped, 1);
+  EXPECT_EQ(first.done, 1);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM tasks WHERE status = 'running'"), 0);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM coordinator"), 0);
+  EXPECT_EQ(count(dir.db(),
+                  "SELECT count(*) FROM log_lines WHERE task_key IS NOT NULL AND level = 'error' "
+                  "AND message LIKE 'attempt 1 failed: its result cannot be stored: /value: nan "
+                  "is not a finite number%'"),
+            1);
+  // The second attempt returns a finite result: the campaign finishes on resume.
+  const auto second = submit(test_campaign("diverged", tasks), dir.db());
+  EXPECT_EQ(second.failed, 0);
+  EXPECT_EQ(second.done, 2);
+}
+
 }  // namespace
 }  // namespace millflow::engine::testing

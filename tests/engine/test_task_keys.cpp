@@ -4,9 +4,9 @@
 #include <limits>
 
 #include "engine/canonical_json.hpp"
-#include "engine/hash.hpp"
 #include "engine/task.hpp"
 #include "engine/validation.hpp"
+#include "util/sha256.hpp"
 
 namespace millflow::engine {
 namespace {
@@ -53,12 +53,13 @@ TEST(TaskKey, IsTheSha256OfTheStoredText) {
   const auto spec = make_task_spec("sum", "1", json{{"value", 3}}, {"aa", "bb"});
   EXPECT_EQ(spec.key_text,
             "millflow-task 1\nkind:sum\nversion:1\nparams:{\"value\":3}\nupstream:aa,bb\n");
-  EXPECT_EQ(spec.key, sha256_hex(spec.key_text));
+  EXPECT_EQ(spec.key, util::sha256_hex(spec.key_text));
 }
 
 TEST(TaskKey, Sha256MatchesTheStandardTestVector) {
   // FIPS 180-2 test vector for "abc".
-  EXPECT_EQ(sha256_hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  EXPECT_EQ(util::sha256_hex("abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
 }
 
 TEST(TaskKey, GoldenKeyForAFixedTask) {
@@ -67,9 +68,10 @@ TEST(TaskKey, GoldenKeyForAFixedTask) {
   // `printf ... | sha256sum` (coreutils) of the text in the line above.
   const auto spec = make_task_spec(
       "macro", "2", json::parse(R"({"speed": 0.75, "fill": 0.3, "balls": 1000})"), {});
-  EXPECT_EQ(spec.key, sha256_hex("millflow-task "
-                                 "1\nkind:macro\nversion:2\nparams:{\"balls\":1000,\"fill\":0.3,"
-                                 "\"speed\":0.75}\nupstream:\n"));
+  EXPECT_EQ(spec.key,
+            util::sha256_hex("millflow-task "
+                             "1\nkind:macro\nversion:2\nparams:{\"balls\":1000,\"fill\":0.3,"
+                             "\"speed\":0.75}\nupstream:\n"));
   EXPECT_EQ(spec.key, "2ee358402de72664d4ce899fcf6be552d418c4ad87fec20bff9074c982092103");
 }
 

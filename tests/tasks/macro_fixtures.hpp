@@ -41,6 +41,7 @@ struct DirectRun {
   std::filesystem::path work_dir;
   std::string key = "tiny-macro";
   int threads = 2;
+  std::vector<std::string>* log_lines = nullptr;  // the task's log lines, when given
 
   engine::TaskOutcome run(std::stop_token stop = {},
                           std::function<void(double, std::string_view)> on_progress = {}) const {
@@ -55,7 +56,10 @@ struct DirectRun {
                                     [&](double fraction, std::string_view message) {
                                       if (on_progress) on_progress(fraction, message);
                                     },
-                                .log = [](std::string_view) {}};
+                                .log =
+                                    [this](std::string_view line) {
+                                      if (log_lines) log_lines->emplace_back(line);
+                                    }};
     std::filesystem::create_directories(work_dir);
     engine::TaskOutcome outcome;
     tbb::task_arena arena(threads);

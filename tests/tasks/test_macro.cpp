@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <numbers>
 #include <sstream>
@@ -315,6 +316,55 @@ TEST_F(MacroRunTest, InterruptedTwiceAndResumedGivesTheSameResultAndFiles) {
         << resumed.artifacts[k].name;
   }
   EXPECT_FALSE(std::filesystem::exists(dir / "state.bin"));  // checkpoints go when the run is done
+}
+
+// A damaged checkpoint used to fail every resume the same way until the work directory was
+// deleted by hand. It is logged and the run starts again, to the same result.
+TEST_F(MacroRunTest, ADamagedCheckpointIsLoggedAndTheRunStartsAgainToTheSameResult) {
+  const std::vector<std::pair<std::string, std::function<void(const std::filesystem::path&)>>>
+      damages = {
+          {"flipped state",
+           [](const std::filesystem::path& dir) {
+             std::fstream file(dir / "state.bin", std::ios::in | std::ios::out | std::ios::binary);
+             file.seekg(30);
+             const char byte = static_cast<char>(file.get());
+             file.seekp(30);
+             file.put(static_cast<char>(byte ^ 0xff));
+           }},
+          {"truncated state",
+           [](const std::filesystem::path& dir) {
+             std::filesystem::resize_file(dir / "state.bin", 40);
+           }},
+          {"deleted DEM checkpoint",
+           [](const std::filesystem::path& dir) {
+             for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+               if (entry.path().filename().string().starts_with("checkpoint_"))
+                 std::filesystem::remove(entry.path());
+             }
+           }},
+      };
+  for (const auto& [name, damage] : damages) {
+    const auto dir = scratch_->path() / ("damaged " + name);
+    std::vector<std::string> log;
+    const DirectRun run{params(), dir, "tiny-macro", 2, &log};
+    std::stop_source stop;
+    ASSERT_TRUE(run.run(stop.get_token(),
+                        [&](double fraction, std::string_view) {
+                          if (fraction >= 0.3) stop.request_stop();
+                        })
+                    .interrupted);
+    damage(dir);
+    const auto resumed = run.run();
+    ASSERT_FALSE(resumed.interrupted) << name;
+    EXPECT_EQ(resumed.result.dump(), result().dump()) << name;
+    EXPECT_EQ(std::count_if(log.begin(), log.end(),
+                            [](const std::string& line) {
+                              return line.find("cannot be used") != std::string::npos &&
+                                     line.ends_with("starting again from scratch");
+                            }),
+              1)
+        << name;
+  }
 }
 
 TEST(MacroResultsView, OneRowPerMacroTaskWithItsNumbers) {

@@ -1,0 +1,100 @@
+// Durable writes: whole files or nothing, errors as exceptions (a full disk included), and the one
+// SHA-256.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <fstream>
+#include <sstream>
+#include <system_error>
+
+#include "tests/common/scratch_dir.hpp"
+#include "util/durable_file.hpp"
+#include "util/sha256.hpp"
+
+namespace millflow::util {
+namespace {
+
+namespace fs = std::filesystem;
+using millflow::testing::ScratchDir;
+
+std::string read(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::size_t entries(const fs::path& dir) {
+  return static_cast<std::size_t>(
+      std::distance(fs::directory_iterator(dir), fs::directory_iterator()));
+}
+
+TEST(DurableFile, WritesAndReplacesAWholeFile) {
+  ScratchDir dir;
+  const fs::path file = dir.path() / "a.txt";
+  write_file_durably(file, "first");
+  write_file_durably(file, "second, longer");
+  EXPECT_EQ(read(file), "second, longer");
+  EXPECT_EQ(entries(dir.path()), 1u);  // no temporary left behind
+}
+
+TEST(DurableFile, NewFilesGetThePermissionsOfAPlainOpen) {
+  ScratchDir dir;
+  const mode_t mask = ::umask(027);
+  ::umask(mask);  // read it back: the tests run single-threaded here
+  write_file_durably(dir.path() / "shared", "x");
+  const auto permissions = fs::status(dir.path() / "shared").permissions();
+  EXPECT_EQ(static_cast<mode_t>(permissions) & 0777, 0666 & ~mask);
+}
+
+TEST(DurableFile, AFullDiskIsAnExceptionAndLeavesTheOldFileAndNoTemporary) {
+  ScratchDir dir;
+  const fs::path file = dir.path() / "a.txt";
+  write_file_durably(file, "old");
+  const SimulatedFullDisk full(4);
+  try {
+    write_file_durably(file, "new text that does not fit");
+    FAIL() << "a write to a full disk succeeded";
+  } catch (const std::system_error& error) {
+    EXPECT_EQ(error.code().value(), ENOSPC);
+    EXPECT_EQ(std::string(error.what()),
+              "cannot write '" + file.string() + "': No space left on device");
+  }
+  EXPECT_EQ(read(file), "old");
+  EXPECT_EQ(entries(dir.path()), 1u);
+}
+
+TEST(DurableFile, AnUncommittedFileLeavesNothing) {
+  ScratchDir dir;
+  {
+    DurableFile file(dir.path() / "b.txt");
+    file.append("abandoned");
+  }
+  EXPECT_EQ(entries(dir.path()), 0u);
+}
+
+TEST(DurableFile, CopiesAndReportsAMissingSource) {
+  ScratchDir dir;
+  write_file_durably(dir.path() / "from", std::string(200000, 'x'));
+  copy_file_durably(dir.path() / "from", dir.path() / "to");
+  EXPECT_EQ(read(dir.path() / "to"), std::string(200000, 'x'));
+  EXPECT_THROW(copy_file_durably(dir.path() / "missing", dir.path() / "to2"), std::system_error);
+  EXPECT_FALSE(fs::exists(dir.path() / "to2"));
+}
+
+TEST(DurableFile, AMissingDirectoryIsReported) {
+  ScratchDir dir;
+  EXPECT_THROW(write_file_durably(dir.path() / "no" / "such" / "file", "x"), std::system_error);
+}
+
+TEST(Sha256, KnownDigestsOfTextAndFiles) {
+  EXPECT_EQ(sha256_hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  EXPECT_EQ(sha256_hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  ScratchDir dir;
+  write_file_durably(dir.path() / "abc", "abc");
+  EXPECT_EQ(sha256_file_hex(dir.path() / "abc"), sha256_hex("abc"));
+  EXPECT_THROW(sha256_file_hex(dir.path() / "missing"), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace millflow::util

@@ -1,0 +1,50 @@
+#pragma once
+// The project's one way to write a file: a temporary file beside the target is written and
+// fsync'ed, renamed over the target, and the directory is fsync'ed. A crash leaves either the old
+// file or the whole new one, never a part; a reader never sees half a file.
+//
+// Errors are exceptions (std::system_error naming the file and the system's reason, e.g. "No
+// space left on device") raised by the call that failed, never from a destructor: a failed write
+// fails the caller's work, it does not terminate the process.
+#include <cstdint>
+#include <filesystem>
+#include <string_view>
+
+namespace millflow::util {
+
+// A new file being written under a temporary name until commit() puts it in place.
+class DurableFile {
+ public:
+  // Creates the temporary file in the target's directory (which must exist).
+  explicit DurableFile(std::filesystem::path target);
+  // Removes the temporary file when commit() did not run (an error is being unwound); never throws.
+  ~DurableFile();
+  DurableFile(const DurableFile&) = delete;
+  DurableFile& operator=(const DurableFile&) = delete;
+
+  void append(std::string_view bytes);
+  // fsync, close, rename over the target, fsync of the directory.
+  void commit();
+
+ private:
+  std::filesystem::path target_;
+  std::filesystem::path temporary_;
+  int fd_ = -1;
+};
+
+void write_file_durably(const std::filesystem::path& target, std::string_view bytes);
+
+// Copies `from` to `to` durably, streaming (artifacts may be large).
+void copy_file_durably(const std::filesystem::path& from, const std::filesystem::path& to);
+
+// For tests: while one is alive, the writes of every DurableFile in the process fail with ENOSPC
+// once `bytes_left` more bytes have been written, as on a full disk.
+class SimulatedFullDisk {
+ public:
+  explicit SimulatedFullDisk(std::int64_t bytes_left = 0);
+  ~SimulatedFullDisk();
+  SimulatedFullDisk(const SimulatedFullDisk&) = delete;
+  SimulatedFullDisk& operator=(const SimulatedFullDisk&) = delete;
+};
+
+}  // namespace millflow::util
