@@ -11,22 +11,6 @@
 namespace millflow::engine {
 namespace {
 
-// Leaves of a parameter object by JSON path ("/a/b"); an array is one leaf.
-void add_leaves(const nlohmann::json& value, const std::string& path,
-                std::map<std::string, std::string>& leaves) {
-  if (value.is_object() && !value.empty()) {
-    for (const auto& [key, member] : value.items()) add_leaves(member, path + "/" + key, leaves);
-  } else {
-    leaves[path.empty() ? "/" : path] = canonical_json(value);
-  }
-}
-
-std::map<std::string, std::string> leaves_of(const nlohmann::json& value) {
-  std::map<std::string, std::string> leaves;
-  add_leaves(value, "", leaves);
-  return leaves;
-}
-
 std::vector<std::string> leaf_diff(const std::map<std::string, std::string>& before,
                                    const std::map<std::string, std::string>& after) {
   std::set<std::string> paths;
@@ -78,10 +62,6 @@ CacheDecision changed_since(const TaskSpec& earlier, const std::vector<std::stri
 }
 
 }  // namespace
-
-std::vector<std::string> parameter_diff(const nlohmann::json& before, const nlohmann::json& after) {
-  return leaf_diff(leaves_of(before), leaves_of(after));
-}
 
 std::string CacheDecision::summary() const {
   switch (reason) {
@@ -137,7 +117,7 @@ const EarlierTasks::OfKind& EarlierTasks::of_kind(const std::string& kind) {
     tasks.by_params.emplace(canonical_json(record.spec.params), tasks.tasks.size());
     tasks.by_upstream.emplace(joined(record.spec.upstream), tasks.tasks.size());
     tasks.by_key.emplace(record.spec.key, tasks.tasks.size());
-    auto leaves = leaves_of(record.spec.params);
+    auto leaves = json_leaves(record.spec.params);
     tasks.tasks.push_back({std::move(record.spec), std::move(leaves)});
   }
   return tasks;
@@ -149,14 +129,14 @@ std::optional<CacheDecision> EarlierTasks::compare(const TaskSpec& spec, const T
   if (previous != nullptr && previous->key != spec.key) {
     if (auto found = tasks.by_key.find(previous->key); found != tasks.by_key.end()) {
       const Earlier& earlier = tasks.tasks[found->second];
-      return changed_since(earlier.spec, leaf_diff(earlier.leaves, leaves_of(spec.params)), spec);
+      return changed_since(earlier.spec, leaf_diff(earlier.leaves, json_leaves(spec.params)), spec);
     }
   }
   const auto same_params = tasks.by_params.equal_range(canonical_json(spec.params));
   for (auto it = same_params.first; it != same_params.second; ++it) {
     if (other_than_spec(it->second)) return changed_since(tasks.tasks[it->second].spec, {}, spec);
   }
-  const auto leaves = leaves_of(spec.params);
+  const auto leaves = json_leaves(spec.params);
   auto nearest = [&](auto&& candidates) -> std::optional<CacheDecision> {
     const Earlier* best = nullptr;
     std::vector<std::string> best_diff;

@@ -114,8 +114,4 @@ std::string explain_text(const TaskSpec& spec, const CacheDecision& decision);
 std::unordered_set<std::string> beyond_until(const std::vector<const TaskSpec*>& graph,
                                              const KindRegistry& kinds, const std::string& until);
 
-// The differing leaves of two parameter objects, "/path: before -> after" ("(absent)" for a leaf
-// only one of them has), sorted by path.
-std::vector<std::string> parameter_diff(const nlohmann::json& before, const nlohmann::json& after);
-
 }  // namespace millflow::engine

@@ -316,18 +316,14 @@ RunSummary submit_campaign(const Registry& registry, const Campaign& campaign, c
 
 Campaign stored_campaign(const fs::path& db, const std::string& name) {
   auto connection = open_read_only(db);
-  auto row = connection.prepare(
-      name.empty() ? "SELECT name, format, document FROM campaigns ORDER BY submitted_at DESC, id "
-                     "DESC LIMIT 1"
-                   : "SELECT name, format, document FROM campaigns WHERE name = ?");
-  if (!name.empty()) row.bind_all(name);
-  if (!row.step()) {
+  auto stored = find_campaign(connection, name);
+  if (!stored) {
     throw InvalidInput({{"",
                          name.empty() ? "the database " + db.string() + " holds no campaign"
                                       : "no campaign named \"" + name + "\" in " + db.string(),
                          "run `millflow status` to list the campaigns"}});
   }
-  return Campaign{row.text(0), row.text(1), nlohmann::json::parse(row.text(2))};
+  return Campaign{stored->name, stored->format, std::move(stored->document)};
 }
 
 }  // namespace millflow::engine

@@ -88,22 +88,6 @@ nlohmann::json cell_json(sql::Statement& statement, int column) {
   }
 }
 
-// Leaves of a JSON value by path ("/a/b"); arrays count as one leaf.
-void flatten(const nlohmann::json& value, const std::string& path,
-             std::map<std::string, std::string>& leaves) {
-  if (value.is_object() && !value.empty()) {
-    for (const auto& [key, member] : value.items()) flatten(member, path + "/" + key, leaves);
-  } else {
-    leaves[path.empty() ? "/" : path] = canonical_json(value);
-  }
-}
-
-std::map<std::string, std::string> leaves_of(const nlohmann::json& value) {
-  std::map<std::string, std::string> leaves;
-  flatten(value, "", leaves);
-  return leaves;
-}
-
 std::int64_t campaign_id(sql::Connection& db, const std::string& name) {
   auto row = db.prepare("SELECT id FROM campaigns WHERE name = ?");
   row.bind_all(name);
@@ -397,8 +381,8 @@ std::vector<fs::path> export_campaign(const fs::path& db, const std::string& cam
     std::set<std::string> columns;
     for (const auto* task : members) {
       std::map<std::string, std::string> row;
-      for (const auto& [path, value] : leaves_of((*task)["params"])) row["params" + path] = value;
-      for (const auto& [path, value] : leaves_of((*task)["result"])) row["result" + path] = value;
+      for (const auto& [path, value] : json_leaves((*task)["params"])) row["params" + path] = value;
+      for (const auto& [path, value] : json_leaves((*task)["result"])) row["result" + path] = value;
       for (const auto& [column, value] : row) columns.insert(column);
       row["task_key"] = (*task)["task_key"];
       row["status"] = (*task)["status"];

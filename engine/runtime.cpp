@@ -203,8 +203,9 @@ class Coordinator {
   // instead of being submitted twice (its job may still be queued, running or finished). A job
   // recorded while being submitted is looked up first; one the scheduler never got goes out again.
   bool reattach(Node& node) {
+    if (!env_.jobs) return false;
     const auto stored = stored_task(node.spec.key);
-    if (!env_.jobs || !stored || stored->status != TaskStatus::running) return false;
+    if (!stored || stored->status != TaskStatus::running) return false;
     const auto record = find_task(env_.store.connection(), node.spec.key);
     auto jobs = find_jobs(env_.store.connection(), node.spec.key);
     if (!record || jobs.empty() || jobs.back().attempt != record->attempts) return false;

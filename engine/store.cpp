@@ -275,6 +275,16 @@ std::vector<std::string> child_keys(sql::Connection& db, const std::string& pare
   return keys;
 }
 
+std::optional<StoredCampaign> find_campaign(sql::Connection& db, const std::string& name) {
+  auto row = db.prepare(
+      name.empty() ? "SELECT name, format, document FROM campaigns ORDER BY submitted_at DESC, id "
+                     "DESC LIMIT 1"
+                   : "SELECT name, format, document FROM campaigns WHERE name = ?");
+  if (!name.empty()) row.bind_all(name);
+  if (!row.step()) return std::nullopt;
+  return StoredCampaign{row.text(0), row.text(1), nlohmann::json::parse(row.text(2))};
+}
+
 std::optional<StoredTask> find_stored_task(sql::Connection& db, const std::string& key) {
   auto row = db.prepare(
       "SELECT t.status, t.attempts, coalesce(t.error, ''), r.task_key IS NOT NULL FROM tasks t "

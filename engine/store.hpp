@@ -122,6 +122,13 @@ std::unordered_map<std::string, StoredTask> find_campaign_tasks(sql::Connection&
 // The tasks of one kind with this status (e.g. the cached ones a changed task is compared with).
 std::vector<TaskRecord> find_tasks_of_kind(sql::Connection& db, const std::string& kind,
                                            TaskStatus status);
+// A campaign as submitted: by name, or the most recently submitted one when name is empty.
+struct StoredCampaign {
+  std::string name;
+  std::string format;
+  nlohmann::json document;
+};
+std::optional<StoredCampaign> find_campaign(sql::Connection& db, const std::string& name);
 // The batch jobs of a task, by attempt (none before schema version 2, no job names before 3).
 std::vector<JobRecord> find_jobs(sql::Connection& db, const std::string& key);
 

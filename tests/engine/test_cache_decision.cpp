@@ -16,17 +16,11 @@ namespace {
 
 using nlohmann::json;
 
-// a -> b, a -> c, (b, c) -> d, and f (fails its first attempt) beside them.
+// noted_diamond, and f (fails its first attempt) beside it.
 json tasks(int c_value) {
-  return json::array(
-      {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}, {"artifact", true}}}},
-       {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"a"}}},
-       {{"id", "c"},
-        {"kind", "sum"},
-        {"params", {{"value", c_value}, {"note", "c"}}},
-        {"after", {"a"}}},
-       {{"id", "d"}, {"kind", "sum"}, {"params", {{"value", 4}}}, {"after", {"b", "c"}}},
-       {{"id", "f"}, {"kind", "fail"}, {"params", {{"failures", 1}}}}});
+  json tasks = noted_diamond(c_value);
+  tasks.push_back({{"id", "f"}, {"kind", "fail"}, {"params", {{"failures", 1}}}});
+  return tasks;
 }
 
 std::map<std::string, std::int64_t> launches_by_key(const std::filesystem::path& db) {

@@ -16,19 +16,6 @@ namespace {
 
 using nlohmann::json;
 
-// a -> b, a -> c, (b, c) -> d; c carries a second parameter so that it is the one nearest task
-// to any variant of itself.
-json diamond(int c_value) {
-  return json::array(
-      {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}, {"artifact", true}}}},
-       {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"a"}}},
-       {{"id", "c"},
-        {"kind", "sum"},
-        {"params", {{"value", c_value}, {"note", "c"}}},
-        {"after", {"a"}}},
-       {{"id", "d"}, {"kind", "sum"}, {"params", {{"value", 4}}}, {"after", {"b", "c"}}}});
-}
-
 // Registers the campaign's tasks without running any of them.
 void register_only(const Campaign& campaign, const std::filesystem::path& db) {
   SubmitOptions options;
@@ -59,8 +46,8 @@ std::string header(const std::filesystem::path& db, const std::string& key) {
 class Explain : public ::testing::Test {
  protected:
   void SetUp() override {
-    submit(test_campaign("diamond", diamond(3)), dir_.db());
-    register_only(test_campaign("diamond", diamond(30)), dir_.db());
+    submit(test_campaign("diamond", noted_diamond(3)), dir_.db());
+    register_only(test_campaign("diamond", noted_diamond(30)), dir_.db());
     c_ = key_where(dir_.db(), "json_extract(params, '$.value') = 3");
     d_ = key_where(dir_.db(), "json_extract(params, '$.value') = 4 AND status = 'done'");
     new_c_ = key_where(dir_.db(), "json_extract(params, '$.value') = 30");
