@@ -5,16 +5,17 @@
 // (docs/engine.md explains the rule).
 //
 // A task is cached when the store holds its key with status done, its result, and every artifact
-// it recorded, each verified (size and SHA-256), and no --force names it. Otherwise it runs, for
-// the first reason that applies:
-//   forced              done and intact, but --force names its kind or key
-//   artifact missing or corrupt, result missing   done, but not intact
-//   not finished        stored but never finished: failed, interrupted, left running, skipped, or
-//                       pending (with the reason recorded, e.g. an artifact found corrupt)
+// it recorded, each verified (size and SHA-256), and no --force names it. Otherwise it runs, and
+// the reason is one of these (they exclude each other):
 //   new                 its key is not in the store (or stored but never attempted); with an index
 //                       of earlier tasks (dry run, explain) the reason names what changed against
 //                       the nearest cached task of its kind: parameters changed (with the diff),
 //                       kind version changed, upstream changed (which input)
+//   not finished        stored but not done: failed, interrupted, left running, skipped, or
+//                       pending with a recorded reason (e.g. an artifact found corrupt)
+//   result missing      done, but no result stored
+//   artifact missing or corrupt   done, but an artifact is gone or changed
+//   forced              done and intact, but --force names its kind or key
 #include <map>
 #include <optional>
 #include <string>
