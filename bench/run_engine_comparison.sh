@@ -14,7 +14,7 @@ set -euo pipefail
 tasks=${1:-1000}
 build=${2:-build}
 limit_s=${SNAKEMAKE_LIMIT_S:-0}
-millflow=$(realpath "$build/millflow")
+millflow=$(realpath "$build/millflow_testing")  # the command line with the test kinds
 command -v snakemake >/dev/null || { echo "snakemake not found: apt-get install -y snakemake" >&2; exit 2; }
 work=$(mktemp -d "${TMPDIR:-/tmp}/millflow-vs-snakemake.XXXXXX")
 trap 'rm -rf "$work"' EXIT

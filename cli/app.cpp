@@ -8,12 +8,11 @@
 
 #include "cli/commands.hpp"
 #include "cli/demo.hpp"
-#include "engine/testing_tasks.hpp"
 #include "tasks/millflow.hpp"
 
 namespace millflow::cli {
 
-int run(int argc, char** argv) {
+int run(int argc, char** argv, const std::function<void(engine::Registry&)>& extend) {
   CLI::App app{"millflow: multiscale DEM campaigns of grinding mills"};
   app.require_subcommand(1);
   // Log lines go to stderr; stdout carries only what a command answers (tables, paths, CSV).
@@ -21,8 +20,8 @@ int run(int argc, char** argv) {
   app.set_version_flag("--version",
                        fmt::format("millflow {} (git {})", MILLFLOW_VERSION, MILLFLOW_GIT_VERSION));
   engine::Registry registry;
-  engine::add_testing(registry);
   tasks::register_millflow(registry);
+  if (extend) extend(registry);
   std::optional<int> engine_exit_code;
   add_engine_commands(app, registry, engine_exit_code);
   add_demo_command(app);

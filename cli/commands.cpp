@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <iostream>
 
 #include "cli/executor_choice.hpp"
@@ -32,7 +33,9 @@ struct RunFlags {
   int retries = 0;
   std::string executor;  // overrides the campaign's executor.kind
   double poll_interval_s = 10.0;
-  std::string run_dir;  // batch jobs' run directory; default <db>.jobs
+  std::string run_dir;             // batch jobs' run directory; default <db>.jobs
+  std::vector<std::string> force;  // task kinds or task key prefixes
+  std::string until;               // a task kind
 };
 
 // Runs a command body, turning errors into messages and exit codes.
@@ -106,6 +109,55 @@ void add_db_option(CLI::App* command, std::string& db) {
   command->add_option("--db", db, "Database file (default ./millflow.db)");
 }
 
+void add_selection_options(CLI::App* command, RunFlags& flags) {
+  command->add_option("--force", flags.force,
+                      "Run these cached tasks again: a task kind, or a task key or its prefix "
+                      "(repeatable)");
+  command->add_option("--until", flags.until,
+                      "Run only the tasks of this kind and the tasks they need; the rest stay "
+                      "pending");
+}
+
+// --force and --until as run options, each checked: a kind must be registered, a key prefix must
+// name a task of the plan or of the store.
+engine::RunOptions selection(const engine::Registry& registry,
+                             const std::vector<engine::TaskSpec>& planned, const RunFlags& flags) {
+  engine::RunOptions options;
+  std::vector<engine::ValidationError> errors;
+  for (const auto& name : flags.force) {
+    if (registry.kinds.contains(name)) {
+      options.force.kinds.push_back(name);
+      continue;
+    }
+    const bool planned_key = std::any_of(planned.begin(), planned.end(), [&](const auto& spec) {
+      return spec.key.rfind(name, 0) == 0;
+    });
+    bool stored_key = false;
+    if (!planned_key && !name.empty() && fs::exists(flags.db)) {
+      auto db = engine::open_read_only(flags.db);
+      try {
+        engine::resolve_task(db, name);
+        stored_key = true;
+      } catch (const engine::InvalidInput&) {
+      }
+    }
+    if (planned_key || stored_key) {
+      options.force.key_prefixes.push_back(name);
+    } else {
+      errors.push_back(
+          {"--force", "\"" + name + "\" is neither a task kind nor a task key",
+           "name a kind (" + registry.kinds.names() + ") or a key from `millflow explain FILE`"});
+    }
+  }
+  if (!flags.until.empty() && !registry.kinds.contains(flags.until)) {
+    errors.push_back({"--until", "\"" + flags.until + "\" is not a task kind",
+                      "name one of: " + registry.kinds.names()});
+  }
+  if (!errors.empty()) throw engine::InvalidInput(errors);
+  options.until = flags.until;
+  return options;
+}
+
 void add_run_options(CLI::App* command, RunFlags& flags) {
   add_db_option(command, flags.db);
   command->add_option("--jobs", flags.jobs, "Tasks running at once")
@@ -126,6 +178,7 @@ void add_run_options(CLI::App* command, RunFlags& flags) {
   command->add_option(
       "--run-dir", flags.run_dir,
       "Slurm: run directory on a filesystem the compute nodes share (default <db>.jobs)");
+  add_selection_options(command, flags);
 }
 
 // The Slurm executor for this run, or null for the in-process launcher.
@@ -178,6 +231,7 @@ int run_campaign(const engine::Registry& registry, engine::Campaign campaign, Ru
   engine::LiveProgress live(stderr);
   engine::PlainProgress plain(stderr);
   engine::SubmitOptions options;
+  options.run = selection(registry, engine::plan_campaign(registry, campaign), flags);
   options.run.jobs = flags.jobs;
   options.run.threads_per_task = flags.threads_per_task;
   options.run.retries = flags.retries;
@@ -212,17 +266,14 @@ void add_submit(CLI::App& app, const engine::Registry& registry, std::optional<i
   auto dry = std::make_shared<bool>(false);
   command->add_option("FILE", *file, "Campaign JSON file")->required();
   add_run_options(command, *flags);
-  command->add_flag("--dry-run", *dry,
-                    "Print the DAG size, what is cached and what would run; write nothing");
+  command->add_flag("--dry-run", *dry, "Print per task kind what would run and why; write nothing");
   command->callback([&registry, &code, file, flags, dry] {
     code = guarded([&] {
       const auto campaign = engine::load_campaign_file(registry, *file);
       if (*dry) {
-        std::cout << engine::dry_run(
-                         registry, campaign,
-                         engine::resolve_database(flags->db, engine::DatabaseUse::create))
-                         .describe()
-                  << '\n';
+        const auto db = engine::resolve_database(flags->db, engine::DatabaseUse::create);
+        const auto options = selection(registry, engine::plan_campaign(registry, campaign), *flags);
+        std::cout << engine::dry_run(registry, campaign, db, options).describe();
         return 0;
       }
       return run_campaign(registry, campaign, *flags);
@@ -334,17 +385,51 @@ void add_task_command(CLI::App& app, std::optional<int>& code, const std::string
   });
 }
 
+// explain TASK (a stored task) or explain FILE [TASK] (a campaign file, submitted or not).
+void add_explain(CLI::App& app, const engine::Registry& registry, std::optional<int>& code) {
+  auto* command = app.add_subcommand(
+      "explain",
+      "Why a task would run or not, with its hashed text: a stored task by key, or a campaign "
+      "file's tasks (all of them, or one by key) before or after it was submitted");
+  auto target = std::make_shared<std::string>();
+  auto task = std::make_shared<std::string>();
+  auto flags = std::make_shared<RunFlags>();
+  command->add_option("TARGET", *target, "Task key (or a unique prefix), or a campaign file")
+      ->required();
+  command->add_option("TASK", *task, "With a campaign file: one of its tasks' key (or prefix)");
+  add_db_option(command, flags->db);
+  add_selection_options(command, *flags);
+  command->callback([&registry, &code, target, task, flags] {
+    code = guarded([&] {
+      if (!fs::is_regular_file(*target)) {
+        engine::print_explain(existing_database(flags->db), *target, std::cout);
+        return 0;
+      }
+      const auto campaign = engine::load_campaign_file(registry, *target);
+      const auto options = selection(registry, engine::plan_campaign(registry, campaign), *flags);
+      // A campaign never submitted has no database yet: nothing is created for it.
+      const fs::path db = fs::exists(flags->db) ? existing_database(flags->db) : fs::path(flags->db);
+      const auto dry = engine::dry_run(registry, campaign, db, options);
+      std::cout << (task->empty() ? dry.list() : dry.explain(*task));
+      return 0;
+    });
+  });
+}
+
 void add_dag(CLI::App& app, std::optional<int>& code) {
-  auto* command = app.add_subcommand("dag", "Print a campaign's DAG");
+  auto* command = app.add_subcommand(
+      "dag", "Print a campaign's DAG as Graphviz dot: one node per task kind, or per task");
   auto name = std::make_shared<std::string>();
   auto db = std::make_shared<std::string>("millflow.db");
+  auto every_task = std::make_shared<bool>(false);
   command->add_option("CAMPAIGN", *name, "Campaign name")->required();
-  auto dot = std::make_shared<bool>(true);
-  command->add_flag("--dot", *dot, "Graphviz dot output (the only format, also without the flag)");
+  command->add_flag("--tasks", *every_task, "One node per task instead of one per kind");
+  auto dot = std::make_shared<bool>(true);  // kept alive by the callback below
+  command->add_flag("--dot", *dot, "Graphviz dot output (the only format; kept for old scripts)");
   add_db_option(command, *db);
-  command->callback([&code, name, db] {
+  command->callback([&code, name, db, every_task, dot] {
     code = guarded([&] {
-      engine::print_dag_dot(existing_database(*db), *name, std::cout);
+      engine::print_dag_dot(existing_database(*db), *name, *every_task, std::cout);
       return 0;
     });
   });
@@ -451,8 +536,7 @@ void add_engine_commands(CLI::App& app, const engine::Registry& registry,
   add_export(app, exit_code);
   add_task_command(app, exit_code, "show", "A task's parameters, result, artifacts and lineage",
                    engine::print_show);
-  add_task_command(app, exit_code, "explain", "The hashed text of a task and why it would run",
-                   engine::print_explain);
+  add_explain(app, registry, exit_code);
   add_dag(app, exit_code);
   add_gc(app, exit_code);
   add_report(app, exit_code);

@@ -5,7 +5,9 @@
 #include <spdlog/sinks/stdout_sinks.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -24,14 +26,16 @@ nlohmann::json read_json_file(const fs::path& file) {
   return parse_json_text(read_input_file(file)).document;
 }
 
-std::string detect_format(const nlohmann::json& document) {
+std::string detect_format(const Registry& registry, const nlohmann::json& document) {
   if (document.is_object() && document.contains("format") && document["format"].is_string()) {
     return document["format"].get<std::string>();
   }
   if (document.is_object() && document.contains("millflow_campaign")) return "millflow_campaign";
   throw InvalidInput(
       {{"", "the campaign format is not recognisable",
-        "add \"millflow_campaign\": 1 for a mill campaign, or \"format\": \"millflow-test\""}});
+        "add \"millflow_campaign\": 1 for a mill campaign, or \"format\": \"<name>\" "
+        "of a format this build reads: " +
+            registry.format_names()}});
 }
 
 std::string file_safe(const std::string& name) {
@@ -57,46 +61,85 @@ std::shared_ptr<spdlog::logger> campaign_logger(const fs::path& db, const std::s
   return logger;
 }
 
-// Counts tasks of the dry run from what the store already holds (nothing is written).
-class DryRunCounter {
+// Decides every task of the graph as the runtime would, from what the store holds.
+class DryRunner {
  public:
-  DryRunCounter(const Registry& registry, std::optional<sql::Connection> db,
-                ArtifactStore artifacts)
-      : registry_(registry), db_(std::move(db)), artifacts_(std::move(artifacts)) {}
-
-  void count(const TaskSpec& spec, bool declared_child) {
-    if (!seen_.insert(spec.key).second) return;
-    ++result_.total;
-    if (declared_child) ++result_.known_expansions;
-    if (is_cached(spec.key)) {
-      ++result_.cached;
-      for (const auto& child : child_keys(*db_, spec.key))
-        count(find_task(*db_, child)->spec, true);
-      return;
-    }
-    ++result_.would_run;
-    if (registry_.kinds.contains(spec.kind) && registry_.kinds.get(spec.kind).may_expand)
-      ++result_.may_expand;
+  DryRunner(const Registry& registry, const fs::path& db, const RunOptions& options)
+      : registry_(registry), artifacts_(artifacts_dir(db)) {
+    if (fs::exists(db)) db_.emplace(open_read_only(db));
+    if (db_) earlier_.emplace(*db_);
+    judge_.emplace(artifacts_, options.force, earlier_ ? &*earlier_ : nullptr);
   }
-  const DryRun& result() const { return result_; }
+
+  // previous: the task in the same place of the campaign's previous plan, if known.
+  void add(const TaskSpec& spec, bool declared, const TaskSpec* previous = nullptr) {
+    if (!seen_.insert(spec.key).second) return;
+    std::optional<StoredTask> stored;
+    if (db_) stored = find_stored_task(*db_, spec.key);
+    result_.tasks.push_back({spec, judge_->decide(spec, stored, previous), declared, false});
+    if (!result_.tasks.back().decision.cached()) return;
+    for (const auto& child : stored->children) add(find_task(*db_, child)->spec, true);
+  }
+
+  DryRun finish(const std::string& until) {
+    if (!until.empty()) {
+      std::vector<const TaskSpec*> graph;
+      for (const auto& task : result_.tasks) graph.push_back(&task.spec);
+      const auto beyond = beyond_until(graph, registry_.kinds, until);
+      for (auto& task : result_.tasks) task.held = beyond.count(task.spec.key) > 0;
+    }
+    for (const auto& task : result_.tasks) {
+      if (task.decision.cached() || task.held) continue;
+      if (registry_.kinds.contains(task.spec.kind) &&
+          registry_.kinds.get(task.spec.kind).may_expand)
+        ++result_.may_expand;
+    }
+    return std::move(result_);
+  }
 
  private:
-  bool is_cached(const std::string& key) {
-    if (!db_) return false;
-    const auto record = find_task(*db_, key);
-    if (!record || record->status != "done") return false;
-    for (const auto& artifact : find_artifacts(*db_, key)) {
-      if (!artifacts_.verify(artifact)) return false;
-    }
-    return true;
-  }
-
   const Registry& registry_;
-  std::optional<sql::Connection> db_;
   ArtifactStore artifacts_;
+  std::optional<sql::Connection> db_;
+  std::optional<EarlierTasks> earlier_;
+  std::optional<CacheJudge> judge_;
   std::set<std::string> seen_;
   DryRun result_;
 };
+
+// One kind's share of a dry run: its tasks by reason, in the order the reasons first appear.
+struct KindTally {
+  int total = 0;
+  int would_run = 0;
+  int held = 0;
+  std::vector<std::pair<std::string, std::vector<const DryRunTask*>>> groups;
+
+  void add(const DryRunTask& task) {
+    ++total;
+    if (task.held) {
+      ++held;
+      return;
+    }
+    if (task.decision.cached()) return;
+    ++would_run;
+    // Tasks whose parameters changed alike are one group; the other reasons group by name.
+    std::string group = task.decision.summary();
+    const RunReason reason = task.decision.reason;
+    if (reason == RunReason::parameters_changed || reason == RunReason::version_changed) {
+      for (const auto& line : task.decision.diff) group += "\n    " + line;
+    }
+    auto found = std::find_if(groups.begin(), groups.end(),
+                              [&](const auto& entry) { return entry.first == group; });
+    if (found == groups.end()) found = groups.insert(groups.end(), {group, {}});
+    found->second.push_back(&task);
+  }
+};
+
+// Reasons whose detail is the task's own (its artifact, its error): listed task by task.
+bool detail_per_task(RunReason reason) {
+  return reason == RunReason::artifact_bad || reason == RunReason::result_missing ||
+         reason == RunReason::not_finished;
+}
 
 }  // namespace
 
@@ -109,18 +152,21 @@ void Registry::add_format(CampaignFormat format) {
 const CampaignFormat& Registry::format(const std::string& name) const {
   const auto found = formats.find(name);
   if (found == formats.end()) {
-    std::string known;
-    for (const auto& [format_name, format] : formats)
-      known += (known.empty() ? "" : ", ") + format_name;
     throw InvalidInput(
         {{"", "no loader is registered for campaign format \"" + name + "\" in this build",
-          "formats this build reads: " + known}});
+          "formats this build reads: " + format_names()}});
   }
   return found->second;
 }
 
+std::string Registry::format_names() const {
+  std::string names;
+  for (const auto& [name, format] : formats) names += (names.empty() ? "" : ", ") + name;
+  return names;
+}
+
 Campaign load_campaign_file(const Registry& registry, const fs::path& file) {
-  const std::string format = detect_format(read_json_file(file));
+  const std::string format = detect_format(registry, read_json_file(file));
   nlohmann::json document = registry.format(format).load(file);
   if (!document.contains("name") || !document["name"].is_string() ||
       document["name"].get<std::string>().empty()) {
@@ -142,20 +188,91 @@ std::vector<TaskSpec> plan_campaign(const Registry& registry, const Campaign& ca
 }
 
 std::string DryRun::describe() const {
-  return fmt::format(
-      "dry run: {} tasks in the DAG, {} cached, {} would run; {} of those may add tasks when they "
-      "finish "
-      "(pending expansions); {} tasks come from expansions already recorded",
-      total, cached, would_run, may_expand, known_expansions);
+  int cached = 0;
+  int held = 0;
+  int declared = 0;
+  std::vector<std::string> kinds;  // in graph order
+  std::map<std::string, KindTally> tallies;
+  for (const auto& task : tasks) {
+    cached += task.decision.cached() && !task.held;
+    held += task.held;
+    declared += task.declared;
+    if (tallies.count(task.spec.kind) == 0) kinds.push_back(task.spec.kind);
+    tallies[task.spec.kind].add(task);
+  }
+  const int would_run = static_cast<int>(tasks.size()) - cached - held;
+  std::string text = fmt::format("dry run of \"{}\": {} tasks, {} cached, {} would run", campaign,
+                                 tasks.size(), cached, would_run);
+  if (held > 0) text += fmt::format(", {} held back by --until", held);
+  if (declared > 0)
+    text += fmt::format("; {} of the tasks were declared by cached results", declared);
+  if (may_expand > 0)
+    text += fmt::format("; {} of them may declare more tasks when {} finishes", may_expand,
+                        may_expand == 1 ? "it" : "each");
+  text += "\n";
+  for (const auto& kind : kinds) {
+    const KindTally& tally = tallies.at(kind);
+    text += fmt::format("{}: {} of {} would run", kind, tally.would_run, tally.total);
+    if (tally.held > 0) text += fmt::format(", {} held back by --until", tally.held);
+    text += "\n";
+    for (const auto& [group, members] : tally.groups) {
+      text += fmt::format("  {} {}\n", members.size(), group);
+      if (!detail_per_task(members.front()->decision.reason)) continue;
+      for (const DryRunTask* task : members)
+        text += fmt::format("    {}: {}\n", task->spec.key.substr(0, 12), task->decision.detail);
+    }
+  }
+  return text;
 }
 
-DryRun dry_run(const Registry& registry, const Campaign& campaign, const fs::path& db) {
-  std::optional<sql::Connection> connection;
-  if (fs::exists(db)) connection.emplace(open_read_only(db));
-  if (connection && connection->user_version() == 0) connection.reset();
-  DryRunCounter counter(registry, std::move(connection), ArtifactStore(artifacts_dir(db)));
-  for (const auto& spec : plan_campaign(registry, campaign)) counter.count(spec, false);
-  return counter.result();
+std::string DryRun::list() const {
+  std::string text;
+  for (const auto& task : tasks) {
+    const auto lines = task.decision.lines();
+    text += fmt::format("{} {}: {}\n", task.spec.kind, task.spec.key,
+                        task.held ? "would not run: held back by --until" : lines.front());
+    if (task.held) continue;
+    for (size_t i = 1; i < lines.size(); ++i) text += lines[i] + "\n";
+  }
+  return text;
+}
+
+std::string DryRun::explain(const std::string& key_prefix) const {
+  std::vector<const DryRunTask*> found;
+  for (const auto& task : tasks) {
+    if (!key_prefix.empty() && task.spec.key.rfind(key_prefix, 0) == 0) found.push_back(&task);
+  }
+  if (found.size() != 1) {
+    throw InvalidInput({{"",
+                         fmt::format("{} task of campaign \"{}\" has a key starting with \"{}\"",
+                                     found.empty() ? "no" : "more than one", campaign, key_prefix),
+                         found.empty() ? "`millflow explain FILE` lists every task with its key"
+                                       : "give more characters of the key"}});
+  }
+  return explain_text(found.front()->spec, found.front()->decision);
+}
+
+DryRun dry_run(const Registry& registry, const Campaign& campaign, const fs::path& db,
+               const RunOptions& options) {
+  const auto planned = plan_campaign(registry, campaign);
+  // The campaign as last submitted, planned again: its task in the same place of the same plan
+  // shape is the earlier version a changed task is compared with.
+  std::vector<TaskSpec> previous;
+  if (fs::exists(db)) {
+    try {
+      previous = plan_campaign(registry, stored_campaign(db, campaign.name));
+    } catch (const InvalidInput&) {  // never submitted, or no longer valid: compare by content
+    }
+  }
+  if (previous.size() != planned.size()) previous.clear();
+  DryRunner runner(registry, db, options);
+  for (size_t i = 0; i < planned.size(); ++i) {
+    const bool aligned = !previous.empty() && previous[i].kind == planned[i].kind;
+    runner.add(planned[i], false, aligned ? &previous[i] : nullptr);
+  }
+  DryRun result = runner.finish(options.until);
+  result.campaign = campaign.name;
+  return result;
 }
 
 RunSummary submit_campaign(const Registry& registry, const Campaign& campaign,
@@ -195,9 +312,10 @@ RunSummary submit_campaign(const Registry& registry, const Campaign& campaign,
                              logger,
                              options.jobs};
   const RunSummary summary = run_campaign(environment, id, planned, options.run);
-  const std::string outcome = summary.stopped      ? "interrupted"
-                              : summary.failed > 0 ? "failed"
-                                                   : "done";
+  const std::string outcome = summary.stopped         ? "interrupted"
+                              : summary.failed > 0    ? "failed"
+                              : summary.held_back > 0 ? "partial"
+                                                      : "done";
   store.finish_campaign(id, outcome);
   store.clear_coordinator();
   logger->info("campaign \"{}\" {}: {}", campaign.name, outcome, summary.describe());
@@ -206,18 +324,14 @@ RunSummary submit_campaign(const Registry& registry, const Campaign& campaign,
 
 Campaign stored_campaign(const fs::path& db, const std::string& name) {
   auto connection = open_read_only(db);
-  auto row = connection.prepare(
-      name.empty() ? "SELECT name, format, document FROM campaigns ORDER BY submitted_at DESC, id "
-                     "DESC LIMIT 1"
-                   : "SELECT name, format, document FROM campaigns WHERE name = ?");
-  if (!name.empty()) row.bind_all(name);
-  if (!row.step()) {
+  auto stored = find_campaign(connection, name);
+  if (!stored) {
     throw InvalidInput({{"",
                          name.empty() ? "the database " + db.string() + " holds no campaign"
                                       : "no campaign named \"" + name + "\" in " + db.string(),
                          "run `millflow status` to list the campaigns"}});
   }
-  return Campaign{row.text(0), row.text(1), nlohmann::json::parse(row.text(2))};
+  return Campaign{stored->name, stored->format, std::move(stored->document)};
 }
 
 }  // namespace millflow::engine

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/cache.hpp"
 #include "engine/progress.hpp"
 #include "engine/runtime.hpp"
 #include "engine/store.hpp"
@@ -36,6 +37,7 @@ struct Registry {
 
   void add_format(CampaignFormat format);
   const CampaignFormat& format(const std::string& name) const;  // throws InvalidInput if unknown
+  std::string format_names() const;                             // "a, b"
 };
 
 struct Campaign {
@@ -51,15 +53,31 @@ inline constexpr std::size_t kMaxCampaignName = 200;
 Campaign load_campaign_file(const Registry& registry, const std::filesystem::path& file);
 std::vector<TaskSpec> plan_campaign(const Registry& registry, const Campaign& campaign);
 
-struct DryRun {
-  int total = 0;
-  int cached = 0;
-  int would_run = 0;
-  int may_expand = 0;        // would-run tasks whose results may add tasks below them
-  int known_expansions = 0;  // children already declared by cached tasks (counted in total)
-  std::string describe() const;
+// What a submission would do, decided task by task as the runtime decides (engine/cache.hpp):
+// the planned graph, plus the tasks that cached tasks' results declared. Nothing is written.
+struct DryRunTask {
+  TaskSpec spec;
+  CacheDecision decision;
+  bool declared = false;  // declared by a cached task's result (not planned)
+  bool held = false;      // beyond --until
 };
-DryRun dry_run(const Registry& registry, const Campaign& campaign, const std::filesystem::path& db);
+struct DryRun {
+  std::string campaign;
+  std::vector<DryRunTask> tasks;  // upstream first
+  int may_expand = 0;             // tasks that would run and may declare more when they finish
+
+  // The header line, then per kind (in graph order) how many would run, grouped by reason, with
+  // the parameter diff of changed tasks and the task behind a missing artifact or an unfinished
+  // attempt.
+  std::string describe() const;
+  // Every task: "<kind> <key>: would run: <reason>" (or would not run, or held back), then the
+  // reason's diff lines.
+  std::string list() const;
+  // explain_text of the one task whose key starts with key_prefix (InvalidInput otherwise).
+  std::string explain(const std::string& key_prefix) const;
+};
+DryRun dry_run(const Registry& registry, const Campaign& campaign, const std::filesystem::path& db,
+               const RunOptions& options = {});
 
 struct SubmitOptions {
   RunOptions run;

@@ -114,4 +114,23 @@ std::string canonical_json(const nlohmann::json& value) {
   return out;
 }
 
+namespace {
+
+void add_leaves(const nlohmann::json& value, const std::string& path,
+                std::map<std::string, std::string>& leaves) {
+  if (value.is_object() && !value.empty()) {
+    for (const auto& [key, member] : value.items()) add_leaves(member, path + "/" + key, leaves);
+  } else {
+    leaves[path.empty() ? "/" : path] = canonical_json(value);
+  }
+}
+
+}  // namespace
+
+std::map<std::string, std::string> json_leaves(const nlohmann::json& value) {
+  std::map<std::string, std::string> leaves;
+  add_leaves(value, "", leaves);
+  return leaves;
+}
+
 }  // namespace millflow::engine

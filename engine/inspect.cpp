@@ -4,6 +4,7 @@
 #include <fmt/ostream.h>
 
 #include <algorithm>
+#include <array>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -11,6 +12,7 @@
 #include <sstream>
 
 #include "engine/artifacts.hpp"
+#include "engine/cache.hpp"
 #include "engine/canonical_json.hpp"
 #include "engine/clock.hpp"
 #include "engine/coordinator_lock.hpp"
@@ -90,38 +92,6 @@ nlohmann::json cell_json(sql::Statement& statement, int column) {
   }
 }
 
-// Leaves of a JSON value by path ("/a/b"); arrays count as one leaf.
-void flatten(const nlohmann::json& value, const std::string& path,
-             std::map<std::string, std::string>& leaves) {
-  if (value.is_object() && !value.empty()) {
-    for (const auto& [key, member] : value.items()) flatten(member, path + "/" + key, leaves);
-  } else {
-    leaves[path.empty() ? "/" : path] = canonical_json(value);
-  }
-}
-
-std::map<std::string, std::string> leaves_of(const nlohmann::json& value) {
-  std::map<std::string, std::string> leaves;
-  flatten(value, "", leaves);
-  return leaves;
-}
-
-std::vector<std::string> param_diff(const nlohmann::json& before, const nlohmann::json& after) {
-  const auto old_leaves = leaves_of(before);
-  const auto new_leaves = leaves_of(after);
-  std::set<std::string> paths;
-  for (const auto& [path, value] : old_leaves) paths.insert(path);
-  for (const auto& [path, value] : new_leaves) paths.insert(path);
-  std::vector<std::string> lines;
-  for (const auto& path : paths) {
-    const auto old_value = old_leaves.count(path) ? old_leaves.at(path) : "(absent)";
-    const auto new_value = new_leaves.count(path) ? new_leaves.at(path) : "(absent)";
-    if (old_value != new_value)
-      lines.push_back(fmt::format("{}: {} -> {}", path, old_value, new_value));
-  }
-  return lines;
-}
-
 // A task's status as shown (t: tasks, r: results): "skipped" for a done task whose result says
 // it skipped its work (engine/runtime.hpp, RunSummary::skipped_their_work).
 std::string shown_status_sql() {
@@ -163,77 +133,9 @@ std::vector<std::string> lineage(sql::Connection& db, const std::string& key, bo
 
 std::string kind_and_status(sql::Connection& db, const std::string& key) {
   const auto record = find_task(db, key);
-  return record ? fmt::format("{} {} [{}]", key.substr(0, 16), record->spec.kind, record->status)
+  return record ? fmt::format("{} {} [{}]", key.substr(0, 16), record->spec.kind,
+                              to_string(record->status))
                 : key;
-}
-
-// Why a stored task would (or would not) run at the next submission.
-std::vector<std::string> run_reasons(sql::Connection& db, const ArtifactStore& artifacts,
-                                     const TaskRecord& task) {
-  if (task.status == "done") {
-    for (const auto& artifact : find_artifacts(db, task.spec.key)) {
-      if (!artifacts.verify(artifact)) {
-        return {fmt::format("would run: artifact {} ({}) is missing or corrupt", artifact.name,
-                            artifact.sha256)};
-      }
-    }
-    return {"would not run: done, result and artifacts intact (cached)"};
-  }
-  if (task.status == "failed") return {"would run: the previous attempt failed: " + task.error};
-  if (task.status == "interrupted") return {"would run: the previous attempt was interrupted"};
-  if (task.status == "running")
-    return {"would run: its last attempt never finished (coordinator stopped or still running)"};
-  if (task.status == "skipped") return {"would run: it was skipped because " + task.error};
-  if (task.attempts > 0)
-    return {"would run: " + (task.error.empty() ? std::string("not finished yet") : task.error)};
-  return {"would run: new (never attempted)"};
-}
-
-size_t upstream_differences(const std::vector<std::string>& before,
-                            const std::vector<std::string>& after) {
-  size_t differences =
-      std::max(before.size(), after.size()) - std::min(before.size(), after.size());
-  for (size_t i = 0; i < std::min(before.size(), after.size()); ++i)
-    differences += before[i] != after[i];
-  return differences;
-}
-
-// Compares with the cached task of the same kind whose parameters differ least (then its inputs).
-std::vector<std::string> compare_with_nearest(sql::Connection& db, const TaskRecord& task) {
-  auto candidates = db.prepare(
-      "SELECT key FROM tasks WHERE kind = ? AND status = 'done' AND key <> ? ORDER BY key");
-  candidates.bind_all(task.spec.kind, task.spec.key);
-  std::optional<TaskRecord> nearest;
-  std::pair<size_t, size_t> fewest{std::numeric_limits<size_t>::max(), 0};
-  while (candidates.step()) {
-    auto candidate = find_task(db, candidates.text(0));
-    const std::pair differences{param_diff(candidate->spec.params, task.spec.params).size(),
-                                upstream_differences(candidate->spec.upstream, task.spec.upstream)};
-    if (differences < fewest) {
-      fewest = differences;
-      nearest = std::move(candidate);
-    }
-  }
-  if (!nearest) return {"no cached task of kind " + task.spec.kind + " to compare with"};
-  std::vector<std::string> lines{"nearest cached " + task.spec.kind +
-                                 " task: " + nearest->spec.key};
-  const auto diff = param_diff(nearest->spec.params, task.spec.params);
-  if (!diff.empty()) lines.push_back("parameters changed:");
-  for (const auto& line : diff) lines.push_back("  " + line);
-  if (nearest->spec.upstream != task.spec.upstream) {
-    lines.push_back("upstream changed:");
-    for (size_t i = 0; i < std::max(nearest->spec.upstream.size(), task.spec.upstream.size());
-         ++i) {
-      const auto before = i < nearest->spec.upstream.size() ? nearest->spec.upstream[i] : "(none)";
-      const auto after = i < task.spec.upstream.size() ? task.spec.upstream[i] : "(none)";
-      if (before != after) lines.push_back(fmt::format("  input {}: {} -> {}", i, before, after));
-    }
-  }
-  if (nearest->spec.version != task.spec.version) {
-    lines.push_back(
-        fmt::format("kind version changed: {} -> {}", nearest->spec.version, task.spec.version));
-  }
-  return lines;
 }
 
 // The batch job of each task of the campaign that is not finished yet (latest attempt).
@@ -349,8 +251,8 @@ void print_show(const fs::path& db, const std::string& task, std::ostream& out) 
   times.step();
   const std::string started = times.is_null(0) ? std::string("never") : iso8601_utc(times.real(0));
   out << fmt::format("task {}\nkind {} (version {})\nstatus {} after {} attempt(s){}\n", key,
-                     record.spec.kind, record.spec.version, record.status, record.attempts,
-                     record.error.empty() ? "" : "\nerror " + record.error);
+                     record.spec.kind, record.spec.version, to_string(record.status),
+                     record.attempts, record.error.empty() ? "" : "\nerror " + record.error);
   out << fmt::format("started {} duration {} s host {} code {}\n", started, times.text(1),
                      times.text(2), times.text(3));
   out << "params " << record.spec.params.dump(2) << '\n';
@@ -375,37 +277,100 @@ void print_show(const fs::path& db, const std::string& task, std::ostream& out) 
 void print_explain(const fs::path& db, const std::string& task, std::ostream& out) {
   auto connection = open_read_only(db);
   const auto record = *find_task(connection, resolve_task(connection, task));
-  out << "task " << record.spec.key << "\nhashed text (SHA-256 of exactly these bytes):\n"
-      << record.spec.key_text;
-  for (const auto& line : run_reasons(connection, ArtifactStore(artifacts_dir(db)), record))
-    out << line << '\n';
-  if (record.status != "done" && record.attempts == 0) {
-    for (const auto& line : compare_with_nearest(connection, record)) out << line << '\n';
+  EarlierTasks earlier(connection);
+  const ArtifactStore artifacts(artifacts_dir(db));
+  const CacheJudge judge(artifacts, {}, &earlier);
+  out << explain_text(record.spec,
+                      judge.decide(record.spec, find_stored_task(connection, record.spec.key)));
+}
+
+namespace {
+
+const std::map<std::string, std::string>& status_colours() {
+  static const std::map<std::string, std::string> colours = {
+      {"done", "palegreen"},    {"failed", "salmon"},     {"running", "lightblue"},
+      {"skipped", "lightgrey"}, {"interrupted", "khaki"}, {"pending", "white"}};
+  return colours;
+}
+
+void print_task_graph(sql::Connection& db, std::int64_t campaign, std::ostream& out) {
+  auto nodes = db.prepare(
+      "SELECT t.key, t.kind, " + shown_status_sql() +
+      " FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key LEFT JOIN results r ON "
+      "r.task_key = t.key WHERE ct.campaign_id = ? ORDER BY t.rowid");
+  nodes.bind_all(campaign);
+  while (nodes.step()) {
+    out << fmt::format("  \"{}\" [label=\"{}\\n{}\", fillcolor={}];\n", nodes.text(0),
+                       nodes.text(1), nodes.text(0).substr(0, 12),
+                       status_colours().at(nodes.text(2)));
+  }
+  auto edges = db.prepare(
+      "SELECT e.upstream, e.downstream FROM edges e JOIN campaign_tasks ct ON ct.task_key = "
+      "e.downstream WHERE ct.campaign_id = ? ORDER BY e.downstream, e.position");
+  edges.bind_all(campaign);
+  while (edges.step()) out << fmt::format("  \"{}\" -> \"{}\";\n", edges.text(0), edges.text(1));
+}
+
+// One node per kind (its tasks counted by status, coloured by the most pressing status present),
+// one edge per pair of kinds with the number of task edges between them.
+void print_kind_graph(sql::Connection& db, std::int64_t campaign, std::ostream& out) {
+  auto counts = db.prepare(
+      "SELECT t.kind, " + shown_status_sql() +
+      " AS shown, count(*), min(t.rowid) FROM campaign_tasks ct JOIN tasks t ON t.key = "
+      "ct.task_key LEFT JOIN results r ON r.task_key = t.key WHERE ct.campaign_id = ? GROUP BY "
+      "t.kind, shown");
+  counts.bind_all(campaign);
+  std::map<std::string, std::map<TaskStatus, std::int64_t>> by_kind;
+  std::map<std::string, std::int64_t> first_row;  // kinds in graph order: planned upstream first
+  while (counts.step()) {
+    by_kind[counts.text(0)][task_status_from(counts.text(1))] = counts.integer(2);
+    auto [where, inserted] = first_row.emplace(counts.text(0), counts.integer(3));
+    if (!inserted) where->second = std::min(where->second, counts.integer(3));
+  }
+  std::vector<std::pair<std::int64_t, std::string>> kinds;
+  for (const auto& [kind, row] : first_row) kinds.emplace_back(row, kind);
+  std::sort(kinds.begin(), kinds.end());
+  static constexpr std::array kPressing = {TaskStatus::failed,      TaskStatus::running,
+                                           TaskStatus::interrupted, TaskStatus::pending,
+                                           TaskStatus::skipped,     TaskStatus::done};
+  for (const auto& [row, kind] : kinds) {
+    const auto& statuses = by_kind.at(kind);
+    std::int64_t total = 0;
+    std::string parts;
+    for (const auto& [status, number] : statuses) {
+      total += number;
+      parts += fmt::format("{}{} {}", parts.empty() ? "" : ", ", number, to_string(status));
+    }
+    const TaskStatus colour_of =
+        *std::find_if(kPressing.begin(), kPressing.end(),
+                      [&](TaskStatus status) { return statuses.count(status) > 0; });
+    out << fmt::format("  \"{}\" [label=\"{}\\n{} task{}: {}\", fillcolor={}];\n", kind, kind,
+                       total, total == 1 ? "" : "s", parts,
+                       status_colours().at(std::string(to_string(colour_of))));
+  }
+  auto edges = db.prepare(
+      "SELECT up.kind, down.kind, count(*) FROM edges e JOIN campaign_tasks ct ON ct.task_key = "
+      "e.downstream AND ct.campaign_id = ? JOIN tasks up ON up.key = e.upstream JOIN tasks down "
+      "ON down.key = e.downstream GROUP BY up.kind, down.kind ORDER BY min(down.rowid), "
+      "min(up.rowid)");
+  edges.bind_all(campaign);
+  while (edges.step()) {
+    out << fmt::format("  \"{}\" -> \"{}\" [label=\"{}\"];\n", edges.text(0), edges.text(1),
+                       edges.integer(2));
   }
 }
 
-void print_dag_dot(const fs::path& db, const std::string& campaign, std::ostream& out) {
+}  // namespace
+
+void print_dag_dot(const fs::path& db, const std::string& campaign, bool every_task,
+                   std::ostream& out) {
   auto connection = open_read_only(db);
   const std::int64_t id = campaign_id(connection, campaign);
-  static const std::map<std::string, std::string> kColours = {
-      {"done", "palegreen"},    {"failed", "salmon"},     {"running", "lightblue"},
-      {"skipped", "lightgrey"}, {"interrupted", "khaki"}, {"pending", "white"}};
   out << "digraph \"" << campaign << "\" {\n  node [shape=box, style=filled];\n";
-  auto nodes = connection.prepare("SELECT t.key, t.kind, " + shown_status_sql() +
-                                  " FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
-                                  "LEFT JOIN results r ON r.task_key = t.key "
-                                  "WHERE ct.campaign_id = ? ORDER BY t.rowid");
-  nodes.bind_all(id);
-  while (nodes.step()) {
-    out << fmt::format("  \"{}\" [label=\"{}\\n{}\", fillcolor={}];\n", nodes.text(0),
-                       nodes.text(1), nodes.text(0).substr(0, 12), kColours.at(nodes.text(2)));
-  }
-  auto edges = connection.prepare(
-      "SELECT e.upstream, e.downstream FROM edges e JOIN campaign_tasks ct ON ct.task_key = "
-      "e.downstream "
-      "WHERE ct.campaign_id = ? ORDER BY e.downstream, e.position");
-  edges.bind_all(id);
-  while (edges.step()) out << fmt::format("  \"{}\" -> \"{}\";\n", edges.text(0), edges.text(1));
+  if (every_task)
+    print_task_graph(connection, id, out);
+  else
+    print_kind_graph(connection, id, out);
   out << "}\n";
 }
 

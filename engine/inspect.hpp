@@ -28,7 +28,10 @@ std::string resolve_task(sql::Connection& db, const std::string& prefix);
 
 void print_show(const std::filesystem::path& db, const std::string& task, std::ostream& out);
 void print_explain(const std::filesystem::path& db, const std::string& task, std::ostream& out);
-void print_dag_dot(const std::filesystem::path& db, const std::string& campaign, std::ostream& out);
+// Graphviz dot: one node per task kind (tasks counted by status) and edges between kinds labelled
+// with the number of task edges; with every_task, one node per task and every edge.
+void print_dag_dot(const std::filesystem::path& db, const std::string& campaign, bool every_task,
+                   std::ostream& out);
 
 // Writes <out>/<kind>.csv per task kind (params.* and result.* columns) or <out>/<campaign>.json.
 std::vector<std::filesystem::path> export_campaign(const std::filesystem::path& db,

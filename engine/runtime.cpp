@@ -10,6 +10,7 @@
 #include <stop_token>
 #include <unordered_map>
 
+#include "engine/cache.hpp"
 #include "engine/canonical_json.hpp"
 #include "engine/validation.hpp"
 
@@ -25,6 +26,7 @@ struct Node {
   int waiting_on = 0;  // upstream tasks not done yet
   std::vector<std::string> downstream;
   int attempts_this_run = 0;
+  bool held = false;                                     // beyond --until: stays pending
   std::optional<nlohmann::json> result;                  // loaded when a downstream task needs it
   std::optional<std::vector<StoredArtifact>> artifacts;  // likewise
 };
@@ -149,38 +151,6 @@ class ArenaPool {
   std::vector<std::unique_ptr<tbb::task_arena>> free_;
 };
 
-// Status and artifacts of every task of the campaign, read in bulk before the run.
-struct StoredState {
-  std::unordered_map<std::string, std::string> status;
-  std::unordered_map<std::string, std::vector<StoredArtifact>> artifacts;
-  std::unordered_map<std::string, std::vector<std::string>> children;
-};
-
-StoredState load_stored_state(sql::Connection& db, std::int64_t campaign) {
-  StoredState state;
-  auto status = db.prepare(
-      "SELECT t.key, t.status FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key WHERE "
-      "ct.campaign_id = ?");
-  status.bind_all(campaign);
-  while (status.step()) state.status.emplace(status.text(0), status.text(1));
-  auto artifacts = db.prepare(
-      "SELECT a.task_key, a.name, a.sha256, a.size FROM campaign_tasks ct JOIN artifacts a ON "
-      "a.task_key = ct.task_key "
-      "WHERE ct.campaign_id = ?");
-  artifacts.bind_all(campaign);
-  while (artifacts.step()) {
-    state.artifacts[artifacts.text(0)].push_back(
-        {artifacts.text(1), artifacts.text(2), artifacts.integer(3)});
-  }
-  auto children = db.prepare(
-      "SELECT t.parent_key, t.key FROM campaign_tasks ct JOIN tasks t ON t.parent_key = "
-      "ct.task_key "
-      "WHERE ct.campaign_id = ? ORDER BY t.rowid");
-  children.bind_all(campaign);
-  while (children.step()) state.children[children.text(0)].push_back(children.text(1));
-  return state;
-}
-
 // A result the store cannot hold (NaN or infinity: a simulation that diverged) fails its attempt,
 // with the reason in the task's log; it must not reach the commit and stop the coordinator.
 void require_storable(const nlohmann::json& result) {
@@ -202,16 +172,18 @@ class Coordinator {
         campaign_(campaign),
         options_(options),
         artifacts_(artifacts_dir(env_.store.path()), env_.files),
+        judge_(artifacts_, options.force),
         work_root_(env_.jobs ? env_.jobs->work_root() : work_dir(env_.store.path())),
         arenas_(options.threads_per_task),
         started_(env_.clock.now()) {}
 
   RunSummary run(const std::vector<TaskSpec>& planned) {
-    stored_ = load_stored_state(env_.store.connection(), campaign_);
+    stored_ = find_campaign_tasks(env_.store.connection(), campaign_);
     for (const auto& spec : planned) admit(spec);
     env_.store.add_members(campaign_, adopted_);
     adopted_.clear();
     stored_ = {};
+    if (!options_.until.empty()) hold_beyond_until();
     loop();
     env_.launcher.wait_idle();
     return summarize();
@@ -231,7 +203,10 @@ class Coordinator {
       if (parent.state == State::failed || parent.state == State::skipped) upstream_failed = true;
       if (parent.state != State::done && parent.state != State::cached) ++node.waiting_on;
     }
-    if (status_of(spec.key) == "done") adopt_cached(node);
+    decide(node);
+    if (holding_ && node.spec.kind != options_.until && !may_expand(node.spec.kind)) {
+      node.held = true;  // declared after the start: below a task that ran, beyond --until
+    }
     if (node.state == State::pending && upstream_failed) {
       node.state = State::skipped;
       env_.store.mark_skipped({spec.key}, "an upstream task failed");
@@ -244,7 +219,9 @@ class Coordinator {
   // instead of being submitted twice (its job may still be queued, running or finished). A job
   // recorded while being submitted is looked up first; one the scheduler never got goes out again.
   bool reattach(Node& node) {
-    if (!env_.jobs || status_of(node.spec.key) != "running") return false;
+    if (!env_.jobs) return false;
+    const auto stored = stored_task(node.spec.key);
+    if (!stored || stored->status != TaskStatus::running) return false;
     const auto record = find_task(env_.store.connection(), node.spec.key);
     auto jobs = find_jobs(env_.store.connection(), node.spec.key);
     if (!record || jobs.empty() || jobs.back().attempt != record->attempts) return false;
@@ -280,41 +257,42 @@ class Coordinator {
     admit(record->spec);
   }
 
-  // A task done before this run is reused when its artifacts are intact; its stored children
-  // (declared by its result) join the graph.
-  void adopt_cached(Node& node) {
+  // The cache decision (engine/cache.hpp): a cached task is reused and its stored children
+  // (declared by its result) join the graph; a done task that is not intact goes back to pending.
+  void decide(Node& node) {
     const std::string key = node.spec.key;
-    for (const auto& artifact : artifacts_of(key)) {
-      if (!artifacts_.verify(artifact)) {
-        const std::string reason =
-            fmt::format("artifact {} ({}) is missing or corrupt", artifact.name, artifact.sha256);
-        env_.store.mark_pending(key, reason);
-        log(key, "warn", reason + "; the task runs again");
-        return;
-      }
+    const auto stored = stored_task(key);
+    const CacheDecision decision = judge_.decide(node.spec, stored);
+    if (decision.cached()) {
+      node.state = State::cached;
+      for (const auto& child : stored->children) admit_stored(child);
+      return;
     }
-    node.state = State::cached;
-    for (const auto& child : children_of(key)) admit_stored(child);
+    if (decision.reason == RunReason::forced) {
+      log(key, "info", "runs again: --force names it");
+    } else if (stored && stored->status == TaskStatus::done) {
+      const std::string reason = decision.summary() + ": " + decision.detail;
+      env_.store.mark_pending(key, reason);
+      log(key, "warn", reason + "; the task runs again");
+    }
   }
 
-  std::string status_of(const std::string& key) {
-    if (auto found = stored_.status.find(key); found != stored_.status.end()) return found->second;
-    auto record = find_task(env_.store.connection(), key);
-    return record ? record->status : "pending";
+  std::optional<StoredTask> stored_task(const std::string& key) {
+    if (auto found = stored_.find(key); found != stored_.end()) return found->second;
+    return find_stored_task(env_.store.connection(), key);
   }
-  std::vector<StoredArtifact> artifacts_of(const std::string& key) {
-    if (stored_.status.count(key) > 0) {
-      auto found = stored_.artifacts.find(key);
-      return found == stored_.artifacts.end() ? std::vector<StoredArtifact>{} : found->second;
-    }
-    return find_artifacts(env_.store.connection(), key);
+
+  bool may_expand(const std::string& kind) const {
+    return env_.kinds.contains(kind) && env_.kinds.get(kind).may_expand;
   }
-  std::vector<std::string> children_of(const std::string& key) {
-    if (stored_.status.count(key) > 0) {
-      auto found = stored_.children.find(key);
-      return found == stored_.children.end() ? std::vector<std::string>{} : found->second;
-    }
-    return child_keys(env_.store.connection(), key);
+
+  // --until KIND: only tasks of KIND and the tasks they need run; the others stay pending.
+  void hold_beyond_until() {
+    std::vector<const TaskSpec*> graph;
+    for (const auto& [key, node] : nodes_) graph.push_back(&node.spec);
+    for (const auto& key : beyond_until(graph, env_.kinds, options_.until))
+      nodes_.at(key).held = true;
+    holding_ = true;
   }
 
   // --- the loop --------------------------------------------------------------------------
@@ -358,12 +336,13 @@ class Coordinator {
   // before it starts, so a task found 'running' after a crash is known to have been interrupted.
   std::vector<AttemptOrder> record_turn(std::optional<Event>& event) {
     if (!event && !can_launch()) return {};
-    sql::Transaction transaction(env_.store.connection());
+    auto transaction = env_.store.transaction();
     if (event) handle(std::move(*event));
     std::vector<AttemptOrder> launches;
     while (can_launch()) {
-      launches.push_back(claim(ready_.front()));
+      const std::string key = ready_.front();
       ready_.pop_front();
+      if (!nodes_.at(key).held) launches.push_back(claim(key));
     }
     transaction.commit();
     remove_finished_work_dirs();
@@ -542,7 +521,7 @@ class Coordinator {
   void handle_interruption(const Event& event) {
     Node& node = nodes_.at(event.key);
     if (!stopping_) {
-      env_.store.mark_finished(event.key, "interrupted", event.attempt,
+      env_.store.mark_finished(event.key, TaskStatus::interrupted, event.attempt,
                                "checkpointed before its time limit", event.duration_s);
       node.state = State::pending;
       --node.attempts_this_run;
@@ -551,14 +530,15 @@ class Coordinator {
       return;
     }
     node.state = State::interrupted;
-    env_.store.mark_finished(event.key, "interrupted", event.attempt, "stopped on request",
-                             event.duration_s);
+    env_.store.mark_finished(event.key, TaskStatus::interrupted, event.attempt,
+                             "stopped on request", event.duration_s);
     report(event.key, "interrupted");
   }
 
   void handle_failure(const Event& event) {
     Node& node = nodes_.at(event.key);
-    env_.store.mark_finished(event.key, "failed", event.attempt, *event.error, event.duration_s);
+    env_.store.mark_finished(event.key, TaskStatus::failed, event.attempt, *event.error,
+                             event.duration_s);
     log(event.key, "error", fmt::format("attempt {} failed: {}", event.attempt, *event.error));
     if (node.attempts_this_run <= options_.retries && !stopping_) {
       node.state = State::pending;
@@ -654,7 +634,7 @@ class Coordinator {
       if (node.state == State::skipped) ++summary.skipped;
       if (skipped_its_work(node)) ++summary.skipped_their_work;
       if (node.state == State::interrupted) ++summary.interrupted;
-      if (node.state == State::pending) ++summary.not_started;
+      if (node.state == State::pending) ++(node.held ? summary.held_back : summary.not_started);
       if (node.state == State::running) ++summary.detached;
     }
     return summary;
@@ -664,10 +644,12 @@ class Coordinator {
   std::int64_t campaign_;
   RunOptions options_;
   ArtifactStore artifacts_;
+  CacheJudge judge_;
   fs::path work_root_;
   ArenaPool arenas_;
   double started_;
-  StoredState stored_;
+  std::unordered_map<std::string, StoredTask> stored_;  // read at the start, then released
+  bool holding_ = false;                                // --until is in force
   std::unordered_map<std::string, Node> nodes_;
   std::vector<std::string> adopted_;  // stored tasks that joined this campaign's graph
   std::deque<std::string> ready_;
@@ -700,6 +682,7 @@ std::string RunSummary::describe() const {
   if (interrupted > 0 || not_started > 0) {
     text += fmt::format(", {} interrupted, {} not started", interrupted, not_started);
   }
+  if (held_back > 0) text += fmt::format(", {} held back by --until", held_back);
   if (detached > 0)
     text += fmt::format(", {} left running as batch jobs (resume re-attaches)", detached);
   if (!stop_reason.empty()) text += "; stopped: " + stop_reason;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "engine/artifacts.hpp"
+#include "engine/cache.hpp"
 #include "engine/clock.hpp"
 #include "engine/job_executor.hpp"
 #include "engine/launcher.hpp"
@@ -23,6 +24,8 @@ struct RunOptions {
   int threads_per_task = 1;  // size of each task's own arena
   int retries = 0;           // extra attempts of a failing task within one run
   double refresh_s = 0.25;   // progress line period
+  ForceRule force;           // cached tasks that run again (--force)
+  std::string until;         // when set, only tasks of this kind and what they need run
   std::function<bool()> stop_requested = [] { return false; };  // polled: Ctrl-C, tests
 };
 
@@ -39,6 +42,7 @@ struct RunSummary {
   int interrupted = 0;
   int not_started = 0;  // left pending by an interruption
   int detached = 0;     // left running as batch jobs by an interruption; resume re-attaches
+  int held_back = 0;    // beyond --until, left pending
   bool stopped = false;
   std::string
       stop_reason;  // why the run stopped without a stop request (the scheduler was unreachable)

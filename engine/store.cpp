@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <array>
+
 #include "engine/canonical_json.hpp"
 #include "engine/validation.hpp"
 #include "engine/version.hpp"
@@ -188,7 +190,21 @@ fs::path beside(const fs::path& db, const std::string& suffix) {
   return db.parent_path() / (db.filename().string() + suffix);
 }
 
+constexpr std::array<std::string_view, 6> kStatusNames = {"pending", "running",     "done",
+                                                          "failed",  "interrupted", "skipped"};
+
 }  // namespace
+
+std::string_view to_string(TaskStatus status) {
+  return kStatusNames.at(static_cast<size_t>(status));
+}
+
+TaskStatus task_status_from(std::string_view text) {
+  for (size_t i = 0; i < kStatusNames.size(); ++i) {
+    if (kStatusNames[i] == text) return static_cast<TaskStatus>(i);
+  }
+  throw std::runtime_error("unknown task status '" + std::string(text) + "' in the store");
+}
 
 fs::path artifacts_dir(const fs::path& db) {
   return beside(db, ".artifacts");
@@ -256,7 +272,7 @@ std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key)
                          .upstream = {},
                          .key_text = row.text(3)};
   if (!row.is_null(4)) record.parent_key = row.text(4);
-  record.status = row.text(5);
+  record.status = task_status_from(row.text(5));
   record.attempts = static_cast<int>(row.integer(6));
   record.error = row.text(7);
   auto edges = db.prepare("SELECT upstream FROM edges WHERE downstream = ? ORDER BY position");
@@ -287,6 +303,72 @@ std::vector<std::string> child_keys(sql::Connection& db, const std::string& pare
   std::vector<std::string> keys;
   while (rows.step()) keys.push_back(rows.text(0));
   return keys;
+}
+
+std::optional<StoredCampaign> find_campaign(sql::Connection& db, const std::string& name) {
+  auto row = db.prepare(
+      name.empty() ? "SELECT name, format, document FROM campaigns ORDER BY submitted_at DESC, id "
+                     "DESC LIMIT 1"
+                   : "SELECT name, format, document FROM campaigns WHERE name = ?");
+  if (!name.empty()) row.bind_all(name);
+  if (!row.step()) return std::nullopt;
+  return StoredCampaign{row.text(0), row.text(1), nlohmann::json::parse(row.text(2))};
+}
+
+std::optional<StoredTask> find_stored_task(sql::Connection& db, const std::string& key) {
+  auto row = db.prepare(
+      "SELECT t.status, t.attempts, coalesce(t.error, ''), r.task_key IS NOT NULL FROM tasks t "
+      "LEFT JOIN results r ON r.task_key = t.key WHERE t.key = ?");
+  row.bind_all(key);
+  if (!row.step()) return std::nullopt;
+  StoredTask task{.status = task_status_from(row.text(0)),
+                  .attempts = static_cast<int>(row.integer(1)),
+                  .error = row.text(2),
+                  .has_result = row.integer(3) != 0,
+                  .artifacts = find_artifacts(db, key),
+                  .children = child_keys(db, key)};
+  return task;
+}
+
+std::unordered_map<std::string, StoredTask> find_campaign_tasks(sql::Connection& db,
+                                                                std::int64_t campaign) {
+  std::unordered_map<std::string, StoredTask> tasks;
+  auto rows = db.prepare(
+      "SELECT t.key, t.status, t.attempts, coalesce(t.error, ''), r.task_key IS NOT NULL "
+      "FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
+      "LEFT JOIN results r ON r.task_key = t.key WHERE ct.campaign_id = ?");
+  rows.bind_all(campaign);
+  while (rows.step()) {
+    tasks.emplace(rows.text(0), StoredTask{.status = task_status_from(rows.text(1)),
+                                           .attempts = static_cast<int>(rows.integer(2)),
+                                           .error = rows.text(3),
+                                           .has_result = rows.integer(4) != 0,
+                                           .artifacts = {},
+                                           .children = {}});
+  }
+  auto artifacts = db.prepare(
+      "SELECT a.task_key, a.name, a.sha256, a.size FROM campaign_tasks ct JOIN artifacts a ON "
+      "a.task_key = ct.task_key WHERE ct.campaign_id = ? ORDER BY a.task_key, a.name");
+  artifacts.bind_all(campaign);
+  while (artifacts.step()) {
+    tasks.at(artifacts.text(0))
+        .artifacts.push_back({artifacts.text(1), artifacts.text(2), artifacts.integer(3)});
+  }
+  auto children = db.prepare(
+      "SELECT t.parent_key, t.key FROM campaign_tasks ct JOIN tasks t ON t.parent_key = "
+      "ct.task_key WHERE ct.campaign_id = ? ORDER BY t.rowid");
+  children.bind_all(campaign);
+  while (children.step()) tasks.at(children.text(0)).children.push_back(children.text(1));
+  return tasks;
+}
+
+std::vector<TaskRecord> find_tasks_of_kind(sql::Connection& db, const std::string& kind,
+                                           TaskStatus status) {
+  auto rows = db.prepare("SELECT key FROM tasks WHERE kind = ? AND status = ? ORDER BY key");
+  rows.bind_all(kind, to_string(status));
+  std::vector<TaskRecord> tasks;
+  while (rows.step()) tasks.push_back(*find_task(db, rows.text(0)));
+  return tasks;
 }
 
 std::vector<JobRecord> find_jobs(sql::Connection& db, const std::string& key) {
@@ -378,11 +460,11 @@ void Store::add_members(std::int64_t campaign, const std::vector<std::string>& k
   transaction.commit();
 }
 
-void Store::record_history(const std::string& key, const std::string& status, int attempt,
+void Store::record_history(const std::string& key, TaskStatus status, int attempt,
                            const std::string& message) {
   statement(
       "INSERT INTO status_history (task_key, status, attempt, at, message) VALUES (?, ?, ?, ?, ?)")
-      .bind_all(key, status, attempt, clock_.now(), message)
+      .bind_all(key, to_string(status), attempt, clock_.now(), message)
       .run();
 }
 
@@ -398,7 +480,7 @@ int Store::mark_running(const std::string& key) {
   update.step();
   const int attempt = static_cast<int>(update.integer(0));
   update.reset();
-  record_history(key, "running", attempt, "");
+  record_history(key, TaskStatus::running, attempt, "");
   transaction.commit();
   return attempt;
 }
@@ -429,15 +511,15 @@ void Store::commit_done(std::int64_t campaign, const std::string& key, const nlo
   update.step();
   const int attempt = static_cast<int>(update.integer(0));
   update.reset();
-  record_history(key, "done", attempt, "");
+  record_history(key, TaskStatus::done, attempt, "");
   transaction.commit();
 }
 
-void Store::mark_finished(const std::string& key, const std::string& status, int attempt,
+void Store::mark_finished(const std::string& key, TaskStatus status, int attempt,
                           const std::string& message, double duration_s) {
   sql::Transaction transaction(db_);
   statement("UPDATE tasks SET status = ?, finished_at = ?, duration_s = ?, error = ? WHERE key = ?")
-      .bind_all(status, clock_.now(), duration_s, message, key)
+      .bind_all(to_string(status), clock_.now(), duration_s, message, key)
       .run();
   record_history(key, status, attempt, message);
   transaction.commit();
@@ -453,7 +535,7 @@ void Store::mark_skipped(const std::vector<std::string>& keys, const std::string
     update.step();
     const int attempt = static_cast<int>(update.integer(0));
     update.reset();
-    record_history(key, "skipped", attempt, reason);
+    record_history(key, TaskStatus::skipped, attempt, reason);
   }
   transaction.commit();
 }
@@ -466,7 +548,7 @@ void Store::mark_pending(const std::string& key, const std::string& reason) {
   update.step();
   const int attempt = static_cast<int>(update.integer(0));
   update.reset();
-  record_history(key, "pending", attempt, reason);
+  record_history(key, TaskStatus::pending, attempt, reason);
   transaction.commit();
 }
 

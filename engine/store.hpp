@@ -5,7 +5,8 @@
 // Schema version 4 (PRAGMA user_version = 4); times are Unix seconds (REAL), JSON is canonical
 // text.
 //   campaigns      id PK, name UNIQUE, format, document (the loaded campaign JSON), submitted_at,
-//                  finished_at, outcome ('running'|'done'|'failed'|'interrupted')
+//                  finished_at, outcome ('running'|'done'|'failed'|'interrupted'|'partial':
+//                  tasks beyond `--until` left pending)
 //   tasks          key PK (SHA-256 hex), kind, kind_version, params, key_text (exactly what was
 //                  hashed), parent_key (the task whose result declared it; NULL for planned tasks),
 //                  status ('pending'|'running'|'done'|'failed'|'interrupted'|'skipped'),
@@ -48,6 +49,8 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include "engine/artifacts.hpp"
@@ -74,9 +77,14 @@ struct ViewDefinition {
   std::string select_sql;
 };
 
+// A task's status column; the strings are the schema's ('pending', 'running', ...).
+enum class TaskStatus { pending, running, done, failed, interrupted, skipped };
+std::string_view to_string(TaskStatus status);
+TaskStatus task_status_from(std::string_view text);  // throws std::runtime_error for unknown text
+
 struct TaskRecord {
   TaskSpec spec;
-  std::string status;
+  TaskStatus status = TaskStatus::pending;
   int attempts = 0;
   std::optional<std::string> parent_key;
   std::string error;
@@ -106,6 +114,29 @@ std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key)
 std::optional<nlohmann::json> find_result(sql::Connection& db, const std::string& key);
 std::vector<StoredArtifact> find_artifacts(sql::Connection& db, const std::string& key);
 std::vector<std::string> child_keys(sql::Connection& db, const std::string& parent_key);
+// What the cache decision needs to know of a stored task (engine/cache.hpp).
+struct StoredTask {
+  TaskStatus status = TaskStatus::pending;
+  int attempts = 0;
+  std::string error;
+  bool has_result = false;
+  std::vector<StoredArtifact> artifacts;
+  std::vector<std::string> children;  // declared by its result, in declaration order
+};
+std::optional<StoredTask> find_stored_task(sql::Connection& db, const std::string& key);
+// Every member of a campaign, read in a few bulk queries (the runtime's start).
+std::unordered_map<std::string, StoredTask> find_campaign_tasks(sql::Connection& db,
+                                                                std::int64_t campaign);
+// The tasks of one kind with this status (e.g. the cached ones a changed task is compared with).
+std::vector<TaskRecord> find_tasks_of_kind(sql::Connection& db, const std::string& kind,
+                                           TaskStatus status);
+// A campaign as submitted: by name, or the most recently submitted one when name is empty.
+struct StoredCampaign {
+  std::string name;
+  std::string format;
+  nlohmann::json document;
+};
+std::optional<StoredCampaign> find_campaign(sql::Connection& db, const std::string& name);
 // The batch jobs of a task, by attempt (none before schema version 2, no job names before 3).
 std::vector<JobRecord> find_jobs(sql::Connection& db, const std::string& key);
 
@@ -115,7 +146,11 @@ class Store {
         const Clock& clock);
 
   const std::filesystem::path& path() const { return path_; }
+  // For reads shared with the read-only tools (find_task & co.) and for tests; writes go through
+  // the methods below.
   sql::Connection& connection() { return db_; }
+  // Groups the writes of several methods into one commit (they nest as savepoints).
+  sql::Transaction transaction() { return sql::Transaction(db_); }
 
   // Creates or updates the campaign (its document and membership start afresh) and adds the
   // planned tasks, all in one transaction. Returns the campaign id.
@@ -131,7 +166,7 @@ class Store {
   void commit_done(std::int64_t campaign, const std::string& key, const nlohmann::json& result,
                    const std::vector<StoredArtifact>& artifacts,
                    const std::vector<TaskSpec>& children, double duration_s);
-  void mark_finished(const std::string& key, const std::string& status, int attempt,
+  void mark_finished(const std::string& key, TaskStatus status, int attempt,
                      const std::string& message, double duration_s);
   void mark_skipped(const std::vector<std::string>& keys, const std::string& reason);
   void mark_pending(const std::string& key, const std::string& reason);
@@ -148,7 +183,7 @@ class Store {
                     const std::optional<std::string>& parent);
   // Prepared once per connection: a task's commit reuses the same handful of statements.
   sql::Statement& statement(std::string_view sql) { return db_.cached(sql); }
-  void record_history(const std::string& key, const std::string& status, int attempt,
+  void record_history(const std::string& key, TaskStatus status, int attempt,
                       const std::string& message);
 
   std::filesystem::path path_;

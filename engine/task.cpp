@@ -44,12 +44,15 @@ void KindRegistry::add(TaskKind kind) {
 
 const TaskKind& KindRegistry::get(const std::string& name) const {
   const auto found = kinds_.find(name);
-  if (found == kinds_.end()) {
-    std::string known;
-    for (const auto& [kind_name, kind] : kinds_) known += (known.empty() ? "" : ", ") + kind_name;
-    throw InvalidInput({{"", "unknown task kind \"" + name + "\"", "use one of: " + known}});
-  }
+  if (found == kinds_.end())
+    throw InvalidInput({{"", "unknown task kind \"" + name + "\"", "use one of: " + names()}});
   return found->second;
+}
+
+std::string KindRegistry::names() const {
+  std::string text;
+  for (const auto& [name, kind] : kinds_) text += (text.empty() ? "" : ", ") + name;
+  return text;
 }
 
 const std::string& Plan::add(const std::string& kind, nlohmann::json params,

@@ -108,6 +108,7 @@ class KindRegistry {
   void add(TaskKind kind);  // throws std::logic_error for a duplicate name
   const TaskKind& get(const std::string& name) const;  // throws InvalidInput for an unknown name
   bool contains(const std::string& name) const { return kinds_.count(name) > 0; }
+  std::string names() const;  // "a, b, c"
 
  private:
   std::map<std::string, TaskKind> kinds_;

@@ -15,6 +15,8 @@
 #include <thread>
 
 #include "engine/store.hpp"
+#include "engine/testing_tasks.hpp"
+#include "tasks/millflow.hpp"
 #include "tests/common/child_process.hpp"
 #include "tests/common/running_tasks.hpp"
 #include "tests/common/scratch_dir.hpp"
@@ -223,10 +225,10 @@ TEST_F(Cli, ExportWritesOneCsvPerKindOrOneJsonFile) {
   EXPECT_EQ(millflow({"export", "nope", "--format", "json", "--out", out.string()}).exit_code, 2);
 }
 
-TEST_F(Cli, DagDotHasEveryTaskAndEveryEdge) {
+TEST_F(Cli, DagWithTasksHasEveryTaskAndEveryEdge) {
   ASSERT_EQ(submit_diamond().exit_code, 0);
   const auto keys = keys_by_value();
-  const auto dag = millflow({"dag", "diamond", "--dot"});
+  const auto dag = millflow({"dag", "diamond", "--tasks"});
   ASSERT_EQ(dag.exit_code, 0) << dag.err;
   const auto lines = lines_of(dag.out);
   EXPECT_EQ(lines.front(), "digraph \"diamond\" {");
@@ -246,6 +248,133 @@ TEST_F(Cli, DagDotHasEveryTaskAndEveryEdge) {
                                                                   {keys.at(1), keys.at(3)},
                                                                   {keys.at(2), keys.at(4)},
                                                                   {keys.at(3), keys.at(4)}}));
+}
+
+TEST_F(Cli, DagDrawsOneNodePerKindByDefault) {
+  json tasks = diamond_tasks();
+  tasks.push_back({{"id", "broken"}, {"kind", "fail"}, {"params", {{"failures", 9}}}});
+  tasks.push_back(
+      {{"id", "below"}, {"kind", "sum"}, {"params", {{"value", 5}}}, {"after", {"broken"}}});
+  ASSERT_EQ(millflow({"submit", write_campaign("mixed", tasks).string()}).exit_code, 1);
+  const auto dag = millflow({"dag", "mixed"});
+  ASSERT_EQ(dag.exit_code, 0) << dag.err;
+  EXPECT_EQ(dag.out,
+            "digraph \"mixed\" {\n"
+            "  node [shape=box, style=filled];\n"
+            "  \"sum\" [label=\"sum\\n5 tasks: 4 done, 1 skipped\", fillcolor=lightgrey];\n"
+            "  \"fail\" [label=\"fail\\n1 task: 1 failed\", fillcolor=salmon];\n"
+            "  \"sum\" -> \"sum\" [label=\"4\"];\n"
+            "  \"fail\" -> \"sum\" [label=\"1\"];\n"
+            "}\n");
+}
+
+// diamond with c's value changed from 3 to 30.
+json changed_diamond() {
+  json tasks = diamond_tasks();
+  tasks[2]["params"]["value"] = 30;
+  return tasks;
+}
+
+TEST_F(Cli, SubmitDryRunSaysPerKindWhatWouldRunAndWhyAndWritesNothing) {
+  ASSERT_EQ(submit_diamond().exit_code, 0);
+  const auto file = write_campaign("diamond", changed_diamond());
+  const auto dry = millflow({"submit", file.string(), "--dry-run"});
+  ASSERT_EQ(dry.exit_code, 0) << dry.err;
+  EXPECT_EQ(dry.out,
+            "dry run of \"diamond\": 4 tasks, 2 cached, 2 would run\n"
+            "sum: 2 of 4 would run\n"
+            "  1 parameters changed\n"
+            "    /value: 3 -> 30\n"
+            "  1 upstream changed\n");
+  EXPECT_EQ(keys_by_value().size(), 4u);  // no task of the changed campaign was registered
+  const auto forced = millflow({"submit", file.string(), "--dry-run", "--force", "sum"});
+  EXPECT_EQ(forced.out,
+            "dry run of \"diamond\": 4 tasks, 0 cached, 4 would run\n"
+            "sum: 4 of 4 would run\n"
+            "  2 forced\n"
+            "  1 parameters changed\n"
+            "    /value: 3 -> 30\n"
+            "  1 upstream changed\n");
+}
+
+TEST_F(Cli, ExplainWorksOnACampaignFileBeforeItWasEverSubmitted) {
+  const auto file = write_campaign("diamond", diamond_tasks());
+  const auto listed = millflow({"explain", file.string()});
+  ASSERT_EQ(listed.exit_code, 0) << listed.err;
+  const auto lines = lines_of(listed.out);
+  ASSERT_EQ(lines.size(), 4u) << listed.out;
+  const std::regex new_task(R"(^sum ([0-9a-f]{64}): would run: new$)");
+  std::smatch first;
+  ASSERT_TRUE(std::regex_match(lines[0], first, new_task)) << lines[0];
+  for (const auto& line : lines) EXPECT_TRUE(std::regex_match(line, new_task)) << line;
+  EXPECT_FALSE(fs::exists(db()));
+
+  const std::string key = first[1];
+  const auto one = millflow({"explain", file.string(), key.substr(0, 8)});
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  EXPECT_EQ(one.out,
+            "task " + key +
+                "\nhashed text (SHA-256 of exactly these bytes):\n"
+                "millflow-task 1\nkind:sum\nversion:1\nparams:{\"artifact\":true,\"value\":1}\n"
+                "upstream:\nwould run: new\n");
+  const auto unknown = millflow({"explain", file.string(), "ffff"});
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_EQ(unknown.err,
+            "millflow: invalid input:\n(document): no task of campaign \"diamond\" has a key "
+            "starting with \"ffff\"; `millflow explain FILE` lists every task with its key\n");
+
+  ASSERT_EQ(submit_diamond().exit_code, 0);
+  const auto cached = millflow({"explain", file.string()});
+  for (const auto& line : lines_of(cached.out))
+    EXPECT_NE(line.find(": would not run: done, result and artifacts intact (cached)"),
+              std::string::npos)
+        << line;
+}
+
+TEST_F(Cli, ForceAndUntilSelectWhatSubmitAndResumeRun) {
+  ASSERT_EQ(submit_diamond().exit_code, 0);
+  const auto file = write_campaign("diamond", diamond_tasks());
+  const auto keys = keys_by_value();
+  EXPECT_EQ(millflow({"submit", file.string(), "--force", keys.at(2).substr(0, 10)}).out,
+            "campaign diamond: 4 tasks: 1 done, 3 cached, 0 failed, 0 skipped\n");
+  EXPECT_EQ(millflow({"resume", "--force", "sum"}).out,
+            "campaign diamond: 4 tasks: 4 done, 0 cached, 0 failed, 0 skipped\n");
+  const auto wrong = millflow({"submit", file.string(), "--force", "nope", "--until", "nada"});
+  EXPECT_EQ(wrong.exit_code, 2);
+  engine::Registry registry;  // the kinds of millflow_testing
+  tasks::register_millflow(registry);
+  engine::add_testing(registry);
+  const std::string kinds = registry.kinds.names();
+  EXPECT_EQ(wrong.err,
+            "millflow: invalid input:\n--force: \"nope\" is neither a task kind nor a "
+            "task key; name a kind (" +
+                kinds +
+                ") or a key from `millflow explain FILE`\n"
+                "--until: \"nada\" is not a task kind; name one of: " +
+                kinds + "\n");
+
+  const auto chain = write_campaign(
+      "chain",
+      json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}}}},
+                   {{"id", "s"}, {"kind", "sleep"}, {"params", {{"ms", 0}}}, {"after", {"a"}}},
+                   {{"id", "c"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"s"}}}}));
+  const auto partial = millflow({"submit", chain.string(), "--until", "sleep"});
+  EXPECT_EQ(partial.exit_code, 0) << partial.err;
+  EXPECT_EQ(partial.out,
+            "campaign chain: 3 tasks: 2 done, 0 cached, 0 failed, 0 skipped, 1 held back by "
+            "--until\n");
+  EXPECT_EQ(millflow({"resume", "chain"}).out,
+            "campaign chain: 3 tasks: 1 done, 2 cached, 0 failed, 0 skipped\n");
+}
+
+TEST_F(Cli, TheProductionBinaryHasNoTestKinds) {
+  const auto file = write_campaign("diamond", diamond_tasks());
+  const auto refused =
+      run_millflow({"validate", file.string()}, dir_.path(), production_millflow_binary());
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_EQ(refused.err,
+            "millflow: invalid input:\n(document): no loader is registered for campaign format "
+            "\"millflow-test\" in this build; formats this build reads: millflow_campaign\n");
 }
 
 TEST_F(Cli, GcRemovesOnlyFilesNoTaskReferences) {

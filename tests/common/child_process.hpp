@@ -1,6 +1,7 @@
 #pragma once
-// Runs the built millflow binary (MILLFLOW_BINARY_DIR/millflow) as a child process, for tests of
-// the command line, exit codes, signals and crashes.
+// Runs the built millflow_testing binary (MILLFLOW_BINARY_DIR/millflow_testing: the command line
+// with the engine's test kinds) as a child process, for tests of the command line, exit codes,
+// signals and crashes.
 #include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -15,6 +16,10 @@
 namespace millflow::testing {
 
 inline std::filesystem::path millflow_binary() {
+  return std::filesystem::path(MILLFLOW_BINARY_DIR) / "millflow_testing";
+}
+// The production binary: the method's kinds only.
+inline std::filesystem::path production_millflow_binary() {
   return std::filesystem::path(MILLFLOW_BINARY_DIR) / "millflow";
 }
 
@@ -23,8 +28,9 @@ inline std::filesystem::path millflow_binary() {
 inline pid_t spawn_millflow(
     const std::vector<std::string>& arguments, const std::filesystem::path& out = "/dev/null",
     const std::filesystem::path& err = "/dev/null",
-    const std::vector<std::pair<std::string, std::string>>& environment = {}) {
-  const std::string binary = millflow_binary().string();
+    const std::vector<std::pair<std::string, std::string>>& environment = {},
+    const std::filesystem::path& program = millflow_binary()) {
+  const std::string binary = program.string();
   const pid_t child = ::fork();
   if (child == 0) {
     for (const auto& [name, value] : environment) ::setenv(name.c_str(), value.c_str(), 1);
@@ -61,10 +67,11 @@ struct Finished {
 
 // Runs millflow to its end; its output passes through files in `scratch`.
 inline Finished run_millflow(const std::vector<std::string>& arguments,
-                             const std::filesystem::path& scratch) {
+                             const std::filesystem::path& scratch,
+                             const std::filesystem::path& program = millflow_binary()) {
   const auto out = scratch / "stdout.txt";
   const auto err = scratch / "stderr.txt";
-  const int code = wait_exit_code(spawn_millflow(arguments, out, err));
+  const int code = wait_exit_code(spawn_millflow(arguments, out, err, {}, program));
   return Finished{code, read_text(out), read_text(err)};
 }
 

@@ -16,6 +16,18 @@ Campaign test_campaign(const std::string& name, nlohmann::json tasks) {
                   {{"format", "millflow-test"}, {"name", name}, {"tasks", std::move(tasks)}}};
 }
 
+nlohmann::json noted_diamond(int c_value) {
+  using nlohmann::json;
+  return json::array(
+      {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}, {"artifact", true}}}},
+       {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"a"}}},
+       {{"id", "c"},
+        {"kind", "sum"},
+        {"params", {{"value", c_value}, {"note", "c"}}},
+        {"after", {"a"}}},
+       {{"id", "d"}, {"kind", "sum"}, {"params", {{"value", 4}}}, {"after", {"b", "c"}}}});
+}
+
 RunSummary submit(const Campaign& campaign, const std::filesystem::path& db, int jobs,
                   int retries) {
   SubmitOptions options;

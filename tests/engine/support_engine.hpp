@@ -17,6 +17,10 @@ Registry testing_registry();
 // {"format": "millflow-test", "name": name, "tasks": tasks}
 Campaign test_campaign(const std::string& name, nlohmann::json tasks);
 
+// a -> b, a -> c, (b, c) -> d (sum tasks); a writes an artifact, and c carries a second parameter
+// so that it is the one nearest task to any variant of itself.
+nlohmann::json noted_diamond(int c_value);
+
 RunSummary submit(const Campaign& campaign, const std::filesystem::path& db, int jobs = 2,
                   int retries = 0);
 

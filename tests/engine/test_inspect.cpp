@@ -1,6 +1,7 @@
-// `millflow explain`: why a stored task would run (new with the parameter diff against the
-// nearest cached task, upstream changed, previous attempt failed, interrupted by a crash,
-// artifact corrupt) or would not (cached).
+// `millflow explain`: why a stored task would run (parameters changed, with the diff against the
+// nearest cached task; upstream changed; previous attempt failed; interrupted by a crash;
+// artifact corrupt) or would not (cached). The words come from the cache decision
+// (engine/cache.hpp) that the runtime and the dry run share (test_cache_decision.cpp).
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -14,19 +15,6 @@ namespace millflow::engine::testing {
 namespace {
 
 using nlohmann::json;
-
-// a -> b, a -> c, (b, c) -> d; c carries a second parameter so that it is the one nearest task
-// to any variant of itself.
-json diamond(int c_value) {
-  return json::array(
-      {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}, {"artifact", true}}}},
-       {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}}}, {"after", {"a"}}},
-       {{"id", "c"},
-        {"kind", "sum"},
-        {"params", {{"value", c_value}, {"note", "c"}}},
-        {"after", {"a"}}},
-       {{"id", "d"}, {"kind", "sum"}, {"params", {{"value", 4}}}, {"after", {"b", "c"}}}});
-}
 
 // Registers the campaign's tasks without running any of them.
 void register_only(const Campaign& campaign, const std::filesystem::path& db) {
@@ -58,8 +46,8 @@ std::string header(const std::filesystem::path& db, const std::string& key) {
 class Explain : public ::testing::Test {
  protected:
   void SetUp() override {
-    submit(test_campaign("diamond", diamond(3)), dir_.db());
-    register_only(test_campaign("diamond", diamond(30)), dir_.db());
+    submit(test_campaign("diamond", noted_diamond(3)), dir_.db());
+    register_only(test_campaign("diamond", noted_diamond(30)), dir_.db());
     c_ = key_where(dir_.db(), "json_extract(params, '$.value') = 3");
     d_ = key_where(dir_.db(), "json_extract(params, '$.value') = 4 AND status = 'done'");
     new_c_ = key_where(dir_.db(), "json_extract(params, '$.value') = 30");
@@ -72,21 +60,15 @@ class Explain : public ::testing::Test {
 
 TEST_F(Explain, NewTaskShowsTheParameterDiffAgainstTheNearestCachedTask) {
   EXPECT_EQ(explain(dir_.db(), new_c_), header(dir_.db(), new_c_) +
-                                            "would run: new (never attempted)\n"
-                                            "nearest cached sum task: " +
-                                            c_ +
+                                            "would run: parameters changed since sum task " + c_ +
                                             "\n"
-                                            "parameters changed:\n"
                                             "  /value: 3 -> 30\n");
 }
 
 TEST_F(Explain, TaskBelowAChangedOneShowsWhichInputChanged) {
   EXPECT_EQ(explain(dir_.db(), new_d_), header(dir_.db(), new_d_) +
-                                            "would run: new (never attempted)\n"
-                                            "nearest cached sum task: " +
-                                            d_ +
+                                            "would run: upstream changed since sum task " + d_ +
                                             "\n"
-                                            "upstream changed:\n"
                                             "  input 1: " +
                                             c_ + " -> " + new_c_ + "\n");
 }
@@ -98,8 +80,9 @@ TEST_F(Explain, CachedTaskWouldNotRunUntilItsArtifactIsCorrupt) {
   auto connection = open_read_only(dir_.db());
   const auto artifact = find_artifacts(connection, a).at(0);
   std::ofstream(artifacts_dir(dir_.db()) / artifact.sha256.substr(0, 2) / artifact.sha256) << "9\n";
-  EXPECT_EQ(explain(dir_.db(), a), header(dir_.db(), a) + "would run: artifact sum.txt (" +
-                                       artifact.sha256 + ") is missing or corrupt\n");
+  EXPECT_EQ(explain(dir_.db(), a), header(dir_.db(), a) +
+                                       "would run: artifact missing or corrupt: sum.txt (" +
+                                       artifact.sha256 + ")\n");
 }
 
 TEST_F(Explain, FailedAttemptIsNamedWithItsError) {
@@ -110,8 +93,8 @@ TEST_F(Explain, FailedAttemptIsNamedWithItsError) {
   const std::string f = key_where(dir_.db(), "kind = 'fail'");
   EXPECT_EQ(explain(dir_.db(), f),
             header(dir_.db(), f) +
-                "would run: the previous attempt failed: planned failure: attempt 1 of a task "
-                "that fails its first 9\n");
+                "would run: not finished: the previous attempt failed: planned failure: attempt "
+                "1 of a task that fails its first 9\n");
 }
 
 TEST_F(Explain, TaskLeftRunningByACrashIsReportedAsInterrupted) {
@@ -122,8 +105,8 @@ TEST_F(Explain, TaskLeftRunningByACrashIsReportedAsInterrupted) {
   }
   EXPECT_EQ(explain(dir_.db(), new_c_),
             header(dir_.db(), new_c_) +
-                "would run: its last attempt never finished (coordinator stopped or still "
-                "running)\n");
+                "would run: not finished: its last attempt never finished (coordinator stopped or "
+                "still running)\n");
 }
 
 }  // namespace

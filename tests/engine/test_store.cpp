@@ -158,6 +158,21 @@ TEST(Store, ATaskCompletionAndTheNextLaunchWriteAFewPages) {
       << pages << " pages in " << kTasks - 1 << " turns";
 }
 
+TEST(Store, TaskStatusIsTheSchemasTextBothWays) {
+  const std::vector<std::pair<TaskStatus, std::string>> spelled = {
+      {TaskStatus::pending, "pending"},
+      {TaskStatus::running, "running"},
+      {TaskStatus::done, "done"},
+      {TaskStatus::failed, "failed"},
+      {TaskStatus::interrupted, "interrupted"},
+      {TaskStatus::skipped, "skipped"}};
+  for (const auto& [status, text] : spelled) {
+    EXPECT_EQ(to_string(status), text);
+    EXPECT_EQ(task_status_from(text), status);
+  }
+  EXPECT_THROW(task_status_from("finished"), std::runtime_error);
+}
+
 TEST(Store, DomainViewsAreInstalled) {
   ScratchDir dir;
   const SystemClock clock;
