@@ -123,6 +123,10 @@ class ConsistencyChecker {
       check_sample_interval(*balls);
       check_powder_count();
     }
+    check_at_least("/shear_cell/max_warmup_strain", "/shear_cell/warmup_strain");
+    check_at_least("/shear_cell/convergence/max_strain", "/shear_cell/measure_strain");
+    check_at_least("/shear_cell/stiffness/p95_overlap_fraction",
+                   "/shear_cell/stiffness/mean_overlap_fraction");
     return std::move(errors_);
   }
 
@@ -337,6 +341,15 @@ class ConsistencyChecker {
           quantity(*interval) + " s gives fewer than " + quantity(min_flow_samples) +
               " flow samples over the " + quantity(measured) + " s measurement",
           "use a sample interval of at most " + quantity(measured / min_flow_samples) + " s");
+  }
+
+  // A cap (or an upper bound) below the value it caps cannot be met.
+  void check_at_least(const std::string& cap_path, const std::string& value_path) {
+    const auto cap = campaign_.number(cap_path);
+    const auto value = campaign_.number(value_path);
+    if (!cap || !value || *cap >= *value) return;
+    error(cap_path, quantity(*cap) + " is below " + value_path + " = " + quantity(*value),
+          "raise it to at least " + quantity(*value) + " or lower " + value_path);
   }
 
   void check_powder_count() {

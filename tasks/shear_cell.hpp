@@ -29,16 +29,18 @@
 // media_count, powder_count, wall_ball_count.
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "dem/shear_cell.hpp"
+#include "dem/stiffness_policy.hpp"
 #include "engine/task.hpp"
 
 namespace millflow::tasks {
 
 // Bump whenever the results of the same parameters change (tests/tasks/golden/shear_cell.json).
-inline constexpr const char* kShearCellVersion = "4";
+inline constexpr const char* kShearCellVersion = "5";
 inline constexpr int kWarmupWindows = 4;
 inline constexpr std::uint64_t kStepsBetweenPolls = 100;
 
@@ -56,6 +58,15 @@ SlotSite find_slot_site(const nlohmann::json& sites_result, const nlohmann::json
 // nlohmann::json::exception for missing values, std::invalid_argument for unusable ones.
 dem::ShearCellSetup shear_cell_setup(const nlohmann::json& params, const nlohmann::json& site,
                                      const std::string& task_key);
+
+// The shear_cell block's stiffness policy (/shear_cell/stiffness, docs/shear_cells.md) applied to
+// a setup: "overlap_bound" raises each pair's k_n (dem::apply_overlap_bound), "campaign" keeps
+// them. Returns what was derived for the result's "stiffness" and the log.
+std::vector<dem::PairStiffness> apply_stiffness_policy(const nlohmann::json& params,
+                                                       dem::ShearCellSetup& setup);
+nlohmann::json stiffness_json(const std::vector<dem::PairStiffness>& pairs);
+std::string stiffness_log(const std::vector<dem::PairStiffness>& pairs,
+                          const dem::ShearCellSetup& setup);
 
 // The measurements in SI units: strain, duration_s, steps, *_shear_rate_per_s (target, bulk,
 // nominal), wall_speed_m_s, gap_m, volume_m3, shear_stress_pa, normal_stress_pa, friction,
