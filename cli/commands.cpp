@@ -19,7 +19,6 @@ namespace {
 namespace fs = std::filesystem;
 using engine::TableFormat;
 
-constexpr int kBadInput = 2;
 constexpr int kBusy = 3;
 
 struct RunFlags {
@@ -31,25 +30,6 @@ struct RunFlags {
   double poll_interval_s = 10.0;
   std::string run_dir;  // batch jobs' run directory; default <db>.jobs
 };
-
-// Runs a command body, turning errors into messages and exit codes.
-int guarded(const std::function<int()>& body) {
-  try {
-    return body();
-  } catch (const engine::InvalidInput& error) {
-    std::cerr << "millflow: invalid input:\n" << error.what() << '\n';
-    return kBadInput;
-  } catch (const engine::SchemaTooNew& error) {
-    std::cerr << "millflow: " << error.what() << '\n';
-    return kBadInput;
-  } catch (const engine::CoordinatorBusy& error) {
-    std::cerr << "millflow: " << error.what() << '\n';
-    return kBusy;
-  } catch (const std::exception& error) {
-    std::cerr << "millflow: " << error.what() << '\n';
-    return 1;
-  }
-}
 
 void add_db_option(CLI::App* command, std::string& db) {
   command->add_option("--db", db, "Database file (default ./millflow.db)");
@@ -319,6 +299,24 @@ void add_report(CLI::App& app, std::optional<int>& code) {
 }
 
 }  // namespace
+
+int guarded(const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const engine::InvalidInput& error) {
+    std::cerr << "millflow: invalid input:\n" << error.what() << '\n';
+    return kBadInput;
+  } catch (const engine::SchemaTooNew& error) {
+    std::cerr << "millflow: " << error.what() << '\n';
+    return kBadInput;
+  } catch (const engine::CoordinatorBusy& error) {
+    std::cerr << "millflow: " << error.what() << '\n';
+    return kBusy;
+  } catch (const std::exception& error) {
+    std::cerr << "millflow: " << error.what() << '\n';
+    return 1;
+  }
+}
 
 void add_engine_commands(CLI::App& app, const engine::Registry& registry,
                          std::optional<int>& exit_code) {

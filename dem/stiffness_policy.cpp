@@ -35,7 +35,7 @@ PairStiffness derive(const ShearCellSetup& s, const PairSlot& slot) {
   out.given = (s.*slot.spec).normal_stiffness;
   const double allowed = s.overlap_bound.mean_fraction * out.smaller_diameter;
   out.static_bound = kOverlapSafety * s.normal_stress * d_m * d_m / allowed;
-  const double speed = kOverlapSafety * s.shear_rate * d_m;
+  const double speed = s.shear_rate * d_m;
   out.impact_bound = effective_mass(m_a, m_b) * (speed / allowed) * (speed / allowed);
   out.chosen = std::max({out.given, out.static_bound, out.impact_bound});
   out.kappa = out.chosen / (s.normal_stress * out.smaller_diameter);
