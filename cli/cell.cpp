@@ -14,7 +14,8 @@ namespace millflow::cli {
 
 void add_cell_command(CLI::App& app, std::optional<int>& exit_code) {
   auto* command = app.add_subcommand(
-      "cell", "Run one shear cell from a spec file and print its result JSON (docs/shear_cells.md)");
+      "cell",
+      "Run one shear cell from a spec file and print its result JSON (docs/shear_cells.md)");
   auto spec_file = std::make_shared<std::string>();
   auto out_dir = std::make_shared<std::string>("cell");
   command->add_option("SPEC", *spec_file, "Cell spec JSON file")->required();
