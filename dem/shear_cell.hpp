@@ -1,6 +1,7 @@
 #pragma once
-// The microscale Couette shear cell of the multiscale method (DESIGN.md section 1, step 3): media
-// balls and fine powder sheared at a site's shear rate under the site's normal stress.
+// The microscale Couette shear cell of the multiscale method (step 3; the rules of its results:
+// docs/shear_cells.md): media balls and fine powder sheared at a site's shear rate under the site's
+// normal stress.
 //
 // Geometry (x flow, y gradient, z spanwise; periodic in x and z):
 //  - RoughWalls: two layers of media-sized balls glued to the walls (two kinematic groups) at the
@@ -40,9 +41,10 @@
 // bed (dense-flow pressure grows as (phi_c - phi)^-2, dp/de ~ 2 p phi / (phi_c - phi) ~ 10 p), not
 // the far stiffer contacts, which last only a collision there; a flowing bed answers a change of
 // volume over a strain of ~0.1, and a faster barostat pumps energy into the cell. The limit of 5%
-// per tau keeps a bed that jams for a moment from throwing the box into oscillation. Compaction
-// first shrinks the loose fill at the wall's speed limit v_max until that mean p_yy reaches half
-// the target.
+// per tau keeps a bed that jams for a moment from throwing the box into oscillation. Whenever
+// that mean p_yy is below half the target (the loose fill at the start, or a bed that lost
+// contact) the box shrinks at the wall's speed limit v_max instead. The warm-up then ends on the
+// stationarity test of ShearCellProtocol (docs/shear_cells.md).
 // Particles keep their velocity relative to the imposed profile; the energy the stretch puts
 // into the contact springs is counted as work put in (stress_control_work).
 //
@@ -420,22 +422,31 @@ struct ShearCellProtocol {
 // few hundred collision times). advance() in chunks of any size gives the same bits too.
 //
 // Checkpoint file: the checksummed container of dem/binary_io.hpp, magic "MFSHRCKP", payload
-// version kShearCellCheckpointVersion. Payload (version 1), in order:
-//   identity: string, the setup and protocol encoded field by field (resume() refuses a file
-//             whose identity differs from the cell it is asked to continue)
+// version kShearCellCheckpointVersion. Payload (version 2), in order:
+//   identity: string, the setup (overlap bound included) and protocol (warm-up cap, convergence
+//             target and cap included) encoded field by field (resume() refuses a file whose
+//             identity differs from the cell it is asked to continue)
 //   system: uint32 version of the DEM checkpoint payload, then that payload as a string
 //           (dem/checkpoint.hpp)
 //   cell: media, powder and wall ball counts (uint64), wall speed, LE boundary work, barostat
 //         work, barostat stress sum and sample count since its last stretch, the stress that
 //         stretch answered, compacted (uint8)
 //   run: phase (uint8: 0 compacting, 1 warm-up, 2 measuring), warm-up window index
-//        (int32); the window in progress (uint64 steps, half, every, done; profile: 8 doubles);
-//        the measurement (uint64 steps, every, stress-sample interval, done; work, shear work and
-//        motion energy at its start, energy budget at its start (kinetic, potential, elastic,
-//        dissipated, wall work), dissipation per category at its start (uint64 count; normal,
-//        tangential, friction each), profile, shear stress sums and counts of both halves,
-//        normal stress sum, gap sum, per contact type the collision count and dissipated-energy
-//        histogram (dem/spectrum.hpp), wall seconds measured so far)
+//        (int32); the window in progress (uint64 steps, half, every, done; profile: 8 doubles;
+//        shear stress sum, normal stress sum, sample count); the previous window's summary
+//        (solid fraction, shear stress, normal stress, bulk shear rate), the stationary strain
+//        (doubles) and stationary (uint8); the measurement (uint64 steps cap, minimum steps,
+//        block steps, every, stress-sample interval, done; work, shear work and motion energy at
+//        its start, energy budget at its start (kinetic, potential, elastic, dissipated, wall
+//        work), dissipation per category at its start (uint64 count; normal, tangential,
+//        friction each), profile, stress tensor sums (6) and sample count, the finished blocks
+//        (uint64 count; each: shear, normal, gap and stress-sample sums, pressure sum and sample
+//        count, shear work, duration, dissipated energy per contact type) and the block in
+//        progress, the shear work and the dissipation per category (uint64 count, doubles) at
+//        its start, per contact type the overlap histogram (uint64 bin count, 0 or
+//        kOverlapBins; the counts, sum, max), per contact type the collision count and
+//        dissipated-energy histogram (dem/spectrum.hpp), wall seconds measured so far,
+//        converged (uint8))
 // Collision events finished before a save are tallied into the measurement first.
 inline constexpr std::uint32_t kShearCellCheckpointVersion = 2;
 
