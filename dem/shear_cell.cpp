@@ -443,23 +443,27 @@ void ShearCell::derive_stress_control_constants() {
       collision_duration(media.normal_stiffness, 0.5 * media_mass, media.damping_ratio);
   crossing_time_ = (gap / d) * t_c;
   servo_max_speed_ = setup_.servo_gain * d / crossing_time_;
-  if (!walls()) {
-    barostat_every_ = static_cast<std::size_t>(setup_.steps_per_collision);
-    return;
-  }
-  const double bed_stiffness = media.normal_stiffness * (wall_area() / (d * d)) * (d / gap);
-  servo_mobility_ = setup_.servo_gain / (bed_stiffness * crossing_time_);
+  barostat_every_ = static_cast<std::size_t>(setup_.steps_per_collision);
+  relaxation_time_ =
+      std::max(crossing_time_, kBarostatRelaxationStrain / setup_.shear_rate) / setup_.servo_gain;
+  // The wall answers the flowing bed's modulus K p over the gap, not its contacts' stiffness:
+  // v = M (F_target - F) with M = H / (K p A tau) relaxes the force in tau.
+  servo_mobility_ =
+      gap / (kBarostatModulus * setup_.normal_stress * wall_area() * relaxation_time_);
 }
 
 void ShearCell::configure_stress_control() {
   derive_stress_control_constants();
   if (!walls()) {
     spdlog::debug("shear cell: barostat every {} steps, time constant {:.4g} s, at most {:.4g} m/s",
-                  barostat_every_, crossing_time_ / setup_.servo_gain, servo_max_speed_);
+                  barostat_every_, relaxation_time_, servo_max_speed_);
     return;
   }
   KinematicGroup& top = system_.group(top_);
   top.servo_axis = 1;
+  spdlog::debug(
+      "shear cell: servo mobility {:.4g} m/(N s), time constant {:.4g} s, at most {:.4g} m/s",
+      servo_mobility_, relaxation_time_, servo_max_speed_);
   top.servo_target_force = -setup_.normal_stress * wall_area();  // the wall pushes the bed along -y
   top.servo_mobility = servo_mobility_;
   top.servo_max_speed = servo_max_speed_;
@@ -468,37 +472,18 @@ void ShearCell::configure_stress_control() {
 void ShearCell::compact() {
   if (compacted_) return;
   compacted_ = true;
+  // The linear law would close the loose fill far too slowly (it moves a boundary that touches
+  // nothing only by the small strain that carries the target per relaxation time), so the
+  // boundary closes at the speed limit until the bed carries half the target over a control
+  // interval (an LE box closes again whenever it loses contact: ShearCell::control_stress).
   const double limit = 4.0 * placement_gap(setup_) / servo_max_speed_;
-  if (!walls()) {
-    // As for the wall: the linear law would close the loose fill far too slowly, so the box
-    // shrinks at the speed limit until the bed carries half the target.
-    barostat_at_speed_limit_ = true;
-    while (system_.time() < limit) {
-      step_controlled(barostat_every_);
-      if (last_barostat_stress_ >= kClosingStressFraction * setup_.normal_stress) break;
-    }
-    barostat_at_speed_limit_ = false;
-    spdlog::debug("shear cell: compacted in {:.4g} s to a height of {:.4g} m", system_.time(),
-                  gap());
-    return;
-  }
-  // The linear law moves a wall that touches nothing at only M F_target (the tiny compression
-  // that carries the target, per time constant), far too slowly to close the loose placement
-  // gap. So first close it at the speed limit (mobility v_max / F_target), until the wall carries
-  // half the target over one crossing time, then hand over to the servo's own mobility.
-  KinematicGroup& top = system_.group(top_);
-  top.servo_mobility = servo_max_speed_ / std::abs(top.servo_target_force);
-  const std::size_t chunk =
-      std::max<std::size_t>(1, static_cast<std::size_t>(crossing_time_ / system_.time_step()));
+  barostat_at_speed_limit_ = true;
   while (system_.time() < limit) {
-    double stress = 0.0;
-    for (std::size_t s = 0; s < chunk; ++s) {
-      system_.step();
-      stress += wall_normal_stress();
-    }
-    if (stress / static_cast<double>(chunk) >= 0.5 * setup_.normal_stress) break;
+    step_controlled(barostat_every_);
+    if (last_barostat_stress_ >= kClosingStressFraction * setup_.normal_stress) break;
   }
-  system_.group(top_).servo_mobility = servo_mobility_;
+  barostat_at_speed_limit_ = false;
+  smoothed_stress_ = last_barostat_stress_;
   spdlog::debug("shear cell: compacted in {:.4g} s to a gap of {:.4g} m", system_.time(), gap());
 }
 
@@ -599,47 +584,61 @@ void ShearCell::advance(std::size_t steps) {
 }
 
 void ShearCell::step_controlled(std::size_t steps) {
-  if (walls()) {
-    system_.step(steps);
-    return;
-  }
-  // The LE boundary's work, by the trapezoidal rule over every step.
-  double power = lees_edwards_power();
+  // The LE boundary's work, by the trapezoidal rule over every step (the walls' work is the
+  // system's own wall work).
+  double power = walls() ? 0.0 : lees_edwards_power();
   for (std::size_t s = 0; s < steps; ++s) {
     system_.step();
-    const double next = lees_edwards_power();
-    le_work_ += 0.5 * (power + next) * system_.time_step();
-    power = next;
-    if (system_.step_count() % kBarostatSamplesEvery == 0) {
+    if (!walls()) {
+      const double next = lees_edwards_power();
+      le_work_ += 0.5 * (power + next) * system_.time_step();
+      power = next;
+    }
+    // The wall load is free every step; the LE virial costs a pass over the contacts.
+    if (walls() || system_.step_count() % kBarostatSamplesEvery == 0) {
       barostat_stress_sum_ += normal_stress_now();
       barostat_stress_samples_ += 1.0;
     }
     if (system_.step_count() % barostat_every_ == 0) {
-      apply_barostat();
-      power = lees_edwards_power();
+      control_stress();
+      if (!walls()) power = lees_edwards_power();
     }
   }
 }
 
-void ShearCell::apply_barostat() {
-  const double control_interval = static_cast<double>(barostat_every_) * system_.time_step();
-  const double relaxation_time =
-      std::max(crossing_time_, kBarostatRelaxationStrain / setup_.shear_rate) / setup_.servo_gain;
-  const double height = system_.domain().length().y();
+void ShearCell::control_stress() {
   const double stress = barostat_stress_samples_ > 0.0
                             ? barostat_stress_sum_ / barostat_stress_samples_
                             : normal_stress_now();
-  // A bed that carries less than kClosingStressFraction of the target has lost contact (a loose
-  // fill, or one that dilated): it shrinks at the speed limit, as in compaction.
-  const bool closing =
-      barostat_at_speed_limit_ || stress < kClosingStressFraction * setup_.normal_stress;
-  const double max_strain = closing ? servo_max_speed_ * control_interval / height
-                                    : kBarostatMaxDilation * control_interval / relaxation_time;
-  const double modulus = kBarostatModulus * setup_.normal_stress;
   barostat_stress_sum_ = barostat_stress_samples_ = 0.0;
   last_barostat_stress_ = stress;
+  // Compaction closes the boundary at the speed limit. Later, an LE bed whose stress, averaged
+  // over the relaxation time, is below kClosingStressFraction of the target has lost contact (it
+  // dilated): the box closes at the speed limit again, affinely, so no particle is hit. A wall
+  // closing that fast would hit the bed and throw the servo into oscillation: it keeps its law.
+  // (Over a single interval a flowing bed of stiff balls often carries nothing for a moment.)
+  const double interval = static_cast<double>(barostat_every_) * system_.time_step();
+  smoothed_stress_ += (stress - smoothed_stress_) * std::min(1.0, interval / relaxation_time_);
+  const bool closing =
+      barostat_at_speed_limit_ ||
+      (!walls() && smoothed_stress_ < kClosingStressFraction * setup_.normal_stress);
+  if (walls()) {
+    KinematicGroup& top = system_.group(top_);
+    top.servo_mobility =
+        closing ? servo_max_speed_ / std::abs(top.servo_target_force) : servo_mobility_;
+    return;
+  }
+  apply_barostat(stress, closing);
+}
+
+void ShearCell::apply_barostat(double stress, bool closing) {
+  const double control_interval = static_cast<double>(barostat_every_) * system_.time_step();
+  const double height = system_.domain().length().y();
+  const double max_strain = closing ? servo_max_speed_ * control_interval / height
+                                    : kBarostatMaxDilation * control_interval / relaxation_time_;
+  const double modulus = kBarostatModulus * setup_.normal_stress;
   const double linear =
-      (stress - setup_.normal_stress) / modulus * control_interval / relaxation_time;
+      (stress - setup_.normal_stress) / modulus * control_interval / relaxation_time_;
   const double strain = closing ? -max_strain : std::clamp(linear, -max_strain, max_strain);
   // Particles keep their velocity relative to the imposed profile gdot (y - y_mid), which
   // stretches with the box about its lower face like the positions.
@@ -776,7 +775,10 @@ ShearCell::WindowSummary ShearCell::finish_window(const WarmUpWindow& window, in
       "{:.4g} Pa (target {:.4g})",
       index, summary.solid_fraction, summary.shear_stress, summary.normal_stress,
       setup_.normal_stress);
-  if (!walls()) return summary;
+  // The bulk of a bed that has lost contact with the walls does not follow them: leave the speed
+  // until the servo has closed the gap (otherwise it doubles every window).
+  if (!walls() || summary.normal_stress < kClosingStressFraction * setup_.normal_stress)
+    return summary;
   const double factor = measured > 0.0 ? std::clamp(setup_.shear_rate / measured,
                                                     1.0 / kMaxSpeedChange, kMaxSpeedChange)
                                        : kMaxSpeedChange;
@@ -980,7 +982,7 @@ void ShearCell::Measurement::read(BinaryReader& in) {
 void ShearCell::write_state(BinaryWriter& out) const {
   for (std::uint64_t count : {media_count_, powder_count_, wall_ball_count_}) out.put(count);
   for (double v : {wall_speed_, le_work_, barostat_work_, barostat_stress_sum_,
-                   barostat_stress_samples_, last_barostat_stress_}) {
+                   barostat_stress_samples_, last_barostat_stress_, smoothed_stress_}) {
     out.put(v);
   }
   out.put<std::uint8_t>(compacted_);
@@ -990,7 +992,7 @@ void ShearCell::read_state(BinaryReader& in) {
   for (std::size_t* count : {&media_count_, &powder_count_, &wall_ball_count_})
     *count = in.get<std::uint64_t>();
   for (double* v : {&wall_speed_, &le_work_, &barostat_work_, &barostat_stress_sum_,
-                    &barostat_stress_samples_, &last_barostat_stress_}) {
+                    &barostat_stress_samples_, &last_barostat_stress_, &smoothed_stress_}) {
     *v = in.get<double>();
   }
   compacted_ = in.get<std::uint8_t>() != 0;

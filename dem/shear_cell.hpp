@@ -24,13 +24,17 @@
 // that the servo or the barostat compresses; with Lees-Edwards the media take a random subset of
 // the sites of an FCC lattice that fits that box.
 //
-// Servo (RoughWalls). Stiffness of the bed seen by the wall: columns of H/d contacts in series,
-// one column per d^2 of wall area, k_bed = k_n,media (A / d^2) (d / H); wave crossing time of the
-// gap t_wave = (H / d) t_c,media (one contact duration per layer). With the gain g:
-//   mobility  M = g / (k_bed t_wave),   v_y = clamp(M (F_target - F_y), +-v_max),
-//   max speed v_max = g d / t_wave,
-// so the normal force relaxes to F_target = normal_stress A with time constant t_wave / g
-// (dF/dt = -k_bed v_y), and the wall never moves more than g diameters per crossing time.
+// Stress control, one law for both boundaries (ShearCell::control_stress). Every
+// steps_per_collision steps (one control interval) the boundary answers the mean normal stress of
+// the interval. Wave crossing time of the gap t_wave = (H / d) t_c,media; relaxation time
+// tau = max(t_wave, 0.1 / gdot) / g with the gain g; speed limit v_max = g d / t_wave.
+//
+// Servo (RoughWalls). The wall answers the flowing bed's modulus K p (K = 10, as the barostat
+// below), not the contacts' stiffness (the contacts of a flowing bed of stiff balls last only a
+// collision; a servo tuned to them cannot move the wall):
+//   v_y = clamp(M (F_target - F_y), +-v_max),   M = H / (K p A tau),
+// so a force error of the whole target moves the wall by H / K per tau. Compaction closes the
+// loose gap at v_max until the interval's mean reaches half the target.
 //
 // Barostat (LeesEdwards). Every steps_per_collision steps (interval dt_c) the box and the
 // particles are stretched affinely along y by the strain
@@ -135,8 +139,10 @@ struct ShearCellMeasurements {
   // Shear rates, 1/s. Nominal: wall speed difference / gap (RoughWalls) or the LE rate.
   double target_shear_rate = 0.0, bulk_shear_rate = 0.0, nominal_shear_rate = 0.0;
   double wall_speed = 0.0;  // relative speed of the walls (or LE images), m/s
-  double gap = 0.0;         // mean distance between the wall ball centre planes (L_y for LE), m
-  double volume = 0.0;      // mean cell volume A x gap, m^3
+  // Slip of each wall against the bulk profile extended to it: (U - bulk rate x gap) / 2, m/s.
+  double wall_slip = 0.0;
+  double gap = 0.0;     // mean distance between the wall ball centre planes (L_y for LE), m
+  double volume = 0.0;  // mean cell volume A x gap, m^3
   // Stresses (compression positive), Pa.
   double shear_stress = 0.0, normal_stress = 0.0;
   double friction = 0.0;  // mu = shear / normal stress
@@ -350,8 +356,12 @@ class ShearCell {
   // of the top wall's group.
   void derive_stress_control_constants();
   void configure_stress_control();
+  // At the end of each control interval (steps_per_collision steps): the boundary answers the
+  // mean normal stress of the interval, closing at the speed limit below half the target
+  // (walls: the servo's mobility; LE: a barostat stretch).
+  void control_stress();
   // LE: one barostat stretch, and the spring energy of the pairs in contact (normal part), J.
-  void apply_barostat();
+  void apply_barostat(double stress, bool closing);
   double normal_spring_energy() const;
   void set_wall_speed(double speed);
   std::size_t steps_for_strain(double strain) const;
@@ -383,12 +393,14 @@ class ShearCell {
   std::size_t media_count_ = 0, powder_count_ = 0, wall_ball_count_ = 0;
   double wall_speed_ = 0.0;
   double servo_mobility_ = 0.0, servo_max_speed_ = 0.0, crossing_time_ = 0.0;
+  double relaxation_time_ = 0.0;  // tau of the stress control, s
   std::size_t barostat_every_ = 1;
   bool barostat_at_speed_limit_ = false;  // compacting: shrink at the speed limit
   double le_work_ = 0.0;                  // work put in through the LE boundary so far, J
   double barostat_work_ = 0.0;            // work put in by the barostat's stretches so far, J
   double barostat_stress_sum_ = 0.0, barostat_stress_samples_ = 0.0;  // since the last stretch
   double last_barostat_stress_ = 0.0;  // the mean p_yy the last stretch answered, Pa
+  double smoothed_stress_ = 0.0;       // its running mean over the relaxation time, Pa
   bool compacted_ = false;
 };
 
@@ -429,8 +441,8 @@ struct ShearCellProtocol {
 //   system: uint32 version of the DEM checkpoint payload, then that payload as a string
 //           (dem/checkpoint.hpp)
 //   cell: media, powder and wall ball counts (uint64), wall speed, LE boundary work, barostat
-//         work, barostat stress sum and sample count since its last stretch, the stress that
-//         stretch answered, compacted (uint8)
+//         work, stress sum and sample count since the last control interval, the stress that
+//         interval answered and its running mean over the relaxation time, compacted (uint8)
 //   run: phase (uint8: 0 compacting, 1 warm-up, 2 measuring), warm-up window index
 //        (int32); the window in progress (uint64 steps, half, every, done; profile: 8 doubles;
 //        shear stress sum, normal stress sum, sample count); the previous window's summary

@@ -322,6 +322,7 @@ ShearCellMeasurements ShearCell::finish_measurement(Measurement& in) {
   }
   m.gap = gap_sum / samples;
   m.nominal_shear_rate = wall_speed_ / m.gap;
+  m.wall_slip = 0.5 * (wall_speed_ - m.bulk_shear_rate * m.gap);
   m.volume = wall_area() * m.gap;
   m.shear_stress_first_half = half_shear[0] / half_samples[0];
   m.shear_stress_second_half =

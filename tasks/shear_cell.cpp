@@ -162,6 +162,7 @@ json measurements_json(const dem::ShearCellMeasurements& m) {
       {"bulk_shear_rate_per_s", m.bulk_shear_rate},
       {"nominal_shear_rate_per_s", m.nominal_shear_rate},
       {"wall_speed_m_s", m.wall_speed},
+      {"wall_slip_m_s", m.wall_slip},
       {"gap_m", m.gap},
       {"volume_m3", m.volume},
       {"shear_stress_pa", m.shear_stress},
