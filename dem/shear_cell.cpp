@@ -10,6 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include "dem/checkpoint.hpp"
+#include "dem/touching_pairs.hpp"
 
 namespace millflow::dem {
 namespace {
@@ -18,14 +19,9 @@ namespace {
 // minimum-image vector from it to the second (the contact part of -V sigma).
 double contact_virial(const System& system, int row, int col) {
   double sum = 0.0;
-  const auto pairs = system.candidate_pairs();
-  const auto histories = system.pair_histories();
-  const auto forces = system.pair_forces();
-  const auto x = system.positions();
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    if (!histories[k].touching) continue;
-    sum += forces[k][row] * system.domain().separation(x[pairs[k].i], x[pairs[k].j])[col];
-  }
+  for_each_touching_pair(system, [&](std::size_t, const Vec3& force, const Vec3& branch) {
+    sum += force[row] * branch[col];
+  });
   return sum;
 }
 

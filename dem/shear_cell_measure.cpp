@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "dem/shear_cell.hpp"
+#include "dem/touching_pairs.hpp"
 
 namespace millflow::dem {
 namespace {
@@ -167,39 +168,30 @@ void ShearCell::sample_measurement(Measurement& m) {
 
 void ShearCell::sample_overlaps(Measurement& m) const {
   const auto pairs = system_.candidate_pairs();
-  const auto histories = system_.pair_histories();
-  const auto x = system_.positions();
   const auto r = system_.radii();
   const auto materials = system_.particle_materials();
   const std::size_t n = system_.materials().size();
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    if (!histories[k].touching) continue;
+  for_each_touching_pair(system_, [&](std::size_t k, const Vec3&, const Vec3& branch) {
     const std::uint32_t i = pairs[k].i, j = pairs[k].j;
-    const double overlap = r[i] + r[j] - system_.domain().separation(x[i], x[j]).norm();
+    const double overlap = r[i] + r[j] - branch.norm();
     const auto category = static_cast<std::uint32_t>(materials[i] * n + materials[j]);
     m.overlaps[static_cast<std::size_t>(contact_type(category))].add(overlap /
                                                                      (2.0 * std::min(r[i], r[j])));
-  }
+  });
 }
 
 std::array<double, 6> ShearCell::stress_tensor_now() const {
   static constexpr std::array<std::array<int, 2>, 6> kComponents{
       {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}}};
   std::array<double, 6> sum{};
-  const auto pairs = system_.candidate_pairs();
-  const auto histories = system_.pair_histories();
-  const auto forces = system_.pair_forces();
-  const auto x = system_.positions();
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    if (!histories[k].touching) continue;
-    const Vec3& f = forces[k];
-    const Vec3 b = system_.domain().separation(x[pairs[k].i], x[pairs[k].j]);
+  for_each_touching_pair(system_, [&](std::size_t, const Vec3& f, const Vec3& b) {
     for (std::size_t c = 0; c < 6; ++c) {
       const auto [a, e] = kComponents[c];
       sum[c] -= 0.5 * (f[a] * b[e] + f[e] * b[a]);
     }
-  }
+  });
   // Kinetic part of the motion relative to the linear profile (free particles only).
+  const auto x = system_.positions();
   const auto v = system_.velocities();
   const auto mass = system_.masses();
   const auto groups = system_.particle_groups();
