@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli/cell.hpp"
 #include "cli/commands.hpp"
 #include "cli/demo.hpp"
 #include "tasks/millflow.hpp"
@@ -25,6 +26,7 @@ int run(int argc, char** argv, const std::function<void(engine::Registry&)>& ext
   std::optional<int> engine_exit_code;
   add_engine_commands(app, registry, engine_exit_code);
   add_demo_command(app);
+  add_cell_command(app, engine_exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

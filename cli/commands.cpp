@@ -23,7 +23,6 @@ namespace {
 namespace fs = std::filesystem;
 using engine::TableFormat;
 
-constexpr int kBadInput = 2;
 constexpr int kBusy = 3;
 
 struct RunFlags {
@@ -37,33 +36,6 @@ struct RunFlags {
   std::vector<std::string> force;  // task kinds or task key prefixes
   std::string until;               // a task kind
 };
-
-// Runs a command body, turning errors into messages and exit codes.
-int guarded(const std::function<int()>& body) {
-  try {
-    try {
-      return body();
-    } catch (const engine::sql::Error& error) {
-      if (!engine::is_damaged_database_error(error.what())) throw;
-      std::cerr << "millflow: the database is damaged (SQLite: " << error.what()
-                << "); restore it from a backup (`sqlite3 <db> 'PRAGMA integrity_check'` shows "
-                   "the damage)\n";
-      return kBadInput;
-    }
-  } catch (const engine::InvalidInput& error) {
-    std::cerr << "millflow: invalid input:\n" << error.what() << '\n';
-    return kBadInput;
-  } catch (const engine::SchemaTooNew& error) {
-    std::cerr << "millflow: " << error.what() << '\n';
-    return kBadInput;
-  } catch (const engine::CoordinatorBusy& error) {
-    std::cerr << "millflow: " << error.what() << '\n';
-    return kBusy;
-  } catch (const std::exception& error) {
-    std::cerr << "millflow: " << error.what() << '\n';
-    return 1;
-  }
-}
 
 constexpr int kMaxJobs = 1024;
 constexpr int kMaxRetries = 100;
@@ -524,6 +496,32 @@ void add_logs(CLI::App& app, std::optional<int>& code) {
 }
 
 }  // namespace
+
+int guarded(const std::function<int()>& body) {
+  try {
+    try {
+      return body();
+    } catch (const engine::sql::Error& error) {
+      if (!engine::is_damaged_database_error(error.what())) throw;
+      std::cerr << "millflow: the database is damaged (SQLite: " << error.what()
+                << "); restore it from a backup (`sqlite3 <db> 'PRAGMA integrity_check'` shows "
+                   "the damage)\n";
+      return kBadInput;
+    }
+  } catch (const engine::InvalidInput& error) {
+    std::cerr << "millflow: invalid input:\n" << error.what() << '\n';
+    return kBadInput;
+  } catch (const engine::SchemaTooNew& error) {
+    std::cerr << "millflow: " << error.what() << '\n';
+    return kBadInput;
+  } catch (const engine::CoordinatorBusy& error) {
+    std::cerr << "millflow: " << error.what() << '\n';
+    return kBusy;
+  } catch (const std::exception& error) {
+    std::cerr << "millflow: " << error.what() << '\n';
+    return 1;
+  }
+}
 
 void add_engine_commands(CLI::App& app, const engine::Registry& registry,
                          std::optional<int>& exit_code) {

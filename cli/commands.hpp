@@ -4,11 +4,17 @@
 // database is held by another coordinator, 130 interrupted; exec has its own
 // (engine/attempt_files.hpp).
 #include <CLI/CLI.hpp>
+#include <functional>
 #include <optional>
 
 #include "engine/campaign.hpp"
 
 namespace millflow::cli {
+
+inline constexpr int kBadInput = 2;
+
+// Runs a command body, turning errors into messages and exit codes (kBadInput for bad input).
+int guarded(const std::function<int()>& body);
 
 // Adds the subcommands; the one that runs stores its exit code in `exit_code`.
 void add_engine_commands(CLI::App& app, const engine::Registry& registry,

@@ -10,6 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include "dem/checkpoint.hpp"
+#include "dem/touching_pairs.hpp"
 
 namespace millflow::dem {
 namespace {
@@ -18,14 +19,9 @@ namespace {
 // minimum-image vector from it to the second (the contact part of -V sigma).
 double contact_virial(const System& system, int row, int col) {
   double sum = 0.0;
-  const auto pairs = system.candidate_pairs();
-  const auto histories = system.pair_histories();
-  const auto forces = system.pair_forces();
-  const auto x = system.positions();
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    if (!histories[k].touching) continue;
-    sum += forces[k][row] * system.domain().separation(x[pairs[k].i], x[pairs[k].j])[col];
-  }
+  for_each_touching_pair(system, [&](std::size_t, const Vec3& force, const Vec3& branch) {
+    sum += force[row] * branch[col];
+  });
   return sum;
 }
 
@@ -55,6 +51,8 @@ constexpr double kBarostatModulus = 10.0;
 // Once compacted, the box changes by at most this strain per relaxation time, so a bed that
 // jams for a moment (its modulus far above 10 p) cannot throw the barostat into oscillation.
 constexpr double kBarostatMaxDilation = 0.05;
+// Below this fraction of the target normal stress the barostat closes the box at its speed limit.
+constexpr double kClosingStressFraction = 0.5;
 // Random sequential addition gives up after this many failed tries per particle.
 constexpr int kInsertionTries = 20000;
 
@@ -246,6 +244,12 @@ void validate(const ShearCellSetup& s) {
   require(
       s.steps_per_collision >= 10,
       fmt::format("steps per collision = {} must be >= 10 (20 is usual)", s.steps_per_collision));
+  require(s.overlap_bound.mean_fraction > 0.0 && s.overlap_bound.mean_fraction <= 0.1 &&
+              s.overlap_bound.p95_fraction >= s.overlap_bound.mean_fraction &&
+              s.overlap_bound.p95_fraction <= 0.5,
+          fmt::format("overlap bound: mean {} and p95 {} of the smaller diameter must satisfy 0 < "
+                      "mean <= 0.1 and mean <= p95 <= 0.5 (0.01 and 0.03 are usual)",
+                      s.overlap_bound.mean_fraction, s.overlap_bound.p95_fraction));
   require(!(s.gravity && s.boundary == ShearCellSetup::Boundary::LeesEdwards),
           "gravity needs walls: a Lees-Edwards cell is periodic along the gradient axis; turn "
           "gravity off");
@@ -435,23 +439,27 @@ void ShearCell::derive_stress_control_constants() {
       collision_duration(media.normal_stiffness, 0.5 * media_mass, media.damping_ratio);
   crossing_time_ = (gap / d) * t_c;
   servo_max_speed_ = setup_.servo_gain * d / crossing_time_;
-  if (!walls()) {
-    barostat_every_ = static_cast<std::size_t>(setup_.steps_per_collision);
-    return;
-  }
-  const double bed_stiffness = media.normal_stiffness * (wall_area() / (d * d)) * (d / gap);
-  servo_mobility_ = setup_.servo_gain / (bed_stiffness * crossing_time_);
+  barostat_every_ = static_cast<std::size_t>(setup_.steps_per_collision);
+  relaxation_time_ =
+      std::max(crossing_time_, kBarostatRelaxationStrain / setup_.shear_rate) / setup_.servo_gain;
+  // The wall answers the flowing bed's modulus K p over the gap, not its contacts' stiffness:
+  // v = M (F_target - F) with M = H / (K p A tau) relaxes the force in tau.
+  servo_mobility_ =
+      gap / (kBarostatModulus * setup_.normal_stress * wall_area() * relaxation_time_);
 }
 
 void ShearCell::configure_stress_control() {
   derive_stress_control_constants();
   if (!walls()) {
     spdlog::debug("shear cell: barostat every {} steps, time constant {:.4g} s, at most {:.4g} m/s",
-                  barostat_every_, crossing_time_ / setup_.servo_gain, servo_max_speed_);
+                  barostat_every_, relaxation_time_, servo_max_speed_);
     return;
   }
   KinematicGroup& top = system_.group(top_);
   top.servo_axis = 1;
+  spdlog::debug(
+      "shear cell: servo mobility {:.4g} m/(N s), time constant {:.4g} s, at most {:.4g} m/s",
+      servo_mobility_, relaxation_time_, servo_max_speed_);
   top.servo_target_force = -setup_.normal_stress * wall_area();  // the wall pushes the bed along -y
   top.servo_mobility = servo_mobility_;
   top.servo_max_speed = servo_max_speed_;
@@ -460,37 +468,18 @@ void ShearCell::configure_stress_control() {
 void ShearCell::compact() {
   if (compacted_) return;
   compacted_ = true;
+  // The linear law would close the loose fill far too slowly (it moves a boundary that touches
+  // nothing only by the small strain that carries the target per relaxation time), so the
+  // boundary closes at the speed limit until the bed carries half the target over a control
+  // interval (an LE box closes again whenever it loses contact: ShearCell::control_stress).
   const double limit = 4.0 * placement_gap(setup_) / servo_max_speed_;
-  if (!walls()) {
-    // As for the wall: the linear law would close the loose fill far too slowly, so the box
-    // shrinks at the speed limit until the bed carries half the target.
-    barostat_at_speed_limit_ = true;
-    while (system_.time() < limit) {
-      step_controlled(barostat_every_);
-      if (last_barostat_stress_ >= 0.5 * setup_.normal_stress) break;
-    }
-    barostat_at_speed_limit_ = false;
-    spdlog::debug("shear cell: compacted in {:.4g} s to a height of {:.4g} m", system_.time(),
-                  gap());
-    return;
-  }
-  // The linear law moves a wall that touches nothing at only M F_target (the tiny compression
-  // that carries the target, per time constant), far too slowly to close the loose placement
-  // gap. So first close it at the speed limit (mobility v_max / F_target), until the wall carries
-  // half the target over one crossing time, then hand over to the servo's own mobility.
-  KinematicGroup& top = system_.group(top_);
-  top.servo_mobility = servo_max_speed_ / std::abs(top.servo_target_force);
-  const std::size_t chunk =
-      std::max<std::size_t>(1, static_cast<std::size_t>(crossing_time_ / system_.time_step()));
+  barostat_at_speed_limit_ = true;
   while (system_.time() < limit) {
-    double stress = 0.0;
-    for (std::size_t s = 0; s < chunk; ++s) {
-      system_.step();
-      stress += wall_normal_stress();
-    }
-    if (stress / static_cast<double>(chunk) >= 0.5 * setup_.normal_stress) break;
+    step_controlled(barostat_every_);
+    if (last_barostat_stress_ >= kClosingStressFraction * setup_.normal_stress) break;
   }
-  system_.group(top_).servo_mobility = servo_mobility_;
+  barostat_at_speed_limit_ = false;
+  smoothed_stress_ = last_barostat_stress_;
   spdlog::debug("shear cell: compacted in {:.4g} s to a gap of {:.4g} m", system_.time(), gap());
 }
 
@@ -591,46 +580,62 @@ void ShearCell::advance(std::size_t steps) {
 }
 
 void ShearCell::step_controlled(std::size_t steps) {
-  if (walls()) {
-    system_.step(steps);
-    return;
-  }
-  // The LE boundary's work, by the trapezoidal rule over every step.
-  double power = lees_edwards_power();
+  // The LE boundary's work, by the trapezoidal rule over every step (the walls' work is the
+  // system's own wall work).
+  double power = walls() ? 0.0 : lees_edwards_power();
   for (std::size_t s = 0; s < steps; ++s) {
     system_.step();
-    const double next = lees_edwards_power();
-    le_work_ += 0.5 * (power + next) * system_.time_step();
-    power = next;
-    if (system_.step_count() % kBarostatSamplesEvery == 0) {
+    if (!walls()) {
+      const double next = lees_edwards_power();
+      le_work_ += 0.5 * (power + next) * system_.time_step();
+      power = next;
+    }
+    // The wall load is free every step; the LE virial costs a pass over the contacts.
+    if (walls() || system_.step_count() % kBarostatSamplesEvery == 0) {
       barostat_stress_sum_ += normal_stress_now();
       barostat_stress_samples_ += 1.0;
     }
     if (system_.step_count() % barostat_every_ == 0) {
-      apply_barostat();
-      power = lees_edwards_power();
+      control_stress();
+      if (!walls()) power = lees_edwards_power();
     }
   }
 }
 
-void ShearCell::apply_barostat() {
-  const double control_interval = static_cast<double>(barostat_every_) * system_.time_step();
-  const double relaxation_time =
-      std::max(crossing_time_, kBarostatRelaxationStrain / setup_.shear_rate) / setup_.servo_gain;
-  const double height = system_.domain().length().y();
-  const double max_strain = barostat_at_speed_limit_
-                                ? servo_max_speed_ * control_interval / height
-                                : kBarostatMaxDilation * control_interval / relaxation_time;
-  const double modulus = kBarostatModulus * setup_.normal_stress;
+void ShearCell::control_stress() {
   const double stress = barostat_stress_samples_ > 0.0
                             ? barostat_stress_sum_ / barostat_stress_samples_
                             : normal_stress_now();
   barostat_stress_sum_ = barostat_stress_samples_ = 0.0;
   last_barostat_stress_ = stress;
+  // Compaction closes the boundary at the speed limit. Later, an LE bed whose stress, averaged
+  // over the relaxation time, is below kClosingStressFraction of the target has lost contact (it
+  // dilated): the box closes at the speed limit again, affinely, so no particle is hit. A wall
+  // closing that fast would hit the bed and throw the servo into oscillation: it keeps its law.
+  // (Over a single interval a flowing bed of stiff balls often carries nothing for a moment.)
+  const double interval = static_cast<double>(barostat_every_) * system_.time_step();
+  smoothed_stress_ += (stress - smoothed_stress_) * std::min(1.0, interval / relaxation_time_);
+  const bool closing =
+      barostat_at_speed_limit_ ||
+      (!walls() && smoothed_stress_ < kClosingStressFraction * setup_.normal_stress);
+  if (walls()) {
+    KinematicGroup& top = system_.group(top_);
+    top.servo_mobility =
+        closing ? servo_max_speed_ / std::abs(top.servo_target_force) : servo_mobility_;
+    return;
+  }
+  apply_barostat(stress, closing);
+}
+
+void ShearCell::apply_barostat(double stress, bool closing) {
+  const double control_interval = static_cast<double>(barostat_every_) * system_.time_step();
+  const double height = system_.domain().length().y();
+  const double max_strain = closing ? servo_max_speed_ * control_interval / height
+                                    : kBarostatMaxDilation * control_interval / relaxation_time_;
+  const double modulus = kBarostatModulus * setup_.normal_stress;
   const double linear =
-      (stress - setup_.normal_stress) / modulus * control_interval / relaxation_time;
-  const double strain =
-      barostat_at_speed_limit_ ? -max_strain : std::clamp(linear, -max_strain, max_strain);
+      (stress - setup_.normal_stress) / modulus * control_interval / relaxation_time_;
+  const double strain = closing ? -max_strain : std::clamp(linear, -max_strain, max_strain);
   // Particles keep their velocity relative to the imposed profile gdot (y - y_mid), which
   // stretches with the box about its lower face like the positions.
   const double y_mid = system_.domain().lo.y() + 0.5 * height;
@@ -744,13 +749,32 @@ void ShearCell::advance_window(WarmUpWindow& window, std::uint64_t max_steps) {
     const std::uint64_t until = std::min(end, next_sample);
     advance(until - window.done);
     window.done = until;
-    if (window.done > window.half && (window.done == next_sample)) sample_profile(window.profile);
+    if (window.done > window.half && (window.done == next_sample)) {
+      sample_profile(window.profile);
+      window.shear_sum += shear_stress_now();
+      window.normal_sum += normal_stress_now();
+      window.samples += 1.0;
+    }
   }
 }
 
-void ShearCell::finish_window(const WarmUpWindow& window, int index) {
-  if (!walls()) return;
+ShearCell::WindowSummary ShearCell::finish_window(const WarmUpWindow& window, int index) {
   const double measured = bulk_shear_rate(window.profile);
+  const WindowSummary summary{
+      .solid_fraction =
+          (window.profile.media_volume + window.profile.powder_volume) / window.profile.slab_volume,
+      .shear_stress = window.shear_sum / window.samples,
+      .normal_stress = window.normal_sum / window.samples,
+      .bulk_shear_rate = measured};
+  spdlog::debug(
+      "shear cell: warm-up window {}: solid fraction {:.4g}, shear stress {:.4g} Pa, normal stress "
+      "{:.4g} Pa (target {:.4g})",
+      index, summary.solid_fraction, summary.shear_stress, summary.normal_stress,
+      setup_.normal_stress);
+  // The bulk of a bed that has lost contact with the walls does not follow them: leave the speed
+  // until the servo has closed the gap (otherwise it doubles every window).
+  if (!walls() || summary.normal_stress < kClosingStressFraction * setup_.normal_stress)
+    return summary;
   const double factor = measured > 0.0 ? std::clamp(setup_.shear_rate / measured,
                                                     1.0 / kMaxSpeedChange, kMaxSpeedChange)
                                        : kMaxSpeedChange;
@@ -759,148 +783,19 @@ void ShearCell::finish_window(const WarmUpWindow& window, int index) {
       "{:.4g} m/s",
       index, measured, setup_.shear_rate, wall_speed_, wall_speed_ * factor);
   set_wall_speed(wall_speed_ * factor);
+  return summary;
 }
 
-namespace {
-
-void tally(const std::vector<CollisionEvent>& events, const ShearCell& cell,
-           std::array<CollisionStats, kContactTypeCount>& stats) {
-  for (const CollisionEvent& event : events) {
-    CollisionStats& s = stats[static_cast<std::size_t>(cell.contact_type(event.category))];
-    s.count += 1.0;
-    s.dissipated_energy.add(event.dissipated);
-  }
-}
-
-CollisionStats merged(const std::array<CollisionStats, kContactTypeCount>& stats,
-                      std::initializer_list<ContactType> types) {
-  CollisionStats total;
-  for (ContactType type : types) {
-    const CollisionStats& s = stats[static_cast<std::size_t>(type)];
-    total.count += s.count;
-    total.rate_per_volume += s.rate_per_volume;
-    total.dissipated_energy.merge(s.dissipated_energy);
-  }
-  return total;
-}
-
-}  // namespace
-
-ShearCellMeasurements ShearCell::measure(double strain, const MeasureOptions& options) {
-  Measurement measurement = start_measurement(strain, options);
-  advance_measurement(measurement, measurement.steps);
-  return finish_measurement(measurement);
-}
-
-ShearCell::Measurement ShearCell::start_measurement(double strain, const MeasureOptions& options) {
-  if (options.samples < 2 || !(options.steady_tolerance > 0.0)) {
-    throw std::invalid_argument(
-        fmt::format("shear cell: measure needs samples = {} >= 2 and steady tolerance = {} > 0",
-                    options.samples, options.steady_tolerance));
-  }
-  Measurement m;
-  m.options = options;
-  m.steps = steps_for_strain(strain);
-  if (m.steps < 2)
-    throw std::invalid_argument(
-        fmt::format("shear cell: strain = {} is less than two time steps", strain));
-  m.every = std::max<std::uint64_t>(1, m.steps / static_cast<std::uint64_t>(options.samples));
-  // Wall loads are free to read every step; the LE virial costs a pass over the contacts.
-  m.stress_every = walls() ? 1 : m.every;
-  compact();  // before the window opens: compaction is no part of the measurement
-  m.work0 = work_in();
-  m.shear_work0 = shear_work();
-  m.motion0 = motion_energy();
-  m.budget0 = system_.energy();
-  m.dissipation0 = system_.dissipation_by_category();
-  if (options.record_collisions) {
-    system_.take_collision_events();
-    system_.set_record_collisions(true);
-  }
-  return m;
-}
-
-void ShearCell::advance_measurement(Measurement& m, std::uint64_t max_steps) {
-  const auto started = std::chrono::steady_clock::now();
-  const std::uint64_t end = std::min(m.steps, m.done + max_steps);
-  while (m.done < end) {
-    advance(1);
-    const std::uint64_t s = ++m.done;
-    if (s % m.stress_every == 0) {
-      const std::size_t half = 2 * s <= m.steps ? 0 : 1;
-      m.shear_sum[half] += shear_stress_now();
-      m.stress_count[half] += 1.0;
-      m.normal_sum += normal_stress_now();
-      m.gap_sum += gap();
-    }
-    if (s % m.every == 0) {
-      sample_profile(m.profile);
-      tally_collisions(m);
-    }
-  }
-  m.wall_seconds +=
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-}
-
-void ShearCell::tally_collisions(Measurement& m) {
-  if (m.options.record_collisions) tally(system_.take_collision_events(), *this, m.collisions);
-}
-
-ShearCellMeasurements ShearCell::finish_measurement(Measurement& in) {
-  tally_collisions(in);
-  if (in.options.record_collisions) system_.set_record_collisions(false);
-  ShearCellMeasurements m;
-  m.collisions = in.collisions;
-  m.wall_seconds = in.wall_seconds;
-  const double samples = in.stress_count[0] + in.stress_count[1];
-  m.steps = in.steps;
-  m.duration = static_cast<double>(in.steps) * system_.time_step();
-  m.strain = setup_.shear_rate * m.duration;
-  m.particle_steps_per_second = static_cast<double>(in.steps * system_.size()) / m.wall_seconds;
-  m.target_shear_rate = setup_.shear_rate;
-  m.bulk_shear_rate = bulk_shear_rate(in.profile);
-  m.wall_speed = wall_speed_;
-  m.gap = in.gap_sum / samples;
-  m.nominal_shear_rate = wall_speed_ / m.gap;
-  m.volume = wall_area() * m.gap;
-  m.shear_stress_first_half = in.shear_sum[0] / in.stress_count[0];
-  m.shear_stress_second_half = in.shear_sum[1] / in.stress_count[1];
-  m.shear_stress = (in.shear_sum[0] + in.shear_sum[1]) / samples;
-  m.normal_stress = in.normal_sum / samples;
-  m.friction = m.shear_stress / m.normal_stress;
-  m.inertial_number =
-      m.bulk_shear_rate * setup_.media_diameter / std::sqrt(m.normal_stress / setup_.media.density);
-  m.media_solid_fraction = in.profile.media_volume / in.profile.slab_volume;
-  m.powder_solid_fraction = in.profile.powder_volume / in.profile.slab_volume;
-  m.steady_state_deviation =
-      std::abs(m.shear_stress_first_half - m.shear_stress_second_half) /
-      (0.5 * std::abs(m.shear_stress_first_half + m.shear_stress_second_half));
-  m.steady = m.steady_state_deviation <= in.options.steady_tolerance;
-
-  const double volume_time = m.volume * m.duration;
-  const std::vector<Dissipation> dissipation1 = system_.dissipation_by_category();
-  for (std::size_t c = 0; c < dissipation1.size(); ++c) {
-    const double joules = dissipation1[c].total() - in.dissipation0[c].total();
-    m.dissipation_density[static_cast<std::size_t>(contact_type(static_cast<std::uint32_t>(c)))] +=
-        joules / volume_time;
-  }
-  for (double d : m.dissipation_density) m.dissipation_density_total += d;
-  for (CollisionStats& s : m.collisions) s.rate_per_volume = s.count / volume_time;
-  m.media_collisions = merged(m.collisions, {ContactType::MediaMedia, ContactType::WallMedia});
-  m.powder_collisions = merged(
-      m.collisions, {ContactType::MediaPowder, ContactType::PowderPowder, ContactType::WallPowder});
-
-  const EnergyBudget budget1 = system_.energy();
-  m.work_in = work_in() - in.work0;
-  m.power_density = (shear_work() - in.shear_work0) / volume_time;
-  m.stress_control_work = m.work_in - (shear_work() - in.shear_work0);
-  m.kinetic_change = motion_energy() - in.motion0;
-  m.elastic_change = budget1.elastic - in.budget0.elastic;
-  m.dissipated = budget1.dissipated - in.budget0.dissipated;
-  m.energy_balance_error =
-      std::abs(m.work_in - (m.kinetic_change + m.elastic_change + m.dissipated)) /
-      std::abs(m.work_in);
-  return m;
+bool ShearCell::stationary(const WindowSummary& previous, const WindowSummary& last) const {
+  const auto near = [](double value, double target, double tolerance) {
+    return std::abs(value - target) <= tolerance * std::abs(target);
+  };
+  const bool rate_ok =
+      !walls() || near(last.bulk_shear_rate, setup_.shear_rate, kStationaryStressTolerance);
+  return rate_ok && near(last.normal_stress, setup_.normal_stress, kStationaryStressTolerance) &&
+         std::abs(last.solid_fraction - previous.solid_fraction) <= kStationarySolidFractionDrift &&
+         near(last.shear_stress, 0.5 * (last.shear_stress + previous.shear_stress),
+              0.5 * kStationaryShearDrift);
 }
 
 namespace {
@@ -944,12 +839,17 @@ std::string run_identity(const ShearCellSetup& s, const ShearCellProtocol& proto
   out.put(s.seed);
   out.put(s.media_solid_fraction);
   out.put<std::int32_t>(s.steps_per_collision);
+  out.put(s.overlap_bound.mean_fraction);
+  out.put(s.overlap_bound.p95_fraction);
   out.put(protocol.warmup_strain);
   out.put<std::int32_t>(protocol.warmup_windows);
+  out.put(protocol.max_warmup_strain);
   out.put(protocol.measure_strain);
   out.put<std::int32_t>(protocol.measure.samples);
   out.put(protocol.measure.steady_tolerance);
   out.put<std::uint8_t>(protocol.measure.record_collisions);
+  out.put(protocol.measure.standard_error_target);
+  out.put(protocol.measure.max_strain);
   return out.bytes();
 }
 
@@ -967,17 +867,50 @@ void ShearCell::Profile::read(BinaryReader& in) {
 void ShearCell::WarmUpWindow::write(BinaryWriter& out) const {
   for (std::uint64_t v : {steps, half, every, done}) out.put(v);
   profile.write(out);
+  for (double v : {shear_sum, normal_sum, samples}) out.put(v);
 }
 
 void ShearCell::WarmUpWindow::read(BinaryReader& in) {
   for (std::uint64_t* v : {&steps, &half, &every, &done}) *v = in.get<std::uint64_t>();
   profile.read(in);
+  for (double* v : {&shear_sum, &normal_sum, &samples}) *v = in.get<double>();
   if (every == 0 || half > steps || done > steps)
     throw CorruptData("shear cell checkpoint: the warm-up window is out of range");
 }
 
+void ShearCell::OverlapHistogram::write(BinaryWriter& out) const {
+  out.put<std::uint64_t>(counts.size());
+  for (double c : counts) out.put(c);
+  out.put(sum);
+  out.put(max);
+}
+
+void ShearCell::OverlapHistogram::read(BinaryReader& in) {
+  const auto size = in.get<std::uint64_t>();
+  if (size != 0 && size != kOverlapBins)
+    throw CorruptData("shear cell checkpoint: an overlap histogram has the wrong size");
+  counts.resize(size);
+  for (double& c : counts) c = in.get<double>();
+  sum = in.get<double>();
+  max = in.get<double>();
+}
+
+void MeasuredBlock::write(BinaryWriter& out) const {
+  for (double v : {shear_sum, normal_sum, gap_sum, stress_samples, pressure_sum, pressure_samples,
+                   shear_work, duration})
+    out.put(v);
+  for (double v : dissipated) out.put(v);
+}
+
+void MeasuredBlock::read(BinaryReader& in) {
+  for (double* v : {&shear_sum, &normal_sum, &gap_sum, &stress_samples, &pressure_sum,
+                    &pressure_samples, &shear_work, &duration})
+    *v = in.get<double>();
+  for (double& v : dissipated) v = in.get<double>();
+}
+
 void ShearCell::Measurement::write(BinaryWriter& out) const {
-  for (std::uint64_t v : {steps, every, stress_every, done}) out.put(v);
+  for (std::uint64_t v : {steps, min_steps, block_steps, every, stress_every, done}) out.put(v);
   for (double v : {work0, shear_work0, motion0, budget0.kinetic, budget0.potential, budget0.elastic,
                    budget0.dissipated, budget0.wall_work}) {
     out.put(v);
@@ -987,18 +920,26 @@ void ShearCell::Measurement::write(BinaryWriter& out) const {
     for (double v : {d.normal, d.tangential, d.friction}) out.put(v);
   }
   profile.write(out);
-  for (double v :
-       {shear_sum[0], shear_sum[1], stress_count[0], stress_count[1], normal_sum, gap_sum})
-    out.put(v);
+  for (double v : tensor_sum) out.put(v);
+  out.put(tensor_samples);
+  out.put<std::uint64_t>(blocks.size());
+  for (const MeasuredBlock& b : blocks) b.write(out);
+  current.write(out);
+  out.put(block_shear_work0);
+  out.put<std::uint64_t>(block_dissipation0.size());
+  for (double v : block_dissipation0) out.put(v);
+  for (const OverlapHistogram& h : overlaps) h.write(out);
   for (const CollisionStats& stats : collisions) {
     out.put(stats.count);
     stats.dissipated_energy.write(out);
   }
   out.put(wall_seconds);
+  out.put<std::uint8_t>(converged);
 }
 
 void ShearCell::Measurement::read(BinaryReader& in) {
-  for (std::uint64_t* v : {&steps, &every, &stress_every, &done}) *v = in.get<std::uint64_t>();
+  for (std::uint64_t* v : {&steps, &min_steps, &block_steps, &every, &stress_every, &done})
+    *v = in.get<std::uint64_t>();
   for (double* v : {&work0, &shear_work0, &motion0, &budget0.kinetic, &budget0.potential,
                     &budget0.elastic, &budget0.dissipated, &budget0.wall_work}) {
     *v = in.get<double>();
@@ -1008,16 +949,28 @@ void ShearCell::Measurement::read(BinaryReader& in) {
     for (double* v : {&d.normal, &d.tangential, &d.friction}) *v = in.get<double>();
   }
   profile.read(in);
-  for (double* v :
-       {&shear_sum[0], &shear_sum[1], &stress_count[0], &stress_count[1], &normal_sum, &gap_sum}) {
-    *v = in.get<double>();
-  }
+  for (double& v : tensor_sum) v = in.get<double>();
+  tensor_samples = in.get<double>();
+  const auto block_count = in.get<std::uint64_t>();
+  if (block_count > steps)
+    throw CorruptData("shear cell checkpoint: more measured blocks than steps");
+  blocks.resize(block_count);
+  for (MeasuredBlock& b : blocks) b.read(in);
+  current.read(in);
+  block_shear_work0 = in.get<double>();
+  const auto categories = in.get<std::uint64_t>();
+  if (categories != dissipation0.size())
+    throw CorruptData("shear cell checkpoint: the block's dissipation has the wrong size");
+  block_dissipation0.resize(categories);
+  for (double& v : block_dissipation0) v = in.get<double>();
+  for (OverlapHistogram& h : overlaps) h.read(in);
   for (CollisionStats& stats : collisions) {
     stats.count = in.get<double>();
     stats.dissipated_energy = LogHistogram::read(in);
   }
   wall_seconds = in.get<double>();
-  if (every == 0 || stress_every == 0 || done > steps) {
+  converged = in.get<std::uint8_t>() != 0;
+  if (every == 0 || stress_every == 0 || block_steps == 0 || done > steps || min_steps > steps) {
     throw CorruptData("shear cell checkpoint: the measurement is out of range");
   }
 }
@@ -1025,7 +978,7 @@ void ShearCell::Measurement::read(BinaryReader& in) {
 void ShearCell::write_state(BinaryWriter& out) const {
   for (std::uint64_t count : {media_count_, powder_count_, wall_ball_count_}) out.put(count);
   for (double v : {wall_speed_, le_work_, barostat_work_, barostat_stress_sum_,
-                   barostat_stress_samples_, last_barostat_stress_}) {
+                   barostat_stress_samples_, last_barostat_stress_, smoothed_stress_}) {
     out.put(v);
   }
   out.put<std::uint8_t>(compacted_);
@@ -1035,7 +988,7 @@ void ShearCell::read_state(BinaryReader& in) {
   for (std::size_t* count : {&media_count_, &powder_count_, &wall_ball_count_})
     *count = in.get<std::uint64_t>();
   for (double* v : {&wall_speed_, &le_work_, &barostat_work_, &barostat_stress_sum_,
-                    &barostat_stress_samples_, &last_barostat_stress_}) {
+                    &barostat_stress_samples_, &last_barostat_stress_, &smoothed_stress_}) {
     *v = in.get<double>();
   }
   compacted_ = in.get<std::uint8_t>() != 0;
@@ -1055,10 +1008,22 @@ ShearCellRun::ShearCellRun(ShearCell cell, const ShearCellProtocol& protocol)
                     "windows >= 1",
                     protocol_.warmup_strain, protocol_.warmup_windows));
   }
-  window_steps_ = protocol_.warmup_strain > 0.0
-                      ? cell_.steps_for_strain(protocol_.warmup_strain / protocol_.warmup_windows)
-                      : 0;
-  measure_steps_ = cell_.steps_for_strain(protocol_.measure_strain);
+  if (!(protocol_.max_warmup_strain >= protocol_.warmup_strain)) {
+    throw std::invalid_argument(
+        fmt::format("shear cell: the warm-up's cap of {} strain is below its {} strain; raise the "
+                    "cap to at least the warm-up",
+                    protocol_.max_warmup_strain, protocol_.warmup_strain));
+  }
+  const double window_strain = protocol_.warmup_strain / protocol_.warmup_windows;
+  window_steps_ = protocol_.warmup_strain > 0.0 ? cell_.steps_for_strain(window_strain) : 0;
+  max_windows_ =
+      protocol_.warmup_strain > 0.0
+          ? std::max(
+                protocol_.warmup_windows,
+                static_cast<int>(std::floor(protocol_.max_warmup_strain / window_strain + 1e-9)))
+          : 0;
+  measure_steps_ =
+      cell_.steps_for_strain(std::max(protocol_.measure_strain, protocol_.measure.max_strain));
 }
 
 ShearCellRun ShearCellRun::resume(const ShearCellSetup& setup, const ShearCellProtocol& protocol,
@@ -1080,6 +1045,11 @@ ShearCellRun ShearCellRun::resume(const ShearCellSetup& setup, const ShearCellPr
   run.phase_ = static_cast<Phase>(phase);
   run.window_index_ = in.get<std::int32_t>();
   run.window_.read(in);
+  for (double* v :
+       {&run.previous_.solid_fraction, &run.previous_.shear_stress, &run.previous_.normal_stress,
+        &run.previous_.bulk_shear_rate, &run.stationary_strain_})
+    *v = in.get<double>();
+  run.stationary_ = in.get<std::uint8_t>() != 0;
   run.measurement_.read(in);
   run.measurement_.options = protocol.measure;
   if (!in.at_end())
@@ -1098,6 +1068,10 @@ void ShearCellRun::save(const std::filesystem::path& path) {
   out.put(static_cast<std::uint8_t>(phase_));
   out.put<std::int32_t>(window_index_);
   window_.write(out);
+  for (double v : {previous_.solid_fraction, previous_.shear_stress, previous_.normal_stress,
+                   previous_.bulk_shear_rate, stationary_strain_})
+    out.put(v);
+  out.put<std::uint8_t>(stationary_);
   measurement_.write(out);
   write_checksummed_file(path, kRunMagic, kShearCellCheckpointVersion, out.bytes());
 }
@@ -1125,13 +1099,26 @@ bool ShearCellRun::advance(std::uint64_t max_steps) {
 }
 
 void ShearCellRun::start_next_piece() {
-  if (phase_ == Phase::WarmUp) cell_.finish_window(window_, window_index_++);
+  if (phase_ == Phase::WarmUp) {
+    const ShearCell::WindowSummary last = cell_.finish_window(window_, window_index_++);
+    stationary_ = window_index_ >= protocol_.warmup_windows && window_index_ >= 2 &&
+                  cell_.stationary(previous_, last);
+    if (stationary_) {
+      stationary_strain_ = cell_.setup().shear_rate * cell_.system().time();
+      spdlog::debug("shear cell: stationary after {} warm-up windows, strain {:.3g}", window_index_,
+                    stationary_strain_);
+    }
+    previous_ = last;
+  }
   if (phase_ == Phase::Measuring) {
     result_ = cell_.finish_measurement(measurement_);
+    result_.stationary = stationary_;
+    result_.stationary_strain = stationary_strain_;
+    result_.steady = result_.steady && stationary_;
     phase_ = Phase::Done;
     return;
   }
-  if (window_steps_ > 0 && window_index_ < protocol_.warmup_windows) {
+  if (window_steps_ > 0 && !stationary_ && window_index_ < max_windows_) {
     phase_ = Phase::WarmUp;
     window_ = cell_.start_window(protocol_.warmup_strain / protocol_.warmup_windows);
     return;
@@ -1141,12 +1128,14 @@ void ShearCellRun::start_next_piece() {
 }
 
 double ShearCellRun::progress() const {
+  // Against the caps: a cell that becomes stationary or converges early jumps ahead.
   const std::uint64_t total =
-      window_steps_ * static_cast<std::uint64_t>(protocol_.warmup_windows) + measure_steps_;
+      window_steps_ * static_cast<std::uint64_t>(max_windows_) + measure_steps_;
   std::uint64_t done_steps = 0;
   if (phase_ == Phase::WarmUp)
     done_steps = window_steps_ * static_cast<std::uint64_t>(window_index_) + window_.done;
   if (phase_ == Phase::Measuring) done_steps = total - measure_steps_ + measurement_.done;
+  done_steps = std::min(done_steps, total);
   if (phase_ == Phase::Done) done_steps = total;
   return static_cast<double>(done_steps) / static_cast<double>(total);
 }
@@ -1156,7 +1145,7 @@ std::string ShearCellRun::phase_name() const {
     case Phase::Compacting:
       return "compacting";
     case Phase::WarmUp:
-      return fmt::format("warm-up window {}/{}", window_index_ + 1, protocol_.warmup_windows);
+      return fmt::format("warm-up window {} (at most {})", window_index_ + 1, max_windows_);
     case Phase::Measuring:
       return "measuring";
     case Phase::Done:

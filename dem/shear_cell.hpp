@@ -1,6 +1,7 @@
 #pragma once
-// The microscale Couette shear cell of the multiscale method (DESIGN.md section 1, step 3): media
-// balls and fine powder sheared at a site's shear rate under the site's normal stress.
+// The microscale Couette shear cell of the multiscale method (step 3; the rules of its results:
+// docs/shear_cells.md): media balls and fine powder sheared at a site's shear rate under the site's
+// normal stress.
 //
 // Geometry (x flow, y gradient, z spanwise; periodic in x and z):
 //  - RoughWalls: two layers of media-sized balls glued to the walls (two kinematic groups) at the
@@ -23,13 +24,17 @@
 // that the servo or the barostat compresses; with Lees-Edwards the media take a random subset of
 // the sites of an FCC lattice that fits that box.
 //
-// Servo (RoughWalls). Stiffness of the bed seen by the wall: columns of H/d contacts in series,
-// one column per d^2 of wall area, k_bed = k_n,media (A / d^2) (d / H); wave crossing time of the
-// gap t_wave = (H / d) t_c,media (one contact duration per layer). With the gain g:
-//   mobility  M = g / (k_bed t_wave),   v_y = clamp(M (F_target - F_y), +-v_max),
-//   max speed v_max = g d / t_wave,
-// so the normal force relaxes to F_target = normal_stress A with time constant t_wave / g
-// (dF/dt = -k_bed v_y), and the wall never moves more than g diameters per crossing time.
+// Stress control, one law for both boundaries (ShearCell::control_stress). Every
+// steps_per_collision steps (one control interval) the boundary answers the mean normal stress of
+// the interval. Wave crossing time of the gap t_wave = (H / d) t_c,media; relaxation time
+// tau = max(t_wave, 0.1 / gdot) / g with the gain g; speed limit v_max = g d / t_wave.
+//
+// Servo (RoughWalls). The wall answers the flowing bed's modulus K p (K = 10, as the barostat
+// below), not the contacts' stiffness (the contacts of a flowing bed of stiff balls last only a
+// collision; a servo tuned to them cannot move the wall):
+//   v_y = clamp(M (F_target - F_y), +-v_max),   M = H / (K p A tau),
+// so a force error of the whole target moves the wall by H / K per tau. Compaction closes the
+// loose gap at v_max until the interval's mean reaches half the target.
 //
 // Barostat (LeesEdwards). Every steps_per_collision steps (interval dt_c) the box and the
 // particles are stretched affinely along y by the strain
@@ -40,9 +45,10 @@
 // bed (dense-flow pressure grows as (phi_c - phi)^-2, dp/de ~ 2 p phi / (phi_c - phi) ~ 10 p), not
 // the far stiffer contacts, which last only a collision there; a flowing bed answers a change of
 // volume over a strain of ~0.1, and a faster barostat pumps energy into the cell. The limit of 5%
-// per tau keeps a bed that jams for a moment from throwing the box into oscillation. Compaction
-// first shrinks the loose fill at the wall's speed limit v_max until that mean p_yy reaches half
-// the target.
+// per tau keeps a bed that jams for a moment from throwing the box into oscillation. Whenever
+// that mean p_yy is below half the target (the loose fill at the start, or a bed that lost
+// contact) the box shrinks at the wall's speed limit v_max instead. The warm-up then ends on the
+// stationarity test of ShearCellProtocol (docs/shear_cells.md).
 // Particles keep their velocity relative to the imposed profile; the energy the stretch puts
 // into the contact springs is counted as work put in (stress_control_work).
 //
@@ -57,10 +63,19 @@
 #include <string>
 #include <vector>
 
+#include "dem/batch_means.hpp"
 #include "dem/spectrum.hpp"
 #include "dem/system.hpp"
 
 namespace millflow::dem {
+
+// The overlap a cell allows, as a fraction of the smaller diameter of each contact: the stiffness
+// policy (dem/stiffness_policy.hpp) derives k_n from the mean, and a cell whose measured 95th
+// percentile exceeds p95_fraction is flagged (ShearCellMeasurements::overlap_ok).
+struct OverlapBound {
+  double mean_fraction = 0.01;
+  double p95_fraction = 0.03;
+};
 
 struct ShearCellSetup {
   double media_diameter = 0.01;  // m
@@ -79,6 +94,7 @@ struct ShearCellSetup {
   std::uint64_t seed = 1;
   double media_solid_fraction = 0.55;  // sets the number of media balls
   int steps_per_collision = 20;        // dt = shortest contact duration / this
+  OverlapBound overlap_bound;
 };
 
 // Checks a setup; throws std::invalid_argument naming the bad value and how to fix it.
@@ -102,6 +118,20 @@ struct CollisionStats {
   LogHistogram dissipated_energy{1e-16, 1.0, 5};
 };
 
+// Overlap of the contacts of one type over the measured samples, as a fraction of the smaller
+// diameter of each contact: mean, 95th percentile (to the histogram's bin of kOverlapBinWidth)
+// and maximum.
+struct OverlapStats {
+  double contacts = 0.0;  // contact samples
+  double mean_fraction = 0.0, p95_fraction = 0.0, max_fraction = 0.0;
+};
+inline constexpr double kOverlapBinWidth = 5e-4;
+inline constexpr std::size_t kOverlapBins = 2000;  // up to an overlap of the whole diameter
+
+// The measured window is cut into blocks of this much strain; the standard errors group the
+// blocks into batches (dem/batch_means.hpp).
+inline constexpr double kBlockStrain = 0.05;
+
 struct ShearCellMeasurements {
   double strain = 0.0;    // target shear rate x duration
   double duration = 0.0;  // s
@@ -109,12 +139,24 @@ struct ShearCellMeasurements {
   // Shear rates, 1/s. Nominal: wall speed difference / gap (RoughWalls) or the LE rate.
   double target_shear_rate = 0.0, bulk_shear_rate = 0.0, nominal_shear_rate = 0.0;
   double wall_speed = 0.0;  // relative speed of the walls (or LE images), m/s
-  double gap = 0.0;         // mean distance between the wall ball centre planes (L_y for LE), m
-  double volume = 0.0;      // mean cell volume A x gap, m^3
+  // Slip of each wall against the bulk profile extended to it: (U - bulk rate x gap) / 2, m/s.
+  double wall_slip = 0.0;
+  double gap = 0.0;     // mean distance between the wall ball centre planes (L_y for LE), m
+  double volume = 0.0;  // mean cell volume A x gap, m^3
   // Stresses (compression positive), Pa.
   double shear_stress = 0.0, normal_stress = 0.0;
-  double friction = 0.0;         // mu = shear / normal stress
-  double inertial_number = 0.0;  // bulk rate x d_media / sqrt(normal stress / rho_media)
+  double friction = 0.0;  // mu = shear / normal stress
+  // Stress tensor of the cell, compression positive: the virial of the contacts plus the kinetic
+  // part of the motion relative to the mean profile, over the cell volume (with walls the wall
+  // balls' contacts count, and the volume is A x gap). Order xx, yy, zz, xy, xz, yz (the
+  // symmetric part); the shear stress above is -xy in LE.
+  std::array<double, 6> stress_tensor{};
+  double mean_pressure = 0.0;           // p = trace / 3
+  double friction_mean_pressure = 0.0;  // shear stress / p
+  // Imposed rate (LE) or the measured bulk rate (walls) x d_media / sqrt(normal stress / rho),
+  // and the same with the measured bulk rate.
+  double inertial_number = 0.0;
+  double inertial_number_measured_rate = 0.0;
   // Solid fractions in the middle half of the gap.
   double media_solid_fraction = 0.0, powder_solid_fraction = 0.0;
   // Work put in by the walls (LE: by the sheared images, tau gdot) per volume and time, W/m^3.
@@ -140,8 +182,23 @@ struct ShearCellMeasurements {
   // Steady state: shear stress means over the two halves of the window.
   double shear_stress_first_half = 0.0, shear_stress_second_half = 0.0;
   double steady_state_deviation = 0.0;  // |first - second| / mean of both
-  bool steady = false;                  // deviation <= the tolerance asked for
-  double wall_seconds = 0.0;            // wall-clock time of the window
+  // Whether the warm-up ended on the stationarity test (ShearCellRun; see there) and the strain
+  // since the start (compaction included) at which it did.
+  bool stationary = false;
+  double stationary_strain = 0.0;
+  // deviation <= the tolerance asked for and, in a ShearCellRun, stationary.
+  bool steady = false;
+  // Overlaps by ContactType, and whether every type's p95 is within the setup's bound.
+  std::array<OverlapStats, kContactTypeCount> overlaps;
+  bool overlap_ok = true;
+  // Standard errors of the window's means (batch means); dissipation by ContactType.
+  MeanWithError friction_error, friction_mean_pressure_error, shear_stress_error,
+      normal_stress_error, power_density_error, powder_dissipation_error, dissipation_total_error;
+  std::array<double, kContactTypeCount> dissipation_standard_error{};
+  std::size_t blocks = 0, batch_blocks = 0;
+  // Whether the relative standard errors of friction and powder dissipation reached the target.
+  bool converged = false;
+  double wall_seconds = 0.0;  // wall-clock time of the window
   double particle_steps_per_second = 0.0;
 };
 
@@ -149,9 +206,25 @@ struct MeasureOptions {
   int samples = 200;               // velocity-profile / solid-fraction samples in the window
   double steady_tolerance = 0.15;  // on steady_state_deviation
   bool record_collisions = true;
+  // Convergence: after the strain asked for, go on block by block until the relative standard
+  // errors of friction and of the powder dissipation rate (when there is powder) are at most
+  // standard_error_target, or max_strain is reached (0: stop at the strain asked for).
+  double standard_error_target = 0.03;
+  double max_strain = 0.0;
 };
 
 class ShearCellRun;
+
+// One block of the measured window (kBlockStrain): its stress sums and the energy it took in
+// and dissipated.
+struct MeasuredBlock {
+  double shear_sum = 0.0, normal_sum = 0.0, gap_sum = 0.0, stress_samples = 0.0;
+  double pressure_sum = 0.0, pressure_samples = 0.0;
+  double shear_work = 0.0, duration = 0.0;             // J, s
+  std::array<double, kContactTypeCount> dissipated{};  // J, by ContactType
+  void write(BinaryWriter& out) const;
+  void read(BinaryReader& in);
+};
 
 class ShearCell {
  public:
@@ -199,43 +272,77 @@ class ShearCell {
     void write(BinaryWriter& out) const;
     void read(BinaryReader& in);
   };
-  // One warm-up window in progress: `steps` in all, the profile sampled every `every` steps over
-  // the second half (after `half`).
+  // One warm-up window in progress: `steps` in all, the profile and the stresses sampled every
+  // `every` steps over the second half (after `half`).
   struct WarmUpWindow {
     std::uint64_t steps = 0, half = 0, every = 1, done = 0;
     Profile profile;
+    double shear_sum = 0.0, normal_sum = 0.0, samples = 0.0;
     bool finished() const { return done == steps; }
     void write(BinaryWriter& out) const;
     void read(BinaryReader& in);
   };
-  // A measurement in progress: where its window started and what it has summed so far.
+  // Overlaps of one contact type: a histogram of the fraction of the smaller diameter.
+  struct OverlapHistogram {
+    std::vector<double> counts;  // kOverlapBins bins of kOverlapBinWidth, the last open
+    double sum = 0.0, max = 0.0;
+    void add(double fraction);
+    OverlapStats stats() const;
+    void write(BinaryWriter& out) const;
+    void read(BinaryReader& in);
+  };
+  // A measurement in progress: where its window started and what it has summed so far. It runs
+  // at least min_steps and at most `steps`, and stops at a block's end once converged.
   struct Measurement {
     MeasureOptions options;
-    std::uint64_t steps = 0, every = 1, stress_every = 1, done = 0;
+    std::uint64_t steps = 0, min_steps = 0, block_steps = 1, every = 1, stress_every = 1, done = 0;
     double work0 = 0.0, shear_work0 = 0.0, motion0 = 0.0;
     EnergyBudget budget0;
     std::vector<Dissipation> dissipation0;
     Profile profile;
-    std::array<double, 2> shear_sum{}, stress_count{};
-    double normal_sum = 0.0, gap_sum = 0.0;
+    std::array<double, 6> tensor_sum{};
+    double tensor_samples = 0.0;
+    std::vector<MeasuredBlock> blocks;
+    MeasuredBlock current;  // the block in progress
+    double block_shear_work0 = 0.0;
+    std::vector<double> block_dissipation0;  // by category, at the block's start, J
+    std::array<OverlapHistogram, kContactTypeCount> overlaps;
     std::array<CollisionStats, kContactTypeCount> collisions;
     double wall_seconds = 0.0;
-    bool finished() const { return done == steps; }
+    bool converged = false;
+    bool finished() const { return done == steps || converged; }
     // The options are the protocol's and are not written.
     void write(BinaryWriter& out) const;
     void read(BinaryReader& in);
+  };
+  // What the stationarity test compares between consecutive warm-up windows.
+  struct WindowSummary {
+    double solid_fraction = 0.0, shear_stress = 0.0, normal_stress = 0.0, bulk_shear_rate = 0.0;
   };
 
   // Continues a cell from its checkpointed system (ShearCellRun::resume).
   ShearCell(const ShearCellSetup& setup, System system);
   WarmUpWindow start_window(double strain) const;
   void advance_window(WarmUpWindow& window, std::uint64_t max_steps);
-  // Adjusts the wall speed from a finished window's profile (RoughWalls).
-  void finish_window(const WarmUpWindow& window, int index);
+  // Adjusts the wall speed from a finished window's profile (RoughWalls); returns the window's
+  // means.
+  WindowSummary finish_window(const WarmUpWindow& window, int index);
+  // The documented stationarity test of two consecutive warm-up windows.
+  bool stationary(const WindowSummary& previous, const WindowSummary& last) const;
   Measurement start_measurement(double strain, const MeasureOptions& options);
   void advance_measurement(Measurement& measurement, std::uint64_t max_steps);
   // Hands the collisions finished so far to the measurement (before a checkpoint, and at samples).
   void tally_collisions(Measurement& measurement);
+  // Profile, stress tensor and overlaps at a sample; the block bookkeeping at a block's end.
+  void sample_measurement(Measurement& measurement);
+  void close_block(Measurement& measurement);
+  void start_block(Measurement& measurement);
+  // Standard errors from the finished blocks; true when they meet the target.
+  bool errors_within_target(const Measurement& measurement) const;
+  void fill_standard_errors(const Measurement& in, ShearCellMeasurements& m) const;
+  // Stress tensor now (compression positive, xx yy zz xy xz yz), Pa.
+  std::array<double, 6> stress_tensor_now() const;
+  void sample_overlaps(Measurement& measurement) const;
   ShearCellMeasurements finish_measurement(Measurement& measurement);
   void write_state(BinaryWriter& out) const;
   void read_state(BinaryReader& in);
@@ -249,8 +356,12 @@ class ShearCell {
   // of the top wall's group.
   void derive_stress_control_constants();
   void configure_stress_control();
+  // At the end of each control interval (steps_per_collision steps): the boundary answers the
+  // mean normal stress of the interval, closing at the speed limit below half the target
+  // (walls: the servo's mobility; LE: a barostat stretch).
+  void control_stress();
   // LE: one barostat stretch, and the spring energy of the pairs in contact (normal part), J.
-  void apply_barostat();
+  void apply_barostat(double stress, bool closing);
   double normal_spring_energy() const;
   void set_wall_speed(double speed);
   std::size_t steps_for_strain(double strain) const;
@@ -282,20 +393,38 @@ class ShearCell {
   std::size_t media_count_ = 0, powder_count_ = 0, wall_ball_count_ = 0;
   double wall_speed_ = 0.0;
   double servo_mobility_ = 0.0, servo_max_speed_ = 0.0, crossing_time_ = 0.0;
+  double relaxation_time_ = 0.0;  // tau of the stress control, s
   std::size_t barostat_every_ = 1;
   bool barostat_at_speed_limit_ = false;  // compacting: shrink at the speed limit
   double le_work_ = 0.0;                  // work put in through the LE boundary so far, J
   double barostat_work_ = 0.0;            // work put in by the barostat's stretches so far, J
   double barostat_stress_sum_ = 0.0, barostat_stress_samples_ = 0.0;  // since the last stretch
   double last_barostat_stress_ = 0.0;  // the mean p_yy the last stretch answered, Pa
+  double smoothed_stress_ = 0.0;       // its running mean over the relaxation time, Pa
   bool compacted_ = false;
 };
 
-// What a cell run does: compaction, warm-up in `warmup_windows` windows (none when
-// warmup_strain is 0), then one measured window.
+// What a cell run does: compaction, warm-up in windows of warmup_strain / warmup_windows until
+// the cell is stationary, then one measured window (measure_strain, and on to convergence up to
+// measure.max_strain).
+//
+// Stationarity. After at least warmup_windows windows, the warm-up ends at the first window that
+// passes, against the window before it (each window's means over its second half):
+//   normal stress within kStationaryStressTolerance of the target,
+//   solid fraction (middle half of the gap) changed by at most kStationarySolidFractionDrift,
+//   shear stress changed by at most kStationaryShearDrift of their mean,
+//   (walls) bulk shear rate within kStationaryStressTolerance of the target.
+// The strain since the start at that window's end is the stationary strain. A cell that has not
+// passed by max_warmup_strain measures anyway and is reported not stationary (steady = false);
+// with warmup_strain 0 there is no warm-up and no stationarity.
+inline constexpr double kStationaryStressTolerance = 0.1;
+inline constexpr double kStationarySolidFractionDrift = 0.01;
+inline constexpr double kStationaryShearDrift = 0.1;
+
 struct ShearCellProtocol {
   double warmup_strain = 2.0;
   int warmup_windows = 4;
+  double max_warmup_strain = 6.0;  // >= warmup_strain
   double measure_strain = 4.0;
   MeasureOptions measure;
 };
@@ -305,24 +434,33 @@ struct ShearCellProtocol {
 // few hundred collision times). advance() in chunks of any size gives the same bits too.
 //
 // Checkpoint file: the checksummed container of dem/binary_io.hpp, magic "MFSHRCKP", payload
-// version kShearCellCheckpointVersion. Payload (version 1), in order:
-//   identity: string, the setup and protocol encoded field by field (resume() refuses a file
-//             whose identity differs from the cell it is asked to continue)
+// version kShearCellCheckpointVersion. Payload (version 2), in order:
+//   identity: string, the setup (overlap bound included) and protocol (warm-up cap, convergence
+//             target and cap included) encoded field by field (resume() refuses a file whose
+//             identity differs from the cell it is asked to continue)
 //   system: uint32 version of the DEM checkpoint payload, then that payload as a string
 //           (dem/checkpoint.hpp)
 //   cell: media, powder and wall ball counts (uint64), wall speed, LE boundary work, barostat
-//         work, barostat stress sum and sample count since its last stretch, the stress that
-//         stretch answered, compacted (uint8)
+//         work, stress sum and sample count since the last control interval, the stress that
+//         interval answered and its running mean over the relaxation time, compacted (uint8)
 //   run: phase (uint8: 0 compacting, 1 warm-up, 2 measuring), warm-up window index
-//        (int32); the window in progress (uint64 steps, half, every, done; profile: 8 doubles);
-//        the measurement (uint64 steps, every, stress-sample interval, done; work, shear work and
-//        motion energy at its start, energy budget at its start (kinetic, potential, elastic,
-//        dissipated, wall work), dissipation per category at its start (uint64 count; normal,
-//        tangential, friction each), profile, shear stress sums and counts of both halves,
-//        normal stress sum, gap sum, per contact type the collision count and dissipated-energy
-//        histogram (dem/spectrum.hpp), wall seconds measured so far)
+//        (int32); the window in progress (uint64 steps, half, every, done; profile: 8 doubles;
+//        shear stress sum, normal stress sum, sample count); the previous window's summary
+//        (solid fraction, shear stress, normal stress, bulk shear rate), the stationary strain
+//        (doubles) and stationary (uint8); the measurement (uint64 steps cap, minimum steps,
+//        block steps, every, stress-sample interval, done; work, shear work and motion energy at
+//        its start, energy budget at its start (kinetic, potential, elastic, dissipated, wall
+//        work), dissipation per category at its start (uint64 count; normal, tangential,
+//        friction each), profile, stress tensor sums (6) and sample count, the finished blocks
+//        (uint64 count; each: shear, normal, gap and stress-sample sums, pressure sum and sample
+//        count, shear work, duration, dissipated energy per contact type) and the block in
+//        progress, the shear work and the dissipation per category (uint64 count, doubles) at
+//        its start, per contact type the overlap histogram (uint64 bin count, 0 or
+//        kOverlapBins; the counts, sum, max), per contact type the collision count and
+//        dissipated-energy histogram (dem/spectrum.hpp), wall seconds measured so far,
+//        converged (uint8))
 // Collision events finished before a save are tallied into the measurement first.
-inline constexpr std::uint32_t kShearCellCheckpointVersion = 1;
+inline constexpr std::uint32_t kShearCellCheckpointVersion = 2;
 
 class ShearCellRun {
  public:
@@ -360,6 +498,10 @@ class ShearCellRun {
   ShearCell::Measurement measurement_;
   ShearCellMeasurements result_;
   std::uint64_t window_steps_ = 0, measure_steps_ = 0;
+  int max_windows_ = 0;
+  ShearCell::WindowSummary previous_;
+  bool stationary_ = false;
+  double stationary_strain_ = 0.0;
 };
 
 }  // namespace millflow::dem

@@ -356,9 +356,43 @@ std::vector<engine::FieldRule> micro_fields() {
       Field("/shear_cell/warmup_strain", FieldType::number, "shear strain before measuring")
           .defaults(2.0)
           .range(at_least(0), {}),
-      Field("/shear_cell/measure_strain", FieldType::number, "shear strain measured")
+      Field("/shear_cell/max_warmup_strain", FieldType::number,
+            "cap on the warm-up's strain: a cell that is not stationary by then is measured and "
+            "reported steady = false (docs/shear_cells.md)")
+          .defaults(6.0)
+          .range(at_least(0), {}),
+      Field("/shear_cell/measure_strain", FieldType::number,
+            "shear strain measured at least (the cell goes on to convergence)")
           .defaults(4.0)
           .range(above(0), {}),
+      Field("/shear_cell/convergence", FieldType::object,
+            "measure until the standard errors of friction and powder dissipation reach a target")
+          .defaults(json::object()),
+      Field("/shear_cell/convergence/standard_error", FieldType::number,
+            "target relative standard error (batch means) of friction and powder dissipation")
+          .defaults(0.03)
+          .range(above(0), at_most(0.5)),
+      Field("/shear_cell/convergence/max_strain", FieldType::number,
+            "cap on the measured strain; an unconverged cell is reported converged = false")
+          .defaults(8.0)
+          .range(above(0), {}),
+      Field("/shear_cell/stiffness", FieldType::object,
+            "stiffness policy of the shear cells (docs/shear_cells.md)")
+          .defaults(json::object()),
+      Field("/shear_cell/stiffness/policy", FieldType::enumeration,
+            "\"overlap_bound\" raises every pair's k_n until the mean overlap at the cell's "
+            "normal stress and shear rate is within the bound; \"campaign\" keeps /interactions")
+          .defaults("overlap_bound")
+          .choices({"overlap_bound", "campaign"}),
+      Field("/shear_cell/stiffness/mean_overlap_fraction", FieldType::number,
+            "bound on the mean overlap, as a fraction of the smaller diameter of a contact")
+          .defaults(0.01)
+          .range(above(0), at_most(0.1)),
+      Field("/shear_cell/stiffness/p95_overlap_fraction", FieldType::number,
+            "bound on the 95th percentile of the overlap; cells above it are flagged overlap_ok = "
+            "false")
+          .defaults(0.03)
+          .range(above(0), at_most(0.5)),
       Field("/shear_cell/steps_per_collision", FieldType::integer,
             "time steps per collision time in the shear cells (dt = t_c / N; "
             "/dem/steps_per_collision is the macro "

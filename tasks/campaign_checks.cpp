@@ -128,6 +128,10 @@ class ConsistencyChecker {
       check_powder_count();
     }
     check_region_rules(balls ? std::optional(mean_diameter(*balls)) : std::nullopt);
+    check_at_least("/shear_cell/max_warmup_strain", "/shear_cell/warmup_strain");
+    check_at_least("/shear_cell/convergence/max_strain", "/shear_cell/measure_strain");
+    check_at_least("/shear_cell/stiffness/p95_overlap_fraction",
+                   "/shear_cell/stiffness/mean_overlap_fraction");
     return std::move(errors_);
   }
 
@@ -435,6 +439,15 @@ class ConsistencyChecker {
             "use a VTK interval of at least " + quantity(simulated / *max_files) +
                 " s, or raise /limits/max_output_files_per_task");
     }
+  }
+
+  // A cap (or an upper bound) below the value it caps cannot be met.
+  void check_at_least(const std::string& cap_path, const std::string& value_path) {
+    const auto cap = campaign_.number(cap_path);
+    const auto value = campaign_.number(value_path);
+    if (!cap || !value || *cap >= *value) return;
+    error(cap_path, quantity(*cap) + " is below " + value_path + " = " + quantity(*value),
+          "raise it to at least " + quantity(*value) + " or lower " + value_path);
   }
 
   void check_powder_count() {

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "dem/material.hpp"
+#include "dem/stiffness_policy.hpp"
 #include "dem/vtk.hpp"
 #include "engine/validation.hpp"
 #include "tasks/checkpoint_cadence.hpp"
@@ -54,6 +55,21 @@ json spectra_json(const dem::ShearCellMeasurements& m) {
 
 }  // namespace
 
+std::string stiffness_log(const std::vector<dem::PairStiffness>& pairs,
+                          const dem::ShearCellSetup& setup) {
+  std::string text = fmt::format(
+      "shear cell stiffness at sigma_n {:.4g} Pa, shear rate {:.4g} 1/s (mean overlap <= {:.3g} "
+      "of d_small):",
+      setup.normal_stress, setup.shear_rate, setup.overlap_bound.mean_fraction);
+  for (const dem::PairStiffness& p : pairs) {
+    text += fmt::format(
+        " {}: k_n {:.4g} N/m (given {:.4g}, static bound {:.4g}, impact bound {:.4g}), kappa "
+        "{:.4g};",
+        p.pair, p.chosen, p.given, p.static_bound, p.impact_bound, p.kappa);
+  }
+  return text;
+}
+
 dem::ShearCellSetup shear_cell_setup(const json& params, const json& site,
                                      const std::string& task_key) {
   dem::ShearCellSetup setup;
@@ -87,19 +103,55 @@ dem::ShearCellSetup shear_cell_setup(const json& params, const json& site,
   setup.servo_gain = at(cell, "/stress_control/gain").get<double>();
   setup.seed = macro_seed(at(params, "/dem/seed").get<std::uint64_t>(), task_key);
   setup.steps_per_collision = cell.at("steps_per_collision").get<int>();
+  setup.overlap_bound = {
+      .mean_fraction = at(cell, "/stiffness/mean_overlap_fraction").get<double>(),
+      .p95_fraction = at(cell, "/stiffness/p95_overlap_fraction").get<double>()};
   return setup;
 }
 
+std::vector<dem::PairStiffness> apply_stiffness_policy(const json& params,
+                                                       dem::ShearCellSetup& setup) {
+  if (at(params, "/shear_cell/stiffness/policy").get<std::string>() == "campaign")
+    return dem::describe_stiffness(setup);
+  return dem::apply_overlap_bound(setup);
+}
+
+json stiffness_json(const std::vector<dem::PairStiffness>& pairs) {
+  json out = json::object();
+  for (const dem::PairStiffness& p : pairs) {
+    out[p.pair] = {{"k_n_n_m", p.chosen},
+                   {"kappa", p.kappa},
+                   {"given_n_m", p.given},
+                   {"static_bound_n_m", p.static_bound},
+                   {"impact_bound_n_m", p.impact_bound}};
+  }
+  return out;
+}
+
 json measurements_json(const dem::ShearCellMeasurements& m) {
-  json dissipation = json::object(), collisions = json::object();
+  json dissipation = json::object(), collisions = json::object(), overlap = json::object();
+  json dissipation_errors = json::object();
   double powder_dissipation = 0.0;
+  const dem::OverlapStats* worst = nullptr;
   for (std::size_t t = 0; t < dem::kContactTypeCount; ++t) {
     const auto type = static_cast<dem::ContactType>(t);
     dissipation[dem::contact_type_name(type)] = m.dissipation_density[t];
+    dissipation_errors[dem::contact_type_name(type)] = m.dissipation_standard_error[t];
     collisions[dem::contact_type_name(type)] = collisions_json(m.collisions[t]);
     if (involves_powder(type)) powder_dissipation += m.dissipation_density[t];
+    const dem::OverlapStats& o = m.overlaps[t];
+    if (o.contacts == 0.0) continue;
+    overlap[dem::contact_type_name(type)] = {{"mean_fraction", o.mean_fraction},
+                                             {"p95_fraction", o.p95_fraction},
+                                             {"max_fraction", o.max_fraction},
+                                             {"contact_samples", o.contacts}};
+    if (worst == nullptr || o.p95_fraction > worst->p95_fraction) worst = &o;
   }
   dissipation["total"] = m.dissipation_density_total;
+  dissipation_errors["total"] = m.dissipation_total_error.standard_error;
+  const dem::OverlapStats none;
+  if (worst == nullptr) worst = &none;
+  const auto& s = m.stress_tensor;
   collisions["media"] = collisions_json(m.media_collisions);
   collisions["powder"] = collisions_json(m.powder_collisions);
   return {
@@ -110,12 +162,24 @@ json measurements_json(const dem::ShearCellMeasurements& m) {
       {"bulk_shear_rate_per_s", m.bulk_shear_rate},
       {"nominal_shear_rate_per_s", m.nominal_shear_rate},
       {"wall_speed_m_s", m.wall_speed},
+      {"wall_slip_m_s", m.wall_slip},
       {"gap_m", m.gap},
       {"volume_m3", m.volume},
       {"shear_stress_pa", m.shear_stress},
       {"normal_stress_pa", m.normal_stress},
       {"friction", m.friction},
+      {"friction_mean_pressure", m.friction_mean_pressure},
+      {"stresses",
+       {{"xx", s[0]},
+        {"yy", s[1]},
+        {"zz", s[2]},
+        {"xy", s[3]},
+        {"xz", s[4]},
+        {"yz", s[5]},
+        {"mean_pressure_pa", m.mean_pressure},
+        {"p_yy_pa", m.normal_stress}}},
       {"inertial_number", m.inertial_number},
+      {"inertial_number_measured_rate", m.inertial_number_measured_rate},
       {"media_solid_fraction", m.media_solid_fraction},
       {"powder_solid_fraction", m.powder_solid_fraction},
       {"solid_fraction", m.media_solid_fraction + m.powder_solid_fraction},
@@ -136,6 +200,24 @@ json measurements_json(const dem::ShearCellMeasurements& m) {
         {"shear_stress_second_half_pa", m.shear_stress_second_half},
         {"deviation", m.steady_state_deviation},
         {"steady", m.steady}}},
+      {"steady", m.steady},
+      {"stationary_strain", m.stationary ? json(m.stationary_strain) : json()},
+      {"converged", m.converged},
+      {"standard_errors",
+       {{"friction", m.friction_error.standard_error},
+        {"friction_mean_pressure", m.friction_mean_pressure_error.standard_error},
+        {"shear_stress_pa", m.shear_stress_error.standard_error},
+        {"normal_stress_pa", m.normal_stress_error.standard_error},
+        {"power_density_w_m3", m.power_density_error.standard_error},
+        {"powder_dissipation_w_m3", m.powder_dissipation_error.standard_error},
+        {"dissipation_w_m3", dissipation_errors},
+        {"blocks", m.blocks},
+        {"batch_blocks", m.batch_blocks}}},
+      {"overlap", overlap},
+      {"overlap_mean_fraction", worst->mean_fraction},
+      {"overlap_p95_fraction", worst->p95_fraction},
+      {"overlap_max_fraction", worst->max_fraction},
+      {"overlap_ok", m.overlap_ok},
   };
 }
 
@@ -170,10 +252,13 @@ dem::ShearCellRun resume_or_start(const dem::ShearCellSetup& setup,
 
 dem::ShearCellProtocol shear_cell_protocol(const json& params) {
   const json& cell = params.at("shear_cell");
-  return {.warmup_strain = cell.at("warmup_strain").get<double>(),
-          .warmup_windows = kWarmupWindows,
-          .measure_strain = cell.at("measure_strain").get<double>(),
-          .measure = {}};
+  return {
+      .warmup_strain = cell.at("warmup_strain").get<double>(),
+      .warmup_windows = kWarmupWindows,
+      .max_warmup_strain = cell.at("max_warmup_strain").get<double>(),
+      .measure_strain = cell.at("measure_strain").get<double>(),
+      .measure = {.standard_error_target = at(cell, "/convergence/standard_error").get<double>(),
+                  .max_strain = at(cell, "/convergence/max_strain").get<double>()}};
 }
 
 engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
@@ -189,8 +274,11 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   std::filesystem::create_directories(
       context.work_dir);  // the engine leaves its creation to the task
   const auto checkpoint = context.work_dir / kCheckpointFile;
-  dem::ShearCellRun run = resume_or_start(shear_cell_setup(context.params, found.site, context.key),
-                                          shear_cell_protocol(context.params), checkpoint, context);
+  dem::ShearCellSetup setup = shear_cell_setup(context.params, found.site, context.key);
+  const std::vector<dem::PairStiffness> stiffness = apply_stiffness_policy(context.params, setup);
+  dem::ShearCellRun run =
+      resume_or_start(setup, shear_cell_protocol(context.params), checkpoint, context);
+  context.log(stiffness_log(stiffness, setup));
   CheckpointCadence cadence(cell_params.at("checkpoint_interval_s").get<double>());
   while (!run.done()) {
     if (context.stop.stop_requested() || cadence.due()) {
@@ -215,12 +303,17 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   result["media_count"] = cell.media_count();
   result["powder_count"] = cell.powder_count();
   result["wall_ball_count"] = cell.wall_ball_count();
+  result["stiffness"] = stiffness_json(stiffness);
   // Timings go to the log, not the result: a result must not depend on the machine's load.
   context.log(
-      fmt::format("shear cell {}: tau {:.4g} Pa, p {:.4g} Pa, mu {:.3g}, I {:.3g}, {:.4g} W/m^3{}; "
-                  "measured window {:.3g} s wall, {:.3g} particle-steps/s",
+      fmt::format("shear cell {}: tau {:.4g} Pa, p {:.4g} Pa, mu {:.3g} +- {:.2g}, I {:.3g}, "
+                  "{:.4g} W/m^3{}{}{}; overlap p95 {:.3g} of d_small; measured {:.3g} strain in "
+                  "{:.3g} s wall, {:.3g} particle-steps/s",
                   slot_site_id(slot), m.shear_stress, m.normal_stress, m.friction,
-                  m.inertial_number, m.power_density, m.steady ? "" : " (not steady)",
+                  m.friction_error.standard_error, m.inertial_number, m.power_density,
+                  m.steady ? "" : " (not steady)", m.converged ? "" : " (not converged)",
+                  m.overlap_ok ? "" : " (overlap above its bound)",
+                  measurements_json(m).at("overlap_p95_fraction").get<double>(), m.strain,
                   m.wall_seconds, m.particle_steps_per_second));
   const auto snapshot = context.work_dir / "cell.vtp";
   dem::write_particles_vtp(cell.system(), snapshot);

@@ -60,7 +60,18 @@ SELECT c.name AS campaign,
        json_extract(r.result, '$.powder_dissipation_w_m3') AS powder_dissipation_w_m3,
        json_extract(r.result, '$.dissipation_w_m3."media-media"') AS media_media_dissipation_w_m3,
        json_extract(r.result, '$.energy.balance_error') AS energy_balance_error,
-       json_extract(r.result, '$.steady_state.steady') AS steady
+       json_extract(r.result, '$.steady') AS steady,
+       json_extract(r.result, '$.stationary_strain') AS stationary_strain,
+       json_extract(r.result, '$.converged') AS converged,
+       json_extract(r.result, '$.friction_mean_pressure') AS friction_mean_pressure,
+       json_extract(r.result, '$.stresses.mean_pressure_pa') AS mean_pressure_pa,
+       json_extract(r.result, '$.standard_errors.friction') AS friction_se,
+       json_extract(r.result, '$.standard_errors.powder_dissipation_w_m3')
+         AS powder_dissipation_se_w_m3,
+       json_extract(r.result, '$.overlap_mean_fraction') AS overlap_mean_fraction,
+       json_extract(r.result, '$.overlap_p95_fraction') AS overlap_p95_fraction,
+       json_extract(r.result, '$.overlap_max_fraction') AS overlap_max_fraction,
+       json_extract(r.result, '$.overlap_ok') AS overlap_ok
 FROM campaign_tasks ct
 JOIN campaigns c ON c.id = ct.campaign_id
 JOIN tasks cell ON cell.key = ct.task_key AND cell.kind = 'shear_cell' AND cell.status = 'done'

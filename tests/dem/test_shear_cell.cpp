@@ -1,6 +1,7 @@
 // Shear cell construction: counts from the solid fraction and the powder load, placement without
 // overlaps, the wall layers, the servo's derived constants, and input checks.
 #include <gtest/gtest.h>
+#include <algorithm>
 
 #include <numbers>
 
@@ -101,11 +102,14 @@ TEST(ShearCell, ServoConstantsFollowTheDocumentedLaw) {
   const double t_c =
       collision_duration(setup.media_media.normal_stiffness, 0.5 * m,
                          damping_ratio_for_restitution(setup.media_media.restitution));
-  const double k_bed = setup.media_media.normal_stiffness * 16.0 / 6.0;  // (A / d^2) (d / H)
   const double t_wave = 6.0 * t_c;
-  EXPECT_NEAR(cell.servo_mobility(), 0.5 / (k_bed * t_wave), 1e-12 * cell.servo_mobility());
+  // tau = max(t_wave, 0.1 / gdot) / g; M = H / (10 p A tau): the flowing bed's modulus.
+  const double tau = std::max(t_wave, 0.1 / setup.shear_rate) / 0.5;
+  const double area = 16.0 * d * d, gap = 6.0 * d;
+  EXPECT_NEAR(cell.servo_mobility(), gap / (10.0 * 1000.0 * area * tau),
+              1e-12 * cell.servo_mobility());
   EXPECT_NEAR(cell.servo_max_speed(), 0.5 * d / t_wave, 1e-12);
-  EXPECT_DOUBLE_EQ(cell.system().group(2).servo_target_force, -1000.0 * 16 * d * d);
+  EXPECT_DOUBLE_EQ(cell.system().group(2).servo_target_force, -1000.0 * area);
 }
 
 TEST(ShearCell, SizeScaledStiffnessUsesTheHarmonicMeanDiameter) {

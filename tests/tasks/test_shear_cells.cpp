@@ -3,6 +3,7 @@
 // cells run through the task function.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <algorithm>
 
 #include <tbb/task_arena.h>
 
@@ -34,7 +35,11 @@ json tiny_cell_params(double powder_load) {
     "dem": {"seed": 3},
     "media": {"material": "steel", "diameter": 0.01},
     "shear_cell": {"boundary": "walls", "size_diameters": [4, 4, 4], "gravity": false,
-                   "warmup_strain": 0.5, "measure_strain": 1.0, "stress_control": {"gain": 0.5},
+                   "warmup_strain": 0.5, "max_warmup_strain": 0.5, "measure_strain": 1.0,
+                   "convergence": {"standard_error": 0.03, "max_strain": 1.0},
+                   "stiffness": {"policy": "overlap_bound", "mean_overlap_fraction": 0.01,
+                                 "p95_overlap_fraction": 0.03},
+                   "stress_control": {"gain": 0.5},
                    "checkpoint_interval_s": 60, "steps_per_collision": 20,
                    "powder": {"material": "clinker", "diameter_ratio": 0.5, "load": 0}},
     "slot": {"region": "toe", "index": 0}
@@ -249,6 +254,60 @@ TEST(ShearCell, PowderInTheCellDissipates) {
   EXPECT_GT(r.at("powder_count").get<int>(), 0);
   EXPECT_GT(r.at("powder_dissipation_w_m3").get<double>(), 0.0);
   EXPECT_TRUE(std::isfinite(r.at("friction").get<double>()));
+  // The stresses as others define them: p = trace / 3, friction against it beside tau / p_yy.
+  const json& stresses = r.at("stresses");
+  const double p = (stresses.at("xx").get<double>() + stresses.at("yy").get<double>() +
+                    stresses.at("zz").get<double>()) /
+                   3.0;
+  EXPECT_NEAR(stresses.at("mean_pressure_pa").get<double>(), p, 1e-9 * p);
+  EXPECT_EQ(stresses.at("p_yy_pa"), r.at("normal_stress_pa"));
+  EXPECT_NEAR(r.at("friction_mean_pressure").get<double>(),
+              r.at("shear_stress_pa").get<double>() / p, 1e-9);
+  EXPECT_TRUE(r.contains("inertial_number_measured_rate"));
+  // Standard errors, flags and overlaps for the upscaling and the report.
+  for (const char* key : {"friction", "friction_mean_pressure", "shear_stress_pa",
+                          "normal_stress_pa", "power_density_w_m3", "powder_dissipation_w_m3"})
+    EXPECT_GT(r.at("standard_errors").at(key).get<double>(), 0.0) << key;
+  EXPECT_TRUE(r.at("standard_errors").at("dissipation_w_m3").contains("total"));
+  EXPECT_TRUE(r.at("converged").is_boolean());
+  EXPECT_TRUE(r.at("steady").is_boolean());
+  EXPECT_TRUE(r.contains("stationary_strain"));
+  for (const char* pair : {"media-media", "media-powder"}) {
+    const json& o = r.at("overlap").at(pair);
+    EXPECT_LE(o.at("mean_fraction").get<double>(), o.at("p95_fraction").get<double>()) << pair;
+    EXPECT_LE(o.at("p95_fraction").get<double>(), o.at("max_fraction").get<double>()) << pair;
+  }
+  EXPECT_GE(r.at("overlap_p95_fraction").get<double>(),
+            r.at("overlap").at("media-media").at("p95_fraction").get<double>());
+  EXPECT_EQ(r.at("overlap_ok").get<bool>(), r.at("overlap_p95_fraction").get<double>() <= 0.03);
+  // The policy's static bound for the powder pairs at the site's 2 kPa: S sigma d_m^2 / (f d_s)
+  // = 2 x 2000 x 1e-4 / (0.01 x 0.005) = 8000 N/m; each pair takes the largest of the bounds and
+  // the stiffness given.
+  for (const char* pair : {"media-powder", "powder-powder"}) {
+    const json& k = r.at("stiffness").at(pair);
+    EXPECT_NEAR(k.at("static_bound_n_m").get<double>(), 8000.0, 1e-6) << pair;
+    EXPECT_EQ(k.at("k_n_n_m").get<double>(),
+              std::max({k.at("given_n_m").get<double>(), k.at("static_bound_n_m").get<double>(),
+                        k.at("impact_bound_n_m").get<double>()}))
+        << pair;
+  }
+  EXPECT_GT(r.at("stiffness").at("powder-powder").at("k_n_n_m").get<double>(),
+            r.at("stiffness").at("powder-powder").at("given_n_m").get<double>());
+}
+
+TEST(ShearCellSetup, CampaignStiffnessPolicyKeepsTheGivenStiffness) {
+  json params = tiny_cell_params(0.3);
+  dem::ShearCellSetup setup = shear_cell_setup(params, tiny_site(), "key");
+  const double given = setup.powder_powder.normal_stiffness;
+  params["shear_cell"]["stiffness"]["policy"] = "campaign";
+  const auto kept = apply_stiffness_policy(params, setup);
+  EXPECT_EQ(setup.powder_powder.normal_stiffness, given);
+  EXPECT_EQ(kept.at(2).chosen, given);
+  EXPECT_NEAR(kept.at(2).kappa, given / (2000.0 * 0.005), 1e-9 * given);
+  params["shear_cell"]["stiffness"]["policy"] = "overlap_bound";
+  const auto raised = apply_stiffness_policy(params, setup);
+  EXPECT_GT(setup.powder_powder.normal_stiffness, given);
+  EXPECT_EQ(raised.at(2).chosen, setup.powder_powder.normal_stiffness);
 }
 
 // One attempt of a task in a work directory kept across attempts: stopped when it reports
@@ -295,7 +354,8 @@ TEST(ShearCell, Golden) {
        {"/media_count", "/powder_count", "/steps", "/bulk_shear_rate_per_s", "/gap_m",
         "/shear_stress_pa", "/normal_stress_pa", "/power_density_w_m3", "/dissipation_w_m3/total",
         "/powder_dissipation_w_m3", "/collisions/media/count", "/collisions/powder/count",
-        "/energy/balance_error", "/media_solid_fraction"}) {
+        "/energy/balance_error", "/media_solid_fraction", "/stresses/mean_pressure_pa",
+        "/standard_errors/friction", "/overlap_p95_fraction", "/stiffness/powder-powder/k_n_n_m"}) {
     values[pointer] = r.at(json::json_pointer(pointer));
   }
   millflow::testing::check_golden("shear_cell", kShearCellVersion, values);
@@ -308,8 +368,8 @@ TEST(ShearCell, StopsBeforeTheFirstStepWhenAskedAndKeepsACheckpoint) {
   EXPECT_TRUE(std::filesystem::exists(dir.path() / "work" / "cell.ckpt"));
 }
 
-// Stopped three times (in the warm-up's first and third windows and in the measurement: the tiny
-// cell reports progress every 100 steps, its warm-up windows are ~250 steps), each attempt
+// Stopped three times (in the warm-up's first and second windows and in the measurement: the tiny
+// cell reports progress every 100 steps, its warm-up windows are ~400 steps), each attempt
 // continuing from the last one's checkpoint: the same result bytes and snapshot as one attempt.
 TEST(ShearCell, AnInterruptedCellContinuesFromItsCheckpointToTheSameResult) {
   const json params = tiny_cell_params(0.1);
@@ -318,13 +378,13 @@ TEST(ShearCell, AnInterruptedCellContinuesFromItsCheckpointToTheSameResult) {
   ASSERT_FALSE(reference.outcome.interrupted);
   const std::filesystem::path work = interrupted.path() / "work";
   std::vector<std::string> stops;
-  for (int stop_at : {1, 5, 8}) {
+  for (int stop_at : {1, 5, 12}) {
     const Attempt stopped = attempt(params, work, stop_at);
     ASSERT_TRUE(stopped.outcome.interrupted) << "stop at report " << stop_at;
     stops.push_back(stopped.log.back());
   }
-  EXPECT_NE(stops[0].find("(warm-up window 1/4)"), std::string::npos) << stops[0];
-  EXPECT_NE(stops[1].find("(warm-up window 3/4)"), std::string::npos) << stops[1];
+  EXPECT_NE(stops[0].find("(warm-up window 1 (at most 4))"), std::string::npos) << stops[0];
+  EXPECT_NE(stops[1].find("(warm-up window 2 (at most 4))"), std::string::npos) << stops[1];
   EXPECT_NE(stops[2].find("(measuring)"), std::string::npos) << stops[2];
   const Attempt last = attempt(params, work, 0);
   ASSERT_FALSE(last.outcome.interrupted);

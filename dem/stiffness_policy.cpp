@@ -1,0 +1,67 @@
+#include "dem/stiffness_policy.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+
+namespace millflow::dem {
+namespace {
+
+double sphere_mass(double density, double diameter) {
+  return density * std::numbers::pi / 6.0 * diameter * diameter * diameter;
+}
+
+struct PairSlot {
+  ContactType type;
+  InteractionSpec ShearCellSetup::*spec;
+  bool a_is_powder, b_is_powder;
+};
+
+constexpr std::array<PairSlot, 3> kPairs{{
+    {ContactType::MediaMedia, &ShearCellSetup::media_media, false, false},
+    {ContactType::MediaPowder, &ShearCellSetup::media_powder, false, true},
+    {ContactType::PowderPowder, &ShearCellSetup::powder_powder, true, true},
+}};
+
+PairStiffness derive(const ShearCellSetup& s, const PairSlot& slot) {
+  const double d_m = s.media_diameter, d_p = s.powder_diameter_ratio * s.media_diameter;
+  const double d_a = slot.a_is_powder ? d_p : d_m, d_b = slot.b_is_powder ? d_p : d_m;
+  const double m_a = sphere_mass(slot.a_is_powder ? s.powder.density : s.media.density, d_a);
+  const double m_b = sphere_mass(slot.b_is_powder ? s.powder.density : s.media.density, d_b);
+  PairStiffness out;
+  out.pair = contact_type_name(slot.type);
+  out.smaller_diameter = std::min(d_a, d_b);
+  out.given = (s.*slot.spec).normal_stiffness;
+  const double allowed = s.overlap_bound.mean_fraction * out.smaller_diameter;
+  out.static_bound = kOverlapSafety * s.normal_stress * d_m * d_m / allowed;
+  const double speed = s.shear_rate * d_m;
+  out.impact_bound = effective_mass(m_a, m_b) * (speed / allowed) * (speed / allowed);
+  out.chosen = std::max({out.given, out.static_bound, out.impact_bound});
+  out.kappa = out.chosen / (s.normal_stress * out.smaller_diameter);
+  return out;
+}
+
+}  // namespace
+
+std::vector<PairStiffness> apply_overlap_bound(ShearCellSetup& setup) {
+  std::vector<PairStiffness> derived;
+  for (const PairSlot& slot : kPairs) {
+    derived.push_back(derive(setup, slot));
+    (setup.*slot.spec).normal_stiffness = derived.back().chosen;
+  }
+  return derived;
+}
+
+std::vector<PairStiffness> describe_stiffness(const ShearCellSetup& setup) {
+  std::vector<PairStiffness> described;
+  for (const PairSlot& slot : kPairs) {
+    described.push_back(derive(setup, slot));
+    described.back().chosen = described.back().given;
+    described.back().kappa =
+        described.back().given / (setup.normal_stress * described.back().smaller_diameter);
+  }
+  return described;
+}
+
+}  // namespace millflow::dem

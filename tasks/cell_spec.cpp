@@ -1,0 +1,111 @@
+#include "tasks/cell_spec.hpp"
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <stop_token>
+
+#include "engine/json_text.hpp"
+#include "engine/validation.hpp"
+#include "tasks/campaign.hpp"
+#include "tasks/campaign_checks.hpp"
+#include "tasks/shear_cell.hpp"
+
+namespace millflow::tasks {
+namespace {
+
+using engine::Field;
+using engine::FieldType;
+using nlohmann::json;
+
+// The campaign's blocks a cell needs, under the same rules.
+bool cell_block(const std::string& path) {
+  for (const char* block : {"/materials", "/interactions", "/media", "/shear_cell", "/dem"}) {
+    const std::string prefix = block;
+    if (path == prefix || path.rfind(prefix + "/", 0) == 0) return true;
+  }
+  return false;
+}
+
+engine::FieldTable make_cell_spec_table() {
+  std::vector<engine::FieldRule> rules = {
+      Field("", FieldType::object, "one shear cell outside a campaign"),
+      Field("/shear_rate", FieldType::number, "the cell's target shear rate")
+          .unit("1/s")
+          .required()
+          .range(engine::above(0), {}),
+      Field("/normal_stress", FieldType::number, "the normal stress the cell imposes")
+          .unit("Pa")
+          .required()
+          .range(engine::above(0), {}),
+  };
+  for (const engine::FieldRule& rule : campaign_table().rules()) {
+    if (cell_block(rule.path)) rules.push_back(rule);
+  }
+  return engine::FieldTable(std::move(rules));
+}
+
+// A sites task's result holding the spec's one site, the slot that names it.
+const json kSlot = {{"region", "cell"}, {"index", 0}};
+
+json spec_site(const json& spec) {
+  return {{"site_id", slot_site_id(kSlot)},
+          {"region", "cell"},
+          {"shear_rate_per_s", spec.at("shear_rate")},
+          {"normal_stress_pa", spec.at("normal_stress")}};
+}
+
+}  // namespace
+
+const engine::FieldTable& cell_spec_table() {
+  static const engine::FieldTable table = make_cell_spec_table();
+  return table;
+}
+
+json parse_cell_spec(std::string_view text) {
+  auto [document, errors] = engine::parse_json_text(text);
+  if (!document.is_object()) {
+    throw engine::InvalidInput({{"", "expected an object, got " + engine::describe_value(document),
+                                 "write the spec as a JSON object {\"shear_rate\": ..., ...}"}});
+  }
+  auto [spec, field_errors] = engine::validate(document, cell_spec_table());
+  errors.insert(errors.end(), field_errors.begin(), field_errors.end());
+  const auto consistency = check_campaign_consistency(spec, errors);
+  errors.insert(errors.end(), consistency.begin(), consistency.end());
+  if (!errors.empty()) throw engine::InvalidInput(std::move(errors));
+  return spec;
+}
+
+json load_cell_spec(const std::filesystem::path& file) {
+  std::ifstream stream(file, std::ios::binary);
+  if (!stream) {
+    throw engine::InvalidInput(
+        {{"", "cannot read cell spec " + file.string() + ": " + std::strerror(errno),
+          "check the file name and its permissions"}});
+  }
+  std::ostringstream text;
+  text << stream.rdbuf();
+  return parse_cell_spec(text.str());
+}
+
+json run_cell_spec(const json& spec, const std::filesystem::path& out_dir,
+                   const std::function<void(std::string_view)>& log) {
+  json params = spec;
+  params["slot"] = kSlot;
+  const std::vector<engine::TaskInput> inputs = {
+      {.key = "spec", .kind = "sites", .result = {{"sites", {spec_site(spec)}}}, .artifacts = {}}};
+  std::stop_source never;
+  engine::TaskContext context{.key = "cell",
+                              .params = params,
+                              .inputs = inputs,
+                              .work_dir = out_dir,
+                              .threads = 1,
+                              .attempt = 1,
+                              .stop = never.get_token(),
+                              .progress = [](double, std::string_view) {},
+                              .log = log};
+  return run_shear_cell(context).result;
+}
+
+}  // namespace millflow::tasks

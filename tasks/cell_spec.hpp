@@ -1,0 +1,34 @@
+#pragma once
+// One shear cell outside a campaign (`millflow cell SPEC.json`): for calibrating rheology and for
+// comparing a cell with other DEM codes.
+//
+// The spec file holds a campaign's /materials, /interactions, /media, /shear_cell and (optional)
+// /dem blocks, checked by the same field table and cross-field checks as a campaign, plus
+//   /shear_rate      the cell's target shear rate, 1/s (> 0)
+//   /normal_stress   the normal stress it imposes, Pa (> 0)
+// The cell runs as a shear_cell task of site "cell-0" would (tasks/shear_cell.hpp), its seed
+// from /dem/seed and the key "cell"; its result is that task's result JSON.
+#include <filesystem>
+#include <functional>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+#include "engine/json_validator.hpp"
+
+namespace millflow::tasks {
+
+// The fields of a cell spec.
+const engine::FieldTable& cell_spec_table();
+
+// Reads and validates a spec file; throws engine::InvalidInput with every error.
+nlohmann::json load_cell_spec(const std::filesystem::path& file);
+nlohmann::json parse_cell_spec(std::string_view text);
+
+// Runs the validated spec's cell in out_dir (created; it keeps cell.vtp and result.json, and the
+// checkpoint while it runs, so an interrupted command continues where it stopped). Log lines go
+// to `log`. Returns the result JSON.
+nlohmann::json run_cell_spec(const nlohmann::json& spec, const std::filesystem::path& out_dir,
+                             const std::function<void(std::string_view)>& log);
+
+}  // namespace millflow::tasks

@@ -1,0 +1,85 @@
+// `millflow cell SPEC.json --out DIR`: one shear cell outside a campaign, its spec validated with
+// the campaign's field table and messages, its result JSON alone on stdout.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "tests/common/child_process.hpp"
+#include "tests/common/scratch_dir.hpp"
+
+namespace millflow::testing {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// A small media-only Lees-Edwards cell that runs in about a second.
+json tiny_spec() {
+  return json::parse(R"({
+    "materials": {"steel": {"density": 7800}, "clinker": {"density": 3150}},
+    "interactions": [
+      {"materials": ["steel", "steel"], "restitution": 0.5, "friction": 0.5, "stiffness": {"collision_time": 0.001}},
+      {"materials": ["steel", "clinker"], "restitution": 0.5, "friction": 0.5, "stiffness": {"collision_time": 0.001}},
+      {"materials": ["clinker", "clinker"], "restitution": 0.5, "friction": 0.5, "stiffness": {"collision_time": 0.001}}],
+    "media": {"material": "steel", "diameter": 0.01},
+    "shear_cell": {"boundary": "lees_edwards", "size_diameters": [4, 4, 4],
+                   "warmup_strain": 0.5, "max_warmup_strain": 0.5, "measure_strain": 0.5,
+                   "convergence": {"max_strain": 0.5}, "steps_per_collision": 20,
+                   "powder": {"material": "clinker", "diameter_ratio": 0.5, "load": 0}},
+    "shear_rate": 20,
+    "normal_stress": 2000
+  })");
+}
+
+class CellCommand : public ::testing::Test {
+ protected:
+  fs::path write_spec(const json& spec) {
+    const fs::path file = dir_.path() / "spec.json";
+    std::ofstream(file) << spec.dump(2);
+    return file;
+  }
+  ScratchDir dir_;
+};
+
+TEST_F(CellCommand, BadSpecIsRefusedWithTheCampaignsMessagesAndExitTwo) {
+  json spec = tiny_spec();
+  spec.erase("shear_rate");
+  spec["normal_stress"] = -1;
+  spec["shear_cell"]["convergence"]["max_strain"] = 0.1;
+  const auto out = dir_.path() / "out";
+  const auto finished =
+      run_millflow({"cell", write_spec(spec).string(), "--out", out.string()}, dir_.path());
+  EXPECT_EQ(finished.exit_code, 2);
+  EXPECT_EQ(finished.out, "");
+  EXPECT_EQ(
+      finished.err,
+      "millflow: invalid input:\n"
+      "/shear_rate: required field is missing; add the cell's target shear rate, a number > 0 "
+      "1/s\n"
+      "/normal_stress: -1 Pa is out of range; the normal stress the cell imposes must be > 0 "
+      "Pa\n"
+      "/shear_cell/convergence/max_strain: 0.1 is below /shear_cell/measure_strain = 0.5; "
+      "raise it to at least 0.5 or lower /shear_cell/measure_strain\n");
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST_F(CellCommand, PrintsTheCellsResultAndLeavesItsFilesInTheOutputDirectory) {
+  const auto out = dir_.path() / "out";
+  const auto finished =
+      run_millflow({"cell", write_spec(tiny_spec()).string(), "--out", out.string()}, dir_.path());
+  ASSERT_EQ(finished.exit_code, 0) << finished.err;
+  const json result = json::parse(finished.out);
+  EXPECT_EQ(result.at("site").at("shear_rate_per_s"), 20.0);
+  EXPECT_EQ(result.at("site").at("normal_stress_pa"), 2000.0);
+  EXPECT_EQ(result.at("powder_count"), 0);
+  EXPECT_GT(result.at("friction").get<double>(), 0.0);
+  EXPECT_TRUE(result.contains("standard_errors"));
+  EXPECT_TRUE(result.at("stiffness").contains("media-media"));
+  EXPECT_TRUE(fs::exists(out / "cell.vtp"));
+  EXPECT_FALSE(fs::exists(out / "cell.ckpt"));
+  EXPECT_NE(finished.err.find("shear cell stiffness at sigma_n 2000 Pa"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace millflow::testing
