@@ -853,6 +853,32 @@ EnergyBudget System::energy() const {
   return budget;
 }
 
+namespace {
+
+template <class T>
+std::size_t bytes_of(const std::vector<T>& v) {
+  return v.capacity() * sizeof(T);
+}
+
+}  // namespace
+
+std::size_t System::memory_bytes() const {
+  std::size_t bytes = neighbors_.memory_bytes();
+  for (const auto* array :
+       {&position_, &velocity_, &angular_velocity_, &force_, &torque_, &predicted_velocity_,
+        &predicted_angular_velocity_, &pair_force_, &pair_torque_a_, &pair_torque_b_})
+    bytes += bytes_of(*array);
+  for (const auto* array : {&radius_, &mass_, &inv_mass_, &inv_inertia_}) bytes += bytes_of(*array);
+  bytes += bytes_of(material_) + bytes_of(group_) + bytes_of(pair_history_) +
+           bytes_of(pair_touching_) + bytes_of(pair_active_) + bytes_of(pair_finished_) +
+           bytes_of(finished_pair_history_) + bytes_of(particle_pair_offset_) +
+           bytes_of(particle_pair_entry_) + bytes_of(particle_in_contact_) +
+           bytes_of(finished_wall_mask_);
+  for (const WallSlots& buffer : wall_slots_)
+    bytes += bytes_of(buffer.slot) + bytes_of(buffer.count);
+  return bytes;
+}
+
 std::vector<CollisionEvent> System::take_collision_events() {
   return std::exchange(events_, {});
 }

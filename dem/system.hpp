@@ -207,6 +207,10 @@ class System {
 
   Rng& rng() { return rng_; }
 
+  // Bytes held by the particle, contact and neighbour-list arrays (their capacities), the memory
+  // a step works on.
+  std::size_t memory_bytes() const;
+
  private:
   friend class CheckpointAccess;
 
