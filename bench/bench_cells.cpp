@@ -22,7 +22,10 @@
 //   --cells_steps=N           steps per timed iteration (default: per scene)
 //   --cells_shear_rate=R      the site's shear rate, 1/s (default 2)
 //   --cells_normal_stress=P   the site's normal stress, Pa (default 1e5)
-//   --cells_warmup_strain=S   shear strain run after compaction, before timing (default 0.05)
+//   --cells_warmup_strain=S   shear strain run after compaction, before timing (default 1 for
+//                             the media cell, 0.05 for the cement cells)
+//   --cells_lammps_dir=D      write le_media_2000's state and parameters for LAMMPS into D
+//                             (bench/run_cell_comparison.sh)
 //   --cells_cache=DIR         where the prepared states are kept (default: none)
 #include <sys/resource.h>
 #include <tbb/task_arena.h>
@@ -39,6 +42,7 @@
 #include <string>
 #include <string_view>
 
+#include "bench/lammps_export.hpp"
 #include "dem/shear_cell.hpp"
 #include "tasks/campaign.hpp"
 #include "tasks/shear_cell.hpp"
@@ -55,8 +59,9 @@ struct Options {
   std::optional<std::size_t> steps;
   double shear_rate = 2.0;     // 1/s
   double normal_stress = 1e5;  // Pa
-  double warmup_strain = 0.05;
+  std::optional<double> warmup_strain;
   std::optional<std::filesystem::path> cache;
+  std::optional<std::filesystem::path> lammps_dir;
 };
 Options g_options;
 
@@ -65,11 +70,15 @@ struct CellCase {
   double powder_load = 0.0;
   bool media_only_small_balls = false;  // le_media_2000
   std::size_t default_steps = 0;
+  double warmup_strain = 0.05;  // the media cell, cheap, runs to a denser state
 };
 
 const std::vector<CellCase>& cases() {
   static const std::vector<CellCase> all{
-      {.name = "le_media_2000", .media_only_small_balls = true, .default_steps = 400},
+      {.name = "le_media_2000",
+       .media_only_small_balls = true,
+       .default_steps = 400,
+       .warmup_strain = 1.0},
       {.name = "cement_load05", .powder_load = 0.5, .default_steps = 40},
       {.name = "cement_load15", .powder_load = 1.5, .default_steps = 20},
   };
@@ -100,8 +109,12 @@ dem::ShearCellSetup setup_of(const CellCase& c) {
   return setup;
 }
 
-dem::ShearCellProtocol protocol() {
-  return {.warmup_strain = g_options.warmup_strain,
+double warmup_strain(const CellCase& c) {
+  return g_options.warmup_strain.value_or(c.warmup_strain);
+}
+
+dem::ShearCellProtocol protocol(const CellCase& c) {
+  return {.warmup_strain = warmup_strain(c),
           .warmup_windows = 1,
           .measure_strain = kHugeMeasureStrain,
           .measure = {}};
@@ -124,11 +137,11 @@ const dem::ShearCellRun& prepared(const CellCase& c) {
   if (g_options.cache) {
     std::filesystem::create_directories(*g_options.cache);
     file = *g_options.cache / fmt::format("{}_rate{}_p{}_warm{}.ckpt", c.name, g_options.shear_rate,
-                                          g_options.normal_stress, g_options.warmup_strain);
+                                          g_options.normal_stress, warmup_strain(c));
     if (std::filesystem::exists(*file)) {
       try {
         slot = std::make_unique<dem::ShearCellRun>(
-            dem::ShearCellRun::resume(setup, protocol(), *file));
+            dem::ShearCellRun::resume(setup, protocol(c), *file));
         return *slot;
       } catch (const std::exception& e) {
         fmt::print(stderr, "bench_cells: {}: regenerating ({})\n", c.name, e.what());
@@ -136,7 +149,7 @@ const dem::ShearCellRun& prepared(const CellCase& c) {
     }
   }
   const auto start = Clock::now();
-  slot = std::make_unique<dem::ShearCellRun>(setup, protocol());
+  slot = std::make_unique<dem::ShearCellRun>(setup, protocol(c));
   tbb::task_arena arena(2);
   arena.execute([&] {
     while (slot->phase_name() != "measuring") slot->advance(1000);
@@ -149,9 +162,29 @@ const dem::ShearCellRun& prepared(const CellCase& c) {
   return *slot;
 }
 
+// The media cell's state and parameters for bench/lammps/in.shear (one pair type: exact).
+void export_for_lammps(const CellCase& c, const dem::ShearCellRun& run) {
+  const dem::System& system = run.cell().system();
+  const dem::ShearCellSetup& setup = run.cell().setup();
+  bench::LammpsParams params;
+  const double ball_mass = system.masses()[0];
+  bench::add_contact_params(params, "", setup.media_media, 0.5 * ball_mass);
+  params.set("dt", system.time_step());
+  params.set("skin", 0.6 * system.radii()[0]);  // System's default: 0.6 x smallest radius
+  params.set("shear_rate", setup.shear_rate);
+  params.notes.push_back(
+      "LAMMPS runs a fixed box: millflow's barostat and measurement are not "
+      "part of it");
+  std::filesystem::create_directories(*g_options.lammps_dir);
+  bench::write_lammps_data(system, c.name, *g_options.lammps_dir / (c.name + ".data"));
+  bench::write_lammps_params(c.name, "bench_cells, measurement phase", params,
+                             *g_options.lammps_dir / (c.name + ".params"));
+}
+
 void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   spdlog::set_level(spdlog::level::warn);
   dem::ShearCellRun run = prepared(c);  // every benchmark times its own copy
+  if (g_options.lammps_dir && c.media_only_small_balls) export_for_lammps(c, run);
   const std::size_t steps = g_options.steps.value_or(c.default_steps);
   const std::size_t particles = run.cell().system().size();
   tbb::task_arena arena(threads);
@@ -167,6 +200,9 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   }
   const dem::System& system = run.cell().system();
   const double particle_steps = static_cast<double>(particles * total_steps);
+  // For bench/run_cell_comparison.sh: RESULT scene threads particles steps wall-s cpu-s.
+  fmt::print(stderr, "RESULT {} {} {} {} {:.6g} {:.6g}\n", c.name, threads, particles, total_steps,
+             wall, cpu);
   state.counters["particles"] = static_cast<double>(particles);
   state.counters["pts_per_s"] = particle_steps / wall;
   state.counters["pts_per_cpu_s"] = particle_steps / cpu;
@@ -200,6 +236,7 @@ int main(int argc, char** argv) {
   if (auto v = take_flag(argc, argv, "cells_warmup_strain"))
     g_options.warmup_strain = std::stod(*v);
   if (auto v = take_flag(argc, argv, "cells_cache")) g_options.cache = *v;
+  if (auto v = take_flag(argc, argv, "cells_lammps_dir")) g_options.lammps_dir = *v;
   for (const CellCase& c : cases()) {
     for (const int threads : {1, 2}) {
       benchmark::RegisterBenchmark(
