@@ -510,6 +510,7 @@ void permute(std::vector<T>& values, std::span<const ParticleId> old_of) {
 
 std::vector<ParticleId> System::reorder_particles() {
   const std::size_t n = size();
+  if (n == 0) return {};
   if (!prepared_) prepare_first_step();
   // The Morton key of each particle's cell.
   const double cell = 2.0 * *std::min_element(radius_.begin(), radius_.end()) + skin_;
