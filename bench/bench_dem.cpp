@@ -32,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/lammps_export.hpp"
 #include "dem/mill_setup.hpp"
 #include "dem/packing.hpp"
 #include "dem/system.hpp"
@@ -40,6 +41,10 @@ namespace {
 
 using namespace millflow::dem;
 using Clock = std::chrono::steady_clock;
+using millflow::bench::add_contact_params;
+using millflow::bench::LammpsParams;
+using millflow::bench::write_lammps_data;
+using millflow::bench::write_lammps_params;
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kContactDuration = 1e-4;  // media-media and media-liner t_c, s
@@ -69,13 +74,6 @@ void with_threads(int threads, F&& body) {
   tbb::task_arena arena(threads);
   arena.execute(std::forward<F>(body));
 }
-
-// What LAMMPS needs to run the same scene: its parameters as `variable` lines.
-struct LammpsParams {
-  std::vector<std::pair<std::string, double>> values;
-  std::vector<std::string> notes;  // written as comments
-  void set(const std::string& name, double value) { values.emplace_back(name, value); }
-};
 
 // A scene in its flowing state, ready to be copied and timed.
 struct Scene {
@@ -143,23 +141,6 @@ System with_materials(const System& source, MaterialTable materials) {
 double mill_speed(const MillSetup& setup) {
   return setup.speed_fraction *
          critical_speed(2.0 * setup.shell.radius, setup.ball_diameter, setup.gravity);
-}
-
-// LAMMPS's gran/hooke dashpot is m_eff * gamma * v: gamma = 2 zeta sqrt(k_n / m_eff) gives our
-// C_n = 2 zeta sqrt(k_n m_eff) exactly for that one m_eff.
-double lammps_gamma(const InteractionSpec& spec, double m_eff) {
-  return 2.0 * damping_ratio_for_restitution(spec.restitution) *
-         std::sqrt(spec.normal_stiffness / m_eff);
-}
-
-void add_contact_params(LammpsParams& out, const std::string& prefix, const InteractionSpec& spec,
-                        double m_eff) {
-  const double gamma_n = lammps_gamma(spec, m_eff);
-  out.set(prefix + "kn", spec.normal_stiffness);
-  out.set(prefix + "kt", spec.tangential_stiffness_ratio * spec.normal_stiffness);
-  out.set(prefix + "gamman", gamma_n);
-  out.set(prefix + "gammat", spec.tangential_damping_ratio * gamma_n);
-  out.set(prefix + "xmu", spec.friction);
 }
 
 Scene make_mill(const MillCase& c) {
@@ -411,52 +392,6 @@ Scene make_shear_cell(const std::string& name, int size_ratio, std::size_t warm_
 }
 
 // ---------------------------------------------------------------------------------------------
-// LAMMPS export: atom_style sphere data file (type 1 media, type 2 powder) and a params file.
-
-void write_lammps_data(const Scene& scene, const std::filesystem::path& path) {
-  const System& s = scene.system;
-  const Domain& d = s.domain();
-  std::ofstream out(path);
-  out << fmt::format("millflow scene {} (warm state, t = {} s)\n\n{} atoms\n2 atom types\n\n",
-                     scene.name, s.time(), s.size());
-  out << fmt::format("{:.17g} {:.17g} xlo xhi\n{:.17g} {:.17g} ylo yhi\n{:.17g} {:.17g} zlo zhi\n",
-                     d.lo.x(), d.hi.x(), d.lo.y(), d.hi.y(), d.lo.z(), d.hi.z());
-  if (d.lees_edwards.enabled) {
-    // LAMMPS keeps the tilt in [-L/2, L/2]; the images are the same modulo L.
-    const double length = d.length().x();
-    double tilt = std::fmod(d.lees_edwards.offset, length);
-    if (tilt > 0.5 * length) tilt -= length;
-    out << fmt::format("{:.17g} 0 0 xy xz yz\n", tilt);
-  }
-  out << "\nAtoms # sphere\n\n";
-  for (std::size_t p = 0; p < s.size(); ++p) {
-    const double diameter = 2.0 * s.radii()[p];
-    const double density = s.masses()[p] / (kPi * diameter * diameter * diameter / 6.0);
-    const Vec3& x = s.positions()[p];
-    out << fmt::format("{} {} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}\n", p + 1,
-                       s.particle_materials()[p] == 0 ? 1 : 2, diameter, density, x.x(), x.y(),
-                       x.z());
-  }
-  out << "\nVelocities\n\n";
-  for (std::size_t p = 0; p < s.size(); ++p) {
-    const Vec3& v = s.velocities()[p];
-    const Vec3& w = s.angular_velocities()[p];
-    out << fmt::format("{} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}\n", p + 1, v.x(), v.y(),
-                       v.z(), w.x(), w.y(), w.z());
-  }
-  if (!out) throw std::runtime_error(fmt::format("could not write {}", path.string()));
-}
-
-void write_lammps_params(const Scene& scene, const std::filesystem::path& path) {
-  std::ofstream out(path);
-  out << fmt::format("# millflow scene {}: {}\n", scene.name, scene.description);
-  for (const std::string& note : scene.lammps.notes) out << "# " << note << "\n";
-  for (const auto& [name, value] : scene.lammps.values)
-    out << fmt::format("variable {} equal {:.17g}\n", name, value);
-  if (!out) throw std::runtime_error(fmt::format("could not write {}", path.string()));
-}
-
-// ---------------------------------------------------------------------------------------------
 // Benchmarks
 
 struct Options {
@@ -518,8 +453,9 @@ class SceneCache {
  private:
   static void export_for_lammps(const Scene& scene) {
     std::filesystem::create_directories(*g_options.lammps_dir);
-    write_lammps_data(scene, *g_options.lammps_dir / (scene.name + ".data"));
-    write_lammps_params(scene, *g_options.lammps_dir / (scene.name + ".params"));
+    write_lammps_data(scene.system, scene.name, *g_options.lammps_dir / (scene.name + ".data"));
+    write_lammps_params(scene.name, scene.description, scene.lammps,
+                        *g_options.lammps_dir / (scene.name + ".params"));
   }
   std::map<std::string, std::function<Scene()>> makers_;
   std::map<std::string, std::unique_ptr<Scene>> scenes_;

@@ -272,8 +272,9 @@ class CheckpointAccess {
     }
     for (std::size_t p = 0; p < s.size(); ++p) {
       const System::WallSlots& current = s.current_wall_slots();
-      out.put(current.count[p]);
-      for (int c = 0; c < current.count[p]; ++c) {
+      const int count = s.wall_contact_count(p);
+      out.put(static_cast<std::uint8_t>(count));
+      for (int c = 0; c < count; ++c) {
         const WallContactHistory& slot = current.of(p)[c];
         out.put(slot.wall);
         out.put(slot.feature);
@@ -288,6 +289,10 @@ class CheckpointAccess {
       out.put(d.tangential);
       out.put(d.friction);
     }
+    for (int row = 0; row < 3; ++row) {
+      for (int col = 0; col < 3; ++col) out.put(s.contact_virial_(row, col));
+    }
+    out.put(s.reorder_every_);
     return out.bytes();
   }
 
@@ -346,15 +351,19 @@ class CheckpointAccess {
       histories.push_back(get_history(in));
       forces.push_back(version >= 2 ? get_vec3(in) : Vec3::Zero());
     }
-    for (System::WallSlots& buffer : s.wall_slots_) buffer.resize(n);
+    if (!s.walls_.empty()) {
+      for (System::WallSlots& buffer : s.wall_slots_) buffer.resize(n);
+    }
     s.wall_current_ = 0;
     s.finished_wall_mask_.assign(n, 0);
     System::WallSlots& current = s.wall_slots_[0];
     for (std::size_t p = 0; p < n; ++p) {
-      current.count[p] = in.get<std::uint8_t>();
-      if (current.count[p] > kMaxWallContactsPerParticle)
+      const auto count = in.get<std::uint8_t>();
+      if (count > (s.walls_.empty() ? 0 : kMaxWallContactsPerParticle))
         throw CorruptData("checkpoint: too many wall contacts");
-      for (int c = 0; c < current.count[p]; ++c) {
+      if (count == 0) continue;
+      current.count[p] = count;
+      for (int c = 0; c < count; ++c) {
         WallContactHistory& slot = current.of(p)[c];
         slot.wall = in.get<std::int32_t>();
         slot.feature = in.get<std::int32_t>();
@@ -369,6 +378,12 @@ class CheckpointAccess {
       d.tangential = in.get<double>();
       d.friction = in.get<double>();
     }
+    if (version >= 3) {
+      for (int row = 0; row < 3; ++row) {
+        for (int col = 0; col < 3; ++col) s.contact_virial_(row, col) = in.get<double>();
+      }
+      s.reorder_every_ = in.get<std::uint64_t>();
+    }
     if (!in.at_end()) throw CorruptData("checkpoint: trailing bytes after the last section");
 
     // Forces, loads and histories are restored; only the neighbour list is rebuilt, which does
@@ -377,14 +392,18 @@ class CheckpointAccess {
     // the next step (stress virials, flow frames) sees what the uninterrupted run saw.
     s.neighbors_ = NeighborSearch(NeighborSearchOptions{.skin = s.skin_});
     s.rebuild_neighbors(pairs, std::move(histories));
-    const auto& rebuilt = s.neighbors_.pairs();
-    std::size_t k = 0;
-    for (std::size_t c = 0; c < pairs.size(); ++c) {
-      while (k < rebuilt.size() && (rebuilt[k].i != pairs[c].i || rebuilt[k].j != pairs[c].j)) ++k;
-      if (k == rebuilt.size())
-        throw CorruptData("checkpoint: a touching pair is out of reach of its particles");
-      s.pair_force_[k] = forces[c];
-      s.pair_active_[k] = 1;
+    try {
+      s.restore_pair_forces(pairs, forces);
+    } catch (const std::logic_error&) {
+      throw CorruptData("checkpoint: a touching pair is out of reach of its particles");
+    }
+    // Older files lack the virial: sum it again (in another order than the force pass did).
+    if (version < 3) {
+      for (std::size_t c = 0; c < pairs.size(); ++c) {
+        s.contact_virial_.noalias() +=
+            forces[c] *
+            domain.separation(s.position_[pairs[c].i], s.position_[pairs[c].j]).transpose();
+      }
     }
     s.prepared_ = prepared;
     return s;

@@ -3,7 +3,7 @@
 // the same bits as a run that never stopped.
 //
 // File: the checksummed container of dem/binary_io.hpp with magic "MFDEMCKP", payload version
-// kCheckpointVersion. Payload (version 2), in order, every Vec3 as three doubles:
+// kCheckpointVersion. Payload (version 3), in order, every Vec3 as three doubles:
 //   materials: count; per material: name, density; per pair a <= b: defined flag (uint8) and, if
 //              defined, restitution, friction, normal stiffness, tangential stiffness ratio,
 //              tangential damping ratio
@@ -27,6 +27,9 @@
 //   wall contacts: per particle count (uint8) and, per contact, wall, feature (int32), history,
 //                  force on the particle, contact point
 //   dissipation of finished contacts per category: count; normal, tangential, friction each
+//   since version 3: the contact virial (System::contact_virial), 9 doubles row by row (older
+//   files sum it again from the pair forces, in another order, so its last bits may differ),
+//   and the reorder interval (uint64; 0 in older files)
 // A history is: spring, start time, impact speed, impact energy, elastic energy, dissipated
 // (normal, tangential, friction), contact point, touching (uint8).
 // Collision events not yet taken are not saved: take them before checkpointing.
@@ -39,7 +42,7 @@
 
 namespace millflow::dem {
 
-inline constexpr std::uint32_t kCheckpointVersion = 2;
+inline constexpr std::uint32_t kCheckpointVersion = 3;
 
 // The payload above, for files that keep a system beside state of their own (the shear cell's
 // checkpoint, dem/shear_cell.hpp); `version` is the payload's (kCheckpointVersion when written by

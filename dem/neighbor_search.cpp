@@ -312,6 +312,17 @@ bool NeighborSearch::needs_rebuild(const Domain& domain, std::size_t particle_co
   return 2.0 * max_displacement + std::abs(offset_change) >= options_.skin;
 }
 
+std::size_t NeighborSearch::memory_bytes() const {
+  const auto bytes_of = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  std::size_t bytes = bytes_of(level_of_) + bytes_of(level_members_) + bytes_of(partner_begin_) +
+                      bytes_of(partner_count_) + bytes_of(lower_count_) +
+                      bytes_of(incoming_begin_) + bytes_of(incoming_) + bytes_of(row_begin_) +
+                      bytes_of(pairs_) + bytes_of(reference_positions_);
+  for (const Chunk& chunk : chunks_) bytes += bytes_of(chunk.partners);
+  for (const CellGrid& grid : grids_) bytes += grid.memory_bytes();
+  return bytes;
+}
+
 std::vector<NeighborPair> brute_force_pairs(const Domain& domain, std::span<const Vec3> positions,
                                             std::span<const double> radii, double skin) {
   validate_skin(skin);

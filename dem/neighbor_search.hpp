@@ -65,6 +65,8 @@ class NeighborSearch {
   std::size_t build_count() const { return build_count_; }
   const Stats& last_build_stats() const { return stats_; }
   const NeighborSearchOptions& options() const { return options_; }
+  // Bytes held by the grids, candidate lists and reference positions (their capacities).
+  std::size_t memory_bytes() const;
 
  private:
   // Candidates of a block of consecutive particles, found by one task.

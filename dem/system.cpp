@@ -113,7 +113,9 @@ ParticleId System::add_particle(const ParticleSpec& spec) {
   inv_inertia_.push_back(free ? 1.0 / (0.4 * mass * spec.radius * spec.radius) : 0.0);
   material_.push_back(spec.material);
   group_.push_back(spec.group);
-  for (WallSlots& buffer : wall_slots_) buffer.resize(size());
+  if (!walls_.empty()) {
+    for (WallSlots& buffer : wall_slots_) buffer.resize(size());
+  }
   finished_wall_mask_.push_back(0);
   prepared_ = false;
   return static_cast<ParticleId>(id);
@@ -148,6 +150,7 @@ std::size_t System::add_wall(const Wall& wall) {
   }
   walls_.push_back(wall);
   wall_loads_.emplace_back();
+  for (WallSlots& buffer : wall_slots_) buffer.resize(size());
   finished_dissipation_.resize(category_count());
   prepared_ = false;
   return walls_.size() - 1;
@@ -299,7 +302,7 @@ void System::deform_affinely(int axis, double factor) {
   domain_.hi[axis] = lo + factor * (domain_.hi[axis] - lo);
   if (domain_.lees_edwards.enabled && domain_.lees_edwards.gradient_axis == axis)
     domain_.lees_edwards.velocity *= factor;
-  neighbors_.invalidate();
+  contact_virial_.col(axis) *= factor;
 }
 
 void System::check_overlaps(double tolerance) const {
@@ -338,6 +341,7 @@ void System::prepare_first_step() {
 void System::step(std::size_t count) {
   if (!prepared_) prepare_first_step();
   for (std::size_t n = 0; n < count; ++n) {
+    if (reorder_every_ > 0 && step_count_ % reorder_every_ == 0) reorder_particles();
     domain_.advance_shear(dt_);  // the image offset at t + dt, where drift() wraps positions
     const bool rebuild = kick_and_drift(/*finish_last_kick=*/n > 0);
     time_ += dt_;
@@ -446,6 +450,7 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
     }
   }
   pair_force_.assign(pairs.size(), Vec3::Zero());
+  pair_branch_.assign(pairs.size(), Vec3::Zero());
   pair_torque_a_.assign(pairs.size(), Vec3::Zero());
   pair_torque_b_.assign(pairs.size(), Vec3::Zero());
   pair_active_.assign(pairs.size(), 0);
@@ -465,6 +470,119 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
     particle_pair_entry_[fill[pairs[k].i]++] = 2 * k;
     particle_pair_entry_[fill[pairs[k].j]++] = 2 * k + 1;
   }
+}
+
+void System::restore_pair_forces(std::span<const NeighborPair> pairs,
+                                 std::span<const Vec3> forces) {
+  const auto& rebuilt = neighbors_.pairs();
+  std::size_t k = 0;
+  for (std::size_t c = 0; c < pairs.size(); ++c) {
+    while (k < rebuilt.size() && !(rebuilt[k] == pairs[c])) ++k;
+    if (k == rebuilt.size())
+      throw std::logic_error(fmt::format(
+          "a touching pair ({}, {}) is out of reach of its particles", pairs[c].i, pairs[c].j));
+    pair_force_[k] = forces[c];
+    pair_active_[k] = 1;
+  }
+}
+
+namespace {
+
+// Spreads the low 21 bits of v to every third bit (bit b goes to bit 3 b).
+std::uint64_t spread_bits(std::uint64_t v) {
+  v &= 0x1fffff;
+  v = (v | v << 32) & 0x1f00000000ffffULL;
+  v = (v | v << 16) & 0x1f0000ff0000ffULL;
+  v = (v | v << 8) & 0x100f00f00f00f00fULL;
+  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+  v = (v | v << 2) & 0x1249249249249249ULL;
+  return v;
+}
+
+template <class T>
+void permute(std::vector<T>& values, std::span<const ParticleId> old_of) {
+  std::vector<T> permuted(values.size());
+  for (std::size_t p = 0; p < old_of.size(); ++p) permuted[p] = values[old_of[p]];
+  values = std::move(permuted);
+}
+
+}  // namespace
+
+std::vector<ParticleId> System::reorder_particles() {
+  const std::size_t n = size();
+  if (n == 0) return {};
+  if (!prepared_) prepare_first_step();
+  // The Morton key of each particle's cell.
+  const double cell = 2.0 * *std::min_element(radius_.begin(), radius_.end()) + skin_;
+  std::vector<std::pair<std::uint64_t, ParticleId>> keyed;
+  std::vector<ParticleId> free_slots;
+  for (std::size_t p = 0; p < n; ++p) {
+    if (!is_free(p)) continue;
+    std::uint64_t key = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double c = std::floor((position_[p][a] - domain_.lo[a]) / cell);
+      key |= spread_bits(static_cast<std::uint64_t>(std::clamp(c, 0.0, 2097151.0))) << a;
+    }
+    keyed.emplace_back(key, static_cast<ParticleId>(p));
+    free_slots.push_back(static_cast<ParticleId>(p));
+  }
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<ParticleId> old_of(n), new_of(n);
+  for (std::size_t p = 0; p < n; ++p) old_of[p] = static_cast<ParticleId>(p);
+  for (std::size_t r = 0; r < keyed.size(); ++r) old_of[free_slots[r]] = keyed[r].second;
+  for (std::size_t p = 0; p < n; ++p) new_of[old_of[p]] = static_cast<ParticleId>(p);
+
+  for (auto* array : {&position_, &velocity_, &angular_velocity_, &force_, &torque_,
+                      &predicted_velocity_, &predicted_angular_velocity_})
+    permute(*array, old_of);
+  for (auto* array : {&radius_, &mass_, &inv_mass_, &inv_inertia_}) permute(*array, old_of);
+  permute(material_, old_of);
+  permute(group_, old_of);
+  if (!walls_.empty()) {
+    // Only the current buffer holds contacts between steps; the other is refilled by the next.
+    WallSlots& current = wall_slots_[wall_current_];
+    WallSlots permuted;
+    permuted.resize(n);
+    for (std::size_t p = 0; p < n; ++p) {
+      permuted.count[p] = current.count[old_of[p]];
+      std::copy_n(current.of(old_of[p]), kMaxWallContactsPerParticle, permuted.of(p));
+    }
+    current = std::move(permuted);
+  }
+
+  // The pairs in force, renumbered, with their histories and forces, sorted for the rebuild.
+  struct Carried {
+    NeighborPair pair;
+    ContactHistory history;
+    Vec3 force;
+  };
+  std::vector<Carried> carried;
+  const auto& pairs = neighbors_.pairs();
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    if (!pair_touching_[k]) continue;
+    Carried c{{new_of[pairs[k].i], new_of[pairs[k].j]}, pair_history_[k], pair_force_[k]};
+    if (c.pair.i > c.pair.j) {
+      // The spring and the force are those of the first particle against the second.
+      std::swap(c.pair.i, c.pair.j);
+      c.history.spring = -c.history.spring;
+      c.force = -c.force;
+    }
+    carried.push_back(c);
+  }
+  std::sort(carried.begin(), carried.end(), [](const Carried& a, const Carried& b) {
+    return a.pair.i != b.pair.i ? a.pair.i < b.pair.i : a.pair.j < b.pair.j;
+  });
+  std::vector<NeighborPair> carried_pairs;
+  std::vector<ContactHistory> carried_history;
+  std::vector<Vec3> carried_force;
+  for (const Carried& c : carried) {
+    carried_pairs.push_back(c.pair);
+    carried_history.push_back(c.history);
+    carried_force.push_back(c.force);
+  }
+  rebuild_neighbors(carried_pairs, std::move(carried_history));
+  restore_pair_forces(carried_pairs, carried_force);
+  return old_of;
 }
 
 void System::compute_pair_forces(double dt) {
@@ -547,6 +665,7 @@ void System::compute_pair_contact(const PeriodicImages& images, std::size_t k, d
   std::atomic_ref<std::uint8_t>(particle_in_contact_[i]).store(1, std::memory_order_relaxed);
   std::atomic_ref<std::uint8_t>(particle_in_contact_[j]).store(1, std::memory_order_relaxed);
   pair_force_[k] = response.force_on_a;
+  pair_branch_[k] = d;
   pair_torque_a_[k] = arm_i.cross(response.force_on_a);
   pair_torque_b_[k] = arm_j.cross(-response.force_on_a);
 }
@@ -556,14 +675,19 @@ void System::compute_particle_forces(double dt) {
   WallSlots& after = wall_slots_[1 - wall_current_];
   std::vector<WallPose> poses;
   for (const Wall& wall : walls_) poses.push_back(wall_pose(wall));
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), [&](const auto& range) {
+  // The virial is summed per particle over the pairs it is first of (in pair order, so the sum
+  // does not depend on which candidates the neighbour list holds), then over blocks of particles
+  // joined in a fixed order: the same bits at any thread count, and across a checkpoint.
+  contact_virial_ = tbb::parallel_deterministic_reduce(
+      tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), Eigen::Matrix3d::Zero().eval(),
+      [&](const tbb::blocked_range<std::size_t>& range, Eigen::Matrix3d virial) -> Eigen::Matrix3d {
         const std::uint32_t* const entry_offset = particle_pair_offset_.data();
         const std::uint32_t* const entries = particle_pair_entry_.data();
         const std::uint8_t* const active = pair_active_.data();
         const Vec3* const pair_force = pair_force_.data();
         const Vec3* const pair_torque_a = pair_torque_a_.data();
         const Vec3* const pair_torque_b = pair_torque_b_.data();
+        const Vec3* const pair_branch = pair_branch_.data();
         std::uint8_t* const in_contact = particle_in_contact_.data();
         // Gravity plus the pairs in force on p, in pair order.
         const auto pair_sum = [&](std::size_t p, Vec3& force, Vec3& torque) {
@@ -578,6 +702,7 @@ void System::compute_particle_forces(double dt) {
             if ((entry & 1) == 0) {
               force += pair_force[k];
               torque += pair_torque_a[k];
+              virial.noalias() += pair_force[k] * pair_branch[k].transpose();
             } else {
               force -= pair_force[k];
               torque += pair_torque_b[k];
@@ -594,7 +719,7 @@ void System::compute_particle_forces(double dt) {
             force[p] = f;
             torque[p] = t;
           }
-          return;
+          return virial;
         }
         std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
         for (std::size_t p = range.begin(); p != range.end(); ++p) {
@@ -664,7 +789,9 @@ void System::compute_particle_forces(double dt) {
           force_[p] = force;
           torque_[p] = torque;
         }
-      });
+        return virial;
+      },
+      [](const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) -> Eigen::Matrix3d { return a + b; });
   wall_current_ = 1 - wall_current_;
 }
 
@@ -684,6 +811,7 @@ void System::reduce_loads(double dt) {
             load.torque += position_[p].cross(force_[p]);
             continue;
           }
+          if (wall_n == 0) continue;
           const WallContactHistory* slots = current.of(p);
           for (int s = 0; s < current.count[p]; ++s) {
             const WallContactHistory& slot = slots[s];
@@ -781,7 +909,7 @@ void System::apply_servos() {
 std::size_t System::active_contact_count() const {
   std::size_t count = 0;
   for (const auto& history : pair_history_) count += history.touching ? 1 : 0;
-  for (std::size_t p = 0; p < size(); ++p) count += current_wall_slots().count[p];
+  for (std::size_t p = 0; p < size(); ++p) count += wall_contact_count(p);
   return count;
 }
 
@@ -799,8 +927,8 @@ std::vector<ActiveContact> System::active_contacts() const {
                                      .branch = domain_.separation(position_[i], position_[j])});
   }
   for (std::size_t p = 0; p < size(); ++p) {
-    const WallContactHistory* slots = current_wall_slots().of(p);
-    for (int s = 0; s < current_wall_slots().count[p]; ++s) {
+    for (int s = 0; s < wall_contact_count(p); ++s) {
+      const WallContactHistory* slots = current_wall_slots().of(p);
       contacts.push_back(ActiveContact{.a = static_cast<ParticleId>(p),
                                        .b = static_cast<std::uint32_t>(slots[s].wall),
                                        .with_wall = true,
@@ -822,8 +950,8 @@ std::vector<Dissipation> System::dissipation_by_category() const {
     }
   }
   for (std::size_t p = 0; p < size(); ++p) {
-    const WallContactHistory* slots = current_wall_slots().of(p);
-    for (int s = 0; s < current_wall_slots().count[p]; ++s) {
+    for (int s = 0; s < wall_contact_count(p); ++s) {
+      const WallContactHistory* slots = current_wall_slots().of(p);
       total[wall_category(slots[s].wall, material_[p])] += slots[s].history.dissipated;
     }
   }
@@ -843,14 +971,39 @@ EnergyBudget System::energy() const {
     if (history.touching) budget.elastic += history.elastic_energy;
   }
   for (std::size_t p = 0; p < size(); ++p) {
-    const WallContactHistory* slots = current_wall_slots().of(p);
-    for (int s = 0; s < current_wall_slots().count[p]; ++s)
-      budget.elastic += slots[s].history.elastic_energy;
+    for (int s = 0; s < wall_contact_count(p); ++s)
+      budget.elastic += current_wall_slots().of(p)[s].history.elastic_energy;
   }
   for (const Dissipation& d : dissipation_by_category()) budget.dissipated += d.total();
   for (const WallLoad& load : wall_loads_) budget.wall_work += load.work;
   for (const WallLoad& load : group_loads_) budget.wall_work += load.work;
   return budget;
+}
+
+namespace {
+
+template <class T>
+std::size_t bytes_of(const std::vector<T>& v) {
+  return v.capacity() * sizeof(T);
+}
+
+}  // namespace
+
+std::size_t System::memory_bytes() const {
+  std::size_t bytes = neighbors_.memory_bytes();
+  for (const auto* array : {&position_, &velocity_, &angular_velocity_, &force_, &torque_,
+                            &predicted_velocity_, &predicted_angular_velocity_, &pair_force_,
+                            &pair_torque_a_, &pair_torque_b_, &pair_branch_})
+    bytes += bytes_of(*array);
+  for (const auto* array : {&radius_, &mass_, &inv_mass_, &inv_inertia_}) bytes += bytes_of(*array);
+  bytes += bytes_of(material_) + bytes_of(group_) + bytes_of(pair_history_) +
+           bytes_of(pair_touching_) + bytes_of(pair_active_) + bytes_of(pair_finished_) +
+           bytes_of(finished_pair_history_) + bytes_of(particle_pair_offset_) +
+           bytes_of(particle_pair_entry_) + bytes_of(particle_in_contact_) +
+           bytes_of(finished_wall_mask_);
+  for (const WallSlots& buffer : wall_slots_)
+    bytes += bytes_of(buffer.slot) + bytes_of(buffer.count);
+  return bytes;
 }
 
 std::vector<CollisionEvent> System::take_collision_events() {

@@ -2,6 +2,10 @@
 // contacts across the sheared boundary see the image's velocity; the affine stretch of a barostat.
 #include <gtest/gtest.h>
 
+#include <cstring>
+
+#include "dem/checkpoint.hpp"
+#include "dem/rng.hpp"
 #include "dem/system.hpp"
 #include "tests/dem/scenes.hpp"
 
@@ -9,6 +13,7 @@ namespace millflow::dem {
 namespace {
 
 using testing::steel_table;
+using testing::with_threads;
 
 Domain sheared_box(double shear_velocity) {
   Domain box;
@@ -108,6 +113,98 @@ TEST(LeesEdwards, AffineStretchRefusesAWalledAxisAndABadFactor) {
   EXPECT_THROW(system.deform_affinely(1, 0.9), std::invalid_argument);
   EXPECT_THROW(system.deform_affinely(0, 0.0), std::invalid_argument);
   EXPECT_THROW(system.deform_affinely(0, std::nan("")), std::invalid_argument);
+}
+
+// A dense, sheared Lees-Edwards box: balls of 4-6 mm on a jittered lattice of 9 mm spacing,
+// squeezed along y so that neighbours overlap, at a shear velocity that keeps them colliding.
+System dense_sheared_box() {
+  System system(steel_table(0.5, 0.5, 1e5), sheared_box(0.8), Vec3::Zero());
+  Rng rng(7);
+  for (int i = 0; i < 11; ++i) {
+    for (int j = 0; j < 9; ++j) {
+      for (int k = 0; k < 6; ++k) {
+        const Vec3 jitter(rng.uniform(-1e-3, 1e-3), rng.uniform(-1e-3, 1e-3),
+                          rng.uniform(-1e-3, 1e-3));
+        system.add_particle(
+            {.position = Vec3(0.0045 + 0.009 * i, 0.0045 + 0.0088 * j, 0.005 + 0.01 * k) + jitter,
+             .velocity = Vec3(rng.uniform(-0.1, 0.1), 0.0, 0.0),
+             .radius = rng.uniform(0.004, 0.005)});
+      }
+    }
+  }
+  system.deform_affinely(1, 0.92);
+  return system;
+}
+
+bool same_bits(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return std::memcmp(a.data(), b.data(), sizeof(double) * 9) == 0;
+}
+
+TEST(LeesEdwards, ContactVirialIsTheSumOverContactsInForceWithTheSameBitsAtAnyThreadCount) {
+  const auto expected_virial = [](const System& system) {
+    Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+    for (const ActiveContact& c : system.active_contacts())
+      sum += c.force_on_a * c.branch.transpose();
+    return sum;
+  };
+  std::array<Eigen::Matrix3d, 2> virial;
+  for (const int threads : {1, 2}) {
+    System system = dense_sheared_box();
+    with_threads(threads, [&] { system.step(100); });
+    ASSERT_GT(system.active_contact_count(), system.size()) << "the box should be dense";
+    EXPECT_LT((system.contact_virial() - expected_virial(system)).norm(),
+              1e-12 * system.contact_virial().norm());
+    // The barostat's stretch scales the branch vectors, and the virial with them.
+    system.deform_affinely(1, 1.01);
+    EXPECT_LT((system.contact_virial() - expected_virial(system)).norm(),
+              1e-12 * system.contact_virial().norm());
+    with_threads(threads, [&] { system.step(100); });
+    EXPECT_LT((system.contact_virial() - expected_virial(system)).norm(),
+              1e-12 * system.contact_virial().norm());
+    virial[threads - 1] = system.contact_virial();
+  }
+  EXPECT_TRUE(same_bits(virial[0], virial[1]));
+}
+
+TEST(LeesEdwards, ReorderingCarriesEveryContactAlong) {
+  System original = dense_sheared_box();
+  original.step(100);  // contacts with loaded tangential springs
+  System reordered = original;
+  const std::vector<ParticleId> old_of = reordered.reorder_particles();
+  ASSERT_NE(old_of, [&] {
+    std::vector<ParticleId> identity(old_of.size());
+    for (std::size_t p = 0; p < identity.size(); ++p) identity[p] = static_cast<ParticleId>(p);
+    return identity;
+  }()) << "the lattice order should not already be the curve's";
+  EXPECT_EQ(reordered.active_contact_count(), original.active_contact_count());
+  original.step(1);
+  reordered.step(1);
+  double largest = 0.0, worst = 0.0;
+  for (std::size_t p = 0; p < old_of.size(); ++p) {
+    largest = std::max(largest, original.forces()[old_of[p]].norm());
+    worst = std::max(worst, (reordered.forces()[p] - original.forces()[old_of[p]]).norm());
+    worst = std::max(worst, (reordered.positions()[p] - original.positions()[old_of[p]]).norm());
+  }
+  EXPECT_LT(worst, 1e-12 * largest) << "the same contacts, springs and forces, renumbered";
+}
+
+TEST(LeesEdwards, ReorderedRunsHaveTheSameBitsAtAnyThreadCountAndAcrossACheckpoint) {
+  const auto run = [](int threads, std::size_t pause) {
+    System system = dense_sheared_box();
+    system.set_reorder_interval(25);
+    with_threads(threads, [&] { system.step(pause); });
+    System resumed = system_from_checkpoint_payload(checkpoint_payload(system), kCheckpointVersion);
+    with_threads(threads, [&] { resumed.step(210 - pause); });
+    return std::vector<Vec3>(resumed.positions().begin(), resumed.positions().end());
+  };
+  const std::vector<Vec3> straight = run(1, 210);
+  for (const auto& [threads, pause] :
+       {std::pair{2, std::size_t{210}}, std::pair{1, std::size_t{60}},
+        std::pair{2, std::size_t{137}}}) {
+    const std::vector<Vec3> other = run(threads, pause);
+    EXPECT_EQ(std::memcmp(straight.data(), other.data(), straight.size() * sizeof(Vec3)), 0)
+        << threads << " threads, checkpoint after " << pause << " steps";
+  }
 }
 
 }  // namespace

@@ -1,0 +1,253 @@
+// Dense shear cells as a campaign runs them (issue 17): the cost that dominates a campaign.
+//
+//   le_media_2000   Lees-Edwards cell of ~2000 steel balls of 10 mm (media solid fraction 0.58 at
+//                   placement), no powder; steel-steel contacts of 0.1 ms (k_n / (p d) ~ 1e4)
+//   cement_load05   the cement campaign's cell (campaigns/cement_ball_mill.json: 50 mm balls,
+//                   clinker powder of 0.125 d, 6 x 8 x 6 d, Lees-Edwards) at powder load 0.5
+//   cement_load15   the same at powder load 1.5
+// All at a site of shear rate 2 1/s (a few per second is what the cement mill's sites see) and
+// normal stress 100 kPa (the lower part of its charge); at 20 kPa, and at 10 1/s, compaction
+// stops in a hot dilute state that the barostat takes strains to close. Every scene is built by the
+// cell's own code path (tasks::shear_cell_setup from the campaign file, dem::ShearCellRun):
+// placement in insertion order, compaction by the barostat, a warm-up of --cells_warmup_strain, and
+// then the measurement phase, which is what is timed (the cell's per-step measurement included).
+// The prepared state is regenerated deterministically, or read from --cells_cache (a ShearCellRun
+// checkpoint per scene; a checkpoint of another setup is refused and regenerated).
+//
+// Counters: pts_per_cpu_s (particle-steps per CPU-second of the process, every thread),
+// pts_per_s (wall), contacts_per_particle (pair and wall contacts in force), bytes_per_particle
+// (System::memory_bytes() / particles).
+//
+// Extra flags (before Google Benchmark's own):
+//   --cells_steps=N           steps per timed iteration (default: per scene)
+//   --cells_shear_rate=R      the site's shear rate, 1/s (default 2)
+//   --cells_normal_stress=P   the site's normal stress, Pa (default 1e5)
+//   --cells_warmup_strain=S   shear strain run after compaction, before timing (default 1 for
+//                             the media cell, 0.05 for the cement cells)
+//   --cells_lammps_dir=D      write le_media_2000's state and parameters for LAMMPS into D
+//                             (bench/run_cell_comparison.sh)
+//   --cells_cache=DIR         where the prepared states are kept (default: none)
+#include <sys/resource.h>
+#include <tbb/task_arena.h>
+
+#include <benchmark/benchmark.h>
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "bench/lammps_export.hpp"
+#include "dem/shear_cell.hpp"
+#include "tasks/campaign.hpp"
+#include "tasks/shear_cell.hpp"
+
+namespace {
+
+using namespace millflow;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+constexpr double kHugeMeasureStrain = 1e3;  // the measurement never ends while timed
+
+struct Options {
+  std::optional<std::size_t> steps;
+  double shear_rate = 2.0;     // 1/s
+  double normal_stress = 1e5;  // Pa
+  std::optional<double> warmup_strain;
+  std::optional<std::filesystem::path> cache;
+  std::optional<std::filesystem::path> lammps_dir;
+};
+Options g_options;
+
+struct CellCase {
+  std::string name;
+  double powder_load = 0.0;
+  bool media_only_small_balls = false;  // le_media_2000
+  std::size_t default_steps = 0;
+  double warmup_strain = 0.05;  // the media cell, cheap, runs to a denser state
+};
+
+const std::vector<CellCase>& cases() {
+  static const std::vector<CellCase> all{
+      {.name = "le_media_2000",
+       .media_only_small_balls = true,
+       .default_steps = 400,
+       .warmup_strain = 1.0},
+      {.name = "cement_load05", .powder_load = 0.5, .default_steps = 40},
+      {.name = "cement_load15", .powder_load = 1.5, .default_steps = 20},
+  };
+  return all;
+}
+
+// The cell setup the campaign's own code derives, at a fixed site.
+dem::ShearCellSetup setup_of(const CellCase& c) {
+  json campaign = tasks::load_campaign(std::filesystem::path(MILLFLOW_SOURCE_DIR) / "campaigns" /
+                                       "cement_ball_mill.json");
+  campaign.erase("sweep");
+  json& cell = campaign["shear_cell"];
+  cell["powder"]["load"] = c.powder_load;
+  if (c.media_only_small_balls) {
+    // 2000 balls of 10 mm at phi = 0.58: a cube of (2000 pi / 6 / 0.58)^(1/3) = 12.18 d.
+    campaign["media"]["diameter"] = 0.01;
+    cell["size_diameters"] = {12.18, 12.18, 12.18};
+    for (json& interaction : campaign["interactions"]) {
+      if (interaction["materials"] == json{"steel", "steel"})
+        interaction["stiffness"] = {{"collision_time", 1e-4}};
+    }
+  }
+  campaign = tasks::validate_campaign(campaign);
+  const json site{{"shear_rate_per_s", g_options.shear_rate},
+                  {"normal_stress_pa", g_options.normal_stress}};
+  dem::ShearCellSetup setup = tasks::shear_cell_setup(campaign, site, "bench_cells/" + c.name);
+  if (c.media_only_small_balls) setup.media_solid_fraction = 0.58;
+  return setup;
+}
+
+double warmup_strain(const CellCase& c) {
+  return g_options.warmup_strain.value_or(c.warmup_strain);
+}
+
+dem::ShearCellProtocol protocol(const CellCase& c) {
+  return {.warmup_strain = warmup_strain(c),
+          .warmup_windows = 1,
+          .measure_strain = kHugeMeasureStrain,
+          .measure = {}};
+}
+
+double process_cpu_seconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
+
+// The scene's run in its measurement phase, built once per process (and cached on disk).
+const dem::ShearCellRun& prepared(const CellCase& c) {
+  static std::map<std::string, std::unique_ptr<dem::ShearCellRun>> runs;
+  auto& slot = runs[c.name];
+  if (slot) return *slot;
+  const dem::ShearCellSetup setup = setup_of(c);
+  std::optional<std::filesystem::path> file;
+  if (g_options.cache) {
+    std::filesystem::create_directories(*g_options.cache);
+    file = *g_options.cache / fmt::format("{}_rate{}_p{}_warm{}.ckpt", c.name, g_options.shear_rate,
+                                          g_options.normal_stress, warmup_strain(c));
+    if (std::filesystem::exists(*file)) {
+      try {
+        slot = std::make_unique<dem::ShearCellRun>(
+            dem::ShearCellRun::resume(setup, protocol(c), *file));
+        return *slot;
+      } catch (const std::exception& e) {
+        fmt::print(stderr, "bench_cells: {}: regenerating ({})\n", c.name, e.what());
+      }
+    }
+  }
+  const auto start = Clock::now();
+  slot = std::make_unique<dem::ShearCellRun>(setup, protocol(c));
+  tbb::task_arena arena(2);
+  arena.execute([&] {
+    while (slot->phase_name() != "measuring") slot->advance(1000);
+  });
+  fmt::print(stderr, "bench_cells: {}: {} particles prepared in {:.1f} s (step {})\n", c.name,
+             slot->cell().system().size(),
+             std::chrono::duration<double>(Clock::now() - start).count(),
+             slot->cell().system().step_count());
+  if (file) slot->save(*file);
+  return *slot;
+}
+
+// The media cell's state and parameters for bench/lammps/in.shear (one pair type: exact).
+void export_for_lammps(const CellCase& c, const dem::ShearCellRun& run) {
+  const dem::System& system = run.cell().system();
+  const dem::ShearCellSetup& setup = run.cell().setup();
+  bench::LammpsParams params;
+  const double ball_mass = system.masses()[0];
+  bench::add_contact_params(params, "", setup.media_media, 0.5 * ball_mass);
+  params.set("dt", system.time_step());
+  params.set("skin", 0.6 * system.radii()[0]);  // System's default: 0.6 x smallest radius
+  params.set("shear_rate", setup.shear_rate);
+  params.notes.push_back(
+      "LAMMPS runs a fixed box: millflow's barostat and measurement are not "
+      "part of it");
+  std::filesystem::create_directories(*g_options.lammps_dir);
+  bench::write_lammps_data(system, c.name, *g_options.lammps_dir / (c.name + ".data"));
+  bench::write_lammps_params(c.name, "bench_cells, measurement phase", params,
+                             *g_options.lammps_dir / (c.name + ".params"));
+}
+
+void run_cell(benchmark::State& state, const CellCase& c, int threads) {
+  spdlog::set_level(spdlog::level::warn);
+  dem::ShearCellRun run = prepared(c);  // every benchmark times its own copy
+  if (g_options.lammps_dir && c.media_only_small_balls) export_for_lammps(c, run);
+  const std::size_t steps = g_options.steps.value_or(c.default_steps);
+  const std::size_t particles = run.cell().system().size();
+  tbb::task_arena arena(threads);
+  double wall = 0.0, cpu = 0.0;
+  std::size_t total_steps = 0;
+  for (auto _ : state) {
+    const double cpu_start = process_cpu_seconds();
+    const auto start = Clock::now();
+    arena.execute([&] { run.advance(steps); });
+    wall += std::chrono::duration<double>(Clock::now() - start).count();
+    cpu += process_cpu_seconds() - cpu_start;
+    total_steps += steps;
+  }
+  const dem::System& system = run.cell().system();
+  const double particle_steps = static_cast<double>(particles * total_steps);
+  // For bench/run_cell_comparison.sh: RESULT scene threads particles steps wall-s cpu-s.
+  fmt::print(stderr, "RESULT {} {} {} {} {:.6g} {:.6g}\n", c.name, threads, particles, total_steps,
+             wall, cpu);
+  state.counters["particles"] = static_cast<double>(particles);
+  state.counters["pts_per_s"] = particle_steps / wall;
+  state.counters["pts_per_cpu_s"] = particle_steps / cpu;
+  state.counters["contacts_per_particle"] =
+      static_cast<double>(system.active_contact_count()) / static_cast<double>(particles);
+  state.counters["bytes_per_particle"] =
+      static_cast<double>(system.memory_bytes()) / static_cast<double>(particles);
+}
+
+// Strips "--name=value" for our flags out of argv; returns the value of each one given.
+std::optional<std::string> take_flag(int& argc, char** argv, std::string_view name) {
+  const std::string prefix = fmt::format("--{}=", name);
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view arg(argv[i]);
+    if (!arg.starts_with(prefix)) continue;
+    std::string value(arg.substr(prefix.size()));
+    for (int k = i; k + 1 < argc; ++k) argv[k] = argv[k + 1];
+    --argc;
+    return value;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (auto v = take_flag(argc, argv, "cells_steps")) g_options.steps = std::stoul(*v);
+  if (auto v = take_flag(argc, argv, "cells_shear_rate")) g_options.shear_rate = std::stod(*v);
+  if (auto v = take_flag(argc, argv, "cells_normal_stress"))
+    g_options.normal_stress = std::stod(*v);
+  if (auto v = take_flag(argc, argv, "cells_warmup_strain"))
+    g_options.warmup_strain = std::stod(*v);
+  if (auto v = take_flag(argc, argv, "cells_cache")) g_options.cache = *v;
+  if (auto v = take_flag(argc, argv, "cells_lammps_dir")) g_options.lammps_dir = *v;
+  for (const CellCase& c : cases()) {
+    for (const int threads : {1, 2}) {
+      benchmark::RegisterBenchmark(
+          fmt::format("{}/threads:{}", c.name, threads).c_str(),
+          [&c, threads](benchmark::State& state) { run_cell(state, c, threads); })
+          ->Unit(benchmark::kSecond)
+          ->UseRealTime();
+    }
+  }
+  benchmark::Initialize(&argc, argv);
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
