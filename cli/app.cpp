@@ -1,8 +1,8 @@
 #include "cli/app.hpp"
 
+#include <fmt/format.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
-#include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
 

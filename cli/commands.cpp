@@ -380,7 +380,8 @@ void add_explain(CLI::App& app, const engine::Registry& registry, std::optional<
       const auto campaign = engine::load_campaign_file(registry, *target);
       const auto options = selection(registry, engine::plan_campaign(registry, campaign), *flags);
       // A campaign never submitted has no database yet: nothing is created for it.
-      const fs::path db = fs::exists(flags->db) ? existing_database(flags->db) : fs::path(flags->db);
+      const fs::path db =
+          fs::exists(flags->db) ? existing_database(flags->db) : fs::path(flags->db);
       const auto dry = engine::dry_run(registry, campaign, db, options);
       std::cout << (task->empty() ? dry.list() : dry.explain(*task));
       return 0;
@@ -489,7 +490,8 @@ void add_logs(CLI::App& app, std::optional<int>& code) {
   add_db_option(command, *db);
   command->callback([&code, task, db] {
     code = guarded([&] {
-      for (const auto& line : engine::task_log(existing_database(*db), *task)) std::cout << line << '\n';
+      for (const auto& line : engine::task_log(existing_database(*db), *task))
+        std::cout << line << '\n';
       return 0;
     });
   });

@@ -15,7 +15,7 @@ namespace millflow::engine {
 namespace fs = std::filesystem;
 namespace {
 
-std::optional<std::int64_t> find_campaign(sql::Connection& db, const std::string& name) {
+std::optional<std::int64_t> find_campaign_id(sql::Connection& db, const std::string& name) {
   auto row = db.prepare("SELECT id FROM campaigns WHERE name = ?");
   row.bind_all(name);
   if (!row.step()) return std::nullopt;
@@ -103,7 +103,7 @@ SweepPoints read_sweep_points(sql::Connection& db, std::int64_t campaign_id) {
 std::vector<fs::path> export_files(const fs::path& db, const std::string& task_or_campaign,
                                    const fs::path& out_dir) {
   auto connection = open_read_only(db);
-  const auto campaign = find_campaign(connection, task_or_campaign);
+  const auto campaign = find_campaign_id(connection, task_or_campaign);
   if (!campaign) {
     const std::string key = resolve_task(connection, task_or_campaign);
     return copy_artifacts(db, find_artifacts(connection, key), out_dir);

@@ -131,7 +131,7 @@ TEST(SkippedWork, ATaskWhoseResultSaysSkippedIsShownAsSkipped) {
   EXPECT_NE(status.str().find("sum   done     1"), std::string::npos) << status.str();
   EXPECT_NE(status.str().find("sum   skipped  1"), std::string::npos) << status.str();
   std::ostringstream dag;
-  print_dag_dot(dir.db(), "skipping", dag);
+  print_dag_dot(dir.db(), "skipping", /*every_task=*/true, dag);
   EXPECT_NE(dag.str().find("fillcolor=lightgrey"), std::string::npos) << dag.str();
   EXPECT_NE(dag.str().find("fillcolor=palegreen"), std::string::npos) << dag.str();
 }
