@@ -97,7 +97,8 @@ nlohmann::json without_powder(nlohmann::json point) {
 }  // namespace
 
 // Per point: macro -> average -> sites, and with shear cells on: its cells (and those without
-// powder) -> upscale; one report over every upscale and the averages its maps are drawn from.
+// powder) -> upscale; one report over every upscale and the macro, average and sites tasks its
+// figures are drawn from.
 void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
   std::vector<std::string> report_inputs;
   for (const CampaignPoint& point : expand(campaign)) {
@@ -114,8 +115,9 @@ void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
         upstream.push_back(cell);
     }
     report_inputs.push_back(plan.add("upscale", upscale_params(document), std::move(upstream)));
-    // The loads of a fill and speed share one average and sites task: the report needs each once.
-    for (const std::string& shared : {average, sites}) {
+    // The loads of a fill and speed share one macro, average and sites task: the report needs each
+    // once.
+    for (const std::string& shared : {macro, average, sites}) {
       if (std::find(report_inputs.begin(), report_inputs.end(), shared) == report_inputs.end())
         report_inputs.push_back(shared);
     }

@@ -117,10 +117,16 @@ int region_colour(const std::string& region) {
   return static_cast<int>(std::find(names.begin(), names.end(), region) - names.begin());
 }
 
-// One panel per slice: a quantity of each region vs powder load (NaN where a point lacks it).
+// A region's figure and its standard error (NaN where unknown: no error bar).
+struct ValueAndError {
+  double value, error;
+};
+
+// One panel per slice: a quantity of each region vs powder load, with error bars (NaN where a
+// point lacks it).
 svg::Figure region_panels(const std::vector<UpscalePoint>& points, const std::vector<Slice>& slices,
                           const std::string& title, const std::string& y_label,
-                          const std::function<double(const report::RegionResult&)>& value) {
+                          const std::function<ValueAndError(const report::RegionResult&)>& value) {
   std::vector<svg::Figure> panels;
   for (const Slice& slice : slices) {
     svg::LineChart chart{.title = slice_label(slice), .x = {"powder load U (-)"}, .y = {y_label}};
@@ -132,8 +138,11 @@ svg::Figure region_panels(const std::vector<UpscalePoint>& points, const std::ve
             std::find_if(point->regions.begin(), point->regions.end(),
                          [&](const report::RegionResult& r) { return r.region == region; });
         present = present || found != point->regions.end();
+        const ValueAndError v =
+            found == point->regions.end() ? ValueAndError{kNaN, kNaN} : value(*found);
         series.x.push_back(point->powder_load);
-        series.y.push_back(found == point->regions.end() ? kNaN : value(*found));
+        series.y.push_back(v.value);
+        series.y_error.push_back(v.error);
       }
       if (present) chart.series.push_back(std::move(series));
     }
@@ -158,6 +167,55 @@ svg::Figure spectra_figure(const std::vector<UpscalePoint>& points,
     panels.push_back(svg::histogram_chart(chart));
   }
   return svg::panel_grid(panels, speed_columns(points), "Powder collision energy spectra");
+}
+
+// Toe and shoulder angles of the macro runs vs speed, a colour per fill (toe solid, shoulder
+// dashed).
+svg::Figure charge_shape_figure(const std::vector<report::MacroRun>& runs) {
+  svg::LineChart chart{.title = "Charge shape: toe and shoulder",
+                       .x = {"speed fraction of critical (-)"},
+                       .y = {"angle from 3 o'clock, counter-clockwise (deg)"}};
+  std::set<double> fills;
+  for (const report::MacroRun& run : runs) fills.insert(run.fill);
+  int colour = 0;
+  for (const double fill : fills) {
+    svg::Series toe{.name = fmt::format("J = {:g} toe", fill), .colour = colour},
+        shoulder{.name = fmt::format("J = {:g} shoulder", fill), .colour = colour, .dashed = true};
+    for (const report::MacroRun& run : runs) {
+      if (run.fill != fill) continue;
+      toe.x.push_back(run.speed_fraction);
+      toe.y.push_back(run.toe_angle_deg.value_or(kNaN));
+      shoulder.x.push_back(run.speed_fraction);
+      shoulder.y.push_back(run.shoulder_angle_deg.value_or(kNaN));
+    }
+    chart.series.push_back(std::move(toe));
+    chart.series.push_back(std::move(shoulder));
+    ++colour;
+  }
+  return svg::line_chart(chart);
+}
+
+// Each macro run's collision spectra, a panel per run in rows of fills and columns of speeds;
+// a colour per contact type, impact energy solid and dissipated energy dashed.
+svg::Figure macro_spectra_figure(const std::vector<report::MacroRun>& runs) {
+  std::vector<svg::Figure> panels;
+  std::set<double> speeds;
+  for (const report::MacroRun& run : runs) {
+    speeds.insert(run.speed_fraction);
+    svg::HistogramChart chart{
+        .title = fmt::format("J = {:g}, phi = {:g}", run.fill, run.speed_fraction),
+        .x = {"energy per collision (J)", svg::Scale::log},
+        .y = {"collisions per bin in the slice (1/s)", svg::Scale::log}};
+    for (std::size_t k = 0; k < run.spectra.size(); ++k) {
+      chart.series.push_back({.name = run.spectra[k].label,
+                              .edges = run.bin_edges_j,
+                              .values = run.spectra[k].rate_per_s,
+                              .colour = static_cast<int>(k / 2),
+                              .dashed = k % 2 == 1});
+    }
+    panels.push_back(svg::histogram_chart(chart));
+  }
+  return svg::panel_grid(panels, static_cast<int>(speeds.size()), "Macro collision energy spectra");
 }
 
 svg::Figure maps_figure(const Slice& slice, const FlowMap& map) {
@@ -267,18 +325,19 @@ std::string csv_table(const std::vector<std::string>& header,
 std::string upscaled_csv(const std::vector<UpscalePoint>& points) {
   return csv_table(
       {"fill", "speed_fraction", "powder_load", "region", "sites", "volume_m3", "powder_power_w",
-       "powder_power_share", "media_power_w", "media_collision_power_w",
-       "media_collision_power_no_powder_w", "cushioning", "power_draw_w",
+       "powder_power_share", "powder_power_share_se", "media_power_w", "media_collision_power_w",
+       "media_collision_power_no_powder_w", "cushioning", "cushioning_se", "power_draw_w",
        "power_draw_with_powder_w", "dominant_region", "upscale_task"},
       points, [](const UpscalePoint& p) {
         std::vector<std::vector<std::string>> rows;
         for (const report::RegionResult& r : p.regions) {
           rows.push_back({r.region, fmt::format("{}", r.sites), number(r.volume_m3),
                           number(r.powder_power_w), number(r.powder_power_share),
-                          number(r.media_power_w), number(r.media_collision_power_w),
+                          number(r.powder_power_share_se), number(r.media_power_w),
+                          number(r.media_collision_power_w),
                           number(r.media_collision_power_no_powder_w), number(r.cushioning),
-                          number(p.power_draw_w), number(p.power_draw_with_powder_w),
-                          p.dominant_region.value_or("")});
+                          number(r.cushioning_se), number(p.power_draw_w),
+                          number(p.power_draw_with_powder_w), p.dominant_region.value_or("")});
         }
         return rows;
       });
@@ -351,7 +410,7 @@ std::string coupling_table(const std::vector<Slice>& slices) {
 }
 
 std::string index_page(const std::string& campaign, const std::vector<UpscalePoint>& points,
-                       const std::vector<Slice>& slices) {
+                       const std::vector<Slice>& slices, bool with_macro_runs) {
   std::string out = fmt::format("# Campaign report: {}\n\n", campaign);
   out += fmt::format(
       "{} upscaled points: fills J = {}; speed fractions phi = {}; powder loads U = {}.\n\n",
@@ -374,17 +433,29 @@ std::string index_page(const std::string& campaign, const std::vector<UpscalePoi
       "## Powder power by region\n\n![powder power shares](powder_power_shares.svg)\n\n"
       "Each region's share of the power going into the powder (site power densities x site "
       "weights), vs the "
-      "powder load; one panel per fill (rows) and speed (columns).\n\n";
+      "powder load; one panel per fill (rows) and speed (columns). Error bars: +- one standard "
+      "error from the cells' batch means (none where a cell has no standard error).\n\n";
   out +=
       "## Cushioning\n\n![cushioning](cushioning.svg)\n\n"
       "Media-media collision power with powder divided by the same without powder, per region: "
       "below 1 the powder "
-      "cushions the ball collisions.\n\n";
+      "cushions the ball collisions; error bars as above.\n\n";
   out +=
       "## Powder collision energy spectra\n\n![powder spectra](powder_spectra.svg)\n\n"
       "Powder collisions per second in the mill slice in each bin of dissipated energy per "
       "collision (log-log), one "
       "step line per powder load.\n\n";
+  if (with_macro_runs) {
+    out +=
+        "## Charge shape\n\n![charge shape](charge_shape.svg)\n\n"
+        "Toe and shoulder of the charge in each macro run (the ends of the arc where the balls "
+        "touch the shell), in degrees counter-clockwise from 3 o'clock, vs the speed fraction; "
+        "one colour per fill, the toe solid and the shoulder dashed.\n\n"
+        "## Macro collision energy spectra\n\n![macro spectra](macro_spectra.svg)\n\n"
+        "Ball-ball and ball-liner collisions per second in the mill slice in each bin of impact "
+        "energy (solid) and dissipated energy (dashed) per collision, log-log, one panel per "
+        "macro run.\n\n";
+  }
   out +=
       "## Flow maps\n\nShear rate, normal stress on the shear plane and energy dissipation density "
       "of the averaged "
@@ -458,18 +529,28 @@ engine::TaskOutcome run_report(engine::TaskContext& context) {
 
   ReportWriter out(context.work_dir);
   out.write("power_draw.svg", power_draw_figure(points, slices).svg);
-  out.write(
-      "powder_power_shares.svg",
-      region_panels(
-          points, slices, "Share of the powder power by region", "share of the powder power (-)",
-          [](const report::RegionResult& r) { return r.powder_power_share.value_or(kNaN); })
-          .svg);
+  out.write("powder_power_shares.svg",
+            region_panels(points, slices, "Share of the powder power by region",
+                          "share of the powder power (-)",
+                          [](const report::RegionResult& r) {
+                            return ValueAndError{r.powder_power_share.value_or(kNaN),
+                                                 r.powder_power_share_se.value_or(kNaN)};
+                          })
+                .svg);
   out.write("cushioning.svg",
-            region_panels(points, slices, "Cushioning of media collisions by the powder",
-                          "media collision power with / without powder (-)",
-                          [](const report::RegionResult& r) { return r.cushioning.value_or(kNaN); })
+            region_panels(
+                points, slices, "Cushioning of media collisions by the powder",
+                "media collision power with / without powder (-)",
+                [](const report::RegionResult& r) {
+                  return ValueAndError{r.cushioning.value_or(kNaN), r.cushioning_se.value_or(kNaN)};
+                })
                 .svg);
   out.write("powder_spectra.svg", spectra_figure(points, slices).svg);
+  const bool with_macro_runs = !inputs.macro_runs.empty();
+  if (with_macro_runs) {
+    out.write("charge_shape.svg", charge_shape_figure(inputs.macro_runs).svg);
+    out.write("macro_spectra.svg", macro_spectra_figure(inputs.macro_runs).svg);
+  }
   for (const Slice& slice : slices)
     out.write(maps_file(slice),
               maps_figure(slice, inputs.flow_maps.at(slice.first().average_task)).svg);
@@ -479,7 +560,8 @@ engine::TaskOutcome run_report(engine::TaskContext& context) {
   out.write("upscaled.csv", upscaled_csv(points));
   out.write("sites.csv", sites_csv(points));
   out.write("spectra.csv", spectra_csv(points));
-  out.write("index.md", index_page(campaign, points, slices) + "\n" + regions.markdown);
+  out.write("index.md",
+            index_page(campaign, points, slices, with_macro_runs) + "\n" + regions.markdown);
 
   engine::TaskOutcome outcome =
       engine::TaskOutcome::with_result(result_of(campaign, points, slices, out.names()));

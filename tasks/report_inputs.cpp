@@ -79,7 +79,9 @@ RegionResult read_region(const FieldReader& in, const std::string& at) {
           .media_power_w = in.number(at + "/media_power_w"),
           .media_collision_power_w = in.number(at + "/media_collision_power_w"),
           .media_collision_power_no_powder_w = in.number(at + "/media_collision_power_no_powder_w"),
-          .cushioning = in.number_or_null(at + "/cushioning")};
+          .cushioning = in.number_or_null(at + "/cushioning"),
+          .powder_power_share_se = in.number_or_null(at + "/powder_power_share_se"),
+          .cushioning_se = in.number_or_null(at + "/cushioning_se")};
 }
 
 SiteResult read_site(const FieldReader& in, const std::string& at) {
@@ -154,12 +156,40 @@ UpscalePoint read_upscale(const std::string& task_key, const json& result) {
   return point;
 }
 
+MacroRun read_macro(const std::string& task_key, const json& result) {
+  const FieldReader in(fmt::format("macro task {}", task_key), result);
+  MacroRun run{.task_key = task_key,
+               .fill = in.number("/fill"),
+               .speed_fraction = in.number("/speed_fraction"),
+               .toe_angle_deg = in.number_or_null("/charge/toe_angle_deg"),
+               .shoulder_angle_deg = in.number_or_null("/charge/shoulder_angle_deg"),
+               .bin_edges_j = in.numbers("/spectra/bin_edges_j")};
+  if (run.bin_edges_j.size() < 2) in.refuse("/spectra/bin_edges_j", "holds fewer than 2 edges");
+  const double duration = in.number("/measure_end_s") - in.number("/measure_start_s");
+  if (!(duration > 0.0)) in.refuse("/measure_end_s", "is not after /measure_start_s");
+  if (!in.at("/spectra").is_object()) in.refuse("/spectra", "is not an object");
+  for (const auto& [contact, histograms] : in.at("/spectra").items()) {
+    if (contact == "bin_edges_j") continue;
+    for (const char* energy : {"impact", "dissipated"}) {
+      const std::string at = fmt::format("/spectra/{}/{}_energy/counts", contact, energy);
+      MacroSpectrum spectrum{.label = fmt::format("{} {}", contact, energy),
+                             .rate_per_s = in.numbers(at)};
+      if (spectrum.rate_per_s.size() + 1 != run.bin_edges_j.size())
+        in.refuse(at, fmt::format("does not hold {} bins", run.bin_edges_j.size() - 1));
+      for (double& count : spectrum.rate_per_s) count /= duration;
+      run.spectra.push_back(std::move(spectrum));
+    }
+  }
+  return run;
+}
+
 ReportInputs read_report_inputs(const std::vector<engine::TaskInput>& inputs) {
   ReportInputs report;
   std::map<std::string, const engine::TaskInput*> averages;
   for (const engine::TaskInput& input : inputs) {
     if (input.kind == "upscale") report.points.push_back(read_upscale(input.key, input.result));
     if (input.kind == "average") averages[input.key] = &input;
+    if (input.kind == "macro") report.macro_runs.push_back(read_macro(input.key, input.result));
   }
   if (report.points.empty()) {
     throw std::invalid_argument(
@@ -180,6 +210,11 @@ ReportInputs read_report_inputs(const std::vector<engine::TaskInput>& inputs) {
             [](const UpscalePoint& a, const UpscalePoint& b) {
               return std::tie(a.fill, a.speed_fraction, a.powder_load, a.task_key) <
                      std::tie(b.fill, b.speed_fraction, b.powder_load, b.task_key);
+            });
+  std::sort(report.macro_runs.begin(), report.macro_runs.end(),
+            [](const MacroRun& a, const MacroRun& b) {
+              return std::tie(a.fill, a.speed_fraction, a.task_key) <
+                     std::tie(b.fill, b.speed_fraction, b.task_key);
             });
   return report;
 }

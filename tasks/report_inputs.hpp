@@ -1,7 +1,8 @@
 #pragma once
 // The inputs of the `report` task, read from its upstream tasks by kind: every "upscale" task's
-// result (the contract in /work/upscale-contract.md, written by tasks/upscale) and the
-// fields.json artifact of every "average" task an upscale names. Points are sorted by fill, speed
+// result (the contract in /work/upscale-contract.md, written by tasks/upscale), the
+// fields.json artifact of every "average" task an upscale names, and every "macro" task's charge
+// shape and collision spectra (tasks/macro.hpp). Points are sorted by fill, speed
 // fraction, powder load (then task key), so the report is the same whatever the input order.
 //
 // A missing or ill-typed value throws std::invalid_argument naming the task kind and key, the
@@ -27,6 +28,8 @@ struct RegionResult {
   double media_collision_power_w = 0.0;
   double media_collision_power_no_powder_w = 0.0;
   std::optional<double> cushioning;
+  // Standard errors; none where a cell lacks the one it needs.
+  std::optional<double> powder_power_share_se, cushioning_se;
 };
 
 struct SiteResult {
@@ -60,9 +63,28 @@ struct UpscalePoint {
 // One upscale task's result.
 UpscalePoint read_upscale(const std::string& task_key, const nlohmann::json& result);
 
+// One collision spectrum of a macro run: collisions per second in the slice per energy bin (the
+// run's histogram counts over its measuring time).
+struct MacroSpectrum {
+  std::string label{};  // e.g. "ball_ball impact"
+  std::vector<double> rate_per_s{};
+};
+
+struct MacroRun {
+  std::string task_key{};
+  double fill = 0.0, speed_fraction = 0.0;
+  std::optional<double> toe_angle_deg, shoulder_angle_deg;  // none when undefined
+  std::vector<double> bin_edges_j{};
+  std::vector<MacroSpectrum> spectra{};  // per contact type: impact, then dissipated energy
+};
+
+// One macro task's result.
+MacroRun read_macro(const std::string& task_key, const nlohmann::json& result);
+
 struct ReportInputs {
   std::vector<UpscalePoint> points{};        // sorted (see above)
   std::map<std::string, FlowMap> flow_maps;  // by average task key
+  std::vector<MacroRun> macro_runs{};        // by fill, speed fraction (then task key)
 };
 
 // Throws std::invalid_argument when there is no upscale input, an upscale names an average task

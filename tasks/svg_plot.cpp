@@ -309,6 +309,31 @@ std::string escape_xml(std::string_view raw) {
   return out;
 }
 
+namespace {
+
+// The standard error of point i of a series, when it has one to draw.
+std::optional<double> error_of(const Series& series, std::size_t i) {
+  if (series.y_error.empty() || !std::isfinite(series.y_error[i]) || series.y_error[i] <= 0.0)
+    return std::nullopt;
+  return series.y_error[i];
+}
+
+// A vertical bar from y_low to y_high (pixels) at x with caps, in the series' colour.
+std::string error_bar(double x, double y_low, double y_high, const char* colour) {
+  constexpr double kCap = 4;
+  std::string out;
+  for (const auto& [x1, y1, x2, y2] :
+       {std::array{x, y_low, x, y_high}, std::array{x - kCap, y_low, x + kCap, y_low},
+        std::array{x - kCap, y_high, x + kCap, y_high}}) {
+    out += fmt::format(
+        "<line class=\"error-bar\" x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{}\"/>\n",
+        px(x1), px(y1), px(x2), px(y2), colour);
+  }
+  return out;
+}
+
+}  // namespace
+
 Figure line_chart(const LineChart& chart) {
   using F = ChartFrame;
   Range x_range, y_range;
@@ -316,12 +341,21 @@ Figure line_chart(const LineChart& chart) {
   for (std::size_t s = 0; s < chart.series.size(); ++s) {
     const Series& series = chart.series[s];
     check_sizes(series.x.size(), series.y.size(), series.name, "x and y differ in size");
+    if (!series.y_error.empty()) {
+      check_sizes(series.y_error.size(), series.y.size(), series.name,
+                  "y_error and y differ in size");
+    }
     bool has_data = false;
     for (std::size_t i = 0; i < series.x.size(); ++i) {
       if (!plottable(series.x[i], chart.x.scale) || !plottable(series.y[i], chart.y.scale))
         continue;
       x_range.add(series.x[i]);
       y_range.add(series.y[i]);
+      if (const auto error = error_of(series, i)) {
+        for (double end : {series.y[i] - *error, series.y[i] + *error}) {
+          if (plottable(end, chart.y.scale)) y_range.add(end);
+        }
+      }
       has_data = true;
     }
     entries.push_back({series.name, palette(series.colour, s), series.dashed && series.line,
@@ -343,6 +377,11 @@ Figure line_chart(const LineChart& chart) {
         continue;
       }
       path.to(x(series.x[i]), y(series.y[i]));
+      if (const auto error = error_of(series, i)) {
+        const double low = series.y[i] - *error;
+        out += error_bar(x(series.x[i]), plottable(low, chart.y.scale) ? y(low) : F::kBottom,
+                         y(series.y[i] + *error), entries[s].colour);
+      }
       if (series.markers) {
         markers += fmt::format("<circle cx=\"{}\" cy=\"{}\" r=\"3\" fill=\"{}\"/>\n",
                                px(x(series.x[i])), px(y(series.y[i])), entries[s].colour);

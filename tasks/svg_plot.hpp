@@ -6,7 +6,8 @@
 //
 // Element conventions (tests count them): a chart draws each series' line as one <path> (with a
 // new "M" where an unplottable point breaks it) and each plotted marker as one <circle>; axes,
-// ticks, grid lines and legend swatches are <line>/<rect>/<text>, never <path> or <circle>. A heat
+// ticks, grid lines and legend swatches are <line>/<rect>/<text>, never <path> or <circle>; each
+// error bar is three <line>s (the bar and its two caps) with class="error-bar". A heat
 // map draws its cells and colour bar as <rect>, the mill outline as one <circle> and each site as
 // one <circle>.
 //
@@ -66,6 +67,10 @@ inline constexpr int kPaletteSize = 10;
 struct Series {
   std::string name{};
   std::vector<double> x{}, y{};
+  // Empty, or one standard error per point: a bar over y +- error at each plotted point whose
+  // error is finite and positive (none where it is NaN, e.g. unknown); the y axis covers the bars.
+  // On a log axis a bar whose lower end is not positive runs down to the plot's bottom.
+  std::vector<double> y_error{};
   int colour = -1;
   bool dashed = false;
   bool line = true;     // join the points

@@ -16,6 +16,7 @@
 #include "engine/store.hpp"
 #include "engine/validation.hpp"
 #include "tasks/macro_setup.hpp"
+#include "tasks/report_inputs.hpp"
 #include "tests/tasks/macro_fixtures.hpp"
 
 namespace millflow::tasks {
@@ -225,6 +226,21 @@ TEST_F(MacroRunTest, CountsCollisionsOfBothKinds) {
             r["spectra"]["ball_ball"]["impact_energy"]["counts"].size() + 1);
   EXPECT_EQ(r["collisions"]["ball_ball"]["category"], "steel-steel");
   EXPECT_EQ(r["collisions"]["ball_liner"]["category"], "steel-wall:shell");
+}
+
+// The report reads the macro kind's own result (its charge shape and spectra figures): the
+// contract between the two kinds.
+TEST_F(MacroRunTest, TheReportReadsTheChargeAndTheSpectra) {
+  const json& r = result();
+  const report::MacroRun run = report::read_macro("tiny-macro", r);
+  EXPECT_EQ(run.toe_angle_deg, r["charge"]["toe_angle_deg"].get<double>());
+  ASSERT_EQ(run.spectra.size(), 4u);  // ball_ball, ball_liner x impact, dissipated
+  EXPECT_EQ(run.spectra[0].label, "ball_ball impact");
+  const double duration = r["measure_end_s"].get<double>() - r["measure_start_s"].get<double>();
+  const json& counts = r["spectra"]["ball_liner"]["dissipated_energy"]["counts"];
+  ASSERT_EQ(run.spectra[3].rate_per_s.size(), counts.size());
+  for (std::size_t k = 0; k < counts.size(); ++k)
+    EXPECT_DOUBLE_EQ(run.spectra[3].rate_per_s[k] * duration, counts[k].get<double>()) << k;
 }
 
 TEST_F(MacroRunTest, FlowSegmentsHoldEveryFrameInOrder) {

@@ -1,8 +1,8 @@
 // The `report` task on synthetic inputs: 2 fills x 2 speeds x 2 powder loads of upscale results
-// that follow the upscale contract, and a small fields.json per fill/speed. The tables must hold
-// exactly the input values (parsed back and compared with the inputs), the page must link every
-// figure, the bytes must not depend on the run or the input order, and bad inputs must name the
-// task and the field.
+// that follow the upscale contract, and a small fields.json and a macro result per fill/speed. The
+// tables must hold exactly the input values (parsed back and compared with the inputs), the page
+// must link every figure, the bytes must not depend on the run or the input order, and bad inputs
+// must name the task and the field.
 #include "tasks/report.hpp"
 
 #include <fmt/format.h>
@@ -19,6 +19,7 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "tasks/report_inputs.hpp"
 #include "tests/common/scratch_dir.hpp"
 #include "tests/tasks/upscale_inputs.hpp"
 
@@ -36,21 +37,47 @@ std::string average_key(double fill, double speed) {
 std::string upscale_key(double fill, double speed, double load) {
   return fmt::format("upscale-{}-{}-{}", fill, speed, load);
 }
+std::string macro_key(double fill, double speed) {
+  return fmt::format("macro-{}-{}", fill, speed);
+}
+
+// The macro contract's charge and spectra (tasks/macro.hpp): 3 bins over a 2 s measurement; the
+// fastest run of the fuller charge has no shoulder (undefined).
+json macro_result(double fill, double speed) {
+  const bool shoulder = !(fill == 0.3 && speed == 0.75);
+  auto histograms = [&](double scale) {
+    return json{{"impact_energy", {{"counts", {400.0 * scale, 200.0 * scale, 20.0 * scale}}}},
+                {"dissipated_energy", {{"counts", {300.0 * scale, 60.0 * scale, 2.0 * scale}}}}};
+  };
+  return {{"fill", fill},
+          {"speed_fraction", speed},
+          {"measure_start_s", 1.5},
+          {"measure_end_s", 3.5},
+          {"charge",
+           {{"toe_angle_deg", 200.0 + 40.0 * speed},
+            {"shoulder_angle_deg", shoulder ? json(20.0 + 50.0 * fill) : json(nullptr)}}},
+          {"spectra",
+           {{"bin_edges_j", {1e-6, 1e-4, 1e-2, 1.0}},
+            {"ball_ball", histograms(fill)},
+            {"ball_liner", histograms(speed)}}}};
+}
 
 // A toe and a bulk region; the bulk's cushioning is unknown (null) without powder, and the bulk
 // site's cell was skipped, so its cell values are null.
 json upscale_result(double fill, double speed, double load) {
   const double draw = 2000.0 * fill + 1000.0 * speed, powder = 100.0 * load;
-  auto region = [&](const char* name, double share, json cushioning) {
+  auto region = [&](const char* name, double share, json cushioning, json cushioning_se) {
     return json{{"region", name},
                 {"sites", 1},
                 {"volume_m3", 0.001 * share},
                 {"powder_power_w", share * powder},
                 {"powder_power_share", load > 0 ? json(share) : json(nullptr)},
+                {"powder_power_share_se", load > 0 ? json(0.1 * share) : json(nullptr)},
                 {"media_power_w", 300.0 * share},
                 {"media_collision_power_w", 60.0 * share * (1.0 - 0.2 * load)},
                 {"media_collision_power_no_powder_w", 60.0 * share},
-                {"cushioning", cushioning}};
+                {"cushioning", cushioning},
+                {"cushioning_se", cushioning_se}};
   };
   const json toe_site = {{"site_id", "toe-0"},
                          {"region", "toe"},
@@ -92,8 +119,8 @@ json upscale_result(double fill, double speed, double load) {
           {"powder_power_w", powder},
           {"media_power_w", 300.0},
           {"regions",
-           {region("toe", 0.6, 1.0 - 0.2 * load),
-            region("bulk", 0.4, load > 0 ? json(0.9) : json(nullptr))}},
+           {region("toe", 0.6, 1.0 - 0.2 * load, load > 0 ? json(0.05) : json(nullptr)),
+            region("bulk", 0.4, load > 0 ? json(0.9) : json(nullptr), nullptr)}},
           {"dominant_region", load > 0 ? json("toe") : json(nullptr)},  // none without powder
           {"spectra",
            {{"bin_edges_j", {1e-9, 1e-8, 1e-7, 1e-6}},
@@ -171,6 +198,7 @@ class Report : public ::testing::Test {
         std::ofstream(fields) << fields_document(fill).dump();
         inputs_.push_back(
             {average_key(fill, speed), "average", json::object(), {{"fields.json", fields}}});
+        inputs_.push_back({macro_key(fill, speed), "macro", macro_result(fill, speed), {}});
         for (double load : kLoads) {
           inputs_.push_back(
               {upscale_key(fill, speed, load), "upscale", upscale_result(fill, speed, load), {}});
@@ -214,6 +242,7 @@ class Report : public ::testing::Test {
 
 const std::vector<std::string> kExpectedFiles = {"power_draw.svg",   "powder_power_shares.svg",
                                                  "cushioning.svg",   "powder_spectra.svg",
+                                                 "charge_shape.svg", "macro_spectra.svg",
                                                  "maps_0.2_0.6.svg", "maps_0.2_0.75.svg",
                                                  "maps_0.3_0.6.svg", "maps_0.3_0.75.svg",
                                                  "coupling.svg",     "upscaled.csv",
@@ -276,10 +305,12 @@ TEST_F(Report, UpscaledTableHoldsTheInputsInPointOrder) {
               region.at("media_collision_power_w").get<double>());
     EXPECT_EQ(std::stod(row.at("power_draw_with_powder_w")),
               expected.at("power_draw_with_powder_w").get<double>());
-    if (region.at("cushioning").is_null())
-      EXPECT_EQ(row.at("cushioning"), "");
-    else
-      EXPECT_EQ(std::stod(row.at("cushioning")), region.at("cushioning").get<double>());
+    for (const char* column : {"cushioning", "cushioning_se", "powder_power_share_se"}) {
+      if (region.at(column).is_null())
+        EXPECT_EQ(row.at(column), "") << column;
+      else
+        EXPECT_EQ(std::stod(row.at(column)), region.at(column).get<double>()) << column;
+    }
   }
   EXPECT_TRUE(std::is_sorted(order.begin(), order.end()));
 }
@@ -334,6 +365,56 @@ TEST_F(Report, FiguresDrawOneMarkerPerComparedSite) {
   EXPECT_EQ(count_of(read_text(dir_.path() / "work" / "coupling.svg"), "<circle"), 4u);
   // Three panels, each with the mill outline and the two sites.
   EXPECT_EQ(count_of(read_text(dir_.path() / "work" / "maps_0.3_0.75.svg"), "<circle"), 3u * 3u);
+}
+
+TEST_F(Report, ErrorBarsWhereTheUpscaleGivesAStandardError) {
+  run(inputs_, "work");
+  // Shares: both regions' at load 0.5 in each of the 4 panels; cushioning: the toe's at load 0.5.
+  // Each bar is three <line>s (svg_plot.hpp).
+  const std::string bar = "class=\"error-bar\"";
+  EXPECT_EQ(count_of(read_text(dir_.path() / "work" / "powder_power_shares.svg"), bar),
+            4u * 2u * 3u);
+  EXPECT_EQ(count_of(read_text(dir_.path() / "work" / "cushioning.svg"), bar), 4u * 1u * 3u);
+}
+
+TEST_F(Report, ChargeShapeHasAMarkerPerDefinedAngle) {
+  run(inputs_, "work");
+  const std::string svg = read_text(dir_.path() / "work" / "charge_shape.svg");
+  // 4 runs x (toe, shoulder), less the one undefined shoulder; a toe and a shoulder line per fill.
+  EXPECT_EQ(count_of(svg, "<circle"), 4u * 2u - 1u);
+  EXPECT_EQ(count_of(svg, "<path"), 2u * 2u);
+  EXPECT_NE(svg.find(">J = 0.3 shoulder<"), std::string::npos);
+}
+
+TEST_F(Report, MacroSpectraAreCollisionsPerSecondPerRun) {
+  const report::MacroRun run = report::read_macro("m", macro_result(0.2, 0.6));
+  ASSERT_EQ(run.spectra.size(), 4u);
+  EXPECT_EQ(run.spectra[0].label, "ball_ball impact");
+  EXPECT_EQ(run.spectra[3].label, "ball_liner dissipated");
+  // Counts over the 2 s measurement (ball_ball scaled by the fill, ball_liner by the speed).
+  EXPECT_EQ(run.spectra[0].rate_per_s,
+            (std::vector<double>{400.0 * 0.2 / 2, 200.0 * 0.2 / 2, 20.0 * 0.2 / 2}));
+  EXPECT_EQ(run.spectra[3].rate_per_s,
+            (std::vector<double>{300.0 * 0.6 / 2, 60.0 * 0.6 / 2, 2.0 * 0.6 / 2}));
+  ASSERT_TRUE(run.toe_angle_deg.has_value());
+  EXPECT_DOUBLE_EQ(*run.toe_angle_deg, 224.0);
+
+  this->run(inputs_, "work");
+  // A panel per run, a step line per contact type and energy.
+  EXPECT_EQ(count_of(read_text(dir_.path() / "work" / "macro_spectra.svg"), "<path"), 4u * 4u);
+}
+
+TEST_F(Report, MacroFieldErrorsNameTheMacroTask) {
+  const std::string key = macro_key(0.2, 0.75);
+  const std::string short_spectrum = error_after(
+      key, [](json& r) { r["spectra"]["ball_liner"]["dissipated_energy"]["counts"] = {1.0}; });
+  EXPECT_NE(short_spectrum.find("macro task " + key +
+                                ": field /spectra/ball_liner/dissipated_energy/counts does not "
+                                "hold 3 bins"),
+            std::string::npos)
+      << short_spectrum;
+  const std::string no_charge = error_after(key, [](json& r) { r.erase("charge"); });
+  EXPECT_NE(no_charge.find("/charge/toe_angle_deg is missing"), std::string::npos) << no_charge;
 }
 
 // Every figure renders (rsvg-convert) and no label leaves the canvas or covers another one,

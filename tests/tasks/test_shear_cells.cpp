@@ -134,11 +134,12 @@ TEST(ShearCellsPlan, EverySlotAndLoadHasACellBelowSharedSitesAndEveryPointAnUpsc
       EXPECT_EQ(task.params.at("dem"), json({{"seed", 1}}));  // nor the macro runs' time step
     }
     if (task.kind == "report") {
-      // Every upscale, and each fill and speed's average and sites once (its maps).
+      // Every upscale, and each fill and speed's macro, average and sites once (its charge shape,
+      // spectra and maps).
       std::map<std::string, int> upstream_kinds;
       for (const auto& key : task.upstream) ++upstream_kinds[by_key.at(key)->kind];
-      EXPECT_EQ(upstream_kinds,
-                (std::map<std::string, int>{{"average", 4}, {"sites", 4}, {"upscale", 12}}));
+      EXPECT_EQ(upstream_kinds, (std::map<std::string, int>{
+                                    {"macro", 4}, {"average", 4}, {"sites", 4}, {"upscale", 12}}));
     }
     if (task.kind != "upscale") continue;
     // Its macro, average and sites, its 10 cells, and the 10 without powder unless it has none.

@@ -191,10 +191,42 @@ TEST(LineChart, MismatchedSizesNameTheSeries) {
   }
 }
 
+TEST(LineChart, ErrorBarsWhereTheErrorIsKnownAndTheAxisCoversThem) {
+  LineChart chart{.title = "t",
+                  .x = {"x"},
+                  .y = {"y"},
+                  .series = {{.name = "s", .x = {1, 2, 3}, .y = {10, 20, 30}}}};
+  chart.series[0].y_error = {1, kNaN, 50};  // no bar where the error is unknown
+  const std::string svg = line_chart(chart).svg;
+  EXPECT_EQ(occurrences(svg, "class=\"error-bar\""), 2u * 3u);  // bar and two caps each
+  EXPECT_EQ(elements_of(svg).at("circle"), 3);
+  // The bars span [-20, 80]: ticks -20 .. 80 by 20, so y(v) = 360 - 3.24 (v + 20); x(1) = 78.
+  EXPECT_NE(svg.find(">-20<"), std::string::npos);
+  EXPECT_NE(svg.find(">80<"), std::string::npos);
+  EXPECT_NE(svg.find("x1=\"78.00\" y1=\"266.04\" x2=\"78.00\" y2=\"259.56\""), std::string::npos)
+      << svg;
+
+  chart.series[0].y_error = {1, 2};
+  EXPECT_THROW(line_chart(chart), std::invalid_argument);
+}
+
+TEST(LineChart, ErrorBarBelowZeroOnALogAxisRunsToTheBottom) {
+  LineChart chart{.title = "t",
+                  .x = {"x"},
+                  .y = {"y", Scale::log},
+                  .series = {{.name = "s", .x = {1, 2}, .y = {10, 20}, .y_error = {20, kNaN}}}};
+  const std::string svg = line_chart(chart).svg;
+  EXPECT_EQ(occurrences(svg, "class=\"error-bar\""), 3u);
+  // x(1) = 78 (ticks 1 .. 2 by 0.2); 360 is the plot's bottom edge.
+  EXPECT_NE(svg.find("class=\"error-bar\" x1=\"78.00\" y1=\"360.00\" x2=\"78.00\""),
+            std::string::npos)
+      << svg;
+}
+
 TEST(LineChart, LegendBeyondItsLimitIsSummarised) {
   LineChart chart{.title = "t", .x = {"x"}, .y = {"y"}, .legend_limit = 3};
   for (int s = 0; s < 5; ++s)
-    chart.series.push_back({.name = "s" + std::to_string(s), .x = {1, 2}, .y = {1.0 * s, 2.0}});
+    chart.series.push_back({.name = fmt::format("s{}", s), .x = {1, 2}, .y = {1.0 * s, 2.0}});
   const std::string svg = line_chart(chart).svg;
   EXPECT_NE(svg.find(">+ 3 more<"), std::string::npos);
   EXPECT_EQ(svg.find(">s2<"), std::string::npos);
