@@ -1,5 +1,5 @@
 #pragma once
-// The task kinds of the multiscale method (DESIGN.md section 1), each in its own file, and the
+// The task kinds of the multiscale method (docs/method.md, "The four steps"), each in its own file, and the
 // slices of a campaign point that each kind's parameters are made of.
 //
 // A kind's parameters hold exactly what its result depends on, so that changing a micro-scale

@@ -1,5 +1,5 @@
 #pragma once
-// The `macro` task kind: one DEM run of the balls in a rotating mill slice (DESIGN.md section 1,
+// The `macro` task kind: one DEM run of the balls in a rotating mill slice (docs/method.md,
 // step 1). Parameters: tasks::macro_params (materials, interactions, dem, mill, media, macro);
 // their translation into a DEM mill is in tasks/macro_setup.hpp.
 //

@@ -1,5 +1,5 @@
 #pragma once
-// The `shear_cell` task kind (DESIGN.md section 1, step 3): one microscale shear cell per site
+// The `shear_cell` task kind (docs/method.md, step 3): one microscale shear cell per site
 // slot and powder load.
 //
 // Parameters: tasks::shear_cells_params (shear_cell, materials, interactions, media, dem.seed) plus

@@ -1,6 +1,8 @@
 # A private single-node Slurm cluster in a scratch directory (sourced by run_slurm_test.sh).
 # Needs root (slurmd runs the jobs; munged's key must belong to the munge user). Ports are private,
-# so it runs beside any other Slurm on the machine. Recipe: ../shared/FACTS.md, "Slurm on one machine".
+# so it runs beside any other Slurm on the machine. No systemd and no slurmdbd: munged gets its own
+# socket, slurmctld and slurmd a slurm.conf written below (sacct needs slurmdbd, so state is polled
+# with squeue and scontrol).
 #   start_private_cluster DIR   starts munged, slurmctld and slurmd; exports SLURM_CONF
 #   stop_private_cluster        stops the three daemons by pid
 
