@@ -31,7 +31,8 @@ constexpr double kPlacementSolidFraction = 0.3;
 // of their middle, inside every ball: the layer has no hole for powder to leak through.
 constexpr double kWallBallSpacing = 0.5;
 constexpr double kWallBallJitter = 0.25;
-// First guess of bulk / nominal shear rate (rough walls slip, the bulk at ~40% of nominal: docs/method.md).
+// First guess of bulk / nominal shear rate (rough walls slip, the bulk at ~40% of nominal:
+// docs/method.md).
 constexpr double kInitialBulkFraction = 0.5;
 // The wall-speed controller changes the speed by at most this factor per window.
 constexpr double kMaxSpeedChange = 2.0;

@@ -1,6 +1,6 @@
 #pragma once
-// The task kinds of the multiscale method (docs/method.md, "The four steps"), each in its own file, and the
-// slices of a campaign point that each kind's parameters are made of.
+// The task kinds of the multiscale method (docs/method.md, "The four steps"), each in its own file,
+// and the slices of a campaign point that each kind's parameters are made of.
 //
 // A kind's parameters hold exactly what its result depends on, so that changing a micro-scale
 // setting re-keys the shear cells but reuses the macro runs (the keys form a Merkle chain).

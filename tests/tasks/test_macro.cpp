@@ -100,8 +100,8 @@ TEST(MacroParams, MissingValuesAndPairsAreNamed) {
 }
 
 TEST(MacroParams, CorrelationsMatchTheFactsSheet) {
-  // docs/method.md, reference points: Bond ~8 kW/t at D = 1 m, ~13 kW/t at D = 5 m; Hogg-Fuerstenau ~6.4 kW/t at D = 1 m
-  // (J = 0.3, phi_c = 0.75).
+  // docs/method.md, reference points: Bond ~8 kW/t at D = 1 m, ~13 kW/t at D = 5 m; Hogg-Fuerstenau
+  // ~6.4 kW/t at D = 1 m (J = 0.3, phi_c = 0.75).
   EXPECT_NEAR(bond_kw_per_tonne(1.0, 0.3, 0.75), 8.0, 0.3);
   EXPECT_NEAR(bond_kw_per_tonne(5.0, 0.3, 0.75), 13.0, 0.5);
   EXPECT_NEAR(hogg_fuerstenau_kw_per_tonne(1.0, 0.3, 0.75), 6.4, 0.1);
