@@ -37,15 +37,24 @@
 // loose gap at v_max until the interval's mean reaches half the target.
 //
 // Barostat (LeesEdwards). Every steps_per_collision steps (interval dt_c) the box and the
-// particles are stretched affinely along y by the strain
-//   e = clamp((p_yy - p_target) / M  dt_c / tau,  +- 0.05 dt_c / tau),
+// particles are stretched affinely along y by the strain (a PI law)
+//   e = (clamp(x, +-0.05) + b) dt_c / tau,   x = (p_yy - p_target) / M,
+//   b <- clamp(b + x dt_c / T_i, +-0.05),    T_i = 2 tau,
 //   tau = max(t_wave, 0.1 / gdot) / g,  M = 10 p_target,
 // p_yy the mean virial normal stress over samples every kBarostatSamplesEvery steps since the
 // last stretch (single collisions of stiff balls make it spike). M is the modulus of a flowing
 // bed (dense-flow pressure grows as (phi_c - phi)^-2, dp/de ~ 2 p phi / (phi_c - phi) ~ 10 p), not
 // the far stiffer contacts, which last only a collision there; a flowing bed answers a change of
 // volume over a strain of ~0.1, and a faster barostat pumps energy into the cell. The limit of 5%
-// per tau keeps a bed that jams for a moment from throwing the box into oscillation. Whenever
+// per tau keeps a bed that jams for a moment from throwing the box into oscillation, but a
+// clamped law alone answers something nearer the median than the mean of an intermittent
+// stress (a collisional bed of stiff balls: most intervals carry little, a few carry a
+// collision far above the target), so it held the mean 10-30% high there. The integral term b
+// sees the unclamped error, so it settles only when the MEAN p_yy is on target; it is frozen
+// while the box closes and bounded by the same 5% per tau (anti-windup). With the proportional
+// term the loop is s^2 + s / tau + 1 / (tau T_i) at modulus M: damping ratio
+// sqrt(T_i / tau) / 2 = 0.71, more for a stiffer bed (averaging p_yy over tau before the law
+// instead delays it by tau and sets the box oscillating). Whenever
 // that mean p_yy is below half the target (the loose fill at the start, or a bed that lost
 // contact) the box shrinks at the wall's speed limit v_max instead. The warm-up then ends on the
 // stationarity test of ShearCellProtocol (docs/shear_cells.md).
@@ -401,6 +410,7 @@ class ShearCell {
   double barostat_stress_sum_ = 0.0, barostat_stress_samples_ = 0.0;  // since the last stretch
   double last_barostat_stress_ = 0.0;  // the mean p_yy the last stretch answered, Pa
   double smoothed_stress_ = 0.0;       // its running mean over the relaxation time, Pa
+  double barostat_bias_ = 0.0;         // the barostat's integral term, strain per relaxation time
   bool compacted_ = false;
 };
 
@@ -442,7 +452,8 @@ struct ShearCellProtocol {
 //           (dem/checkpoint.hpp)
 //   cell: media, powder and wall ball counts (uint64), wall speed, LE boundary work, barostat
 //         work, stress sum and sample count since the last control interval, the stress that
-//         interval answered and its running mean over the relaxation time, compacted (uint8)
+//         interval answered and its running mean over the relaxation time, the barostat's
+//         integral term, compacted (uint8)
 //   run: phase (uint8: 0 compacting, 1 warm-up, 2 measuring), warm-up window index
 //        (int32); the window in progress (uint64 steps, half, every, done; profile: 8 doubles;
 //        shear stress sum, normal stress sum, sample count); the previous window's summary

@@ -121,7 +121,9 @@ TEST_F(ShearCellPhysics, LeesEdwardsCellBalancesEnergyAndResistsShear) {
   setup.steps_per_collision = 40;
   ShearCell cell(setup);
   cell.run_strain(2.0);
-  const ShearCellMeasurements m = cell.measure(1.5);
+  // The middle-half profile rate of a 6 d cell scatters by ~17% between seeds over 1.5 strains
+  // (within 3% over 3).
+  const ShearCellMeasurements m = cell.measure(3.0);
   std::printf(
       "LE with barostat: p = %.4g Pa (target %.4g), tau = %.4g Pa, mu = %.4g, phi = %.3g, bulk "
       "rate %.4g "
