@@ -102,7 +102,7 @@ svg::Figure power_draw_figure(const std::vector<UpscalePoint>& points,
         series.colour = colour;
         series.dashed = true;
         series.x.push_back(slice.speed_fraction);
-        series.y.push_back(point->power_draw_with_powder_w);
+        series.y.push_back(point->power_draw_with_powder_w.value_or(kNaN));
       }
     }
     chart.series.push_back(std::move(macro));
@@ -380,6 +380,10 @@ std::string spectra_csv(const std::vector<UpscalePoint>& points) {
 
 std::string md(double value) {
   return fmt::format("{:.4g}", value);
+}
+
+std::string md(const std::optional<double>& value) {
+  return value ? md(*value) : std::string("-");
 }
 
 std::string points_table(const std::vector<UpscalePoint>& points) {

@@ -140,7 +140,7 @@ UpscalePoint read_upscale(const std::string& task_key, const json& result) {
                      .powder_load = in.number("/powder_load"),
                      .power_draw_w = in.number("/mill/power_draw_w"),
                      .specific_power_kw_per_t = in.number("/mill/specific_power_kw_per_t"),
-                     .power_draw_with_powder_w = in.number("/power_draw_with_powder_w"),
+                     .power_draw_with_powder_w = in.number_or_null("/power_draw_with_powder_w"),
                      .powder_power_w = in.number("/powder_power_w"),
                      .media_power_w = in.number("/media_power_w"),
                      .dominant_region = in.text_or_null("/dominant_region"),

@@ -51,7 +51,9 @@ struct Coupling {
 struct UpscalePoint {
   std::string task_key{}, average_task{};
   double fill = 0.0, speed_fraction = 0.0, powder_load = 0.0;
-  double power_draw_w = 0.0, specific_power_kw_per_t = 0.0, power_draw_with_powder_w = 0.0;
+  double power_draw_w = 0.0, specific_power_kw_per_t = 0.0;
+  // None when every media-only cell of the point was left out of the upscaling (no reference).
+  std::optional<double> power_draw_with_powder_w;
   double powder_power_w = 0.0, media_power_w = 0.0;
   std::vector<RegionResult> regions{};
   std::optional<std::string> dominant_region{};  // none without powder power

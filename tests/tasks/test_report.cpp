@@ -288,6 +288,26 @@ TEST_F(Report, ReadsTheUpscaleKindsResultsWithAndWithoutPowder) {
   }
 }
 
+// A point whose media-only cells were all left out of the upscaling (unsteady) has no power draw
+// with powder: the report leaves it out of the plot and the tables instead of failing
+// (quick.json's J = 0.35, 65% point did, with every media-only cell unsteady).
+TEST_F(Report, PointWithoutPowerDrawWithPowderIsReportedWithoutIt) {
+  auto inputs = inputs_;
+  const std::string key = upscale_key(0.3, 0.6, 0.5);
+  for (auto& input : inputs) {
+    if (input.key == key) input.result["power_draw_with_powder_w"] = nullptr;
+  }
+  run(inputs, "no-reference");
+  const auto rows = read_csv(dir_.path() / "no-reference" / "upscaled.csv");
+  std::size_t blank = 0;
+  for (const auto& row : rows) {
+    const bool this_point = row.at("upscale_task") == key;
+    EXPECT_EQ(row.at("power_draw_with_powder_w").empty(), this_point) << row.at("upscale_task");
+    if (this_point) ++blank;
+  }
+  EXPECT_GT(blank, 0u);
+}
+
 TEST_F(Report, UpscaledTableHoldsTheInputsInPointOrder) {
   run(inputs_, "work");
   const auto rows = read_csv(dir_.path() / "work" / "upscaled.csv");
