@@ -1,11 +1,8 @@
 #include "tasks/cell_spec.hpp"
 
-#include <cerrno>
-#include <cstring>
-#include <fstream>
-#include <sstream>
 #include <stop_token>
 
+#include "engine/files.hpp"
 #include "engine/json_text.hpp"
 #include "engine/validation.hpp"
 #include "tasks/campaign.hpp"
@@ -78,15 +75,7 @@ json parse_cell_spec(std::string_view text) {
 }
 
 json load_cell_spec(const std::filesystem::path& file) {
-  std::ifstream stream(file, std::ios::binary);
-  if (!stream) {
-    throw engine::InvalidInput(
-        {{"", "cannot read cell spec " + file.string() + ": " + std::strerror(errno),
-          "check the file name and its permissions"}});
-  }
-  std::ostringstream text;
-  text << stream.rdbuf();
-  return parse_cell_spec(text.str());
+  return parse_cell_spec(engine::read_input_file(file));
 }
 
 json run_cell_spec(const json& spec, const std::filesystem::path& out_dir,
