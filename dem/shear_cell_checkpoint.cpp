@@ -1,0 +1,269 @@
+// The shear cell run's checkpoint: its byte layout (documented at kShearCellCheckpointVersion),
+// save and resume.
+#include "dem/shear_cell.hpp"
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+#include <fmt/format.h>
+
+#include "dem/checkpoint.hpp"
+
+#include "dem/shear_cell_geometry.hpp"
+
+namespace millflow::dem {
+using namespace shear_cell_detail;
+
+namespace {
+
+constexpr std::string_view kRunMagic = "MFSHRCKP";
+
+void put(BinaryWriter& out, const Vec3& v) {
+  for (int a = 0; a < 3; ++a) out.put(v[a]);
+}
+
+void put(BinaryWriter& out, const Material& material) {
+  out.put_string(material.name);
+  out.put(material.density);
+}
+
+void put(BinaryWriter& out, const InteractionSpec& spec) {
+  out.put(spec.restitution);
+  out.put(spec.friction);
+  out.put(spec.normal_stiffness);
+  out.put(spec.tangential_stiffness_ratio);
+  out.put(spec.tangential_damping_ratio);
+}
+
+// Every setting that shapes the run, so a checkpoint is never continued by another cell.
+std::string run_identity(const ShearCellSetup& s, const ShearCellProtocol& protocol) {
+  BinaryWriter out;
+  out.put(s.media_diameter);
+  put(out, s.media);
+  put(out, s.powder);
+  for (const InteractionSpec* spec : {&s.media_media, &s.media_powder, &s.powder_powder})
+    put(out, *spec);
+  out.put(s.powder_diameter_ratio);
+  out.put(s.powder_load);
+  out.put(s.powder_bed_solid_fraction);
+  put(out, s.size_diameters);
+  out.put<std::uint8_t>(static_cast<std::uint8_t>(s.boundary));
+  out.put(s.shear_rate);
+  out.put(s.normal_stress);
+  out.put<std::uint8_t>(s.gravity);
+  out.put(s.servo_gain);
+  out.put(s.seed);
+  out.put(s.media_solid_fraction);
+  out.put<std::int32_t>(s.steps_per_collision);
+  out.put(s.overlap_bound.mean_fraction);
+  out.put(s.overlap_bound.p95_fraction);
+  out.put(protocol.warmup_strain);
+  out.put<std::int32_t>(protocol.warmup_windows);
+  out.put(protocol.max_warmup_strain);
+  out.put(protocol.measure_strain);
+  out.put<std::int32_t>(protocol.measure.samples);
+  out.put(protocol.measure.steady_tolerance);
+  out.put<std::uint8_t>(protocol.measure.record_collisions);
+  out.put(protocol.measure.standard_error_target);
+  out.put(protocol.measure.max_strain);
+  return out.bytes();
+}
+
+}  // namespace
+
+void ShearCell::Profile::write(BinaryWriter& out) const {
+  for (double v : {w, wy, wyy, wv, wyv, media_volume, powder_volume, slab_volume}) out.put(v);
+}
+
+void ShearCell::Profile::read(BinaryReader& in) {
+  for (double* v : {&w, &wy, &wyy, &wv, &wyv, &media_volume, &powder_volume, &slab_volume})
+    *v = in.get<double>();
+}
+
+void ShearCell::WarmUpWindow::write(BinaryWriter& out) const {
+  for (std::uint64_t v : {steps, half, every, done}) out.put(v);
+  profile.write(out);
+  for (double v : {shear_sum, normal_sum, samples}) out.put(v);
+}
+
+void ShearCell::WarmUpWindow::read(BinaryReader& in) {
+  for (std::uint64_t* v : {&steps, &half, &every, &done}) *v = in.get<std::uint64_t>();
+  profile.read(in);
+  for (double* v : {&shear_sum, &normal_sum, &samples}) *v = in.get<double>();
+  if (every == 0 || half > steps || done > steps)
+    throw CorruptData("shear cell checkpoint: the warm-up window is out of range");
+}
+
+void ShearCell::OverlapHistogram::write(BinaryWriter& out) const {
+  out.put<std::uint64_t>(counts.size());
+  for (double c : counts) out.put(c);
+  out.put(sum);
+  out.put(max);
+}
+
+void ShearCell::OverlapHistogram::read(BinaryReader& in) {
+  const auto size = in.get<std::uint64_t>();
+  if (size != 0 && size != kOverlapBins)
+    throw CorruptData("shear cell checkpoint: an overlap histogram has the wrong size");
+  counts.resize(size);
+  for (double& c : counts) c = in.get<double>();
+  sum = in.get<double>();
+  max = in.get<double>();
+}
+
+void MeasuredBlock::write(BinaryWriter& out) const {
+  for (double v : {shear_sum, normal_sum, gap_sum, stress_samples, pressure_sum, pressure_samples,
+                   shear_work, duration})
+    out.put(v);
+  for (double v : dissipated) out.put(v);
+}
+
+void MeasuredBlock::read(BinaryReader& in) {
+  for (double* v : {&shear_sum, &normal_sum, &gap_sum, &stress_samples, &pressure_sum,
+                    &pressure_samples, &shear_work, &duration})
+    *v = in.get<double>();
+  for (double& v : dissipated) v = in.get<double>();
+}
+
+void ShearCell::Measurement::write(BinaryWriter& out) const {
+  for (std::uint64_t v : {steps, min_steps, block_steps, every, stress_every, done}) out.put(v);
+  for (double v : {work0, shear_work0, motion0, budget0.kinetic, budget0.potential, budget0.elastic,
+                   budget0.dissipated, budget0.wall_work}) {
+    out.put(v);
+  }
+  out.put<std::uint64_t>(dissipation0.size());
+  for (const Dissipation& d : dissipation0) {
+    for (double v : {d.normal, d.tangential, d.friction}) out.put(v);
+  }
+  profile.write(out);
+  for (double v : tensor_sum) out.put(v);
+  out.put(tensor_samples);
+  out.put<std::uint64_t>(blocks.size());
+  for (const MeasuredBlock& b : blocks) b.write(out);
+  current.write(out);
+  out.put(block_shear_work0);
+  out.put<std::uint64_t>(block_dissipation0.size());
+  for (double v : block_dissipation0) out.put(v);
+  for (const OverlapHistogram& h : overlaps) h.write(out);
+  for (const CollisionStats& stats : collisions) {
+    out.put(stats.count);
+    stats.dissipated_energy.write(out);
+  }
+  out.put(wall_seconds);
+  out.put<std::uint8_t>(converged);
+}
+
+void ShearCell::Measurement::read(BinaryReader& in) {
+  for (std::uint64_t* v : {&steps, &min_steps, &block_steps, &every, &stress_every, &done})
+    *v = in.get<std::uint64_t>();
+  for (double* v : {&work0, &shear_work0, &motion0, &budget0.kinetic, &budget0.potential,
+                    &budget0.elastic, &budget0.dissipated, &budget0.wall_work}) {
+    *v = in.get<double>();
+  }
+  dissipation0.resize(in.get<std::uint64_t>());
+  for (Dissipation& d : dissipation0) {
+    for (double* v : {&d.normal, &d.tangential, &d.friction}) *v = in.get<double>();
+  }
+  profile.read(in);
+  for (double& v : tensor_sum) v = in.get<double>();
+  tensor_samples = in.get<double>();
+  const auto block_count = in.get<std::uint64_t>();
+  if (block_count > steps)
+    throw CorruptData("shear cell checkpoint: more measured blocks than steps");
+  blocks.resize(block_count);
+  for (MeasuredBlock& b : blocks) b.read(in);
+  current.read(in);
+  block_shear_work0 = in.get<double>();
+  const auto categories = in.get<std::uint64_t>();
+  if (categories != dissipation0.size())
+    throw CorruptData("shear cell checkpoint: the block's dissipation has the wrong size");
+  block_dissipation0.resize(categories);
+  for (double& v : block_dissipation0) v = in.get<double>();
+  for (OverlapHistogram& h : overlaps) h.read(in);
+  for (CollisionStats& stats : collisions) {
+    stats.count = in.get<double>();
+    stats.dissipated_energy = LogHistogram::read(in);
+  }
+  wall_seconds = in.get<double>();
+  converged = in.get<std::uint8_t>() != 0;
+  if (every == 0 || stress_every == 0 || block_steps == 0 || done > steps || min_steps > steps) {
+    throw CorruptData("shear cell checkpoint: the measurement is out of range");
+  }
+}
+
+void ShearCell::write_state(BinaryWriter& out) const {
+  for (std::uint64_t count : {media_count_, powder_count_, wall_ball_count_}) out.put(count);
+  for (double v :
+       {wall_speed_, le_work_, barostat_work_, barostat_stress_sum_, barostat_stress_samples_,
+        last_barostat_stress_, smoothed_stress_, barostat_bias_}) {
+    out.put(v);
+  }
+  out.put<std::uint8_t>(compacted_);
+}
+
+void ShearCell::read_state(BinaryReader& in) {
+  for (std::size_t* count : {&media_count_, &powder_count_, &wall_ball_count_})
+    *count = in.get<std::uint64_t>();
+  for (double* v :
+       {&wall_speed_, &le_work_, &barostat_work_, &barostat_stress_sum_, &barostat_stress_samples_,
+        &last_barostat_stress_, &smoothed_stress_, &barostat_bias_}) {
+    *v = in.get<double>();
+  }
+  compacted_ = in.get<std::uint8_t>() != 0;
+  if (media_count_ + powder_count_ + wall_ball_count_ != system_.size()) {
+    throw CorruptData("shear cell checkpoint: the particle counts do not add up to the system's");
+  }
+}
+
+ShearCellRun ShearCellRun::resume(const ShearCellSetup& setup, const ShearCellProtocol& protocol,
+                                  const std::filesystem::path& path) {
+  const std::string payload = read_checksummed_file(path, kRunMagic, kShearCellCheckpointVersion);
+  BinaryReader in(payload);
+  if (in.get_string() != run_identity(setup, protocol)) {
+    throw CorruptData(
+        fmt::format("{}: the checkpoint is of another shear cell or protocol", path.string()));
+  }
+  const auto system_version = in.get<std::uint32_t>();
+  ShearCellRun run(
+      ShearCell(setup, system_from_checkpoint_payload(in.get_string(), system_version)), protocol);
+  run.cell_.read_state(in);
+  const auto phase = in.get<std::uint8_t>();
+  if (phase > static_cast<std::uint8_t>(Phase::Measuring)) {
+    throw CorruptData(fmt::format("{}: unknown shear cell run phase {}", path.string(), phase));
+  }
+  run.phase_ = static_cast<Phase>(phase);
+  run.window_index_ = in.get<std::int32_t>();
+  run.window_.read(in);
+  for (double* v :
+       {&run.previous_.solid_fraction, &run.previous_.shear_stress, &run.previous_.normal_stress,
+        &run.previous_.bulk_shear_rate, &run.stationary_strain_})
+    *v = in.get<double>();
+  run.stationary_ = in.get<std::uint8_t>() != 0;
+  run.measurement_.read(in);
+  run.measurement_.options = protocol.measure;
+  if (!in.at_end())
+    throw CorruptData(fmt::format("{}: trailing bytes after the shear cell run", path.string()));
+  return run;
+}
+
+void ShearCellRun::save(const std::filesystem::path& path) {
+  if (done()) throw std::logic_error("shear cell run: a finished run has nothing to checkpoint");
+  if (phase_ == Phase::Measuring) cell_.tally_collisions(measurement_);
+  BinaryWriter out;
+  out.put_string(run_identity(cell_.setup(), protocol_));
+  out.put(kCheckpointVersion);
+  out.put_string(checkpoint_payload(cell_.system()));
+  cell_.write_state(out);
+  out.put(static_cast<std::uint8_t>(phase_));
+  out.put<std::int32_t>(window_index_);
+  window_.write(out);
+  for (double v : {previous_.solid_fraction, previous_.shear_stress, previous_.normal_stress,
+                   previous_.bulk_shear_rate, stationary_strain_})
+    out.put(v);
+  out.put<std::uint8_t>(stationary_);
+  measurement_.write(out);
+  write_checksummed_file(path, kRunMagic, kShearCellCheckpointVersion, out.bytes());
+}
+
+}  // namespace millflow::dem

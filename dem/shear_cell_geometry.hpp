@@ -1,0 +1,63 @@
+#pragma once
+// Shared by the shear cell's source files (dem/shear_cell*.cpp) and nothing else: the cell's
+// geometry derived from its setup, and the constants more than one of its jobs uses.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include "dem/shear_cell.hpp"
+
+namespace millflow::dem::shear_cell_detail {
+
+// Solid fraction at which the walled cell is first filled: random sequential addition jams near
+// 0.38, so particles go into a taller, looser cell that the servo then compresses.
+inline constexpr double kPlacementSolidFraction = 0.3;
+// Wall balls sit on a square lattice of this spacing (in diameters), each raised or lowered by a
+// random amount up to kWallBallJitter diameters: a random bumpy surface that does not template a
+// crystal in the bed. Four neighbours' centres then lie within sqrt(0.5^2/2 + 0.25^2) = 0.43 d
+// of their middle, inside every ball: the layer has no hole for powder to leak through.
+inline constexpr double kWallBallSpacing = 0.5;
+inline constexpr double kWallBallJitter = 0.25;
+// First guess of bulk / nominal shear rate (rough walls slip, the bulk at ~40% of nominal:
+// docs/method.md).
+inline constexpr double kInitialBulkFraction = 0.5;
+// The barostat samples the normal stress every this many steps and averages it over its
+// interval: single collisions of stiff balls make the instantaneous stress spike.
+inline constexpr std::uint64_t kBarostatSamplesEvery = 4;
+// Below this fraction of the target normal stress the barostat closes the box at its speed limit.
+inline constexpr double kClosingStressFraction = 0.5;
+
+inline double sphere_volume(double diameter) {
+  return std::numbers::pi / 6.0 * diameter * diameter * diameter;
+}
+
+inline void require(bool ok, const std::string& message) {
+  if (!ok) throw std::invalid_argument("shear cell: " + message);
+}
+
+inline double nominal_gap(const ShearCellSetup& s) {
+  return s.size_diameters.y() * s.media_diameter;
+}
+inline double cell_area(const ShearCellSetup& s) {
+  return s.size_diameters.x() * s.size_diameters.z() * s.media_diameter * s.media_diameter;
+}
+inline double powder_diameter(const ShearCellSetup& s) {
+  return s.powder_diameter_ratio * s.media_diameter;
+}
+
+// Height of the particle bed when it is filled at kPlacementSolidFraction.
+inline double placement_height(const ShearCellSetup& s) {
+  const double solid = s.media_solid_fraction +
+                       s.powder_load * (1.0 - s.media_solid_fraction) * s.powder_bed_solid_fraction;
+  return std::max(1.0, solid / kPlacementSolidFraction) * nominal_gap(s);
+}
+
+// Height between the wall ball centre planes at which the walled cell is filled.
+inline double placement_gap(const ShearCellSetup& s) {
+  return (1.0 + 2.0 * kWallBallJitter) * s.media_diameter + placement_height(s);
+}
+
+}  // namespace millflow::dem::shear_cell_detail

@@ -1,0 +1,130 @@
+// ShearCellRun: compaction, warm-up windows until stationary, then the measured window, in pieces
+// that can stop between any two steps.
+#include "dem/shear_cell.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "dem/shear_cell_geometry.hpp"
+
+namespace millflow::dem {
+
+using namespace shear_cell_detail;
+
+ShearCellRun::ShearCellRun(const ShearCellSetup& setup, const ShearCellProtocol& protocol)
+    : ShearCellRun(ShearCell(setup), protocol) {}
+
+ShearCellRun::ShearCellRun(ShearCell cell, const ShearCellProtocol& protocol)
+    : cell_(std::move(cell)), protocol_(protocol) {
+  if (protocol_.warmup_windows < 1 || !(protocol_.warmup_strain >= 0.0)) {
+    throw std::invalid_argument(
+        fmt::format("shear cell: warm-up of {} strain in {} windows; need strain >= 0 and "
+                    "windows >= 1",
+                    protocol_.warmup_strain, protocol_.warmup_windows));
+  }
+  if (!(protocol_.max_warmup_strain >= protocol_.warmup_strain)) {
+    throw std::invalid_argument(
+        fmt::format("shear cell: the warm-up's cap of {} strain is below its {} strain; raise the "
+                    "cap to at least the warm-up",
+                    protocol_.max_warmup_strain, protocol_.warmup_strain));
+  }
+  const double window_strain = protocol_.warmup_strain / protocol_.warmup_windows;
+  window_steps_ = protocol_.warmup_strain > 0.0 ? cell_.steps_for_strain(window_strain) : 0;
+  max_windows_ =
+      protocol_.warmup_strain > 0.0
+          ? std::max(
+                protocol_.warmup_windows,
+                static_cast<int>(std::floor(protocol_.max_warmup_strain / window_strain + 1e-9)))
+          : 0;
+  measure_steps_ =
+      cell_.steps_for_strain(std::max(protocol_.measure_strain, protocol_.measure.max_strain));
+}
+
+bool ShearCellRun::advance(std::uint64_t max_steps) {
+  std::uint64_t left = max_steps;
+  while (!done()) {
+    const std::uint64_t before = cell_.system().step_count();
+    if (phase_ == Phase::Compacting) {
+      cell_.compact();
+    } else if (phase_ == Phase::WarmUp) {
+      cell_.advance_window(window_, left);
+    } else {
+      cell_.advance_measurement(measurement_, left);
+    }
+    left -= std::min(left, cell_.system().step_count() - before);
+    const bool piece_finished = phase_ == Phase::Compacting ||
+                                (phase_ == Phase::WarmUp && window_.finished()) ||
+                                (phase_ == Phase::Measuring && measurement_.finished());
+    if (!piece_finished) break;
+    start_next_piece();
+    if (left == 0) break;
+  }
+  return done();
+}
+
+void ShearCellRun::start_next_piece() {
+  if (phase_ == Phase::WarmUp) {
+    const ShearCell::WindowSummary last = cell_.finish_window(window_, window_index_++);
+    stationary_ = window_index_ >= protocol_.warmup_windows && window_index_ >= 2 &&
+                  cell_.stationary(previous_, last);
+    if (stationary_) {
+      stationary_strain_ = cell_.setup().shear_rate * cell_.system().time();
+      spdlog::debug("shear cell: stationary after {} warm-up windows, strain {:.3g}", window_index_,
+                    stationary_strain_);
+    }
+    previous_ = last;
+  }
+  if (phase_ == Phase::Measuring) {
+    result_ = cell_.finish_measurement(measurement_);
+    result_.stationary = stationary_;
+    result_.stationary_strain = stationary_strain_;
+    result_.steady = result_.steady && stationary_;
+    phase_ = Phase::Done;
+    return;
+  }
+  if (window_steps_ > 0 && !stationary_ && window_index_ < max_windows_) {
+    phase_ = Phase::WarmUp;
+    window_ = cell_.start_window(protocol_.warmup_strain / protocol_.warmup_windows);
+    return;
+  }
+  phase_ = Phase::Measuring;
+  measurement_ = cell_.start_measurement(protocol_.measure_strain, protocol_.measure);
+}
+
+double ShearCellRun::progress() const {
+  // Against the caps: a cell that becomes stationary or converges early jumps ahead.
+  const std::uint64_t total =
+      window_steps_ * static_cast<std::uint64_t>(max_windows_) + measure_steps_;
+  std::uint64_t done_steps = 0;
+  if (phase_ == Phase::WarmUp)
+    done_steps = window_steps_ * static_cast<std::uint64_t>(window_index_) + window_.done;
+  if (phase_ == Phase::Measuring) done_steps = total - measure_steps_ + measurement_.done;
+  done_steps = std::min(done_steps, total);
+  if (phase_ == Phase::Done) done_steps = total;
+  return static_cast<double>(done_steps) / static_cast<double>(total);
+}
+
+std::string ShearCellRun::phase_name() const {
+  switch (phase_) {
+    case Phase::Compacting:
+      return "compacting";
+    case Phase::WarmUp:
+      return fmt::format("warm-up window {} (at most {})", window_index_ + 1, max_windows_);
+    case Phase::Measuring:
+      return "measuring";
+    case Phase::Done:
+      return "measured";
+  }
+  return "unknown";
+}
+
+const ShearCellMeasurements& ShearCellRun::measurements() const {
+  if (!done()) throw std::logic_error("shear cell run: no measurements before the run is done");
+  return result_;
+}
+
+}  // namespace millflow::dem

@@ -1,0 +1,124 @@
+// The shear cell's warm-up: windows, the velocity profile and bulk shear rate they sample, and the
+// wall-speed controller between them.
+#include "dem/shear_cell.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "dem/shear_cell_geometry.hpp"
+
+namespace millflow::dem {
+using namespace shear_cell_detail;
+
+namespace {
+
+// The wall-speed controller changes the speed by at most this factor per window.
+constexpr double kMaxSpeedChange = 2.0;
+
+}  // namespace
+
+void ShearCell::sample_profile(Profile& profile) const {
+  const double y0 = walls() ? system_.positions()[0].y() : system_.domain().lo.y();
+  const double lo = y0 + 0.25 * gap(), hi = y0 + 0.75 * gap();
+  const auto x = system_.positions();
+  const auto v = system_.velocities();
+  const auto m = system_.masses();
+  const auto r = system_.radii();
+  const auto groups = system_.particle_groups();
+  const auto materials = system_.particle_materials();
+  for (std::size_t p = 0; p < system_.size(); ++p) {
+    if (groups[p] != kFreeParticle || x[p].y() < lo || x[p].y() >= hi) continue;
+    const double y = x[p].y() - y0;
+    profile.w += m[p];
+    profile.wy += m[p] * y;
+    profile.wyy += m[p] * y * y;
+    profile.wv += m[p] * v[p].x();
+    profile.wyv += m[p] * y * v[p].x();
+    const double volume = 4.0 / 3.0 * std::numbers::pi * r[p] * r[p] * r[p];
+    (materials[p] == powder_ ? profile.powder_volume : profile.media_volume) += volume;
+  }
+  profile.slab_volume += wall_area() * (hi - lo);
+}
+
+double ShearCell::bulk_shear_rate(const Profile& profile) {
+  const double denominator = profile.w * profile.wyy - profile.wy * profile.wy;
+  return denominator > 0.0 ? (profile.w * profile.wyv - profile.wy * profile.wv) / denominator
+                           : 0.0;
+}
+
+void ShearCell::warm_up(double strain, int windows) {
+  if (windows < 1)
+    throw std::invalid_argument(
+        fmt::format("shear cell: warm-up windows = {} must be >= 1", windows));
+  for (int w = 0; w < windows; ++w) {
+    WarmUpWindow window = start_window(strain / windows);
+    advance_window(window, window.steps);
+    finish_window(window, w);
+  }
+}
+
+ShearCell::WarmUpWindow ShearCell::start_window(double strain) const {
+  WarmUpWindow window;
+  window.steps = steps_for_strain(strain);
+  // The profile takes a while to answer a new wall speed: measure over the second half only.
+  window.half = window.steps / 2;
+  window.every = std::max<std::uint64_t>(1, (window.steps - window.half) / 50);
+  return window;
+}
+
+void ShearCell::advance_window(WarmUpWindow& window, std::uint64_t max_steps) {
+  compact();
+  const std::uint64_t end = std::min(window.steps, window.done + max_steps);
+  while (window.done < end) {
+    // Up to the next sample: every `every` steps after `half`, and at the window's end.
+    const std::uint64_t next_sample =
+        window.done < window.half
+            ? window.half
+            : std::min(window.steps,
+                       window.done + window.every - (window.done - window.half) % window.every);
+    const std::uint64_t until = std::min(end, next_sample);
+    advance(until - window.done);
+    window.done = until;
+    if (window.done > window.half && (window.done == next_sample)) {
+      sample_profile(window.profile);
+      window.shear_sum += shear_stress_now();
+      window.normal_sum += normal_stress_now();
+      window.samples += 1.0;
+    }
+  }
+}
+
+ShearCell::WindowSummary ShearCell::finish_window(const WarmUpWindow& window, int index) {
+  const double measured = bulk_shear_rate(window.profile);
+  const WindowSummary summary{
+      .solid_fraction =
+          (window.profile.media_volume + window.profile.powder_volume) / window.profile.slab_volume,
+      .shear_stress = window.shear_sum / window.samples,
+      .normal_stress = window.normal_sum / window.samples,
+      .bulk_shear_rate = measured};
+  spdlog::debug(
+      "shear cell: warm-up window {}: solid fraction {:.4g}, shear stress {:.4g} Pa, normal stress "
+      "{:.4g} Pa (target {:.4g})",
+      index, summary.solid_fraction, summary.shear_stress, summary.normal_stress,
+      setup_.normal_stress);
+  // The bulk of a bed that has lost contact with the walls does not follow them: leave the speed
+  // until the servo has closed the gap (otherwise it doubles every window).
+  if (!walls() || summary.normal_stress < kClosingStressFraction * setup_.normal_stress)
+    return summary;
+  const double factor = measured > 0.0 ? std::clamp(setup_.shear_rate / measured,
+                                                    1.0 / kMaxSpeedChange, kMaxSpeedChange)
+                                       : kMaxSpeedChange;
+  spdlog::debug(
+      "shear cell: warm-up window {}: bulk rate {:.4g} 1/s (target {:.4g}), wall speed {:.4g} -> "
+      "{:.4g} m/s",
+      index, measured, setup_.shear_rate, wall_speed_, wall_speed_ * factor);
+  set_wall_speed(wall_speed_ * factor);
+  return summary;
+}
+
+}  // namespace millflow::dem
