@@ -174,7 +174,8 @@ ShearCell::ShearCell(const ShearCellSetup& setup)
   system_.set_reorder_interval(kReorderEverySteps);
   set_wall_speed(walls() ? setup_.shear_rate * nominal_gap(setup_) / kInitialBulkFraction
                          : setup_.shear_rate * system_.domain().length().y());
-  configure_stress_control();
+  control_ = make_stress_control();
+  control_->attach(system_);
 }
 
 ShearCell::ShearCell(const ShearCellSetup& setup, System system)
@@ -183,7 +184,7 @@ ShearCell::ShearCell(const ShearCellSetup& setup, System system)
     bottom_ = 1;  // the groups the fresh cell added first
     top_ = 2;
   }
-  derive_stress_control_constants();
+  control_ = make_stress_control();
 }
 
 void ShearCell::set_wall_speed(double speed) {
@@ -202,12 +203,6 @@ double ShearCell::gap() const {
   if (!walls()) return system_.domain().length().y();
   // Wall balls come first: the bottom layer, then the top one (both at their layer's height).
   return system_.positions()[wall_ball_count_ - 1].y() - system_.positions()[0].y();
-}
-
-double ShearCell::wall_normal_stress() const {
-  // The particles push the top wall up (+y) and the bottom one down.
-  return 0.5 * (system_.group_load(top_).force.y() - system_.group_load(bottom_).force.y()) /
-         wall_area();
 }
 
 ContactType ShearCell::contact_type(std::uint32_t category) const {
@@ -238,13 +233,7 @@ double ShearCell::shear_stress_now() const {
 }
 
 double ShearCell::normal_stress_now() const {
-  if (walls()) return wall_normal_stress();
-  // p_yy of the virial: contacts plus the kinetic part of the peculiar motion.
-  double sum = -contact_virial(system_, 1, 1);
-  const auto v = system_.velocities();
-  const auto m = system_.masses();
-  for (std::size_t p = 0; p < system_.size(); ++p) sum += m[p] * v[p].y() * v[p].y();
-  return sum / system_.domain().length().prod();
+  return control_->normal_stress(system_);
 }
 
 double ShearCell::lees_edwards_power() const {
@@ -283,7 +272,7 @@ void ShearCell::advance(std::size_t steps) {
 }
 
 double ShearCell::work_in() const {
-  return walls() ? system_.energy().wall_work : le_work_ + barostat_work_;
+  return shear_work() + control_->work();
 }
 
 double ShearCell::shear_work() const {

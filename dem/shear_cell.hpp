@@ -24,42 +24,13 @@
 // that the servo or the barostat compresses; with Lees-Edwards the media take a random subset of
 // the sites of an FCC lattice that fits that box.
 //
-// Stress control, one law for both boundaries (ShearCell::control_stress). Every
-// steps_per_collision steps (one control interval) the boundary answers the mean normal stress of
-// the interval. Wave crossing time of the gap t_wave = (H / d) t_c,media; relaxation time
-// tau = max(t_wave, 0.1 / gdot) / g with the gain g; speed limit v_max = g d / t_wave.
-//
-// Servo (RoughWalls). The wall answers the flowing bed's modulus K p (K = 10, as the barostat
-// below), not the contacts' stiffness (the contacts of a flowing bed of stiff balls last only a
-// collision; a servo tuned to them cannot move the wall):
-//   v_y = clamp(M (F_target - F_y), +-v_max),   M = H / (K p A tau),
-// so a force error of the whole target moves the wall by H / K per tau. Compaction closes the
-// loose gap at v_max until the interval's mean reaches half the target.
-//
-// Barostat (LeesEdwards). Every steps_per_collision steps (interval dt_c) the box and the
-// particles are stretched affinely along y by the strain (a PI law)
-//   e = (clamp(x, +-0.05) + b) dt_c / tau,   x = (p_yy - p_target) / M,
-//   b <- clamp(b + x dt_c / T_i, +-0.05),    T_i = 2 tau,
-//   tau = max(t_wave, 0.1 / gdot) / g,  M = 10 p_target,
-// p_yy the mean virial normal stress over samples every kBarostatSamplesEvery steps since the
-// last stretch (single collisions of stiff balls make it spike). M is the modulus of a flowing
-// bed (dense-flow pressure grows as (phi_c - phi)^-2, dp/de ~ 2 p phi / (phi_c - phi) ~ 10 p), not
-// the far stiffer contacts, which last only a collision there; a flowing bed answers a change of
-// volume over a strain of ~0.1, and a faster barostat pumps energy into the cell. The limit of 5%
-// per tau keeps a bed that jams for a moment from throwing the box into oscillation, but a
-// clamped law alone answers something nearer the median than the mean of an intermittent
-// stress (a collisional bed of stiff balls: most intervals carry little, a few carry a
-// collision far above the target), so it held the mean 10-30% high there. The integral term b
-// sees the unclamped error, so it settles only when the MEAN p_yy is on target; it is frozen
-// while the box closes and bounded by the same 5% per tau (anti-windup). With the proportional
-// term the loop is s^2 + s / tau + 1 / (tau T_i) at modulus M: damping ratio
-// sqrt(T_i / tau) / 2 = 0.71, more for a stiffer bed (averaging p_yy over tau before the law
-// instead delays it by tau and sets the box oscillating). Whenever
-// that mean p_yy is below half the target (the loose fill at the start, or a bed that lost
-// contact) the box shrinks at the wall's speed limit v_max instead. The warm-up then ends on the
+// Stress control (dem/stress_control.hpp): one interface, the rough walls' servo or the
+// Lees-Edwards barostat. Every steps_per_collision steps (one control interval) the boundary
+// answers the mean normal stress of the interval. Wave crossing time of the gap
+// t_wave = (H / d) t_c,media; relaxation time tau = max(t_wave, 0.1 / gdot) / g with the gain g;
+// speed limit v_max = g d / t_wave; mobility M = H / (K p A tau). Compaction closes the loose fill
+// at v_max until an interval's mean reaches half the target. The warm-up then ends on the
 // stationarity test of ShearCellProtocol (docs/shear_cells.md).
-// Particles keep their velocity relative to the imposed profile; the energy the stretch puts
-// into the contact springs is counted as work put in (stress_control_work).
 //
 // Shear rate. Rough walls slip, so the bulk shear rate is measured: a least-squares line through
 // (y, v_x) of all free particles (mass-weighted) whose centres lie in the middle half of the gap,
@@ -69,11 +40,13 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "dem/batch_means.hpp"
 #include "dem/spectrum.hpp"
+#include "dem/stress_control.hpp"
 #include "dem/system.hpp"
 
 namespace millflow::dem {
@@ -263,12 +236,11 @@ class ShearCell {
   double wall_speed() const { return wall_speed_; }
   double gap() const;
   double wall_area() const;
-  // Normal force per area the particles exert on the top wall right now, Pa (RoughWalls).
-  double wall_normal_stress() const;
-  // Derived constants: the servo's mobility (RoughWalls) and the speed limit of the top wall or
-  // of the LE box height.
-  double servo_mobility() const { return servo_mobility_; }
-  double servo_max_speed() const { return servo_max_speed_; }
+  // The stress control and its derived constants: the servo's mobility (RoughWalls) and the
+  // speed limit of the top wall or of the LE box height.
+  const StressControl& stress_control() const { return *control_; }
+  double servo_mobility() const { return control_->settings().mobility; }
+  double servo_max_speed() const { return control_->settings().max_speed; }
 
   ContactType contact_type(std::uint32_t category) const;
 
@@ -361,17 +333,8 @@ class ShearCell {
   void place_media_dilute(double height);
   void place_media_lattice();
   void place_powder(double y_lo, double y_hi);
-  // The servo's (RoughWalls) or the barostat's (LeesEdwards) constants, and the servo's settings
-  // of the top wall's group.
-  void derive_stress_control_constants();
-  void configure_stress_control();
-  // At the end of each control interval (steps_per_collision steps): the boundary answers the
-  // mean normal stress of the interval, closing at the speed limit below half the target
-  // (walls: the servo's mobility; LE: a barostat stretch).
-  void control_stress();
-  // LE: one barostat stretch, and the spring energy of the pairs in contact (normal part), J.
-  void apply_barostat(double stress, bool closing);
-  double normal_spring_energy() const;
+  // The servo (RoughWalls) or the barostat (LeesEdwards) with its constants.
+  std::unique_ptr<StressControl> make_stress_control() const;
   void set_wall_speed(double speed);
   std::size_t steps_for_strain(double strain) const;
   // Steps the system after compact(); with Lees-Edwards also integrates the boundary's work and
@@ -401,16 +364,8 @@ class ShearCell {
   GroupId bottom_ = 0, top_ = 0;
   std::size_t media_count_ = 0, powder_count_ = 0, wall_ball_count_ = 0;
   double wall_speed_ = 0.0;
-  double servo_mobility_ = 0.0, servo_max_speed_ = 0.0, crossing_time_ = 0.0;
-  double relaxation_time_ = 0.0;  // tau of the stress control, s
-  std::size_t barostat_every_ = 1;
-  bool barostat_at_speed_limit_ = false;  // compacting: shrink at the speed limit
-  double le_work_ = 0.0;                  // work put in through the LE boundary so far, J
-  double barostat_work_ = 0.0;            // work put in by the barostat's stretches so far, J
-  double barostat_stress_sum_ = 0.0, barostat_stress_samples_ = 0.0;  // since the last stretch
-  double last_barostat_stress_ = 0.0;  // the mean p_yy the last stretch answered, Pa
-  double smoothed_stress_ = 0.0;       // its running mean over the relaxation time, Pa
-  double barostat_bias_ = 0.0;         // the barostat's integral term, strain per relaxation time
+  std::unique_ptr<StressControl> control_;
+  double le_work_ = 0.0;  // work put in through the LE boundary so far, J
   bool compacted_ = false;
 };
 
@@ -444,16 +399,18 @@ struct ShearCellProtocol {
 // few hundred collision times). advance() in chunks of any size gives the same bits too.
 //
 // Checkpoint file: the checksummed container of dem/binary_io.hpp, magic "MFSHRCKP", payload
-// version kShearCellCheckpointVersion. Payload (version 2), in order:
+// version kShearCellCheckpointVersion. Payload (version 3; version 2 wrote the barostat's work and
+// integral term for the rough walls too, between the stress sums), in order:
 //   identity: string, the setup (overlap bound included) and protocol (warm-up cap, convergence
 //             target and cap included) encoded field by field (resume() refuses a file whose
 //             identity differs from the cell it is asked to continue)
 //   system: uint32 version of the DEM checkpoint payload, then that payload as a string
 //           (dem/checkpoint.hpp)
-//   cell: media, powder and wall ball counts (uint64), wall speed, LE boundary work, barostat
-//         work, stress sum and sample count since the last control interval, the stress that
-//         interval answered and its running mean over the relaxation time, the barostat's
-//         integral term, compacted (uint8)
+//   cell: media, powder and wall ball counts (uint64), wall speed, LE boundary work; the stress
+//         control (StressControl::write: stress sum and sample count since the last control
+//         interval, the stress that interval answered and its running mean over the relaxation
+//         time; the barostat then its stretches' work and its integral term, the servo nothing
+//         more); compacted (uint8)
 //   run: phase (uint8: 0 compacting, 1 warm-up, 2 measuring), warm-up window index
 //        (int32); the window in progress (uint64 steps, half, every, done; profile: 8 doubles;
 //        shear stress sum, normal stress sum, sample count); the previous window's summary
@@ -471,7 +428,7 @@ struct ShearCellProtocol {
 //        dissipated-energy histogram (dem/spectrum.hpp), wall seconds measured so far,
 //        converged (uint8))
 // Collision events finished before a save are tallied into the measurement first.
-inline constexpr std::uint32_t kShearCellCheckpointVersion = 2;
+inline constexpr std::uint32_t kShearCellCheckpointVersion = 3;
 
 class ShearCellRun {
  public:

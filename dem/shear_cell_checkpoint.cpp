@@ -194,22 +194,18 @@ void ShearCell::Measurement::read(BinaryReader& in) {
 
 void ShearCell::write_state(BinaryWriter& out) const {
   for (std::uint64_t count : {media_count_, powder_count_, wall_ball_count_}) out.put(count);
-  for (double v :
-       {wall_speed_, le_work_, barostat_work_, barostat_stress_sum_, barostat_stress_samples_,
-        last_barostat_stress_, smoothed_stress_, barostat_bias_}) {
-    out.put(v);
-  }
+  out.put(wall_speed_);
+  out.put(le_work_);
+  control_->write(out);
   out.put<std::uint8_t>(compacted_);
 }
 
 void ShearCell::read_state(BinaryReader& in) {
   for (std::size_t* count : {&media_count_, &powder_count_, &wall_ball_count_})
     *count = in.get<std::uint64_t>();
-  for (double* v :
-       {&wall_speed_, &le_work_, &barostat_work_, &barostat_stress_sum_, &barostat_stress_samples_,
-        &last_barostat_stress_, &smoothed_stress_, &barostat_bias_}) {
-    *v = in.get<double>();
-  }
+  wall_speed_ = in.get<double>();
+  le_work_ = in.get<double>();
+  control_->read(in);
   compacted_ = in.get<std::uint8_t>() != 0;
   if (media_count_ + powder_count_ + wall_ball_count_ != system_.size()) {
     throw CorruptData("shear cell checkpoint: the particle counts do not add up to the system's");

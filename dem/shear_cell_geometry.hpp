@@ -24,11 +24,6 @@ inline constexpr double kWallBallJitter = 0.25;
 // First guess of bulk / nominal shear rate (rough walls slip, the bulk at ~40% of nominal:
 // docs/method.md).
 inline constexpr double kInitialBulkFraction = 0.5;
-// The barostat samples the normal stress every this many steps and averages it over its
-// interval: single collisions of stiff balls make the instantaneous stress spike.
-inline constexpr std::uint64_t kBarostatSamplesEvery = 4;
-// Below this fraction of the target normal stress the barostat closes the box at its speed limit.
-inline constexpr double kClosingStressFraction = 0.5;
 
 inline double sphere_volume(double diameter) {
   return std::numbers::pi / 6.0 * diameter * diameter * diameter;

@@ -1,0 +1,133 @@
+#pragma once
+// The stress control of a shear cell (dem/shear_cell.hpp; its rules: docs/shear_cells.md): one
+// interface, two boundaries. Both answer, every control interval, the interval's mean normal
+// stress as a flowing bed of modulus K p would (K = kFlowingBedModulus), relaxing the error in
+// tau, never at the contacts' stiffness (the contacts of a flowing bed of stiff balls last only
+// a collision; a control tuned to them could not move the boundary):
+//  - RoughWallServo: the top wall's group moves along y at M (F_target - F), M = H / (K p A tau),
+//    clamped at v_max (System's group servo does it every step; the control sets M);
+//  - LeesEdwardsBarostat: the box and the particles are stretched affinely along y by a PI law
+//    (documented at the class).
+// Both close the loose fill at v_max until the bed carries half the target (set_closing); the
+// barostat also closes again whenever its stress averaged over tau falls below half the target.
+#include <cstdint>
+#include <memory>
+
+#include "dem/binary_io.hpp"
+#include "dem/system.hpp"
+
+namespace millflow::dem {
+
+// The modulus of a flowing bed, dp/de ~ 2 p phi / (phi_c - phi) ~ 10 p near phi ~ 0.55 (the
+// pressure of dense flow grows as (phi_c - phi)^-2); the instantaneous contact stiffness would
+// be far too stiff, since the contacts of a flowing bed last only a collision.
+inline constexpr double kFlowingBedModulus = 10.0;
+// Below this fraction of the target normal stress the boundary closes at its speed limit.
+inline constexpr double kClosingStressFraction = 0.5;
+
+struct StressControlSettings {
+  double target_stress = 0.0;        // Pa, compression positive
+  double shear_rate = 0.0;           // imposed rate, 1/s (the barostat keeps the profile)
+  double relaxation_time = 0.0;      // tau, s
+  double max_speed = 0.0;            // v_max of the boundary, m/s
+  double mobility = 0.0;             // M = H / (K p A tau), m/(N s)
+  std::uint64_t interval_steps = 1;  // steps per control interval
+};
+
+class StressControl {
+ public:
+  explicit StressControl(const StressControlSettings& settings) : settings_(settings) {}
+  virtual ~StressControl() = default;
+
+  const StressControlSettings& settings() const { return settings_; }
+  // The normal stress the control holds, now, Pa: the wall load per area (walls) or the
+  // virial's p_yy (Lees-Edwards).
+  virtual double normal_stress(const System& system) const = 0;
+  // Sets up the system's side of the control (a fresh cell; a checkpoint keeps it).
+  virtual void attach(System& system) const = 0;
+  // After each step: samples the normal stress and, at the end of a control interval, answers
+  // its mean. True when the answer moved the particles (the box was stretched).
+  bool after_step(System& system);
+  // While set, the boundary closes at the speed limit (compaction).
+  void set_closing(bool closing);
+  // The mean stress the last interval answered, Pa.
+  double last_interval_stress() const { return last_stress_; }
+  // Energy the control put in besides the walls' work (the barostat's stretches), J.
+  virtual double work() const { return 0.0; }
+
+  // Checkpoint state: the base's four doubles (stress sum and sample count since the last
+  // interval, the stress it answered, its running mean over tau), then the boundary's own.
+  void write(BinaryWriter& out) const;
+  void read(BinaryReader& in);
+
+ protected:
+  virtual std::uint64_t sample_every() const = 0;
+  // Whether a bed that lost contact after compaction is closed at the speed limit again.
+  virtual bool recloses() const = 0;
+  // Answers an interval's mean stress; true when it moved the particles.
+  virtual bool answer(System& system, double stress, bool closing) = 0;
+  virtual void write_own(BinaryWriter&) const {}
+  virtual void read_own(BinaryReader&) {}
+
+ private:
+  StressControlSettings settings_;
+  bool at_speed_limit_ = false;
+  double stress_sum_ = 0.0, stress_samples_ = 0.0;
+  double last_stress_ = 0.0;      // the mean stress the last interval answered, Pa
+  double smoothed_stress_ = 0.0;  // its running mean over tau, Pa
+};
+
+// The top wall's group (servo along y) and the bottom one; area A of each wall.
+class RoughWallServo final : public StressControl {
+ public:
+  RoughWallServo(const StressControlSettings& settings, GroupId bottom, GroupId top, double area)
+      : StressControl(settings), bottom_(bottom), top_(top), area_(area) {}
+  double normal_stress(const System& system) const override;
+  void attach(System& system) const override;
+
+ protected:
+  // The wall load is free every step.
+  std::uint64_t sample_every() const override { return 1; }
+  // A wall closing at the speed limit would hit the bed and set the servo oscillating.
+  bool recloses() const override { return false; }
+  bool answer(System& system, double stress, bool closing) override;
+
+ private:
+  GroupId bottom_, top_;
+  double area_;
+};
+
+// Every control interval dt_c the box and the particles are stretched affinely along y by
+//   e = (clamp(x, +-0.05) + b) dt_c / tau,   x = (p_yy - p_target) / (K p_target),
+//   b <- clamp(b + x dt_c / T_i, +-0.05),    T_i = 2 tau,
+// p_yy the interval's mean virial normal stress (sampled every kBarostatSamplesEvery steps:
+// single collisions of stiff balls make it spike). The limit of 5% per tau keeps a bed that
+// jams for a moment from throwing the box into oscillation, but a clamped law alone answers
+// something nearer the median than the mean of an intermittent stress (a collisional bed of stiff
+// balls), so it held the mean 10-30% high. The integral term b sees the unclamped error, so it
+// settles only when the MEAN p_yy is on target; it is frozen while the box closes and bounded by
+// the same 5% per tau (anti-windup). With the proportional term the loop is
+// s^2 + s / tau + 1 / (tau T_i) at modulus K p: damping ratio sqrt(T_i / tau) / 2 = 0.71, more
+// for a stiffer bed. Particles keep their velocity relative to the imposed profile; the energy a
+// stretch puts into the contact springs is counted as work put in (work()).
+class LeesEdwardsBarostat final : public StressControl {
+ public:
+  using StressControl::StressControl;
+  double normal_stress(const System& system) const override;
+  void attach(System&) const override {}
+  double work() const override { return work_; }
+
+ protected:
+  std::uint64_t sample_every() const override;
+  bool recloses() const override { return true; }
+  bool answer(System& system, double stress, bool closing) override;
+  // Checkpoint: the stretches' work (J) and the integral term b.
+  void write_own(BinaryWriter& out) const override;
+  void read_own(BinaryReader& in) override;
+
+ private:
+  double work_ = 0.0;  // put in by the stretches so far, J
+  double bias_ = 0.0;  // the integral term b, strain per tau
+};
+
+}  // namespace millflow::dem
