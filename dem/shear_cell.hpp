@@ -34,20 +34,24 @@
 //
 // Shear rate. Rough walls slip, so the bulk shear rate is measured: a least-squares line through
 // (y, v_x) of all free particles (mass-weighted) whose centres lie in the middle half of the gap,
-// over all samples of a window. warm_up() adjusts the wall speed between windows,
-// U <- U * clamp(target / measured, 0.5, 2), so the bulk approaches the target rate. The strain
+// over all samples of a window. warm_up() adjusts the wall speed between windows by the
+// wall-speed controller (dem/wall_speed_controller.hpp), which steps on a filtered estimate of
+// the bulk fraction (bulk over nominal rate), so the bulk approaches the target rate. The strain
 // of run_strain() and measure() is target rate x time.
 #include <array>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "dem/batch_means.hpp"
 #include "dem/spectrum.hpp"
+#include "dem/stationarity.hpp"
 #include "dem/stress_control.hpp"
 #include "dem/system.hpp"
+#include "dem/wall_speed_controller.hpp"
 
 namespace millflow::dem {
 
@@ -296,20 +300,17 @@ class ShearCell {
     void write(BinaryWriter& out) const;
     void read(BinaryReader& in);
   };
-  // What the stationarity test compares between consecutive warm-up windows.
-  struct WindowSummary {
-    double solid_fraction = 0.0, shear_stress = 0.0, normal_stress = 0.0, bulk_shear_rate = 0.0;
-  };
 
   // Continues a cell from its checkpointed system (ShearCellRun::resume).
   ShearCell(const ShearCellSetup& setup, System system);
   WarmUpWindow start_window(double strain) const;
   void advance_window(WarmUpWindow& window, std::uint64_t max_steps);
-  // Adjusts the wall speed from a finished window's profile (RoughWalls); returns the window's
-  // means.
-  WindowSummary finish_window(const WarmUpWindow& window, int index);
-  // The documented stationarity test of two consecutive warm-up windows.
-  bool stationary(const WindowSummary& previous, const WindowSummary& last) const;
+  // Adjusts the wall speed from a finished window's profile (RoughWalls, the wall-speed
+  // controller); returns the window's means.
+  WindowMeans finish_window(const WarmUpWindow& window, int index);
+  // The stationarity test (dem/stationarity.hpp) of the last warm-up windows; with walls the
+  // wall-speed controller must have settled too.
+  bool stationary(std::span<const WindowMeans> windows) const;
   Measurement start_measurement(double strain, const MeasureOptions& options);
   void advance_measurement(Measurement& measurement, std::uint64_t max_steps);
   // Hands the collisions finished so far to the measurement (before a checkpoint, and at samples).
@@ -365,6 +366,7 @@ class ShearCell {
   std::size_t media_count_ = 0, powder_count_ = 0, wall_ball_count_ = 0;
   double wall_speed_ = 0.0;
   std::unique_ptr<StressControl> control_;
+  WallSpeedController speed_controller_{setup_.shear_rate};  // RoughWalls
   double le_work_ = 0.0;  // work put in through the LE boundary so far, J
   bool compacted_ = false;
 };
@@ -374,18 +376,12 @@ class ShearCell {
 // measure.max_strain).
 //
 // Stationarity. After at least warmup_windows windows, the warm-up ends at the first window that
-// passes, against the window before it (each window's means over its second half):
-//   normal stress within kStationaryStressTolerance of the target,
-//   solid fraction (middle half of the gap) changed by at most kStationarySolidFractionDrift,
-//   shear stress changed by at most kStationaryShearDrift of their mean,
-//   (walls) bulk shear rate within kStationaryStressTolerance of the target.
-// The strain since the start at that window's end is the stationary strain. A cell that has not
-// passed by max_warmup_strain measures anyway and is reported not stationary (steady = false);
-// with warmup_strain 0 there is no warm-up and no stationarity.
-inline constexpr double kStationaryStressTolerance = 0.1;
-inline constexpr double kStationarySolidFractionDrift = 0.01;
-inline constexpr double kStationaryShearDrift = 0.1;
-
+// passes the statistical test of dem/stationarity.hpp against the window before it (each
+// window's samples over its second half); with walls the wall-speed controller must have settled
+// too (dem/wall_speed_controller.hpp). The strain since the start at that window's end is the
+// stationary strain. A cell that has not passed by max_warmup_strain measures anyway and is
+// reported not stationary (steady = false); with warmup_strain 0 there is no warm-up and no
+// stationarity.
 struct ShearCellProtocol {
   double warmup_strain = 2.0;
   int warmup_windows = 4;
@@ -399,8 +395,9 @@ struct ShearCellProtocol {
 // few hundred collision times). advance() in chunks of any size gives the same bits too.
 //
 // Checkpoint file: the checksummed container of dem/binary_io.hpp, magic "MFSHRCKP", payload
-// version kShearCellCheckpointVersion. Payload (version 3; version 2 wrote the barostat's work and
-// integral term for the rough walls too, between the stress sums), in order:
+// version kShearCellCheckpointVersion. Payload (version 3; version 2 held only the previous
+// warm-up window's means, no wall-speed controller, and the barostat's state for both
+// boundaries), in order:
 //   identity: string, the setup (overlap bound included) and protocol (warm-up cap, convergence
 //             target and cap included) encoded field by field (resume() refuses a file whose
 //             identity differs from the cell it is asked to continue)
@@ -410,18 +407,19 @@ struct ShearCellProtocol {
 //         control (StressControl::write: stress sum and sample count since the last control
 //         interval, the stress that interval answered and its running mean over the relaxation
 //         time; the barostat then its stretches' work and its integral term, the servo nothing
-//         more); compacted (uint8)
+//         more); the wall-speed controller (WallSpeedController::write: two doubles, int32, uint8);
+//         compacted (uint8)
 //   run: phase (uint8: 0 compacting, 1 warm-up, 2 measuring), warm-up window index
 //        (int32); the window in progress (uint64 steps, half, every, done; profile: 8 doubles;
-//        shear stress sum, normal stress sum, sample count); the previous window's summary
-//        (solid fraction, shear stress, normal stress, bulk shear rate), the stationary strain
-//        (doubles) and stationary (uint8); the measurement (uint64 steps cap, minimum steps,
-//        block steps, every, stress-sample interval, done; work, shear work and motion energy at
-//        its start, energy budget at its start (kinetic, potential, elastic, dissipated, wall
-//        work), dissipation per category at its start (uint64 count; normal, tangential,
-//        friction each), profile, stress tensor sums (6) and sample count, the finished blocks
-//        (uint64 count; each: shear, normal, gap and stress-sample sums, pressure sum and sample
-//        count, shear work, duration, dissipated energy per contact type) and the block in
+//        shear stress sum, normal stress sum, sample count); the finished windows' means (uint64
+//        count; each: shear stress, normal stress, solid fraction, bulk shear rate), the
+//        stationary strain (double) and stationary (uint8); the measurement (uint64 steps cap,
+//        minimum steps, block steps, every, stress-sample interval, done; work, shear work and
+//        motion energy at its start, energy budget at its start (kinetic, potential, elastic,
+//        dissipated, wall work), dissipation per category at its start (uint64 count; normal,
+//        tangential, friction each), profile, stress tensor sums (6) and sample count, the finished
+//        blocks (uint64 count; each: shear, normal, gap and stress-sample sums, pressure sum and
+//        sample count, shear work, duration, dissipated energy per contact type) and the block in
 //        progress, the shear work and the dissipation per category (uint64 count, doubles) at
 //        its start, per contact type the overlap histogram (uint64 bin count, 0 or
 //        kOverlapBins; the counts, sum, max), per contact type the collision count and
@@ -467,7 +465,7 @@ class ShearCellRun {
   ShearCellMeasurements result_;
   std::uint64_t window_steps_ = 0, measure_steps_ = 0;
   int max_windows_ = 0;
-  ShearCell::WindowSummary previous_;
+  std::vector<WindowMeans> windows_;  // the warm-up windows' means so far
   bool stationary_ = false;
   double stationary_strain_ = 0.0;
 };

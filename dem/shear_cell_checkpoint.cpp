@@ -2,9 +2,11 @@
 // save and resume.
 #include "dem/shear_cell.hpp"
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -68,6 +70,10 @@ std::string run_identity(const ShearCellSetup& s, const ShearCellProtocol& proto
   out.put(protocol.measure.standard_error_target);
   out.put(protocol.measure.max_strain);
   return out.bytes();
+}
+
+std::array<double*, 4> means_fields(WindowMeans& w) {
+  return {&w.shear_stress, &w.normal_stress, &w.solid_fraction, &w.bulk_shear_rate};
 }
 
 }  // namespace
@@ -197,6 +203,7 @@ void ShearCell::write_state(BinaryWriter& out) const {
   out.put(wall_speed_);
   out.put(le_work_);
   control_->write(out);
+  speed_controller_.write(out);
   out.put<std::uint8_t>(compacted_);
 }
 
@@ -206,6 +213,7 @@ void ShearCell::read_state(BinaryReader& in) {
   wall_speed_ = in.get<double>();
   le_work_ = in.get<double>();
   control_->read(in);
+  speed_controller_.read(in);
   compacted_ = in.get<std::uint8_t>() != 0;
   if (media_count_ + powder_count_ + wall_ball_count_ != system_.size()) {
     throw CorruptData("shear cell checkpoint: the particle counts do not add up to the system's");
@@ -231,10 +239,15 @@ ShearCellRun ShearCellRun::resume(const ShearCellSetup& setup, const ShearCellPr
   run.phase_ = static_cast<Phase>(phase);
   run.window_index_ = in.get<std::int32_t>();
   run.window_.read(in);
-  for (double* v :
-       {&run.previous_.solid_fraction, &run.previous_.shear_stress, &run.previous_.normal_stress,
-        &run.previous_.bulk_shear_rate, &run.stationary_strain_})
-    *v = in.get<double>();
+  const auto windows = in.get<std::uint64_t>();
+  if (windows > static_cast<std::uint64_t>(run.max_windows_))
+    throw CorruptData(
+        fmt::format("{}: more warm-up windows than the protocol allows", path.string()));
+  run.windows_.resize(windows);
+  for (WindowMeans& w : run.windows_) {
+    for (double* v : means_fields(w)) *v = in.get<double>();
+  }
+  run.stationary_strain_ = in.get<double>();
   run.stationary_ = in.get<std::uint8_t>() != 0;
   run.measurement_.read(in);
   run.measurement_.options = protocol.measure;
@@ -254,9 +267,11 @@ void ShearCellRun::save(const std::filesystem::path& path) {
   out.put(static_cast<std::uint8_t>(phase_));
   out.put<std::int32_t>(window_index_);
   window_.write(out);
-  for (double v : {previous_.solid_fraction, previous_.shear_stress, previous_.normal_stress,
-                   previous_.bulk_shear_rate, stationary_strain_})
-    out.put(v);
+  out.put<std::uint64_t>(windows_.size());
+  for (WindowMeans w : windows_) {
+    for (double* v : means_fields(w)) out.put(*v);
+  }
+  out.put(stationary_strain_);
   out.put<std::uint8_t>(stationary_);
   measurement_.write(out);
   write_checksummed_file(path, kRunMagic, kShearCellCheckpointVersion, out.bytes());

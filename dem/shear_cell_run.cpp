@@ -68,15 +68,15 @@ bool ShearCellRun::advance(std::uint64_t max_steps) {
 
 void ShearCellRun::start_next_piece() {
   if (phase_ == Phase::WarmUp) {
-    const ShearCell::WindowSummary last = cell_.finish_window(window_, window_index_++);
-    stationary_ = window_index_ >= protocol_.warmup_windows && window_index_ >= 2 &&
-                  cell_.stationary(previous_, last);
+    windows_.push_back(cell_.finish_window(window_, window_index_++));
+    // The last warmup_windows windows (at least 3) are the batches of the test.
+    const std::size_t tested = std::max<std::size_t>(3, protocol_.warmup_windows);
+    stationary_ = windows_.size() >= tested && cell_.stationary(std::span(windows_).last(tested));
     if (stationary_) {
       stationary_strain_ = cell_.setup().shear_rate * cell_.system().time();
       spdlog::debug("shear cell: stationary after {} warm-up windows, strain {:.3g}", window_index_,
                     stationary_strain_);
     }
-    previous_ = last;
   }
   if (phase_ == Phase::Measuring) {
     result_ = cell_.finish_measurement(measurement_);

@@ -11,16 +11,10 @@
 #include <spdlog/spdlog.h>
 
 #include "dem/shear_cell_geometry.hpp"
+#include "dem/stationarity.hpp"
 
 namespace millflow::dem {
 using namespace shear_cell_detail;
-
-namespace {
-
-// The wall-speed controller changes the speed by at most this factor per window.
-constexpr double kMaxSpeedChange = 2.0;
-
-}  // namespace
 
 void ShearCell::sample_profile(Profile& profile) const {
   const double y0 = walls() ? system_.positions()[0].y() : system_.domain().lo.y();
@@ -93,32 +87,42 @@ void ShearCell::advance_window(WarmUpWindow& window, std::uint64_t max_steps) {
   }
 }
 
-ShearCell::WindowSummary ShearCell::finish_window(const WarmUpWindow& window, int index) {
+WindowMeans ShearCell::finish_window(const WarmUpWindow& window, int index) {
   const double measured = bulk_shear_rate(window.profile);
-  const WindowSummary summary{
-      .solid_fraction =
-          (window.profile.media_volume + window.profile.powder_volume) / window.profile.slab_volume,
+  const WindowMeans summary{
       .shear_stress = window.shear_sum / window.samples,
       .normal_stress = window.normal_sum / window.samples,
+      .solid_fraction =
+          (window.profile.media_volume + window.profile.powder_volume) / window.profile.slab_volume,
       .bulk_shear_rate = measured};
   spdlog::debug(
       "shear cell: warm-up window {}: solid fraction {:.4g}, shear stress {:.4g} Pa, normal stress "
-      "{:.4g} Pa (target {:.4g})",
+      "{:.4g} Pa (target {:.4g}), bulk rate {:.4g} 1/s",
       index, summary.solid_fraction, summary.shear_stress, summary.normal_stress,
-      setup_.normal_stress);
+      setup_.normal_stress, measured);
   // The bulk of a bed that has lost contact with the walls does not follow them: leave the speed
-  // until the servo has closed the gap (otherwise it doubles every window).
+  // until the servo has closed the gap.
   if (!walls() || summary.normal_stress < kClosingStressFraction * setup_.normal_stress)
     return summary;
-  const double factor = measured > 0.0 ? std::clamp(setup_.shear_rate / measured,
-                                                    1.0 / kMaxSpeedChange, kMaxSpeedChange)
-                                       : kMaxSpeedChange;
+  const double speed = speed_controller_.update(measured, wall_speed_, gap());
   spdlog::debug(
-      "shear cell: warm-up window {}: bulk rate {:.4g} 1/s (target {:.4g}), wall speed {:.4g} -> "
-      "{:.4g} m/s",
-      index, measured, setup_.shear_rate, wall_speed_, wall_speed_ * factor);
-  set_wall_speed(wall_speed_ * factor);
+      "shear cell: warm-up window {}: bulk fraction {:.4g} (filtered), wall speed {:.4g} -> {:.4g} "
+      "m/s{}",
+      index, speed_controller_.bulk_fraction(), wall_speed_, speed,
+      speed_controller_.settled() ? ", settled" : "");
+  set_wall_speed(speed);
   return summary;
+}
+
+bool ShearCell::stationary(std::span<const WindowMeans> windows) const {
+  const StationarityVerdict verdict =
+      test_stationarity(windows, setup_.normal_stress, walls() ? setup_.shear_rate : 0.0);
+  spdlog::debug(
+      "shear cell: stationarity: shear stress {}, solid fraction {}, normal stress {}, bulk rate "
+      "{}{}",
+      verdict.shear_stress, verdict.solid_fraction, verdict.normal_stress, verdict.bulk_shear_rate,
+      walls() ? fmt::format(", wall speed settled {}", speed_controller_.settled()) : "");
+  return verdict.stationary() && (!walls() || speed_controller_.settled());
 }
 
 }  // namespace millflow::dem
