@@ -38,10 +38,11 @@ ShearCellMeasurements run_at_stiffness(ShearCellSetup::Boundary boundary, double
 TEST(ShearCellStressControl, WallServoHoldsTheNormalStressAtRealisticStiffness) {
   const ShearCellMeasurements m = run_at_stiffness(ShearCellSetup::Boundary::RoughWalls, 1e4);
   EXPECT_NEAR(m.normal_stress, 1000.0, 50.0);
-  // Not asserted: stationarity and the bulk rate. The wall-speed controller chases the +-30%
-  // scatter of each window's bulk rate in a cell this small, so whether the warm-up ends
-  // stationary, and a bulk rate within 10% of the target, depend on the trajectory (one run
-  // passes, the same cell with particles renumbered does not; docs/shear_cells.md, open).
+  // Not asserted: stationarity and the bulk rate. With the filtered wall-speed controller
+  // (dem/wall_speed_controller.hpp) the measured bulk rate of seeds 1, 2, 3 of this cell was 3%
+  // low, 0.4% high and 12% low (normal stress 970, 995, 990 Pa; seeds 2 and 3 stationary at
+  // strain 5.5): one window's bulk rate still scatters by 20-30% here, so 10% does not hold for
+  // every seed (docs/shear_cells.md, "Not yet done").
   EXPECT_GT(m.wall_slip, 0.0) << "rough walls slip";
   EXPECT_NEAR(m.wall_slip, 0.5 * (m.wall_speed - m.bulk_shear_rate * m.gap), 1e-12);
 }
