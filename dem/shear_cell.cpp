@@ -174,7 +174,7 @@ ShearCell::ShearCell(const ShearCellSetup& setup)
   system_.set_reorder_interval(kReorderEverySteps);
   set_wall_speed(walls() ? setup_.shear_rate * nominal_gap(setup_) / kInitialBulkFraction
                          : setup_.shear_rate * system_.domain().length().y());
-  control_ = make_stress_control();
+  control_ = StressControlPtr(make_stress_control());
   control_->attach(system_);
 }
 
@@ -184,7 +184,7 @@ ShearCell::ShearCell(const ShearCellSetup& setup, System system)
     bottom_ = 1;  // the groups the fresh cell added first
     top_ = 2;
   }
-  control_ = make_stress_control();
+  control_ = StressControlPtr(make_stress_control());
 }
 
 void ShearCell::set_wall_speed(double speed) {

@@ -365,7 +365,7 @@ class ShearCell {
   GroupId bottom_ = 0, top_ = 0;
   std::size_t media_count_ = 0, powder_count_ = 0, wall_ball_count_ = 0;
   double wall_speed_ = 0.0;
-  std::unique_ptr<StressControl> control_;
+  StressControlPtr control_;
   WallSpeedController speed_controller_{setup_.shear_rate};  // RoughWalls
   double le_work_ = 0.0;  // work put in through the LE boundary so far, J
   bool compacted_ = false;

@@ -39,6 +39,8 @@ class StressControl {
   explicit StressControl(const StressControlSettings& settings) : settings_(settings) {}
   virtual ~StressControl() = default;
 
+  // A copy of this control, state included (a cell is copied whole).
+  virtual std::unique_ptr<StressControl> clone() const = 0;
   const StressControlSettings& settings() const { return settings_; }
   // The normal stress the control holds, now, Pa: the wall load per area (walls) or the
   // virial's p_yy (Lees-Edwards).
@@ -82,6 +84,9 @@ class RoughWallServo final : public StressControl {
  public:
   RoughWallServo(const StressControlSettings& settings, GroupId bottom, GroupId top, double area)
       : StressControl(settings), bottom_(bottom), top_(top), area_(area) {}
+  std::unique_ptr<StressControl> clone() const override {
+    return std::make_unique<RoughWallServo>(*this);
+  }
   double normal_stress(const System& system) const override;
   void attach(System& system) const override;
 
@@ -113,6 +118,9 @@ class RoughWallServo final : public StressControl {
 class LeesEdwardsBarostat final : public StressControl {
  public:
   using StressControl::StressControl;
+  std::unique_ptr<StressControl> clone() const override {
+    return std::make_unique<LeesEdwardsBarostat>(*this);
+  }
   double normal_stress(const System& system) const override;
   void attach(System&) const override {}
   double work() const override { return work_; }
@@ -128,6 +136,28 @@ class LeesEdwardsBarostat final : public StressControl {
  private:
   double work_ = 0.0;  // put in by the stretches so far, J
   double bias_ = 0.0;  // the integral term b, strain per tau
+};
+
+// Owns a cell's stress control and copies it with the cell.
+class StressControlPtr {
+ public:
+  StressControlPtr() = default;
+  explicit StressControlPtr(std::unique_ptr<StressControl> control)
+      : control_(std::move(control)) {}
+  StressControlPtr(const StressControlPtr& other)
+      : control_(other.control_ ? other.control_->clone() : nullptr) {}
+  StressControlPtr& operator=(const StressControlPtr& other) {
+    if (this != &other) control_ = other.control_ ? other.control_->clone() : nullptr;
+    return *this;
+  }
+  StressControlPtr(StressControlPtr&&) noexcept = default;
+  StressControlPtr& operator=(StressControlPtr&&) noexcept = default;
+  ~StressControlPtr() = default;
+  StressControl* operator->() const { return control_.get(); }
+  StressControl& operator*() const { return *control_; }
+
+ private:
+  std::unique_ptr<StressControl> control_;
 };
 
 }  // namespace millflow::dem
