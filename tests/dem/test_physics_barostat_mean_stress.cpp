@@ -38,10 +38,13 @@ ShearCellMeasurements lees_edwards_cell(double inertial_number, double kappa, st
 }
 
 TEST(BarostatMeanStress, CollisionalCellHoldsTheMeanNormalStress) {
+  // At least 8 strains of warm-up: the stationarity test passes most of these cells from the
+  // fourth of 1-strain windows on, and measured from there the mean of the 8 seeds was 1054 Pa
+  // (the barostat's integral term still settling); from 8 strains on it is 998 Pa.
   constexpr int kSeeds = 8;
   double sum = 0.0;
   for (std::uint64_t seed = 1; seed <= kSeeds; ++seed)
-    sum += lees_edwards_cell(0.5, 1e5, seed, 4.0, 12.0, 10.0).normal_stress;
+    sum += lees_edwards_cell(0.5, 1e5, seed, 8.0, 12.0, 10.0).normal_stress;
   EXPECT_NEAR(sum / kSeeds, 1000.0, 50.0);
 }
 
