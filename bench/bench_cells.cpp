@@ -39,6 +39,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -181,6 +182,19 @@ void export_for_lammps(const CellCase& c, const dem::ShearCellRun& run) {
                              *g_options.lammps_dir / (c.name + ".params"));
 }
 
+// FNV-1a over the bytes of the positions and velocities.
+std::uint64_t state_hash(const dem::System& system) {
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  const auto mix = [&](std::span<const dem::Vec3> values) {
+    const auto* bytes = reinterpret_cast<const unsigned char*>(values.data());
+    for (std::size_t b = 0; b < values.size_bytes(); ++b)
+      hash = (hash ^ bytes[b]) * 0x100000001b3ULL;
+  };
+  mix(system.positions());
+  mix(system.velocities());
+  return hash;
+}
+
 void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   spdlog::set_level(spdlog::level::warn);
   dem::ShearCellRun run = prepared(c);  // every benchmark times its own copy
@@ -200,9 +214,10 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   }
   const dem::System& system = run.cell().system();
   const double particle_steps = static_cast<double>(particles * total_steps);
-  // For bench/run_cell_comparison.sh: RESULT scene threads particles steps wall-s cpu-s.
-  fmt::print(stderr, "RESULT {} {} {} {} {:.6g} {:.6g}\n", c.name, threads, particles, total_steps,
-             wall, cpu);
+  // For bench/run_cell_comparison.sh: RESULT scene threads particles steps wall-s cpu-s, and a
+  // hash of the final positions and velocities (two builds that keep the bits print the same).
+  fmt::print(stderr, "RESULT {} {} {} {} {:.6g} {:.6g} state {:016x}\n", c.name, threads, particles,
+             total_steps, wall, cpu, state_hash(system));
   state.counters["particles"] = static_cast<double>(particles);
   state.counters["pts_per_s"] = particle_steps / wall;
   state.counters["pts_per_cpu_s"] = particle_steps / cpu;

@@ -587,14 +587,15 @@ std::vector<ParticleId> System::reorder_particles() {
 
 void System::compute_pair_forces(double dt) {
   const std::span<const NeighborPair> pairs = neighbors_.pairs();
+  const bool has_groups = !groups_.empty();
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, pairs.size(), kPairGrain), [&](const auto& range) {
         const PeriodicImages images(domain_);
         // Screening first, in a tight loop over blocks of pairs: most candidate pairs are apart.
-        // The touching ones of a block are queued and their contact law runs after; each pair
-        // writes only its own slots, so the order does not matter.
-        constexpr std::size_t kBlock = 512;
-        std::array<std::uint32_t, kBlock> touching;
+        // The touching ones of a block are queued with their separation and their contact law
+        // runs after; each pair writes only its own slots, so the order does not matter.
+        constexpr std::size_t kBlock = 256;
+        std::array<TouchingPair, kBlock> touching;
         const NeighborPair* const pair = pairs.data();
         const Vec3* const x = position_.data();
         const double* const radius = radius_.data();
@@ -608,12 +609,15 @@ void System::compute_pair_forces(double dt) {
           for (std::size_t k = block; k != block_end; ++k) {
             const auto [i, j] = pair[k];
             active[k] = 0;
-            if (group[i] != kFreeParticle && group[j] != kFreeParticle)
+            if (has_groups && group[i] != kFreeParticle && group[j] != kFreeParticle)
               continue;  // two wall balls never interact
             double gradient_images;
+            const Vec3 d = images.separation(x[i], x[j], gradient_images);
+            const double distance_sq = d.squaredNorm();
             const double reach = radius[i] + radius[j];
-            if (images.separation(x[i], x[j], gradient_images).squaredNorm() < reach * reach) {
-              touching[touching_count++] = static_cast<std::uint32_t>(k);
+            if (distance_sq < reach * reach) {
+              touching[touching_count++] =
+                  TouchingPair{d, distance_sq, gradient_images, static_cast<std::uint32_t>(k)};
             } else if (was_touching[k]) {
               finished[k] =
                   1;  // collect_finished_contacts() records the event and clears the history
@@ -625,20 +629,22 @@ void System::compute_pair_forces(double dt) {
       });
 }
 
-void System::compute_pair_contact(const PeriodicImages& images, std::size_t k, double dt) {
+void System::compute_pair_contact(const PeriodicImages& images, const TouchingPair& touching,
+                                  double dt) {
+  const std::size_t k = touching.k;
   const auto [i, j] = neighbors_.pairs()[k];
   const bool free_i = is_free(i), free_j = is_free(j);
-  double gradient_images;
-  const Vec3 d = images.separation(position_[i], position_[j], gradient_images);
+  const Vec3& d = touching.separation;
   const double reach = radius_[i] + radius_[j];
-  const double distance = std::sqrt(d.squaredNorm());
+  const double distance = std::sqrt(touching.distance_sq);
   const Vec3 normal = -d / distance;  // from j towards i
   const double overlap = reach - distance;
   const Vec3 arm_i = -(radius_[i] - 0.5 * overlap) * normal;
   const Vec3 arm_j = (radius_[j] - 0.5 * overlap) * normal;
   const Vec3 contact_velocity_i =
       predicted_velocity_[i] + predicted_angular_velocity_[i].cross(arm_i);
-  const Vec3 contact_velocity_j = predicted_velocity_[j] + images.image_velocity(gradient_images) +
+  const Vec3 contact_velocity_j = predicted_velocity_[j] +
+                                  images.image_velocity(touching.gradient_images) +
                                   predicted_angular_velocity_[j].cross(arm_j);
   const double m_eff =
       free_i && free_j ? effective_mass(mass_[i], mass_[j]) : (free_i ? mass_[i] : mass_[j]);

@@ -253,8 +253,15 @@ class System {
   void rebuild_neighbors(std::span<const NeighborPair> old_pairs,
                          std::vector<ContactHistory> old_history);
   void compute_pair_forces(double dt);
-  // The contact law of candidate pair k, which touches.
-  void compute_pair_contact(const PeriodicImages& images, std::size_t k, double dt);
+  // A candidate pair found touching by the screening, with what the screening worked out.
+  struct TouchingPair {
+    Vec3 separation;  // from the first particle's centre to the second's (minimum image)
+    double distance_sq;
+    double gradient_images;  // PeriodicImages::separation's
+    std::uint32_t k;         // the pair's index
+  };
+  // The contact law of a candidate pair that touches.
+  void compute_pair_contact(const PeriodicImages& images, const TouchingPair& touching, double dt);
   void compute_particle_forces(double dt);
   void reduce_loads(double dt);
   void collect_finished_contacts();
