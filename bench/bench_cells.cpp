@@ -223,6 +223,8 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   state.counters["pts_per_cpu_s"] = particle_steps / cpu;
   state.counters["contacts_per_particle"] =
       static_cast<double>(system.active_contact_count()) / static_cast<double>(particles);
+  state.counters["pairs_per_particle"] =
+      static_cast<double>(system.candidate_pairs().size()) / static_cast<double>(particles);
   state.counters["bytes_per_particle"] =
       static_cast<double>(system.memory_bytes()) / static_cast<double>(particles);
 }

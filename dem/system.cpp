@@ -588,6 +588,16 @@ std::vector<ParticleId> System::reorder_particles() {
 void System::compute_pair_forces(double dt) {
   const std::span<const NeighborPair> pairs = neighbors_.pairs();
   const bool has_groups = !groups_.empty();
+  // Per axis, the largest |separation| that needs no periodic image: PeriodicImages::separation
+  // returns b - a unchanged when every component is below it (half a box on a periodic axis, the
+  // Lees-Edwards gradient axis included; infinite on an open one), and it is called only for the
+  // few pairs that are not.
+  std::array<double, 3> no_image_limit{};
+  const Vec3 box = domain_.length();
+  for (int axis = 0; axis < 3; ++axis) {
+    no_image_limit[axis] =
+        domain_.periodic[axis] ? 0.5 * box[axis] : std::numeric_limits<double>::infinity();
+  }
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, pairs.size(), kPairGrain), [&](const auto& range) {
         const PeriodicImages images(domain_);
@@ -603,16 +613,22 @@ void System::compute_pair_forces(double dt) {
         const std::uint8_t* const was_touching = pair_touching_.data();
         std::uint8_t* const active = pair_active_.data();
         std::uint8_t* const finished = pair_finished_.data();
+        const bool skip_wall_balls = has_groups;
+        const double limit_x = no_image_limit[0], limit_y = no_image_limit[1],
+                     limit_z = no_image_limit[2];
         for (std::size_t block = range.begin(); block < range.end(); block += kBlock) {
           std::size_t touching_count = 0;
           const std::size_t block_end = std::min(block + kBlock, range.end());
           for (std::size_t k = block; k != block_end; ++k) {
             const auto [i, j] = pair[k];
             active[k] = 0;
-            if (has_groups && group[i] != kFreeParticle && group[j] != kFreeParticle)
+            if (skip_wall_balls && group[i] != kFreeParticle && group[j] != kFreeParticle)
               continue;  // two wall balls never interact
-            double gradient_images;
-            const Vec3 d = images.separation(x[i], x[j], gradient_images);
+            Vec3 d = x[j] - x[i];
+            double gradient_images = 0.0;
+            if (!(std::abs(d[0]) < limit_x && std::abs(d[1]) < limit_y &&
+                  std::abs(d[2]) < limit_z))
+              d = images.separation(x[i], x[j], gradient_images);
             const double distance_sq = d.squaredNorm();
             const double reach = radius[i] + radius[j];
             if (distance_sq < reach * reach) {
