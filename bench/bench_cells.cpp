@@ -24,7 +24,7 @@
 //   --cells_normal_stress=P   the site's normal stress, Pa (default 1e5)
 //   --cells_warmup_strain=S   shear strain run after compaction, before timing (default 1 for
 //                             the media cell, 0.05 for the cement cells)
-//   --cells_lammps_dir=D      write le_media_2000's state and parameters for LAMMPS into D
+//   --cells_lammps_dir=D      write each scene's state and parameters for LAMMPS into D
 //                             (bench/run_cell_comparison.sh)
 //   --cells_cache=DIR         where the prepared states are kept (default: none)
 #include <sys/resource.h>
@@ -34,6 +34,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <map>
@@ -163,15 +164,33 @@ const dem::ShearCellRun& prepared(const CellCase& c) {
   return *slot;
 }
 
-// The media cell's state and parameters for bench/lammps/in.shear (one pair type: exact).
+// A scene's state and parameters for LAMMPS: the media cell for bench/lammps/in.shear (one pair
+// type), a media + powder cell for bench/lammps/in.cell_mixture (per pair of types, each type of
+// one size, so the damping matches exactly).
 void export_for_lammps(const CellCase& c, const dem::ShearCellRun& run) {
   const dem::System& system = run.cell().system();
   const dem::ShearCellSetup& setup = run.cell().setup();
   bench::LammpsParams params;
   const double ball_mass = system.masses()[0];
-  bench::add_contact_params(params, "", setup.media_media, 0.5 * ball_mass);
+  if (c.media_only_small_balls) {
+    bench::add_contact_params(params, "", setup.media_media, 0.5 * ball_mass);
+  } else {
+    // Type 1: material 0 (the media); type 2: the powder (bench::write_lammps_data's rule).
+    const auto materials = system.particle_materials();
+    const auto powder = std::find_if(materials.begin(), materials.end(),
+                                     [](dem::MaterialId m) { return m != 0; });
+    if (powder == materials.end()) return;  // no powder: nothing for in.cell_mixture
+    const auto p = static_cast<std::size_t>(powder - materials.begin());
+    const double powder_mass = system.masses()[p];
+    const dem::MaterialTable& table = system.materials();
+    bench::add_contact_params(params, "mm_", table.interaction(0, 0), 0.5 * ball_mass);
+    bench::add_contact_params(params, "mp_", table.interaction(0, materials[p]),
+                              dem::effective_mass(ball_mass, powder_mass));
+    bench::add_contact_params(params, "pp_", table.interaction(materials[p], materials[p]),
+                              0.5 * powder_mass);
+  }
   params.set("dt", system.time_step());
-  params.set("skin", 0.6 * system.radii()[0]);  // System's default: 0.6 x smallest radius
+  params.set("skin", 0.6 * *std::min_element(system.radii().begin(), system.radii().end()));
   params.set("shear_rate", setup.shear_rate);
   params.notes.push_back(
       "LAMMPS runs a fixed box: millflow's barostat and measurement are not "
@@ -198,7 +217,7 @@ std::uint64_t state_hash(const dem::System& system) {
 void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   spdlog::set_level(spdlog::level::warn);
   dem::ShearCellRun run = prepared(c);  // every benchmark times its own copy
-  if (g_options.lammps_dir && c.media_only_small_balls) export_for_lammps(c, run);
+  if (g_options.lammps_dir) export_for_lammps(c, run);
   const std::size_t steps = g_options.steps.value_or(c.default_steps);
   const std::size_t particles = run.cell().system().size();
   tbb::task_arena arena(threads);
