@@ -171,16 +171,21 @@ void export_for_lammps(const CellCase& c, const dem::ShearCellRun& run) {
   const dem::System& system = run.cell().system();
   const dem::ShearCellSetup& setup = run.cell().setup();
   bench::LammpsParams params;
-  const double ball_mass = system.masses()[0];
+  // Type 1: material 0 (the media); type 2: the powder (bench::write_lammps_data's rule). The
+  // cell renumbers its particles along a space-filling curve: look the kinds up, not index 0.
+  const auto materials = system.particle_materials();
+  const auto first_of = [&](auto is_kind) {
+    return static_cast<std::size_t>(std::find_if(materials.begin(), materials.end(), is_kind) -
+                                    materials.begin());
+  };
+  const std::size_t ball = first_of([](dem::MaterialId m) { return m == 0; });
+  const std::size_t p = first_of([](dem::MaterialId m) { return m != 0; });
+  if (ball == materials.size()) return;
+  const double ball_mass = system.masses()[ball];
   if (c.media_only_small_balls) {
     bench::add_contact_params(params, "", setup.media_media, 0.5 * ball_mass);
   } else {
-    // Type 1: material 0 (the media); type 2: the powder (bench::write_lammps_data's rule).
-    const auto materials = system.particle_materials();
-    const auto powder = std::find_if(materials.begin(), materials.end(),
-                                     [](dem::MaterialId m) { return m != 0; });
-    if (powder == materials.end()) return;  // no powder: nothing for in.cell_mixture
-    const auto p = static_cast<std::size_t>(powder - materials.begin());
+    if (p == materials.size()) return;  // no powder: nothing for in.cell_mixture
     const double powder_mass = system.masses()[p];
     const dem::MaterialTable& table = system.materials();
     bench::add_contact_params(params, "mm_", table.interaction(0, 0), 0.5 * ball_mass);

@@ -41,7 +41,8 @@ struct ContactResponse {
 
 // Rotates a stored tangential spring into the plane normal to `normal`, keeping its length, so a
 // contact that rolls around a particle keeps its stored energy without gaining any.
-[[gnu::always_inline]] inline Vec3 rotate_spring_into_tangent_plane(const Vec3& spring, const Vec3& normal) {
+[[gnu::always_inline]] inline Vec3 rotate_spring_into_tangent_plane(const Vec3& spring,
+                                                                    const Vec3& normal) {
   const double length_sq = spring.squaredNorm();
   if (length_sq == 0.0) return spring;
   const Vec3 projected = spring - spring.dot(normal) * normal;

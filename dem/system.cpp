@@ -359,6 +359,15 @@ void System::step(std::size_t count) {
   }
 }
 
+std::array<double, 3> System::no_image_limits() const {
+  std::array<double, 3> limit{};
+  const Vec3 box = domain_.length();
+  for (int axis = 0; axis < 3; ++axis)
+    limit[axis] =
+        domain_.periodic[axis] ? 0.5 * box[axis] : std::numeric_limits<double>::infinity();
+  return limit;
+}
+
 // Once per step() call (the drift pass applies it within a call).
 void System::kick(double half_dt) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain),
@@ -378,6 +387,7 @@ bool System::kick_and_drift(bool finish_last_kick) {
   const double half_dt = 0.5 * dt_, dt = dt_;
   const std::span<const Vec3> reference = neighbors_.reference_positions();
   const bool track_displacement = reference.size() == size();
+  const std::array<double, 3> no_image_limit = no_image_limits();
   // The largest displacement since the last neighbour-list build, found in the same pass (an exact
   // maximum, so any split of the range gives the same answer).
   const double max_displacement_sq = tbb::parallel_reduce(
@@ -414,10 +424,14 @@ bool System::kick_and_drift(bool finish_last_kick) {
           velocity[p] = v;
           angular_velocity[p] = w;
           if (track_displacement) {
-            double gradient_images;
-            running = std::max(
-                running,
-                images.separation(reference_position[p], x, gradient_images).squaredNorm());
+            Vec3 moved = x - reference_position[p];
+            if (!(std::abs(moved[0]) < no_image_limit[0] &&
+                  std::abs(moved[1]) < no_image_limit[1] &&
+                  std::abs(moved[2]) < no_image_limit[2])) {
+              double gradient_images;
+              moved = images.separation(reference_position[p], x, gradient_images);
+            }
+            running = std::max(running, moved.squaredNorm());
           }
         }
         return running;
@@ -588,16 +602,7 @@ std::vector<ParticleId> System::reorder_particles() {
 void System::compute_pair_forces(double dt) {
   const std::span<const NeighborPair> pairs = neighbors_.pairs();
   const bool has_groups = !groups_.empty();
-  // Per axis, the largest |separation| that needs no periodic image: PeriodicImages::separation
-  // returns b - a unchanged when every component is below it (half a box on a periodic axis, the
-  // Lees-Edwards gradient axis included; infinite on an open one), and it is called only for the
-  // few pairs that are not.
-  std::array<double, 3> no_image_limit{};
-  const Vec3 box = domain_.length();
-  for (int axis = 0; axis < 3; ++axis) {
-    no_image_limit[axis] =
-        domain_.periodic[axis] ? 0.5 * box[axis] : std::numeric_limits<double>::infinity();
-  }
+  const std::array<double, 3> no_image_limit = no_image_limits();
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, pairs.size(), kPairGrain), [&](const auto& range) {
         const PeriodicImages images(domain_);
@@ -626,8 +631,7 @@ void System::compute_pair_forces(double dt) {
               continue;  // two wall balls never interact
             Vec3 d = x[j] - x[i];
             double gradient_images = 0.0;
-            if (!(std::abs(d[0]) < limit_x && std::abs(d[1]) < limit_y &&
-                  std::abs(d[2]) < limit_z))
+            if (!(std::abs(d[0]) < limit_x && std::abs(d[1]) < limit_y && std::abs(d[2]) < limit_z))
               d = images.separation(x[i], x[j], gradient_images);
             const double distance_sq = d.squaredNorm();
             const double reach = radius[i] + radius[j];

@@ -242,6 +242,11 @@ class System {
   bool is_free(ParticleId p) const { return group_[p] == kFreeParticle; }
   void prepare_first_step();
   void kick(double half_dt);
+  // Per axis, the largest |b - a| that needs no periodic image: PeriodicImages::separation
+  // returns b - a unchanged when every component is below it (half a box on a periodic axis, the
+  // Lees-Edwards gradient axis included; infinite on an open one), so the hot loops call it only
+  // for the few pairs (or displacements) that are not.
+  std::array<double, 3> no_image_limits() const;
   // The first half kick and the drift in one pass, after the previous step's closing half kick
   // if `finish_last_kick`; returns whether the neighbour list must be rebuilt.
   bool kick_and_drift(bool finish_last_kick);
