@@ -24,7 +24,7 @@
 //   --cells_normal_stress=P   the site's normal stress, Pa (default 1e5)
 //   --cells_warmup_strain=S   shear strain run after compaction, before timing (default 1 for
 //                             the media cell, 0.05 for the cement cells)
-//   --cells_lammps_dir=D      write le_media_2000's state and parameters for LAMMPS into D
+//   --cells_lammps_dir=D      write each scene's state and parameters for LAMMPS into D
 //                             (bench/run_cell_comparison.sh)
 //   --cells_cache=DIR         where the prepared states are kept (default: none)
 #include <sys/resource.h>
@@ -34,11 +34,13 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -162,15 +164,38 @@ const dem::ShearCellRun& prepared(const CellCase& c) {
   return *slot;
 }
 
-// The media cell's state and parameters for bench/lammps/in.shear (one pair type: exact).
+// A scene's state and parameters for LAMMPS: the media cell for bench/lammps/in.shear (one pair
+// type), a media + powder cell for bench/lammps/in.cell_mixture (per pair of types, each type of
+// one size, so the damping matches exactly).
 void export_for_lammps(const CellCase& c, const dem::ShearCellRun& run) {
   const dem::System& system = run.cell().system();
   const dem::ShearCellSetup& setup = run.cell().setup();
   bench::LammpsParams params;
-  const double ball_mass = system.masses()[0];
-  bench::add_contact_params(params, "", setup.media_media, 0.5 * ball_mass);
+  // Type 1: material 0 (the media); type 2: the powder (bench::write_lammps_data's rule). The
+  // cell renumbers its particles along a space-filling curve: look the kinds up, not index 0.
+  const auto materials = system.particle_materials();
+  const auto first_of = [&](auto is_kind) {
+    return static_cast<std::size_t>(std::find_if(materials.begin(), materials.end(), is_kind) -
+                                    materials.begin());
+  };
+  const std::size_t ball = first_of([](dem::MaterialId m) { return m == 0; });
+  const std::size_t p = first_of([](dem::MaterialId m) { return m != 0; });
+  if (ball == materials.size()) return;
+  const double ball_mass = system.masses()[ball];
+  if (c.media_only_small_balls) {
+    bench::add_contact_params(params, "", setup.media_media, 0.5 * ball_mass);
+  } else {
+    if (p == materials.size()) return;  // no powder: nothing for in.cell_mixture
+    const double powder_mass = system.masses()[p];
+    const dem::MaterialTable& table = system.materials();
+    bench::add_contact_params(params, "mm_", table.interaction(0, 0), 0.5 * ball_mass);
+    bench::add_contact_params(params, "mp_", table.interaction(0, materials[p]),
+                              dem::effective_mass(ball_mass, powder_mass));
+    bench::add_contact_params(params, "pp_", table.interaction(materials[p], materials[p]),
+                              0.5 * powder_mass);
+  }
   params.set("dt", system.time_step());
-  params.set("skin", 0.6 * system.radii()[0]);  // System's default: 0.6 x smallest radius
+  params.set("skin", 0.6 * *std::min_element(system.radii().begin(), system.radii().end()));
   params.set("shear_rate", setup.shear_rate);
   params.notes.push_back(
       "LAMMPS runs a fixed box: millflow's barostat and measurement are not "
@@ -181,10 +206,23 @@ void export_for_lammps(const CellCase& c, const dem::ShearCellRun& run) {
                              *g_options.lammps_dir / (c.name + ".params"));
 }
 
+// FNV-1a over the bytes of the positions and velocities.
+std::uint64_t state_hash(const dem::System& system) {
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  const auto mix = [&](std::span<const dem::Vec3> values) {
+    const auto* bytes = reinterpret_cast<const unsigned char*>(values.data());
+    for (std::size_t b = 0; b < values.size_bytes(); ++b)
+      hash = (hash ^ bytes[b]) * 0x100000001b3ULL;
+  };
+  mix(system.positions());
+  mix(system.velocities());
+  return hash;
+}
+
 void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   spdlog::set_level(spdlog::level::warn);
   dem::ShearCellRun run = prepared(c);  // every benchmark times its own copy
-  if (g_options.lammps_dir && c.media_only_small_balls) export_for_lammps(c, run);
+  if (g_options.lammps_dir) export_for_lammps(c, run);
   const std::size_t steps = g_options.steps.value_or(c.default_steps);
   const std::size_t particles = run.cell().system().size();
   tbb::task_arena arena(threads);
@@ -200,14 +238,17 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   }
   const dem::System& system = run.cell().system();
   const double particle_steps = static_cast<double>(particles * total_steps);
-  // For bench/run_cell_comparison.sh: RESULT scene threads particles steps wall-s cpu-s.
-  fmt::print(stderr, "RESULT {} {} {} {} {:.6g} {:.6g}\n", c.name, threads, particles, total_steps,
-             wall, cpu);
+  // For bench/run_cell_comparison.sh: RESULT scene threads particles steps wall-s cpu-s, and a
+  // hash of the final positions and velocities (two builds that keep the bits print the same).
+  fmt::print(stderr, "RESULT {} {} {} {} {:.6g} {:.6g} state {:016x}\n", c.name, threads, particles,
+             total_steps, wall, cpu, state_hash(system));
   state.counters["particles"] = static_cast<double>(particles);
   state.counters["pts_per_s"] = particle_steps / wall;
   state.counters["pts_per_cpu_s"] = particle_steps / cpu;
   state.counters["contacts_per_particle"] =
       static_cast<double>(system.active_contact_count()) / static_cast<double>(particles);
+  state.counters["pairs_per_particle"] =
+      static_cast<double>(system.candidate_pairs().size()) / static_cast<double>(particles);
   state.counters["bytes_per_particle"] =
       static_cast<double>(system.memory_bytes()) / static_cast<double>(particles);
 }

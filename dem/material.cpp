@@ -13,11 +13,6 @@ double damping_ratio_for_restitution(double restitution) {
   return -log_e / std::sqrt(std::numbers::pi * std::numbers::pi + log_e * log_e);
 }
 
-double normal_damping_coefficient(double normal_stiffness, double effective_mass,
-                                  double damping_ratio) {
-  return 2.0 * damping_ratio * std::sqrt(normal_stiffness * effective_mass);
-}
-
 double collision_duration(double normal_stiffness, double effective_mass, double damping_ratio) {
   const double omega0 = std::sqrt(normal_stiffness / effective_mass);
   return std::numbers::pi / (omega0 * std::sqrt(1.0 - damping_ratio * damping_ratio));
@@ -34,11 +29,6 @@ double stable_time_step_limit(double normal_stiffness, double effective_mass,
                               double damping_ratio) {
   const double omega0 = std::sqrt(normal_stiffness / effective_mass);
   return 2.0 / omega0 * (std::sqrt(1.0 + damping_ratio * damping_ratio) - damping_ratio);
-}
-
-double effective_mass(double mass_a, double mass_b) {
-  if (mass_b <= 0.0) return mass_a;
-  return mass_a * mass_b / (mass_a + mass_b);
 }
 
 PairParams derive_pair_params(const InteractionSpec& spec, const std::string& pair_name) {

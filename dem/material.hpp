@@ -5,6 +5,7 @@
 // collision time); the library derives the spring-dashpot coefficients from them. Damping is
 // derived per contact from the pair's effective mass, so every pair of particle sizes bounces with
 // the requested coefficient of restitution.
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -40,9 +41,12 @@ struct PairParams {
 // rebound/impact normal velocity ratio is e (contact ends when the overlap returns to zero).
 double damping_ratio_for_restitution(double restitution);
 
-// C_n = 2 zeta sqrt(k_n m_eff).
-double normal_damping_coefficient(double normal_stiffness, double effective_mass,
-                                  double damping_ratio);
+// C_n = 2 zeta sqrt(k_n m_eff). Inline, as effective_mass below: the contact law calls both for
+// every contact and step.
+inline double normal_damping_coefficient(double normal_stiffness, double effective_mass,
+                                         double damping_ratio) {
+  return 2.0 * damping_ratio * std::sqrt(normal_stiffness * effective_mass);
+}
 
 // Contact duration t_c = pi / (omega_0 sqrt(1 - zeta^2)), omega_0 = sqrt(k_n / m_eff).
 double collision_duration(double normal_stiffness, double effective_mass, double damping_ratio);
@@ -56,7 +60,10 @@ double stiffness_for_collision_duration(double duration, double effective_mass,
 double stable_time_step_limit(double normal_stiffness, double effective_mass, double damping_ratio);
 
 // m_a m_b / (m_a + m_b); a wall is infinitely heavy: pass a non-positive m_b for a wall.
-double effective_mass(double mass_a, double mass_b);
+inline double effective_mass(double mass_a, double mass_b) {
+  if (mass_b <= 0.0) return mass_a;
+  return mass_a * mass_b / (mass_a + mass_b);
+}
 
 // Checks a spec and derives the contact-law parameters. Throws std::invalid_argument naming the
 // pair and the bad value.

@@ -359,6 +359,15 @@ void System::step(std::size_t count) {
   }
 }
 
+std::array<double, 3> System::no_image_limits() const {
+  std::array<double, 3> limit{};
+  const Vec3 box = domain_.length();
+  for (int axis = 0; axis < 3; ++axis)
+    limit[axis] =
+        domain_.periodic[axis] ? 0.5 * box[axis] : std::numeric_limits<double>::infinity();
+  return limit;
+}
+
 // Once per step() call (the drift pass applies it within a call).
 void System::kick(double half_dt) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain),
@@ -378,6 +387,7 @@ bool System::kick_and_drift(bool finish_last_kick) {
   const double half_dt = 0.5 * dt_, dt = dt_;
   const std::span<const Vec3> reference = neighbors_.reference_positions();
   const bool track_displacement = reference.size() == size();
+  const std::array<double, 3> no_image_limit = no_image_limits();
   // The largest displacement since the last neighbour-list build, found in the same pass (an exact
   // maximum, so any split of the range gives the same answer).
   const double max_displacement_sq = tbb::parallel_reduce(
@@ -414,10 +424,14 @@ bool System::kick_and_drift(bool finish_last_kick) {
           velocity[p] = v;
           angular_velocity[p] = w;
           if (track_displacement) {
-            double gradient_images;
-            running = std::max(
-                running,
-                images.separation(reference_position[p], x, gradient_images).squaredNorm());
+            Vec3 moved = x - reference_position[p];
+            if (!(std::abs(moved[0]) < no_image_limit[0] &&
+                  std::abs(moved[1]) < no_image_limit[1] &&
+                  std::abs(moved[2]) < no_image_limit[2])) {
+              double gradient_images;
+              moved = images.separation(reference_position[p], x, gradient_images);
+            }
+            running = std::max(running, moved.squaredNorm());
           }
         }
         return running;
@@ -587,14 +601,16 @@ std::vector<ParticleId> System::reorder_particles() {
 
 void System::compute_pair_forces(double dt) {
   const std::span<const NeighborPair> pairs = neighbors_.pairs();
+  const bool has_groups = !groups_.empty();
+  const std::array<double, 3> no_image_limit = no_image_limits();
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, pairs.size(), kPairGrain), [&](const auto& range) {
         const PeriodicImages images(domain_);
         // Screening first, in a tight loop over blocks of pairs: most candidate pairs are apart.
-        // The touching ones of a block are queued and their contact law runs after; each pair
-        // writes only its own slots, so the order does not matter.
-        constexpr std::size_t kBlock = 512;
-        std::array<std::uint32_t, kBlock> touching;
+        // The touching ones of a block are queued with their separation and their contact law
+        // runs after; each pair writes only its own slots, so the order does not matter.
+        constexpr std::size_t kBlock = 256;
+        std::array<TouchingPair, kBlock> touching;
         const NeighborPair* const pair = pairs.data();
         const Vec3* const x = position_.data();
         const double* const radius = radius_.data();
@@ -602,18 +618,26 @@ void System::compute_pair_forces(double dt) {
         const std::uint8_t* const was_touching = pair_touching_.data();
         std::uint8_t* const active = pair_active_.data();
         std::uint8_t* const finished = pair_finished_.data();
+        const bool skip_wall_balls = has_groups;
+        const double limit_x = no_image_limit[0], limit_y = no_image_limit[1],
+                     limit_z = no_image_limit[2];
         for (std::size_t block = range.begin(); block < range.end(); block += kBlock) {
           std::size_t touching_count = 0;
           const std::size_t block_end = std::min(block + kBlock, range.end());
           for (std::size_t k = block; k != block_end; ++k) {
             const auto [i, j] = pair[k];
             active[k] = 0;
-            if (group[i] != kFreeParticle && group[j] != kFreeParticle)
+            if (skip_wall_balls && group[i] != kFreeParticle && group[j] != kFreeParticle)
               continue;  // two wall balls never interact
-            double gradient_images;
+            Vec3 d = x[j] - x[i];
+            double gradient_images = 0.0;
+            if (!(std::abs(d[0]) < limit_x && std::abs(d[1]) < limit_y && std::abs(d[2]) < limit_z))
+              d = images.separation(x[i], x[j], gradient_images);
+            const double distance_sq = d.squaredNorm();
             const double reach = radius[i] + radius[j];
-            if (images.separation(x[i], x[j], gradient_images).squaredNorm() < reach * reach) {
-              touching[touching_count++] = static_cast<std::uint32_t>(k);
+            if (distance_sq < reach * reach) {
+              touching[touching_count++] =
+                  TouchingPair{d, distance_sq, gradient_images, static_cast<std::uint32_t>(k)};
             } else if (was_touching[k]) {
               finished[k] =
                   1;  // collect_finished_contacts() records the event and clears the history
@@ -625,20 +649,22 @@ void System::compute_pair_forces(double dt) {
       });
 }
 
-void System::compute_pair_contact(const PeriodicImages& images, std::size_t k, double dt) {
+void System::compute_pair_contact(const PeriodicImages& images, const TouchingPair& touching,
+                                  double dt) {
+  const std::size_t k = touching.k;
   const auto [i, j] = neighbors_.pairs()[k];
   const bool free_i = is_free(i), free_j = is_free(j);
-  double gradient_images;
-  const Vec3 d = images.separation(position_[i], position_[j], gradient_images);
+  const Vec3& d = touching.separation;
   const double reach = radius_[i] + radius_[j];
-  const double distance = std::sqrt(d.squaredNorm());
+  const double distance = std::sqrt(touching.distance_sq);
   const Vec3 normal = -d / distance;  // from j towards i
   const double overlap = reach - distance;
   const Vec3 arm_i = -(radius_[i] - 0.5 * overlap) * normal;
   const Vec3 arm_j = (radius_[j] - 0.5 * overlap) * normal;
   const Vec3 contact_velocity_i =
       predicted_velocity_[i] + predicted_angular_velocity_[i].cross(arm_i);
-  const Vec3 contact_velocity_j = predicted_velocity_[j] + images.image_velocity(gradient_images) +
+  const Vec3 contact_velocity_j = predicted_velocity_[j] +
+                                  images.image_velocity(touching.gradient_images) +
                                   predicted_angular_velocity_[j].cross(arm_j);
   const double m_eff =
       free_i && free_j ? effective_mass(mass_[i], mass_[j]) : (free_i ? mass_[i] : mass_[j]);

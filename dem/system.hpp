@@ -242,6 +242,11 @@ class System {
   bool is_free(ParticleId p) const { return group_[p] == kFreeParticle; }
   void prepare_first_step();
   void kick(double half_dt);
+  // Per axis, the largest |b - a| that needs no periodic image: PeriodicImages::separation
+  // returns b - a unchanged when every component is below it (half a box on a periodic axis, the
+  // Lees-Edwards gradient axis included; infinite on an open one), so the hot loops call it only
+  // for the few pairs (or displacements) that are not.
+  std::array<double, 3> no_image_limits() const;
   // The first half kick and the drift in one pass, after the previous step's closing half kick
   // if `finish_last_kick`; returns whether the neighbour list must be rebuilt.
   bool kick_and_drift(bool finish_last_kick);
@@ -253,8 +258,15 @@ class System {
   void rebuild_neighbors(std::span<const NeighborPair> old_pairs,
                          std::vector<ContactHistory> old_history);
   void compute_pair_forces(double dt);
-  // The contact law of candidate pair k, which touches.
-  void compute_pair_contact(const PeriodicImages& images, std::size_t k, double dt);
+  // A candidate pair found touching by the screening, with what the screening worked out.
+  struct TouchingPair {
+    Vec3 separation;  // from the first particle's centre to the second's (minimum image)
+    double distance_sq;
+    double gradient_images;  // PeriodicImages::separation's
+    std::uint32_t k;         // the pair's index
+  };
+  // The contact law of a candidate pair that touches.
+  void compute_pair_contact(const PeriodicImages& images, const TouchingPair& touching, double dt);
   void compute_particle_forces(double dt);
   void reduce_loads(double dt);
   void collect_finished_contacts();
