@@ -58,8 +58,9 @@ TaskCost cell_task_cost(const ShearCellSize& size) {
   cost.steps = size.compaction_steps + size.shear_steps;
   cost.steps_at_caps = size.compaction_steps + size.shear_steps_at_caps;
   const double throughput = size.powder > 0 ? kPowderCellThroughput : kMediaCellThroughput;
-  cost.core_seconds = cost.particles * cost.steps / throughput;
-  cost.core_seconds_at_caps = cost.particles * cost.steps_at_caps / throughput;
+  const double compaction = cost.particles * size.compaction_steps / kCompactionThroughput;
+  cost.core_seconds = compaction + cost.particles * size.shear_steps / throughput;
+  cost.core_seconds_at_caps = compaction + cost.particles * size.shear_steps_at_caps / throughput;
   return cost;
 }
 
@@ -95,6 +96,11 @@ std::string engineering(double value) {
   if (value >= 1e6) return fmt::format("{:.3g} M", value / 1e6);
   if (value >= 1e4) return fmt::format("{:.3g} k", value / 1e3);
   return fmt::format("{:.0f}", value);
+}
+
+std::string hours(double seconds) {
+  const double value = seconds / 3600.0;
+  return value >= 100.0 ? fmt::format("{:.0f}", value) : fmt::format("{:.3g}", value);
 }
 
 std::string range(double low, double high) {
@@ -252,6 +258,7 @@ std::map<std::string, KindEstimate> estimate_plan(
     kind.steps_max = std::max(kind.steps_max, cost->steps_at_caps);
     kind.core_seconds += cost->core_seconds;
     kind.core_seconds_at_caps += cost->core_seconds_at_caps;
+    kind.longest_task_s = std::max(kind.longest_task_s, cost->core_seconds_at_caps);
   }
   return by_kind;
 }
@@ -270,14 +277,23 @@ std::string format_estimate(const std::map<std::string, KindEstimate>& by_kind) 
     }
     total += estimate.core_seconds;
     total_at_caps += estimate.core_seconds_at_caps;
-    text += fmt::format("{:<12} {:>6} {:>20} {:>22} {:>24}\n", kind, estimate.tasks,
-                        range(estimate.particles_min, estimate.particles_max),
-                        range(estimate.steps_min, estimate.steps_max),
-                        fmt::format("{:.3g} - {:.3g}", estimate.core_seconds / 3600.0,
-                                    estimate.core_seconds_at_caps / 3600.0));
+    text +=
+        fmt::format("{:<12} {:>6} {:>20} {:>22} {:>24}\n", kind, estimate.tasks,
+                    range(estimate.particles_min, estimate.particles_max),
+                    range(estimate.steps_min, estimate.steps_max),
+                    hours(estimate.core_seconds) + " - " + hours(estimate.core_seconds_at_caps));
   }
   text += fmt::format("{:<12} {:>6} {:>20} {:>22} {:>24}\n", "total", tasks, "", "",
-                      fmt::format("{:.3g} - {:.3g}", total / 3600.0, total_at_caps / 3600.0));
+                      hours(total) + " - " + hours(total_at_caps));
+  json per_kind = json::object();
+  for (const auto& [kind, estimate] : by_kind) {
+    if (estimate.estimated == 0) continue;
+    const double minutes = std::max(1.0, std::ceil(2.0 * estimate.longest_task_s / 60.0));
+    per_kind[kind] = {{"time_limit", fmt::format("{:.0f}", minutes)}};
+  }
+  if (!per_kind.empty())
+    text += "Slurm time limits, twice the costliest task at the caps on one CPU (minutes): " +
+            json{{"per_kind", per_kind}}.dump() + "\n";
   return text;
 }
 

@@ -38,9 +38,12 @@
 namespace millflow::tasks {
 
 // Particle-steps per CPU-second of one core (docs/cost_model.md gives the measurements).
-inline constexpr double kMacroThroughput = 6.0e6;       // a mill charge
-inline constexpr double kMediaCellThroughput = 3.0e6;   // a shear cell of balls only
-inline constexpr double kPowderCellThroughput = 5.0e6;  // a shear cell of balls and powder
+inline constexpr double kMacroThroughput = 12.6e6;      // a mill charge
+inline constexpr double kMediaCellThroughput = 12.3e6;  // a shear cell of balls only
+inline constexpr double kPowderCellThroughput = 9.8e6;  // a shear cell of balls and powder
+// A cell's compaction: a loose fill, few contacts (the constant also absorbs the model's error
+// in its steps, the bed carrying half the target before it is as dense as assumed).
+inline constexpr double kCompactionThroughput = 56.0e6;
 // The overall solid fraction a compacted cell reaches at most.
 inline constexpr double kCompactedSolidFraction = 0.64;
 
@@ -92,13 +95,16 @@ struct KindEstimate {
   double particles_min = 0.0, particles_max = 0.0;
   double steps_min = 0.0, steps_max = 0.0;
   double core_seconds = 0.0, core_seconds_at_caps = 0.0;
+  double longest_task_s = 0.0;  // CPU-seconds of the costliest task at its caps
 };
 // `counted` (all when empty) picks the tasks counted; the others are only looked up (the tasks
 // above a cell).
 std::map<std::string, KindEstimate> estimate_plan(
     const std::vector<engine::TaskSpec>& tasks,
     const std::function<bool(const engine::TaskSpec&)>& counted = {});
-// The table `millflow estimate` prints.
+// The table `millflow estimate` prints, then per kind with a model a Slurm time limit (twice
+// its costliest task at the caps on one CPU, in whole minutes) as an /executor/slurm/per_kind
+// block to paste into the campaign.
 std::string format_estimate(const std::map<std::string, KindEstimate>& by_kind);
 
 }  // namespace millflow::tasks
