@@ -23,14 +23,16 @@ struct RunningTask {
 
 struct ProgressSnapshot {
   std::map<std::string, std::pair<int, int>> done_total_by_kind;  // done or cached / total
-  std::map<std::string, int> remaining_by_kind;  // pending or running, without a cost estimate
+  // pending or running (not held beyond --until), without a cost estimate
+  std::map<std::string, int> remaining_by_kind;
   std::map<std::string, int> skipped_by_kind;
   // Tasks without a cost estimate that finished well in this run, per kind: their seconds in
   // all, and how many.
   std::map<std::string, std::pair<double, int>> task_seconds_by_kind;
   // Tasks with a cost estimate (their kind's cost model, engine/task.hpp: CPU-seconds of one
   // core): the estimate of those pending or running, less the done fraction of the running
-  // ones, and how many they are; and of those that finished well in this run, their estimates
+  // ones, and how many they are (not those held beyond --until); and of those that finished well
+  // in this run, their estimates
   // and their measured seconds in all.
   double estimated_left_s = 0.0;
   int estimated_tasks_left = 0;

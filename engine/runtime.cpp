@@ -635,12 +635,13 @@ class Coordinator {
         ++counts.first;
       if (node.state == State::pending || node.state == State::running) {
         ++remaining;
-        if (node.cost_s) {
+        // The time left counts what runs: not the tasks held beyond --until.
+        if (!node.held && node.cost_s) {
           const auto running = running_fraction.find(key);
           snapshot.estimated_left_s +=
               *node.cost_s * (1.0 - (running == running_fraction.end() ? 0.0 : running->second));
           ++snapshot.estimated_tasks_left;
-        } else {
+        } else if (!node.held) {
           ++snapshot.remaining_by_kind[node.spec.kind];
         }
       }

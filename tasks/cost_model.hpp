@@ -19,7 +19,8 @@
 //                of measure_strain and convergence/max_strain). Compaction: the loose placement
 //                closed at the barostat's speed limit (dem::ShearCell), the gap from the
 //                placement height down to the nominal height (or the height that holds all
-//                solid at kCompactedSolidFraction, whichever is larger).
+//                solid at kCompactedSolidFraction, whichever is larger), at the throughput of
+//                a loose fill.
 // The site of a cell is the sites task's once it is known. Before, the typical site of the
 // cell's region in a mill of that diameter, fill and speed: shear rate = a x omega and normal
 // stress = b x rho_media x g x D x J, a and b per region measured on quick.json's sites.

@@ -166,6 +166,17 @@ TEST(Progress, CoordinatorTakesEachTasksCostFromItsKindsModelAndRefinesItBelowAF
   EXPECT_GT(last.finished_measured_s, 0.0);
   EXPECT_EQ(last.estimated_tasks_left, 0);
   EXPECT_EQ(last.task_seconds_by_kind.at("sleep").second, 1);  // timed by kind instead
+
+  // With --until sleep the sum tasks are held back: they are not part of the time left.
+  RecordingView until_view;
+  options.progress = &until_view;
+  options.run.until = "sleep";
+  const auto held = submit_campaign(registry, campaign, dir.path() / "until.db", options);
+  ASSERT_EQ(held.exit_code(), 0);
+  ASSERT_FALSE(until_view.snapshots.empty());
+  EXPECT_EQ(until_view.snapshots.front().estimated_tasks_left, 0);
+  EXPECT_EQ(until_view.snapshots.front().remaining_by_kind,
+            (std::map<std::string, int>{{"sleep", 1}}));
 }
 
 TEST(Progress, StatusLineShowsSkippedAndNeverExceedsTheWidth) {
