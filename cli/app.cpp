@@ -9,6 +9,7 @@
 #include "cli/cell.hpp"
 #include "cli/commands.hpp"
 #include "cli/demo.hpp"
+#include "cli/estimate.hpp"
 #include "tasks/millflow.hpp"
 
 namespace millflow::cli {
@@ -27,6 +28,7 @@ int run(int argc, char** argv, const std::function<void(engine::Registry&)>& ext
   add_engine_commands(app, registry, engine_exit_code);
   add_demo_command(app);
   add_cell_command(app, engine_exit_code);
+  add_estimate_command(app, registry, engine_exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

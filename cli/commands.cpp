@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <iostream>
 
+#include "cli/estimate.hpp"
 #include "cli/executor_choice.hpp"
 #include "engine/attempt_files.hpp"
 #include "engine/coordinator_lock.hpp"
@@ -245,7 +246,8 @@ void add_submit(CLI::App& app, const engine::Registry& registry, std::optional<i
       if (*dry) {
         const auto db = engine::resolve_database(flags->db, engine::DatabaseUse::create);
         const auto options = selection(registry, engine::plan_campaign(registry, campaign), *flags);
-        std::cout << engine::dry_run(registry, campaign, db, options).describe();
+        const auto dry = engine::dry_run(registry, campaign, db, options);
+        std::cout << dry.describe() << dry_run_cost(dry);
         return 0;
       }
       return run_campaign(registry, campaign, *flags);

@@ -48,6 +48,14 @@ std::optional<Eta> estimate_remaining(const ProgressSnapshot& snapshot) {
   Eta eta;
   bool known = false;
   int tasks_left = 0;
+  if (snapshot.estimated_tasks_left > 0) {
+    const double pace =
+        (snapshot.finished_measured_s + kEstimatePriorS / std::max(1, snapshot.threads_per_task)) /
+        (snapshot.finished_estimate_s + kEstimatePriorS);
+    eta.seconds += std::max(0.0, snapshot.estimated_left_s) * pace;
+    tasks_left += snapshot.estimated_tasks_left;
+    known = true;
+  }
   for (const auto& [kind, remaining] : snapshot.remaining_by_kind) {
     if (remaining == 0) continue;
     const auto timing = snapshot.task_seconds_by_kind.find(kind);

@@ -23,21 +23,39 @@ struct RunningTask {
 
 struct ProgressSnapshot {
   std::map<std::string, std::pair<int, int>> done_total_by_kind;  // done or cached / total
-  std::map<std::string, int> remaining_by_kind;                   // pending or running
+  // pending or running (not held beyond --until), without a cost estimate
+  std::map<std::string, int> remaining_by_kind;
   std::map<std::string, int> skipped_by_kind;
-  // Tasks that finished well in this run, per kind: their seconds in all, and how many.
+  // Tasks without a cost estimate that finished well in this run, per kind: their seconds in
+  // all, and how many.
   std::map<std::string, std::pair<double, int>> task_seconds_by_kind;
+  // Tasks with a cost estimate (their kind's cost model, engine/task.hpp: CPU-seconds of one
+  // core): the estimate of those pending or running, less the done fraction of the running
+  // ones, and how many they are (not those held beyond --until); and of those that finished well
+  // in this run, their estimates
+  // and their measured seconds in all.
+  double estimated_left_s = 0.0;
+  int estimated_tasks_left = 0;
+  double finished_estimate_s = 0.0;
+  double finished_measured_s = 0.0;
   std::vector<RunningTask> running;
   double elapsed_s = 0.0;
   int jobs = 1;               // tasks that may run at once
+  int threads_per_task = 1;   // threads of each task
   int finished_this_run = 0;  // tasks that ran to an end in this run
   int remaining = 0;
 };
 
-// The time left, from a cost per kind: each kind's mean task time in this run so far, times
-// its tasks still to run (less what the running ones have done), over the tasks that run at
-// once. `lower_bound` when some kind still to run has no finished task yet (its tasks are not
-// counted); none when no kind still to run has one.
+// The time left. Tasks with a cost estimate: their estimates left, in seconds of a task at
+// the pace measured so far: (measured + kEstimatePriorS / threads_per_task) / (estimated +
+// kEstimatePriorS) seconds per estimated second over the tasks that finished in this run; the
+// prior (the model's own pace, a CPU-second per estimated second spread over the task's threads)
+// dominates until kEstimatePriorS of estimated work has finished, so the first small tasks do
+// not swing it. Tasks without one: their kind's mean task time in this run so far, times its
+// tasks still to run (less what the running ones have done). Both over the tasks that run at
+// once. `lower_bound` when some kind without an estimate still to run has no finished task yet
+// (its tasks are not counted); none when nothing left can be estimated.
+inline constexpr double kEstimatePriorS = 60.0;
 struct Eta {
   double seconds = 0.0;
   bool lower_bound = false;

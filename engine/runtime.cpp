@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <condition_variable>
 #include <deque>
 #include <mutex>
@@ -29,6 +30,7 @@ struct Node {
   bool held = false;                                     // beyond --until: stays pending
   std::optional<nlohmann::json> result;                  // loaded when a downstream task needs it
   std::optional<std::vector<StoredArtifact>> artifacts;  // likewise
+  std::optional<double> cost_s;  // its kind's cost model (engine/task.hpp), for the ETA
 };
 
 // What a worker reports back to the coordinating thread.
@@ -196,6 +198,7 @@ class Coordinator {
     for (const auto& upstream : spec.upstream) admit_stored(upstream);
     Node& node = nodes_[spec.key];
     node.spec = spec;
+    node.cost_s = estimate_cost(node.spec);
     bool upstream_failed = false;
     for (const auto& upstream : spec.upstream) {
       Node& parent = nodes_.at(upstream);
@@ -274,6 +277,25 @@ class Coordinator {
       const std::string reason = decision.summary() + ": " + decision.detail;
       env_.store.mark_pending(key, reason);
       log(key, "warn", reason + "; the task runs again");
+    }
+  }
+
+  // The task's cost from its kind's model, given what is known of the tasks above it; a model
+  // that throws gives none (an estimate must never stop a run).
+  std::optional<double> estimate_cost(const TaskSpec& spec) const {
+    if (!env_.kinds.contains(spec.kind)) return std::nullopt;
+    const CostModel& cost = env_.kinds.get(spec.kind).cost;
+    if (!cost) return std::nullopt;
+    const TaskLookup lookup = [this](const std::string& key) {
+      const auto found = nodes_.find(key);
+      if (found == nodes_.end()) return KnownTask{};
+      const Node& node = found->second;
+      return KnownTask{&node.spec, node.result ? &*node.result : nullptr};
+    };
+    try {
+      return cost(spec, lookup);
+    } catch (const std::exception&) {
+      return std::nullopt;
     }
   }
 
@@ -483,9 +505,15 @@ class Coordinator {
     board_.finish(event.key);
     ++finished_this_run_;
     if (!event.error && !event.outcome.interrupted) {
-      auto& timing = snapshot_timings_[nodes_.at(event.key).spec.kind];
-      timing.first += event.duration_s;
-      ++timing.second;
+      const Node& node = nodes_.at(event.key);
+      if (node.cost_s) {
+        finished_estimate_s_ += *node.cost_s;
+        finished_measured_s_ += event.duration_s;
+      } else {
+        auto& timing = snapshot_timings_[node.spec.kind];
+        timing.first += event.duration_s;
+        ++timing.second;
+      }
     }
     if (event.error) {
       handle_failure(event);
@@ -511,6 +539,7 @@ class Coordinator {
     finished_work_.push_back(event.key);
     for (const auto& downstream : node.downstream) {
       Node& below = nodes_.at(downstream);
+      if (below.state == State::pending) below.cost_s = estimate_cost(below.spec);  // knows more
       if (--below.waiting_on == 0 && below.state == State::pending) ready_.push_back(downstream);
     }
     for (const auto& child : event.children) admit(child);
@@ -592,6 +621,10 @@ class Coordinator {
 
   ProgressSnapshot snapshot() const {
     ProgressSnapshot snapshot;
+    snapshot.running = board_.running();
+    std::unordered_map<std::string, double> running_fraction;
+    for (const auto& task : snapshot.running)
+      running_fraction[task.key] = std::clamp(task.fraction, 0.0, 1.0);
     int remaining = 0;
     for (const auto& [key, node] : nodes_) {
       auto& counts = snapshot.done_total_by_kind[node.spec.kind];
@@ -602,13 +635,23 @@ class Coordinator {
         ++counts.first;
       if (node.state == State::pending || node.state == State::running) {
         ++remaining;
-        ++snapshot.remaining_by_kind[node.spec.kind];
+        // The time left counts what runs: not the tasks held beyond --until.
+        if (!node.held && node.cost_s) {
+          const auto running = running_fraction.find(key);
+          snapshot.estimated_left_s +=
+              *node.cost_s * (1.0 - (running == running_fraction.end() ? 0.0 : running->second));
+          ++snapshot.estimated_tasks_left;
+        } else if (!node.held) {
+          ++snapshot.remaining_by_kind[node.spec.kind];
+        }
       }
       if (node.state == State::skipped) ++snapshot.skipped_by_kind[node.spec.kind];
     }
     snapshot.task_seconds_by_kind = snapshot_timings_;
+    snapshot.finished_estimate_s = finished_estimate_s_;
+    snapshot.finished_measured_s = finished_measured_s_;
     snapshot.jobs = env_.jobs ? env_.jobs->max_in_flight() : options_.jobs;
-    snapshot.running = board_.running();
+    snapshot.threads_per_task = options_.threads_per_task;
     snapshot.elapsed_s = env_.clock.now() - started_;
     snapshot.finished_this_run = finished_this_run_;
     snapshot.remaining = remaining;
@@ -663,8 +706,10 @@ class Coordinator {
   int done_ = 0;
   int failed_ = 0;
   int finished_this_run_ = 0;
-  // Per kind: task seconds and count of the attempts that finished well in this run (the ETA).
+  // Per kind: task seconds and count of the attempts without a cost estimate that finished well
+  // in this run (the ETA); the estimates and seconds of those with one.
   std::map<std::string, std::pair<double, int>> snapshot_timings_;
+  double finished_estimate_s_ = 0.0, finished_measured_s_ = 0.0;
 };
 
 }  // namespace

@@ -49,6 +49,13 @@ const TaskKind& KindRegistry::get(const std::string& name) const {
   return found->second;
 }
 
+void KindRegistry::set_cost_model(const std::string& name, CostModel cost) {
+  const auto found = kinds_.find(name);
+  if (found == kinds_.end())
+    throw std::logic_error("no task kind " + name + " to give a cost model");
+  found->second.cost = std::move(cost);
+}
+
 std::string KindRegistry::names() const {
   std::string text;
   for (const auto& [name, kind] : kinds_) text += (text.empty() ? "" : ", ") + name;

@@ -15,6 +15,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stop_token>
 #include <string>
 #include <string_view>
@@ -95,11 +96,23 @@ struct TaskContext {
 
 using RunFunction = std::function<TaskOutcome(TaskContext&)>;
 
+// A task of the DAG as a cost model sees it: its spec, and its result once it is known.
+struct KnownTask {
+  const TaskSpec* spec = nullptr;
+  const nlohmann::json* result = nullptr;  // null until the task finished (or was read)
+};
+// The tasks of the DAG by key (a KnownTask with a null spec for an unknown key).
+using TaskLookup = std::function<KnownTask(const std::string& key)>;
+// What a task is expected to cost, in CPU-seconds of one core, from its own spec and the tasks
+// above it; none when the model cannot tell. The engine uses it for the ETA (engine/progress.hpp).
+using CostModel = std::function<std::optional<double>(const TaskSpec&, const TaskLookup&)>;
+
 struct TaskKind {
   std::string name;
   std::string version;
   RunFunction run;          // throws on failure
   bool may_expand = false;  // its result may declare child tasks (dry runs show them as pending)
+  CostModel cost = {};      // may be empty: the ETA then uses the kind's finished task times
 };
 
 // Kinds by name. The engine registers its test kinds; tasks/ registers the method's kinds.
@@ -107,6 +120,8 @@ class KindRegistry {
  public:
   void add(TaskKind kind);  // throws std::logic_error for a duplicate name
   const TaskKind& get(const std::string& name) const;  // throws InvalidInput for an unknown name
+  // Gives a registered kind its cost model; throws std::logic_error for an unknown name.
+  void set_cost_model(const std::string& name, CostModel cost);
   bool contains(const std::string& name) const { return kinds_.count(name) > 0; }
   std::string names() const;  // "a, b, c"
 

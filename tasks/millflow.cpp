@@ -5,6 +5,7 @@
 
 #include "engine/outputs.hpp"
 #include "tasks/campaign.hpp"
+#include "tasks/cost_model.hpp"
 #include "tasks/kinds.hpp"
 
 namespace millflow::tasks {
@@ -151,6 +152,7 @@ void register_millflow(engine::Registry& registry) {
   register_shear_cells(registry);
   register_upscale(registry);
   register_report(registry);
+  register_cost_models(registry.kinds);
   registry.views.push_back(sweep_points_view());  // after macro_lineage, which it reads
 }
 

@@ -297,6 +297,32 @@ TEST_F(Cli, SubmitDryRunSaysPerKindWhatWouldRunAndWhyAndWritesNothing) {
             "  1 upstream changed\n");
 }
 
+TEST_F(Cli, EstimateAndTheDryRunPriceEachKindOfACampaignFile) {
+  const std::string quick = std::string(MILLFLOW_SOURCE_DIR) + "/campaigns/quick.json";
+  const auto estimate = run_millflow({"estimate", quick}, dir_.path());
+  ASSERT_EQ(estimate.exit_code, 0) << estimate.err;
+  std::map<std::string, std::vector<std::string>> rows;
+  for (const auto& line : lines_of(estimate.out)) {
+    const auto words = words_of(line);
+    if (!words.empty()) rows[words.front()] = words;
+  }
+  // kind, tasks, particles per task, steps per task, core-hours (least - at the caps).
+  EXPECT_EQ(rows.at("macro").at(1), "4");
+  EXPECT_EQ(rows.at("macro").at(2), "415");
+  EXPECT_EQ(rows.at("macro").at(4), "726");
+  EXPECT_EQ(rows.at("shear_cell").at(1), "120");
+  EXPECT_EQ(rows.at("average").at(4), "small");
+  EXPECT_EQ(rows.at("total").at(1), "145");
+  EXPECT_GT(std::stod(rows.at("total").at(4)), std::stod(rows.at("total").at(2)));
+  // The dry run of a campaign never run prices all of it, and no file is written.
+  const auto dry = millflow({"submit", quick, "--dry-run"});
+  ASSERT_EQ(dry.exit_code, 0) << dry.err;
+  const auto cost = dry.out.find("cost of what would run:");
+  ASSERT_NE(cost, std::string::npos) << dry.out;
+  EXPECT_NE(dry.out.find("shear_cell      120", cost), std::string::npos) << dry.out;
+  EXPECT_FALSE(fs::exists(db()));
+}
+
 TEST_F(Cli, ExplainWorksOnACampaignFileBeforeItWasEverSubmitted) {
   const auto file = write_campaign("diamond", diamond_tasks());
   const auto listed = millflow({"explain", file.string()});

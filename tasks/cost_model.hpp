@@ -1,0 +1,111 @@
+#pragma once
+// What the method's tasks cost before they run: particles, time steps and CPU-seconds of one
+// core per task, for `millflow estimate`, the dry run and the progress line's ETA. The figures
+// and how they were calibrated: docs/cost_model.md.
+//
+// A task's CPU time is particles x steps / throughput, the throughput in particle-steps per
+// CPU-second of the scene it runs:
+//   macro        balls of the mill set-up (dem::balls_per_class) x the steps of its schedule:
+//                settle_time / dt + (warm-up + measured revolutions) x 2 pi / (omega dt), with
+//                dt = the shortest ball-ball (lightest pair) or ball-liner (lightest ball) contact
+//                duration / dem.steps_per_collision, as the run sets it;
+//   shear_cell   media N_m = phi_m A H / (pi d^3 / 6) and powder N_p = U (1 - phi_m) A H
+//                phi_bed / (pi d_p^3 / 6) (dem/shear_cell.hpp; plus the wall balls of a walled
+//                cell) x the steps of compaction and of shear; dt = the shortest contact
+//                duration of the pairs present, after the stiffness policy at the site's normal
+//                stress and shear rate (tasks::apply_stiffness_policy) / steps_per_collision.
+//                Shear steps: the strain over (gdot dt), between the least the protocol runs
+//                (warmup_strain + measure_strain) and its caps (max_warmup_strain + the larger
+//                of measure_strain and convergence/max_strain). Compaction: the loose placement
+//                closed at the barostat's speed limit (dem::ShearCell), the gap from the
+//                placement height down to the nominal height (or the height that holds all
+//                solid at kCompactedSolidFraction, whichever is larger), at the throughput of
+//                a loose fill.
+// The site of a cell is the sites task's once it is known. Before, the typical site of the
+// cell's region in a mill of that diameter, fill and speed: shear rate = a x omega and normal
+// stress = b x rho_media x g x D x J, a and b per region measured on quick.json's sites.
+// average, sites, upscale and report have no model (seconds each; the ETA takes their kind's
+// mean task time).
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "engine/task.hpp"
+
+namespace millflow::tasks {
+
+// Particle-steps per CPU-second of one core (docs/cost_model.md gives the measurements).
+inline constexpr double kMacroThroughput = 12.6e6;      // a mill charge
+inline constexpr double kMediaCellThroughput = 12.3e6;  // a shear cell of balls only
+inline constexpr double kPowderCellThroughput = 9.8e6;  // a shear cell of balls and powder
+// A cell's compaction: a loose fill, few contacts (the constant also absorbs the model's error
+// in its steps, the bed carrying half the target before it is as dense as assumed).
+inline constexpr double kCompactionThroughput = 56.0e6;
+// The overall solid fraction a compacted cell reaches at most.
+inline constexpr double kCompactedSolidFraction = 0.64;
+
+struct TaskCost {
+  double particles = 0.0;
+  double steps = 0.0;          // the least the task runs
+  double steps_at_caps = 0.0;  // the most (= steps but for shear cells' strain caps)
+  double core_seconds = 0.0;   // at `steps`
+  double core_seconds_at_caps = 0.0;
+};
+
+// A macro run of macro-task parameters (tasks::macro_params).
+struct MacroRunSize {
+  std::size_t balls = 0;
+  double time_step_s = 0.0;
+  double steps = 0.0;
+};
+MacroRunSize macro_run_size(const nlohmann::json& macro_params);
+TaskCost macro_cost(const nlohmann::json& macro_params);
+
+// The typical site of a region (one of /sites/regions) in the mill of macro-task parameters, as
+// a site JSON {shear_rate_per_s, normal_stress_pa}.
+nlohmann::json typical_site(const nlohmann::json& macro_params, const std::string& region);
+
+// A shear cell of shear_cell-task parameters at a site ({shear_rate_per_s, normal_stress_pa}).
+struct ShearCellSize {
+  std::size_t media = 0, powder = 0, wall_balls = 0;
+  double time_step_s = 0.0;
+  double compaction_steps = 0.0;
+  double shear_steps = 0.0, shear_steps_at_caps = 0.0;
+};
+ShearCellSize shear_cell_size(const nlohmann::json& cell_params, const nlohmann::json& site);
+TaskCost shear_cell_cost(const nlohmann::json& cell_params, const nlohmann::json& site);
+
+// A task of the DAG: macro and shear_cell tasks (a cell from its sites task's result when known,
+// else from its region's typical site; a slot without a usable site costs nothing); none for
+// the other kinds.
+std::optional<TaskCost> task_cost(const engine::TaskSpec& spec, const engine::TaskLookup& lookup);
+
+// Gives the macro and shear_cell kinds their cost model (CPU-seconds midway between the least
+// and the caps).
+void register_cost_models(engine::KindRegistry& kinds);
+
+// Per kind over a plan's tasks: how many, how many have an estimate, particles and steps per
+// task (least and most) and CPU-seconds in all (least and at the caps).
+struct KindEstimate {
+  int tasks = 0;
+  int estimated = 0;
+  double particles_min = 0.0, particles_max = 0.0;
+  double steps_min = 0.0, steps_max = 0.0;
+  double core_seconds = 0.0, core_seconds_at_caps = 0.0;
+  double longest_task_s = 0.0;  // CPU-seconds of the costliest task at its caps
+};
+// `counted` (all when empty) picks the tasks counted; the others are only looked up (the tasks
+// above a cell).
+std::map<std::string, KindEstimate> estimate_plan(
+    const std::vector<engine::TaskSpec>& tasks,
+    const std::function<bool(const engine::TaskSpec&)>& counted = {});
+// The table `millflow estimate` prints, then per kind with a model a Slurm time limit (twice
+// its costliest task at the caps on one CPU, in whole minutes) as an /executor/slurm/per_kind
+// block to paste into the campaign.
+std::string format_estimate(const std::map<std::string, KindEstimate>& by_kind);
+
+}  // namespace millflow::tasks

@@ -1,0 +1,177 @@
+// The cost model's inputs (tasks/cost_model.hpp) against what the runs really use: the balls and
+// time step of a real mill set-up, the particles and time step of real shear cells (built by the
+// cells' own code at a site), and the per-kind estimate of a plan.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "dem/mill_setup.hpp"
+#include "dem/shear_cell.hpp"
+#include "engine/campaign.hpp"
+#include "tasks/campaign.hpp"
+#include "tasks/cost_model.hpp"
+#include "tasks/kinds.hpp"
+#include "tasks/macro_setup.hpp"
+#include "tasks/millflow.hpp"
+#include "tasks/shear_cell.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using namespace millflow;
+
+const fs::path source_dir = MILLFLOW_SOURCE_DIR;
+
+json first_point(const fs::path& file) {
+  return tasks::expand(tasks::load_campaign(source_dir / file)).front().document;
+}
+
+// The shear_cell parameters of a point's first slot, with the cell's block changed by `edit`.
+json cell_params(json point, const std::function<void(json&)>& edit) {
+  edit(point["shear_cell"]);
+  json params = tasks::shear_cells_params(point);
+  params["slot"] = {{"region", "bulk"}, {"index", 0}};
+  return params;
+}
+
+// The particles and time step a real cell of these parameters has at `site`.
+void expect_cell_inputs_match(const json& params, const json& site) {
+  const tasks::ShearCellSize size = tasks::shear_cell_size(params, site);
+  dem::ShearCellSetup setup = tasks::shear_cell_setup(params, site, "cell");
+  tasks::apply_stiffness_policy(params, setup);
+  const dem::ShearCell cell(setup);
+  EXPECT_EQ(size.media, cell.media_count());
+  EXPECT_EQ(size.powder, cell.powder_count());
+  EXPECT_EQ(size.wall_balls, cell.wall_ball_count());
+  EXPECT_DOUBLE_EQ(size.time_step_s, cell.system().time_step());
+  EXPECT_GT(size.compaction_steps, 0.0);
+  EXPECT_GT(size.shear_steps_at_caps, size.shear_steps);
+}
+
+TEST(CostModel, MacroBallsAndTimeStepAreTheMillSetUpsOwn) {
+  for (const char* file : {"campaigns/quick.json", "tests/tasks/good_campaigns/minimal.json"}) {
+    const json params = tasks::macro_params(first_point(file));
+    const tasks::MacroRunSize size = tasks::macro_run_size(params);
+    const tasks::MacroSettings settings = tasks::macro_settings(params, "macro");
+    dem::System mill = dem::build_mill(settings.mill);
+    mill.set_time_step_from_collisions(settings.steps_per_collision);
+    EXPECT_EQ(size.balls, mill.size()) << file;
+    EXPECT_DOUBLE_EQ(size.time_step_s, mill.time_step()) << file;
+    // Settling, then the revolutions at omega.
+    const double omega =
+        settings.mill.speed_fraction *
+        dem::critical_speed(2 * settings.mill.shell.radius, dem::mean_ball_diameter(settings.mill));
+    const double seconds =
+        settings.settle_time +
+        (settings.warmup_revolutions + settings.measure_revolutions) * 2 * std::numbers::pi / omega;
+    EXPECT_NEAR(size.steps * size.time_step_s, seconds, 1e-9 * seconds) << file;
+  }
+}
+
+TEST(CostModel, ShearCellParticlesAndTimeStepAreTheCellsOwn) {
+  const json site = {{"shear_rate_per_s", 5.0}, {"normal_stress_pa", 2.5e4}};
+  // The cement campaign's cell (powder 0.125 d, the stiffness policy raising the powder's
+  // contacts) made small, with and without powder, Lees-Edwards and walls.
+  const json cement = first_point("campaigns/cement_ball_mill.json");
+  for (const double load : {0.0, 0.5}) {
+    for (const char* boundary : {"lees_edwards", "walls"}) {
+      SCOPED_TRACE(fmt::format("load {}, {}", load, boundary));
+      expect_cell_inputs_match(cell_params(cement,
+                                           [&](json& cell) {
+                                             cell["size_diameters"] = {3, 3, 3};
+                                             cell["boundary"] = boundary;
+                                             cell["powder"]["load"] = load;
+                                           }),
+                               site);
+    }
+  }
+  // quick.json's cell as it is, at load 1, its stiffness kept by the campaign policy and raised.
+  const json quick = first_point("campaigns/quick.json");
+  for (const char* policy : {"campaign", "overlap_bound"}) {
+    SCOPED_TRACE(policy);
+    expect_cell_inputs_match(cell_params(quick,
+                                         [&](json& cell) {
+                                           cell["powder"]["load"] = 1.0;
+                                           cell["stiffness"]["policy"] = policy;
+                                         }),
+                             site);
+  }
+}
+
+TEST(CostModel, ShearStepsAreTheStrainsOverTheStrainPerStep) {
+  const json params = cell_params(first_point("campaigns/quick.json"), [](json& cell) {
+    cell["warmup_strain"] = 2.0;
+    cell["max_warmup_strain"] = 6.0;
+    cell["measure_strain"] = 3.0;
+    cell["convergence"]["max_strain"] = 5.0;
+  });
+  const json site = {{"shear_rate_per_s", 4.0}, {"normal_stress_pa", 1e4}};
+  const tasks::ShearCellSize size = tasks::shear_cell_size(params, site);
+  EXPECT_NEAR(size.shear_steps * 4.0 * size.time_step_s, 5.0, 1e-12);
+  EXPECT_NEAR(size.shear_steps_at_caps * 4.0 * size.time_step_s, 11.0, 1e-12);
+  // Half the shear rate, twice the steps (the stiffness is the campaign's at these sites).
+  const json slower = {{"shear_rate_per_s", 2.0}, {"normal_stress_pa", 1e4}};
+  EXPECT_NEAR(tasks::shear_cell_size(params, slower).shear_steps, 2.0 * size.shear_steps,
+              1e-9 * size.shear_steps);
+}
+
+TEST(CostModel, EstimateOfAPlanCountsEveryTaskAndPricesMacroRunsAndCells) {
+  engine::Registry registry;
+  tasks::register_millflow(registry);
+  const auto campaign = engine::load_campaign_file(registry, source_dir / "campaigns/quick.json");
+  const auto planned = engine::plan_campaign(registry, campaign);
+  const auto by_kind = tasks::estimate_plan(planned);
+  ASSERT_EQ(by_kind.at("macro").tasks, 4);
+  EXPECT_EQ(by_kind.at("macro").estimated, 4);
+  EXPECT_EQ(by_kind.at("shear_cell").tasks, 120);
+  EXPECT_EQ(by_kind.at("shear_cell").estimated, 120);
+  EXPECT_EQ(by_kind.at("average").estimated, 0);
+  // Cells at load 0 have balls only; at load 1 the powder: the particle range spans both.
+  const json point = first_point("campaigns/quick.json");
+  const json media_only = cell_params(point, [](json& cell) { cell["powder"]["load"] = 0.0; });
+  const json site = tasks::typical_site(tasks::macro_params(point), "bulk");
+  EXPECT_EQ(by_kind.at("shear_cell").particles_min,
+            static_cast<double>(tasks::shear_cell_size(media_only, site).media));
+  EXPECT_GT(by_kind.at("shear_cell").particles_max, by_kind.at("shear_cell").particles_min);
+  double macro_seconds = 0.0;
+  for (const auto& spec : planned) {
+    if (spec.kind == "macro") macro_seconds += tasks::macro_cost(spec.params).core_seconds;
+  }
+  EXPECT_DOUBLE_EQ(by_kind.at("macro").core_seconds, macro_seconds);
+  EXPECT_GE(by_kind.at("shear_cell").core_seconds_at_caps, by_kind.at("shear_cell").core_seconds);
+  // Each kind that has a cost model gives the engine one (the ETA).
+  EXPECT_TRUE(registry.kinds.get("macro").cost);
+  EXPECT_TRUE(registry.kinds.get("shear_cell").cost);
+  EXPECT_FALSE(registry.kinds.get("average").cost);
+}
+
+TEST(CostModel, ACellOnceItsSiteIsKnownCostsThatSitesAndAnEmptySlotNothing) {
+  engine::Registry registry;
+  tasks::register_millflow(registry);
+  const auto campaign = engine::load_campaign_file(registry, source_dir / "campaigns/quick.json");
+  const auto planned = engine::plan_campaign(registry, campaign);
+  const engine::TaskSpec* cell = nullptr;
+  for (const auto& spec : planned)
+    if (spec.kind == "shear_cell" && spec.params.at("slot").at("region") == "toe") cell = &spec;
+  ASSERT_NE(cell, nullptr);
+  const std::string site_id = tasks::slot_site_id(cell->params.at("slot"));
+  const json site = {{"site_id", site_id}, {"shear_rate_per_s", 7.0}, {"normal_stress_pa", 3e3}};
+  json sites_result = {{"sites", json::array({site})}};
+  const engine::TaskLookup lookup = [&](const std::string& key) {
+    for (const auto& spec : planned) {
+      if (spec.key != key) continue;
+      return engine::KnownTask{&spec, spec.kind == "sites" ? &sites_result : nullptr};
+    }
+    return engine::KnownTask{};
+  };
+  const auto known = tasks::task_cost(*cell, lookup);
+  ASSERT_TRUE(known);
+  EXPECT_DOUBLE_EQ(known->core_seconds, tasks::shear_cell_cost(cell->params, site).core_seconds);
+  sites_result["sites"] = json::array();
+  const auto empty = tasks::task_cost(*cell, lookup);
+  ASSERT_TRUE(empty);
+  EXPECT_EQ(empty->core_seconds, 0.0);
+}
+
+}  // namespace
