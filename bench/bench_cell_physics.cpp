@@ -400,6 +400,20 @@ void dilute_table(const Options& o) {
   print_row("friction (equal I)", friction(matched), friction(dilute));
   print_row("friction_mean_p (eq. I)", friction_mean_pressure(matched),
             friction_mean_pressure(dilute));
+  // The barostat's bias differs from run to run, so the second media-only cell may miss the
+  // dilute cell's I too; when the two bracket it, the media-only friction is interpolated
+  // linearly in I (errors combined with the interpolation weights).
+  const double i0 = media.m.inertial_number, i1 = matched.m.inertial_number;
+  const double w = (dilute.m.inertial_number - i0) / (i1 - i0);
+  if (w < 0.0 || w > 1.0) return;
+  const auto interpolate = [w](Value a, Value b) {
+    return Value{(1.0 - w) * a.mean + w * b.mean, std::hypot((1.0 - w) * a.error, w * b.error)};
+  };
+  print_row("friction (interpolated)", interpolate(friction(media), friction(matched)),
+            friction(dilute));
+  print_row("friction_mean_p (interp.)",
+            interpolate(friction_mean_pressure(media), friction_mean_pressure(matched)),
+            friction_mean_pressure(dilute));
 }
 
 void walls_table(const Options& o) {
@@ -414,6 +428,16 @@ void walls_table(const Options& o) {
   print_header("Lees-Edwards", "rough walls");
   print_row("friction", friction(le), friction(walls));
   print_row("friction_mean_p", friction_mean_pressure(le), friction_mean_pressure(walls));
+  // The same ratio from the stress tensor alone (-xy / yy of the virial), which does not use the
+  // wall load; the window's mean, without a standard error.
+  const auto virial_friction = [](const CellResult& r) {
+    return -r.m.stress_tensor[3] / r.m.stress_tensor[1];
+  };
+  fmt::print("  {:<24} {:>9.4f} {:>24.4f} {:>19} {:>+8.1f}\n", "virial -xy/yy", virial_friction(le),
+             virial_friction(walls), "",
+             100.0 * (virial_friction(walls) - virial_friction(le)) / virial_friction(le));
+  fmt::print("  virial yy: Lees-Edwards {:.4g} Pa, rough walls {:.4g} Pa (wall load {:.4g} Pa)\n",
+             le.m.stress_tensor[1], walls.m.stress_tensor[1], walls.m.normal_stress);
 }
 
 void overlap_table(const Options& o) {
