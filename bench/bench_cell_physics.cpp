@@ -411,7 +411,7 @@ void dilute_table(const Options& o) {
   };
   print_row("friction (interpolated)", interpolate(friction(media), friction(matched)),
             friction(dilute));
-  print_row("friction_mean_p (interp.)",
+  print_row("friction_mean_p (interp)",
             interpolate(friction_mean_pressure(media), friction_mean_pressure(matched)),
             friction_mean_pressure(dilute));
 }
