@@ -22,7 +22,8 @@
 //                cell's measured bulk inertial number (bulk rate fitted over the middle half of
 //                the gap, wall load as the normal stress).
 //   5 overlap    a cell with powder --overlap_ratio d at --overlap_load, at the policy's default
-//                stiffness, for its overlaps per contact type (mean, p95, max).
+//                stiffness, for its overlaps per contact type (mean, p95, max), with the
+//                protocol's strains scaled by --overlap_strain_factor (fine powder is costly).
 //   6 lammps     (with --lammps_dir) a media-only Lees-Edwards cell brought to a stationary state
 //                at --lammps_inertial_number, its state and contact parameters written for
 //                bench/lammps/in.cell_physics, then sheared on at FIXED volume for
@@ -76,7 +77,7 @@ struct Options {
   std::vector<int> tables{1, 2, 3};
   std::vector<double> size{5, 6, 5};
   int threads = 1;
-  double shear_rate = 10.0;     // 1/s, tables 1, 3 and 4
+  double shear_rate = 10.0;     // 1/s, tables 1, 3, 4 and 5
   double normal_stress = 2e4;   // Pa
   double powder_ratio = 0.25;   // powder / ball diameter
   double load = 1.0;            // table 1's powder load
@@ -85,9 +86,9 @@ struct Options {
   std::vector<double> inertial_numbers{0.01, 0.03, 0.1, 0.2, 0.3};
   double overlap_ratio = 0.125;  // table 5's powder
   double overlap_load = 0.05;
+  // Not 4 d along z: a Lees-Edwards cell 4 d wide stacks its FCC planes d apart
+  // (docs/cell_validation.md).
   std::vector<double> overlap_size{5, 5, 5};
-  // (not 4 d along z: a Lees-Edwards cell 4 d wide stacks its FCC planes d apart,
-  // docs/cell_validation.md)
   double overlap_strain_factor = 0.25;  // table 5's strains, x the protocol's
   double warmup_strain = 1.0, max_warmup_strain = 3.0;
   double measure_strain = 2.0, max_strain = 4.0;
