@@ -1,8 +1,8 @@
 // Shear-cell physics against the outside world (issue 12, "Check it against the outside world";
-// the measured tables are in docs/shear_cells.md). Not a timing benchmark: it runs whole cells
+// the measured tables are in docs/cell_validation.md). Not a timing benchmark: it runs whole cells
 // (compaction, warm-up to stationarity, measurement to convergence) through the campaign's code
 // path (tasks::shear_cell_setup, tasks::apply_stiffness_policy, tasks::shear_cell_protocol,
-// dem::ShearCellRun) and prints three tables:
+// dem::ShearCellRun) and prints these tables:
 //
 //   1 stiffness  a media-only cell and a cell with powder (--powder_ratio d at --load) at the
 //                policy's default stiffness and at --stiffer_factor x it: friction (tau / p_yy),
@@ -11,10 +11,24 @@
 //                standard error, and the difference in units of the combined standard error.
 //   2 mu(I)      the media-only cell at inertial numbers --inertial_numbers (the shear rate set
 //                from I at the site's normal stress), against Jop, Forterre & Pouliquen (Nature
-//                441, 2006): mu(I) = mu_s + (mu_2 - mu_s) / (1 + I_0 / I) with their glass
-//                beads' mu_2 - mu_s = 0.26 and I_0 = 0.279 held, mu_s fitted (weighted by the
-//                friction's standard error), and the residuals in standard errors.
-//   3 dilute     the cell at powder load --dilute_load against the media-only one.
+//                441, 2006): mu(I) = mu_s + (mu_2 - mu_s) / (1 + I_0 / I), fitted three ways
+//                (weighted by the friction's standard error): mu_s alone with their glass
+//                beads' mu_2 - mu_s = 0.26 and I_0 = 0.279 held; mu_s and mu_2 - mu_s with I_0
+//                held; mu_s and I_0 with mu_2 - mu_s held.
+//   3 dilute     the cell at powder load --dilute_load against the media-only one, at the site's
+//                rate and again with the media-only cell's rate set so that its measured I
+//                equals the dilute cell's.
+//   4 walls      the rough-wall cell at the site against the Lees-Edwards cell run at the wall
+//                cell's measured bulk inertial number (bulk rate fitted over the middle half of
+//                the gap, wall load as the normal stress).
+//   5 overlap    a cell with powder --overlap_ratio d at --overlap_load, at the policy's default
+//                stiffness, for its overlaps per contact type (mean, p95, max), with the
+//                protocol's strains scaled by --overlap_strain_factor (fine powder is costly).
+//   6 lammps     (with --lammps_dir) a media-only Lees-Edwards cell brought to a stationary state
+//                at --lammps_inertial_number, its state and contact parameters written for
+//                bench/lammps/in.cell_physics, then sheared on at FIXED volume for
+//                --lammps_strain, the stress tensor written every --lammps_sample_every steps
+//                (bench/run_cell_physics_comparison.sh runs both and compares).
 //
 // The scene is campaigns/cement_ball_mill.json's cell (50 mm steel balls, clinker powder, steel
 // 7800 and clinker 3150 kg/m^3, Lees-Edwards, stiffness policy "overlap_bound") at a site of
@@ -32,12 +46,18 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <optional>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "bench/lammps_export.hpp"
 #include "dem/shear_cell.hpp"
 #include "dem/stiffness_policy.hpp"
 #include "tasks/campaign.hpp"
@@ -49,7 +69,7 @@ using namespace millflow;
 using nlohmann::json;
 
 // Jop, Forterre & Pouliquen 2006, glass beads: mu_2 - mu_s and I_0 (their mu_s = 0.38 and
-// mu_2 = 0.64; mu_s is fitted here).
+// mu_2 = 0.64).
 constexpr double kJfpFrictionRise = 0.64 - 0.38;
 constexpr double kJfpInertialNumber = 0.279;
 
@@ -57,23 +77,37 @@ struct Options {
   std::vector<int> tables{1, 2, 3};
   std::vector<double> size{5, 6, 5};
   int threads = 1;
-  double shear_rate = 10.0;     // 1/s, tables 1 and 3
+  double shear_rate = 10.0;     // 1/s, tables 1, 3, 4 and 5
   double normal_stress = 2e4;   // Pa
   double powder_ratio = 0.25;   // powder / ball diameter
   double load = 1.0;            // table 1's powder load
   double dilute_load = 0.01;    // table 3's
   double stiffer_factor = 4.0;  // table 1's second stiffness, x the policy's
-  std::vector<double> inertial_numbers{0.01, 0.03, 0.1, 0.3};
+  std::vector<double> inertial_numbers{0.01, 0.03, 0.1, 0.2, 0.3};
+  double overlap_ratio = 0.125;  // table 5's powder
+  double overlap_load = 0.05;
+  // Not 4 d along z: a Lees-Edwards cell 4 d wide stacks its FCC planes d apart
+  // (docs/cell_validation.md).
+  std::vector<double> overlap_size{5, 5, 5};
+  double overlap_strain_factor = 0.25;  // table 5's strains, x the protocol's
   double warmup_strain = 1.0, max_warmup_strain = 3.0;
   double measure_strain = 2.0, max_strain = 4.0;
   double standard_error = 0.03;
   std::uint64_t seed = 1;
+  std::optional<std::filesystem::path> lammps_dir;  // table 6
+  double lammps_inertial_number = 0.1;
+  double lammps_strain = 10.0;
+  int lammps_sample_every = 50;
 };
 
 struct Cell {
   double powder_load = 0.0;
   double shear_rate = 0.0;
   double stiffness_factor = 1.0;
+  bool walls = false;
+  double powder_ratio = 0.0;      // 0: Options::powder_ratio
+  std::vector<double> size = {};  // empty: Options::size
+  double strain_factor = 1.0;     // x every strain of the protocol
 };
 
 // What a finished cell reports.
@@ -97,23 +131,48 @@ json campaign_for(const Options& o, const Cell& c) {
   campaign.erase("sweep");
   campaign["dem"]["seed"] = o.seed;
   json& cell = campaign["shear_cell"];
-  cell["size_diameters"] = o.size;
-  cell["powder"]["diameter_ratio"] = o.powder_ratio;
+  cell["boundary"] = c.walls ? "walls" : "lees_edwards";
+  cell["size_diameters"] = c.size.empty() ? o.size : c.size;
+  cell["powder"]["diameter_ratio"] = c.powder_ratio > 0.0 ? c.powder_ratio : o.powder_ratio;
   cell["powder"]["load"] = c.powder_load;
-  cell["warmup_strain"] = o.warmup_strain;
-  cell["max_warmup_strain"] = o.max_warmup_strain;
-  cell["measure_strain"] = o.measure_strain;
-  cell["convergence"] = {{"standard_error", o.standard_error}, {"max_strain", o.max_strain}};
+  const double f = c.strain_factor;
+  cell["warmup_strain"] = f * o.warmup_strain;
+  cell["max_warmup_strain"] = f * o.max_warmup_strain;
+  cell["measure_strain"] = f * o.measure_strain;
+  cell["convergence"] = {{"standard_error", o.standard_error}, {"max_strain", f * o.max_strain}};
   return tasks::validate_campaign(campaign);
 }
 
-CellResult run_cell(const Options& o, const Cell& c) {
-  const json campaign = campaign_for(o, c);
+// The shear rate that puts a cell of ball diameter d and density rho at inertial number I.
+double shear_rate_for(const Options& o, double inertial_number) {
+  const json campaign = campaign_for(o, {});
+  const double diameter = campaign["media"]["diameter"].get<double>();
+  const double density = campaign["materials"]["steel"]["density"].get<double>();
+  return inertial_number * std::sqrt(o.normal_stress / density) / diameter;
+}
+
+dem::ShearCellSetup setup_for(const Options& o, const Cell& c, const json& campaign) {
   const json site{{"shear_rate_per_s", c.shear_rate}, {"normal_stress_pa", o.normal_stress}};
   dem::ShearCellSetup setup = tasks::shear_cell_setup(campaign, site, "bench_cell_physics");
   tasks::apply_stiffness_policy(campaign, setup);
   for (dem::InteractionSpec* pair : {&setup.media_media, &setup.media_powder, &setup.powder_powder})
     pair->normal_stiffness *= c.stiffness_factor;
+  return setup;
+}
+
+void print_overlaps(const dem::ShearCellMeasurements& m) {
+  for (std::size_t t = 0; t < dem::kContactTypeCount; ++t) {
+    const dem::OverlapStats& s = m.overlaps[t];
+    if (s.contacts == 0.0) continue;
+    fmt::print("    overlap {:<14} mean {:.4f} p95 {:.4f} max {:.4f} of d_s ({:.3g} samples)\n",
+               dem::contact_type_name(static_cast<dem::ContactType>(t)), s.mean_fraction,
+               s.p95_fraction, s.max_fraction, s.contacts);
+  }
+}
+
+CellResult run_cell(const Options& o, const Cell& c) {
+  const json campaign = campaign_for(o, c);
+  const dem::ShearCellSetup setup = setup_for(o, c, campaign);
   CellResult result;
   result.media_kappa =
       setup.media_media.normal_stiffness / (setup.normal_stress * setup.media_diameter);
@@ -129,19 +188,21 @@ CellResult run_cell(const Options& o, const Cell& c) {
   result.particles = run.cell().system().size();
   const auto& m = result.m;
   fmt::print(
-      "  cell load {:g}, {:g} 1/s, stiffness x{:g} (media k_n/(p d) {:.3g}): {} particles, "
-      "{} steps, {:.1f} CPU s; I {:.3g}, stationary strain {}, measured strain {:.2f}, steady {}, "
-      "converged {}, overlap p95 {:.3g} (ok {}), energy balance {:.2g}\n",
-      c.powder_load, c.shear_rate, c.stiffness_factor, result.media_kappa, result.particles,
-      run.cell().system().step_count(), result.cpu_seconds, m.inertial_number,
+      "  cell {} load {:g}, {:.4g} 1/s, stiffness x{:g} (media k_n/(p d) {:.3g}): {} particles, "
+      "{} steps, {:.1f} CPU s; I {:.3g}, p_yy {:.4g} Pa, p {:.4g} Pa, solid fraction {:.4f}, "
+      "stationary strain {}, measured strain {:.2f}, steady {}, converged {}, overlap ok {}, "
+      "energy balance {:.2g}\n",
+      c.walls ? "walls" : "LE", c.powder_load, c.shear_rate, c.stiffness_factor, result.media_kappa,
+      result.particles, run.cell().system().step_count(), result.cpu_seconds, m.inertial_number,
+      m.normal_stress, m.mean_pressure, m.media_solid_fraction + m.powder_solid_fraction,
       m.stationary ? fmt::format("{:.2f}", m.stationary_strain) : std::string("none"), m.strain,
-      m.steady, m.converged,
-      [&] {
-        double worst = 0.0;
-        for (const auto& t : m.overlaps) worst = std::max(worst, t.p95_fraction);
-        return worst;
-      }(),
-      m.overlap_ok, m.energy_balance_error);
+      m.steady, m.converged, m.overlap_ok, m.energy_balance_error);
+  if (c.walls) {
+    fmt::print(
+        "    walls: bulk rate {:.4g} 1/s (target {:.4g}), wall slip {:.3g} m/s, gap {:.4g} m\n",
+        m.bulk_shear_rate, m.target_shear_rate, m.wall_slip, m.gap);
+  }
+  print_overlaps(m);
   std::fflush(stdout);
   return result;
 }
@@ -175,9 +236,15 @@ double separation(Value a, Value b) {
   return (b.mean - a.mean) / std::hypot(a.error, b.error);
 }
 
+void print_header(const std::string& first, const std::string& second) {
+  fmt::print("  {:<24} {:>21} {:>21} {:>8} {:>8}\n", "quantity", first, second, "diff/se",
+             "diff %");
+}
+
 void print_row(const std::string& name, Value a, Value b) {
-  fmt::print("  {:<24} {:>9.4f} +- {:<8.4f} {:>9.4f} +- {:<8.4f} {:>+8.1f}\n", name, a.mean,
-             a.error, b.mean, b.error, separation(a, b));
+  fmt::print("  {:<24} {:>9.4f} +- {:<8.4f} {:>9.4f} +- {:<8.4f} {:>+8.1f} {:>+8.1f}\n", name,
+             a.mean, a.error, b.mean, b.error, separation(a, b),
+             100.0 * (b.mean - a.mean) / a.mean);
 }
 
 void stiffness_table(const Options& o) {
@@ -190,8 +257,7 @@ void stiffness_table(const Options& o) {
     powder[i] = run_cell(
         o, {.powder_load = o.load, .shear_rate = o.shear_rate, .stiffness_factor = factors[i]});
   }
-  fmt::print("  {:<24} {:>21} {:>21} {:>8}\n", "quantity", "policy default",
-             fmt::format("x{:g}", o.stiffer_factor), "diff/se");
+  print_header("policy default", fmt::format("x{:g}", o.stiffer_factor));
   print_row("friction media-only", friction(media[0]), friction(media[1]));
   print_row("friction powder", friction(powder[0]), friction(powder[1]));
   print_row("friction_mean_p media", friction_mean_pressure(media[0]),
@@ -203,81 +269,319 @@ void stiffness_table(const Options& o) {
             ratio(media_dissipation(powder[1]), media_dissipation(media[1])));
 }
 
+// The JFP form's rise at inertial number I: (mu_2 - mu_s) / (1 + I_0 / I), per unit mu_2 - mu_s.
+double jfp_shape(double inertial, double reference) {
+  return 1.0 / (1.0 + reference / inertial);
+}
+
+struct Fit {
+  double mu_s = 0.0, rise = 0.0, reference = 0.0;  // mu_s, mu_2 - mu_s, I_0
+  double mu_s_error = 0.0, free_error = 0.0;       // of mu_s and of the second free parameter
+  double chi2 = 0.0;
+  double model(double inertial) const { return mu_s + rise * jfp_shape(inertial, reference); }
+};
+
+struct Point {
+  double inertial = 0.0, friction = 0.0, error = 0.0;
+};
+
+double chi2_of(const Fit& fit, const std::vector<Point>& points) {
+  double chi2 = 0.0;
+  for (const Point& p : points) chi2 += std::pow((p.friction - fit.model(p.inertial)) / p.error, 2);
+  return chi2;
+}
+
+// Weighted least squares of mu = mu_s + rise x shape(I) with I_0 = reference held; with
+// fit_rise false the rise is held as well. Errors from the covariance (1 / sum of weights for
+// mu_s alone).
+Fit fit_linear(const std::vector<Point>& points, double rise, double reference, bool fit_rise) {
+  double sw = 0.0, sx = 0.0, sxx = 0.0, sy = 0.0, sxy = 0.0;
+  for (const Point& p : points) {
+    const double w = 1.0 / (p.error * p.error), x = jfp_shape(p.inertial, reference);
+    sw += w;
+    sx += w * x;
+    sxx += w * x * x;
+    sy += w * p.friction;
+    sxy += w * x * p.friction;
+  }
+  Fit fit{.rise = rise, .reference = reference};
+  if (fit_rise) {
+    const double det = sw * sxx - sx * sx;
+    fit.rise = (sw * sxy - sx * sy) / det;
+    fit.mu_s = (sy - fit.rise * sx) / sw;
+    fit.mu_s_error = std::sqrt(sxx / det);
+    fit.free_error = std::sqrt(sw / det);
+  } else {
+    fit.mu_s = (sy - rise * sx) / sw;
+    fit.mu_s_error = 1.0 / std::sqrt(sw);
+  }
+  fit.chi2 = chi2_of(fit, points);
+  return fit;
+}
+
+// mu_s and I_0 with the rise held: I_0 scanned on a logarithmic grid (mu_s linear at each), its
+// error where chi^2 rises by 1 from the minimum.
+Fit fit_reference(const std::vector<Point>& points, double rise) {
+  constexpr int kGrid = 4000;
+  const double lo = std::log(1e-3), hi = std::log(1e2);
+  std::vector<Fit> grid;
+  for (int k = 0; k <= kGrid; ++k)
+    grid.push_back(fit_linear(points, rise, std::exp(lo + (hi - lo) * k / kGrid), false));
+  const auto best = std::min_element(grid.begin(), grid.end(),
+                                     [](const Fit& a, const Fit& b) { return a.chi2 < b.chi2; });
+  double low = best->reference, high = best->reference;
+  for (const Fit& f : grid) {
+    if (f.chi2 > best->chi2 + 1.0) continue;
+    low = std::min(low, f.reference);
+    high = std::max(high, f.reference);
+  }
+  Fit fit = *best;
+  fit.free_error = 0.5 * (high - low);
+  return fit;
+}
+
 void inertial_number_table(const Options& o) {
-  const json campaign = campaign_for(o, {});
-  const double diameter = campaign["media"]["diameter"].get<double>();
-  const double density = campaign["materials"]["steel"]["density"].get<double>();
   fmt::print("\nTable 2: mu(I), media only, Lees-Edwards, {:g} Pa\n", o.normal_stress);
   std::vector<CellResult> cells;
+  std::vector<Point> points;
   for (const double inertial : o.inertial_numbers) {
-    const double rate = inertial * std::sqrt(o.normal_stress / density) / diameter;
-    cells.push_back(run_cell(o, {.shear_rate = rate}));
+    cells.push_back(run_cell(o, {.shear_rate = shear_rate_for(o, inertial)}));
+    const auto& m = cells.back().m;
+    points.push_back({m.inertial_number, m.friction, m.friction_error.standard_error});
   }
-  // Weighted least squares of mu_s alone: mean of mu - rise / (1 + I_0 / I), weights 1 / se^2.
-  auto rise = [](double inertial) {
-    return kJfpFrictionRise / (1.0 + kJfpInertialNumber / inertial);
-  };
-  double sum_w = 0.0, sum_wx = 0.0;
-  for (const CellResult& r : cells) {
-    const double w = 1.0 / std::pow(r.m.friction_error.standard_error, 2);
-    sum_w += w;
-    sum_wx += w * (r.m.friction - rise(r.m.inertial_number));
-  }
-  const double mu_s = sum_wx / sum_w, mu_s_error = 1.0 / std::sqrt(sum_w);
-  double chi2 = 0.0;
-  fmt::print("  {:>8} {:>8} {:>21} {:>21} {:>8} {:>9} {:>8}\n", "I target", "I", "tau/p_yy",
-             "tau/p", "JFP fit", "residual", "res/se");
-  for (std::size_t i = 0; i < cells.size(); ++i) {
-    const CellResult& r = cells[i];
-    const double model = mu_s + rise(r.m.inertial_number);
-    const double residual = r.m.friction - model;
-    const double pull = residual / r.m.friction_error.standard_error;
-    chi2 += pull * pull;
+  const std::size_t n = points.size();
+  const Fit held = fit_linear(points, kJfpFrictionRise, kJfpInertialNumber, false);
+  const Fit rise = fit_linear(points, 0.0, kJfpInertialNumber, true);
+  const Fit reference = fit_reference(points, kJfpFrictionRise);
+  fmt::print("  {:>8} {:>8} {:>9} {:>21} {:>21} {:>8} {:>8} {:>8} {:>8}\n", "I target", "I", "phi",
+             "tau/p_yy", "tau/p", "fit A", "res/se A", "res/se B", "res/se C");
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& m = cells[i].m;
+    const Point& p = points[i];
+    const auto pull = [&](const Fit& f) { return (p.friction - f.model(p.inertial)) / p.error; };
     fmt::print(
-        "  {:>8.3g} {:>8.3g} {:>9.4f} +- {:<8.4f} {:>9.4f} +- {:<8.4f} {:>8.4f} {:>+9.4f} "
-        "{:>+8.1f}\n",
-        o.inertial_numbers[i], r.m.inertial_number, r.m.friction, r.m.friction_error.standard_error,
-        r.m.friction_mean_pressure, r.m.friction_mean_pressure_error.standard_error, model,
-        residual, pull);
+        "  {:>8.3g} {:>8.3g} {:>9.4f} {:>9.4f} +- {:<8.4f} {:>9.4f} +- {:<8.4f} {:>8.4f} "
+        "{:>+8.1f} {:>+8.1f} {:>+8.1f}\n",
+        o.inertial_numbers[i], p.inertial, m.media_solid_fraction, p.friction, p.error,
+        m.friction_mean_pressure, m.friction_mean_pressure_error.standard_error,
+        held.model(p.inertial), pull(held), pull(rise), pull(reference));
   }
-  fmt::print("  fitted mu_s = {:.4f} +- {:.4f} (JFP glass: 0.38), chi^2 = {:.1f} over {} dof\n",
-             mu_s, mu_s_error, chi2, cells.size() - 1);
+  fmt::print(
+      "  A: mu_s = {:.4f} +- {:.4f}, mu_2 - mu_s = {:.3f} and I_0 = {:.3f} held (JFP glass: mu_s "
+      "0.38): chi^2 = {:.1f} over {} dof\n",
+      held.mu_s, held.mu_s_error, kJfpFrictionRise, kJfpInertialNumber, held.chi2, n - 1);
+  fmt::print(
+      "  B: mu_s = {:.4f} +- {:.4f}, mu_2 - mu_s = {:.3f} +- {:.3f}, I_0 = {:.3f} held: chi^2 = "
+      "{:.1f} over {} dof\n",
+      rise.mu_s, rise.mu_s_error, rise.rise, rise.free_error, kJfpInertialNumber, rise.chi2, n - 2);
+  fmt::print(
+      "  C: mu_s = {:.4f} +- {:.4f}, I_0 = {:.3f} +- {:.3f} (chi^2 + 1), mu_2 - mu_s = {:.3f} "
+      "held: chi^2 = {:.1f} over {} dof\n",
+      reference.mu_s, reference.mu_s_error, reference.reference, reference.free_error,
+      kJfpFrictionRise, reference.chi2, n - 2);
 }
 
 void dilute_table(const Options& o) {
   fmt::print(
       "\nTable 3: dilute powder ({:g} d at load {:g}) against media only, {:g} 1/s, {:g} Pa\n",
       o.powder_ratio, o.dilute_load, o.shear_rate, o.normal_stress);
-  const CellResult media = run_cell(o, {.shear_rate = o.shear_rate});
   const CellResult dilute = run_cell(o, {.powder_load = o.dilute_load, .shear_rate = o.shear_rate});
-  fmt::print("  {:<24} {:>21} {:>21} {:>8}\n", "quantity", "media only",
-             fmt::format("load {:g}", o.dilute_load), "diff/se");
-  print_row("friction", friction(media), friction(dilute));
-  print_row("friction_mean_p", friction_mean_pressure(media), friction_mean_pressure(dilute));
+  const CellResult media = run_cell(o, {.shear_rate = o.shear_rate});
+  // I = gdot d sqrt(rho / p_yy): the media-only cell again at the rate that gives it the dilute
+  // cell's measured I, if its normal stress stays where it was.
+  const double matched_rate = o.shear_rate * dilute.m.inertial_number / media.m.inertial_number;
+  const CellResult matched = run_cell(o, {.shear_rate = matched_rate});
+  fmt::print("  I: dilute {:.4f}, media only {:.4f} at the site's rate, {:.4f} at {:.4g} 1/s\n",
+             dilute.m.inertial_number, media.m.inertial_number, matched.m.inertial_number,
+             matched_rate);
+  print_header("media only", fmt::format("load {:g}", o.dilute_load));
+  print_row("friction (site rate)", friction(media), friction(dilute));
+  print_row("friction_mean_p (site)", friction_mean_pressure(media),
+            friction_mean_pressure(dilute));
+  print_row("friction (equal I)", friction(matched), friction(dilute));
+  print_row("friction_mean_p (eq. I)", friction_mean_pressure(matched),
+            friction_mean_pressure(dilute));
+  // The barostat's bias differs from run to run, so the second media-only cell may miss the
+  // dilute cell's I too; when the two bracket it, the media-only friction is interpolated
+  // linearly in I (errors combined with the interpolation weights).
+  const double i0 = media.m.inertial_number, i1 = matched.m.inertial_number;
+  const double w = (dilute.m.inertial_number - i0) / (i1 - i0);
+  if (w < 0.0 || w > 1.0) return;
+  const auto interpolate = [w](Value a, Value b) {
+    return Value{(1.0 - w) * a.mean + w * b.mean, std::hypot((1.0 - w) * a.error, w * b.error)};
+  };
+  print_row("friction (interpolated)", interpolate(friction(media), friction(matched)),
+            friction(dilute));
+  print_row("friction_mean_p (interp)",
+            interpolate(friction_mean_pressure(media), friction_mean_pressure(matched)),
+            friction_mean_pressure(dilute));
+}
+
+void walls_table(const Options& o) {
+  fmt::print(
+      "\nTable 4: rough walls against Lees-Edwards at the walls' bulk inertial number ({:g} 1/s, "
+      "{:g} Pa)\n",
+      o.shear_rate, o.normal_stress);
+  const CellResult walls = run_cell(o, {.shear_rate = o.shear_rate, .walls = true});
+  const CellResult le = run_cell(o, {.shear_rate = shear_rate_for(o, walls.m.inertial_number)});
+  fmt::print("  I: walls {:.4f} (bulk rate, wall load), Lees-Edwards {:.4f}\n",
+             walls.m.inertial_number, le.m.inertial_number);
+  print_header("Lees-Edwards", "rough walls");
+  print_row("friction", friction(le), friction(walls));
+  print_row("friction_mean_p", friction_mean_pressure(le), friction_mean_pressure(walls));
+  // The same ratio from the stress tensor alone (-xy / yy of the virial), which does not use the
+  // wall load; the window's mean, without a standard error.
+  const auto virial_friction = [](const CellResult& r) {
+    return -r.m.stress_tensor[3] / r.m.stress_tensor[1];
+  };
+  fmt::print("  {:<24} {:>9.4f} {:>24.4f} {:>19} {:>+8.1f}\n", "virial -xy/yy", virial_friction(le),
+             virial_friction(walls), "",
+             100.0 * (virial_friction(walls) - virial_friction(le)) / virial_friction(le));
+  fmt::print("  virial yy: Lees-Edwards {:.4g} Pa, rough walls {:.4g} Pa (wall load {:.4g} Pa)\n",
+             le.m.stress_tensor[1], walls.m.stress_tensor[1], walls.m.normal_stress);
+}
+
+void overlap_table(const Options& o) {
+  fmt::print(
+      "\nTable 5: overlaps, powder {:g} d at load {:g}, cell {} x {} x {} d, policy default ({:g} "
+      "1/s, {:g} Pa; bound: p95 <= 0.03 of d_s)\n",
+      o.overlap_ratio, o.overlap_load, o.overlap_size[0], o.overlap_size[1], o.overlap_size[2],
+      o.shear_rate, o.normal_stress);
+  run_cell(o, {.powder_load = o.overlap_load,
+               .shear_rate = o.shear_rate,
+               .powder_ratio = o.overlap_ratio,
+               .size = o.overlap_size,
+               .strain_factor = o.overlap_strain_factor});
+}
+
+// Stress tensor of an LE system now, compression positive (xx yy zz xy xz yz, LAMMPS's order of
+// its pressure vector): the contacts' virial plus the kinetic part of the motion relative to the
+// linear profile (zero at mid-height), over the box volume.
+std::array<double, 6> stress_tensor(const dem::System& s, double shear_rate) {
+  static constexpr std::array<std::array<int, 2>, 6> kComponents{
+      {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}}};
+  const dem::Domain& d = s.domain();
+  const double y_mid = d.lo.y() + 0.5 * d.length().y();
+  std::array<double, 6> sum{};
+  for (std::size_t k = 0; k < 6; ++k) {
+    const auto [a, b] = kComponents[k];
+    sum[k] = -0.5 * (s.contact_virial()(a, b) + s.contact_virial()(b, a));
+  }
+  for (std::size_t p = 0; p < s.size(); ++p) {
+    const dem::Vec3 c =
+        s.velocities()[p] - dem::Vec3(shear_rate * (s.positions()[p].y() - y_mid), 0.0, 0.0);
+    for (std::size_t k = 0; k < 6; ++k) {
+      const auto [a, b] = kComponents[k];
+      sum[k] += s.masses()[p] * c[a] * c[b];
+    }
+  }
+  for (double& v : sum) v /= d.length().prod();
+  return sum;
+}
+
+void lammps_table(const Options& o) {
+  if (!o.lammps_dir) throw std::invalid_argument("table 6 needs --lammps_dir");
+  const std::filesystem::path& dir = *o.lammps_dir;
+  std::filesystem::create_directories(dir);
+  const Cell c{.shear_rate = shear_rate_for(o, o.lammps_inertial_number)};
+  fmt::print(
+      "\nTable 6: fixed-volume media cell for LAMMPS (I {:g}, {:.4g} 1/s, {:g} Pa, {:g} strains, "
+      "files in {})\n",
+      o.lammps_inertial_number, c.shear_rate, o.normal_stress, o.lammps_strain, dir.string());
+  const json campaign = campaign_for(o, c);
+  const dem::ShearCellSetup setup = setup_for(o, c, campaign);
+  dem::ShearCellRun run(setup, tasks::shear_cell_protocol(campaign));
+  tbb::task_arena arena(o.threads);
+  arena.execute([&] {
+    while (run.phase_name() != "measuring") run.advance(1000);
+  });
+  dem::System system = run.cell().system();
+  const double length_y = system.domain().length().y();
+  const double solid_fraction = [&] {
+    double volume = 0.0;
+    for (const double r : system.radii()) volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+    return volume / system.domain().length().prod();
+  }();
+  // LAMMPS's temp/deform takes the streaming profile as zero at the bottom of the box; ours is
+  // zero at mid-height. A uniform shift of every velocity (Galilean) puts LAMMPS's copy in its
+  // frame without changing its dynamics.
+  dem::System shifted = system;
+  for (std::size_t p = 0; p < shifted.size(); ++p)
+    shifted.set_velocity(p,
+                         shifted.velocities()[p] + dem::Vec3(0.5 * c.shear_rate * length_y, 0, 0));
+  const auto steps = static_cast<std::uint64_t>(
+      std::ceil(o.lammps_strain / (c.shear_rate * system.time_step()) / o.lammps_sample_every) *
+      o.lammps_sample_every);
+  bench::LammpsParams params;
+  bench::add_contact_params(params, "", setup.media_media, 0.5 * system.masses()[0]);
+  params.set("dt", system.time_step());
+  params.set("skin", 0.6 * system.radii()[0]);  // System's default: 0.6 x smallest radius
+  params.set("shear_rate", c.shear_rate);
+  params.set("nsteps", static_cast<double>(steps));
+  params.set("sample_every", o.lammps_sample_every);
+  params.set("solid_fraction", solid_fraction);
+  params.notes.push_back(
+      "bench_cell_physics table 6: fixed volume; one pair type, so gran/hooke/history's gamma_n "
+      "is exact");
+  bench::write_lammps_data(shifted, "cell_physics", dir / "cell_physics.data");
+  bench::write_lammps_params("cell_physics", "bench_cell_physics, media-only LE cell", params,
+                             dir / "cell_physics.params");
+  // Our side: the same state sheared on at fixed volume (the System alone: no barostat).
+  std::ofstream out(dir / "millflow_stress.txt");
+  out << "# step pxx pyy pzz pxy pxz pyz (Pa, compression positive)\n";
+  const double cpu_start = process_cpu_seconds();
+  arena.execute([&] {
+    for (std::uint64_t step = 0; step <= steps; step += o.lammps_sample_every) {
+      if (step > 0) system.step(o.lammps_sample_every);
+      const auto t = stress_tensor(system, c.shear_rate);
+      out << fmt::format("{} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g}\n", step, t[0], t[1],
+                         t[2], t[3], t[4], t[5]);
+    }
+  });
+  if (!out) throw std::runtime_error("could not write millflow_stress.txt");
+  const double cpu = process_cpu_seconds() - cpu_start;
+  fmt::print(
+      "  {} balls, solid fraction {:.4f}, media k_n/(p d) {:.3g}, dt {:.4g} s, {} steps "
+      "at fixed volume in {:.1f} CPU s ({:.3g} particle-steps per CPU s)\n",
+      system.size(), solid_fraction,
+      setup.media_media.normal_stiffness / (setup.normal_stress * setup.media_diameter),
+      system.time_step(), steps, cpu, static_cast<double>(system.size() * steps) / cpu);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   Options o;
-  CLI::App app{"Shear-cell physics against the outside world (docs/shear_cells.md)"};
-  app.add_option("--tables", o.tables, "which tables: 1 stiffness, 2 mu(I), 3 dilute powder")
+  CLI::App app{"Shear-cell physics against the outside world (docs/cell_validation.md)"};
+  app.add_option("--tables", o.tables,
+                 "which tables: 1 stiffness, 2 mu(I), 3 dilute powder, 4 walls against LE, "
+                 "5 overlaps, 6 LAMMPS fixed-volume cell")
       ->delimiter(',');
   app.add_option("--size", o.size, "cell size in ball diameters: x y z")->expected(3);
   app.add_option("--threads", o.threads, "threads per cell");
-  app.add_option("--shear_rate", o.shear_rate, "site shear rate of tables 1 and 3, 1/s");
+  app.add_option("--shear_rate", o.shear_rate, "site shear rate of tables 1, 3, 4 and 5, 1/s");
   app.add_option("--normal_stress", o.normal_stress, "site normal stress, Pa");
   app.add_option("--powder_ratio", o.powder_ratio, "powder diameter / ball diameter");
   app.add_option("--load", o.load, "powder load of table 1");
   app.add_option("--dilute_load", o.dilute_load, "powder load of table 3");
   app.add_option("--stiffer_factor", o.stiffer_factor, "table 1's stiffer cells, x the policy");
   app.add_option("--inertial_numbers", o.inertial_numbers, "table 2's I")->delimiter(',');
+  app.add_option("--overlap_ratio", o.overlap_ratio, "table 5's powder / ball diameter");
+  app.add_option("--overlap_load", o.overlap_load, "table 5's powder load");
+  app.add_option("--overlap_size", o.overlap_size, "table 5's cell size, ball diameters")
+      ->expected(3);
+  app.add_option("--overlap_strain_factor", o.overlap_strain_factor,
+                 "table 5's strains, x the protocol's");
   app.add_option("--warmup_strain", o.warmup_strain, "/shear_cell/warmup_strain");
   app.add_option("--max_warmup_strain", o.max_warmup_strain, "/shear_cell/max_warmup_strain");
   app.add_option("--measure_strain", o.measure_strain, "/shear_cell/measure_strain");
   app.add_option("--max_strain", o.max_strain, "/shear_cell/convergence/max_strain");
   app.add_option("--standard_error", o.standard_error, "/shear_cell/convergence/standard_error");
   app.add_option("--seed", o.seed, "/dem/seed");
+  app.add_option("--lammps_dir", o.lammps_dir, "table 6: where the LAMMPS files go");
+  app.add_option("--lammps_inertial_number", o.lammps_inertial_number, "table 6's I");
+  app.add_option("--lammps_strain", o.lammps_strain, "table 6's fixed-volume strain");
+  app.add_option("--lammps_sample_every", o.lammps_sample_every, "table 6's sample interval");
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::warn);
   const std::set<int> tables(o.tables.begin(), o.tables.end());
@@ -289,5 +593,8 @@ int main(int argc, char** argv) {
   if (tables.contains(1)) stiffness_table(o);
   if (tables.contains(2)) inertial_number_table(o);
   if (tables.contains(3)) dilute_table(o);
+  if (tables.contains(4)) walls_table(o);
+  if (tables.contains(5)) overlap_table(o);
+  if (tables.contains(6)) lammps_table(o);
   return 0;
 }
