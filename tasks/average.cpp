@@ -10,8 +10,8 @@
 
 #include "engine/campaign.hpp"
 #include "engine/validation.hpp"
+#include "method/vtk_image.hpp"
 #include "tasks/kinds.hpp"
-#include "tasks/vtk_image.hpp"
 #include "util/durable_file.hpp"
 
 namespace millflow::tasks {
@@ -41,13 +41,13 @@ double media_density(const json& macro, const std::filesystem::path& first_segme
   return macro.at("ball_mass_kg").get<double>() / volume;
 }
 
-CoarseGrainSettings settings_for(const json& params, const json& macro, double density) {
+method::CoarseGrainSettings settings_for(const json& params, const json& macro, double density) {
   const json& average = params.at("average");
   const double diameter = macro.at("media_diameter_m").get<double>();
-  CoarseGrainSettings s;
-  s.grid = CrossSectionGrid{.nx = average.at("grid_cells").at(0).get<int>(),
-                            .ny = average.at("grid_cells").at(1).get<int>(),
-                            .half_width = macro.at("mill").at("radius_m").get<double>()};
+  method::CoarseGrainSettings s;
+  s.grid = method::CrossSectionGrid{.nx = average.at("grid_cells").at(0).get<int>(),
+                                    .ny = average.at("grid_cells").at(1).get<int>(),
+                                    .half_width = macro.at("mill").at("radius_m").get<double>()};
   s.slice_length = macro.at("mill").at("length_m").get<double>();
   s.kernel_width = average.at("kernel_width_diameters").get<double>() * diameter;
   s.media_density = density;
@@ -58,9 +58,9 @@ CoarseGrainSettings settings_for(const json& params, const json& macro, double d
 }
 
 // Maximum, and mean over the cells holding charge (solid fraction at or above `charge`).
-json scalar_summaries(const CoarseFields& fields, double charge) {
+json scalar_summaries(const method::CoarseFields& fields, double charge) {
   json out = json::object();
-  for (const CellArray& array : cell_arrays(fields)) {
+  for (const method::CellArray& array : method::cell_arrays(fields)) {
     if (array.components != 1) continue;
     double max = 0.0, sum = 0.0;
     int count = 0;
@@ -76,7 +76,7 @@ json scalar_summaries(const CoarseFields& fields, double charge) {
   return out;
 }
 
-json mill_wide_rates(const CoarseFields& fields) {
+json mill_wide_rates(const method::CoarseFields& fields) {
   json out = json::object();
   for (std::size_t k = 0; k < fields.categories.size(); ++k) {
     out[fields.categories[k]] = {
@@ -88,15 +88,37 @@ json mill_wide_rates(const CoarseFields& fields) {
   return out;
 }
 
+std::vector<double> cell_array(const json& fields, const std::string& name, std::size_t cells,
+                               std::size_t components) {
+  const json& arrays = fields.at("arrays");
+  if (!arrays.contains(name))
+    throw std::invalid_argument("fields.json has no array '" + name + "': re-run average");
+  auto values = arrays.at(name).at("values").get<std::vector<double>>();
+  if (values.size() != cells * components) {
+    throw std::invalid_argument(
+        fmt::format("fields.json array '{}' holds {} values for {} cells: re-run average", name,
+                    values.size(), cells));
+  }
+  return values;
+}
+
+std::vector<double> scalar_array(const json& fields, const std::string& name, std::size_t cells) {
+  return cell_array(fields, name, cells, 1);
+}
+
+std::vector<double> vector_array(const json& fields, const std::string& name, std::size_t cells) {
+  return cell_array(fields, name, cells, 3);
+}
+
 void write_json(const std::filesystem::path& file, const json& document) {
   util::write_file_durably(file, document.dump());
 }
 
 }  // namespace
 
-json fields_document(const CoarseFields& fields, const json& mill) {
+json fields_document(const method::CoarseFields& fields, const json& mill) {
   json arrays = json::object();
-  for (CellArray& array : cell_arrays(fields)) {
+  for (method::CellArray& array : method::cell_arrays(fields)) {
     arrays[array.name] = {{"components", array.components}, {"values", std::move(array.values)}};
   }
   json document = mill;
@@ -107,10 +129,38 @@ json fields_document(const CoarseFields& fields, const json& mill) {
   return document;
 }
 
+method::FlowMap flow_map_from_document(const json& fields) {
+  method::FlowMap map;
+  const json& grid = fields.at("grid");
+  map.grid = method::CrossSectionGrid{.nx = grid.at("nx").get<int>(),
+                                      .ny = grid.at("ny").get<int>(),
+                                      .half_width = grid.at("half_width_m").get<double>()};
+  map.slice_length = fields.at("slice_length_m").get<double>();
+  map.media_diameter = fields.at("media_diameter_m").get<double>();
+  map.angular_velocity = fields.at("angular_velocity_rad_s").get<double>();
+  const std::size_t cells = map.grid.size();
+  map.solid_fraction = scalar_array(fields, "solid_fraction", cells);
+  map.shear_rate = scalar_array(fields, "shear_rate_per_s", cells);
+  map.normal_stress = scalar_array(fields, "normal_stress_pa", cells);
+  map.shear_stress = scalar_array(fields, "shear_stress_pa", cells);
+  map.pressure = scalar_array(fields, "pressure_pa", cells);
+  map.granular_temperature = scalar_array(fields, "granular_temperature_m2_s2", cells);
+  map.collision_frequency = scalar_array(fields, "collision_frequency_per_m3_s", cells);
+  map.dissipation = scalar_array(fields, "dissipation_w_m3", cells);
+  const std::vector<double> velocity = vector_array(fields, "velocity_m_s", cells);
+  map.velocity_x.resize(cells);
+  map.velocity_y.resize(cells);
+  for (std::size_t c = 0; c < cells; ++c) {
+    map.velocity_x[c] = velocity[3 * c];
+    map.velocity_y[c] = velocity[3 * c + 1];
+  }
+  return map;
+}
+
 engine::TaskOutcome run_average(engine::TaskContext& context) {
   const engine::TaskInput& macro = context.inputs.at(0);
   const auto segments = flow_segments(macro);
-  const CoarseGrainSettings settings =
+  const method::CoarseGrainSettings settings =
       settings_for(context.params, macro.result, media_density(macro.result, segments.front()));
 
   std::atomic<std::size_t> loaded{0};
@@ -121,7 +171,7 @@ engine::TaskOutcome run_average(engine::TaskContext& context) {
                      "averaging flow segments");
     return frames;
   };
-  const CoarseFields fields = coarse_grain(settings, segments.size(), load);
+  const method::CoarseFields fields = method::coarse_grain(settings, segments.size(), load);
 
   const json mill = {{"mill_radius_m", settings.grid.half_width},
                      {"media_diameter_m", macro.result.at("media_diameter_m")},
@@ -130,8 +180,8 @@ engine::TaskOutcome run_average(engine::TaskContext& context) {
   std::filesystem::create_directories(
       context.work_dir);  // the engine leaves its creation to the task
   const auto vti = context.work_dir / "fields.vti";
-  const auto arrays = cell_arrays(fields);
-  write_vtk_image(vti, fields.grid, arrays);
+  const auto arrays = method::cell_arrays(fields);
+  method::write_vtk_image(vti, fields.grid, arrays);
   const auto fields_json = context.work_dir / "fields.json";
   write_json(fields_json, fields_document(fields, mill));
 

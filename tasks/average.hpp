@@ -1,5 +1,5 @@
 #pragma once
-// The `average` task kind: coarse-grained fields (tasks/coarse_grain.hpp) of one macro run.
+// The `average` task kind: coarse-grained fields (method/coarse_grain.hpp) of one macro run.
 //
 // Parameters: {"average": {"grid_cells": [nx, ny], "kernel_width_diameters": k}}; the kernel
 // width is k x the media diameter. Input 0: the macro task, whose result gives the mill
@@ -17,7 +17,8 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/task.hpp"
-#include "tasks/coarse_grain.hpp"
+#include "method/coarse_grain.hpp"
+#include "method/sites.hpp"
 
 namespace millflow::tasks {
 
@@ -28,6 +29,10 @@ engine::TaskOutcome run_average(engine::TaskContext& context);
 
 // fields.json: {"grid": {nx, ny, half_width_m}, "slice_length_m", "arrays": {name: {components,
 // values}}} plus the entries of `mill` (merged at the top level).
-nlohmann::json fields_document(const CoarseFields& fields, const nlohmann::json& mill);
+nlohmann::json fields_document(const method::CoarseFields& fields, const nlohmann::json& mill);
+
+// The fields the region rules read, from fields.json (the sites task and the report read it).
+// Throws std::invalid_argument naming a missing or mis-sized array.
+method::FlowMap flow_map_from_document(const nlohmann::json& fields);
 
 }  // namespace millflow::tasks

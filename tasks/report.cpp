@@ -11,9 +11,9 @@
 #include <set>
 #include <stdexcept>
 
+#include "method/sites.hpp"
 #include "tasks/report_inputs.hpp"
 #include "tasks/report_regions.hpp"
-#include "tasks/sites.hpp"
 #include "tasks/svg_plot.hpp"
 #include "util/durable_file.hpp"
 
@@ -113,7 +113,7 @@ svg::Figure power_draw_figure(const std::vector<UpscalePoint>& points,
 
 // Index of a region in region_names(), so that a region keeps its colour in every panel.
 int region_colour(const std::string& region) {
-  const auto& names = region_names();
+  const auto& names = method::region_names();
   return static_cast<int>(std::find(names.begin(), names.end(), region) - names.begin());
 }
 
@@ -130,7 +130,7 @@ svg::Figure region_panels(const std::vector<UpscalePoint>& points, const std::ve
   std::vector<svg::Figure> panels;
   for (const Slice& slice : slices) {
     svg::LineChart chart{.title = slice_label(slice), .x = {"powder load U (-)"}, .y = {y_label}};
-    for (const std::string& region : region_names()) {
+    for (const std::string& region : method::region_names()) {
       svg::Series series{.name = region, .colour = region_colour(region)};
       bool present = false;
       for (const UpscalePoint* point : slice.points) {
@@ -218,14 +218,14 @@ svg::Figure macro_spectra_figure(const std::vector<report::MacroRun>& runs) {
   return svg::panel_grid(panels, static_cast<int>(speeds.size()), "Macro collision energy spectra");
 }
 
-svg::Figure maps_figure(const Slice& slice, const FlowMap& map) {
+svg::Figure maps_figure(const Slice& slice, const method::FlowMap& map) {
   std::vector<svg::MapMarker> sites;
   for (const report::SiteResult& site : slice.first().sites)
     sites.push_back({site.x_m, site.y_m, site.site_id});
   // Cells outside the charge (the sites task's rule) hold averages of a few balls in flight.
   std::vector<bool> outside_charge;
   for (double nu : map.solid_fraction)
-    outside_charge.push_back(!(nu >= RegionRules{}.charge_solid_fraction));
+    outside_charge.push_back(!(nu >= method::RegionRules{}.charge_solid_fraction));
   auto panel = [&](const char* title, const char* quantity, const std::vector<double>& values,
                    svg::Scale scale) {
     return svg::heat_map({.title = title,
@@ -250,7 +250,7 @@ svg::Figure coupling_figure(const std::vector<Slice>& slices) {
                        .y = {"media-only cell shear stress (Pa)", svg::Scale::log}};
   // One series per region (its colour in every figure), over every fill and speed.
   double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
-  for (const std::string& region : region_names()) {
+  for (const std::string& region : method::region_names()) {
     svg::Series series{.name = region, .colour = region_colour(region), .line = false};
     for (const Slice& slice : slices) {
       for (const report::SiteResult& site : slice.first().sites) {

@@ -1,4 +1,5 @@
 #include "tasks/report_inputs.hpp"
+#include "tasks/average.hpp"
 
 #include <fmt/format.h>
 
@@ -112,7 +113,7 @@ void read_spectra(const FieldReader& in, UpscalePoint& point) {
     in.refuse("/spectra/media_rate_per_s", fmt::format("does not hold {} bins", bins));
 }
 
-FlowMap read_flow_map(const engine::TaskInput& average) {
+method::FlowMap read_flow_map(const engine::TaskInput& average) {
   const std::string owner = fmt::format("average task {}", average.key);
   const auto artifact = average.artifacts.find("fields.json");
   if (artifact == average.artifacts.end()) {

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "engine/task.hpp"
-#include "tasks/sites.hpp"
+#include "method/sites.hpp"
 
 namespace millflow::tasks::report {
 
@@ -84,9 +84,9 @@ struct MacroRun {
 MacroRun read_macro(const std::string& task_key, const nlohmann::json& result);
 
 struct ReportInputs {
-  std::vector<UpscalePoint> points{};        // sorted (see above)
-  std::map<std::string, FlowMap> flow_maps;  // by average task key
-  std::vector<MacroRun> macro_runs{};        // by fill, speed fraction (then task key)
+  std::vector<UpscalePoint> points{};                // sorted (see above)
+  std::map<std::string, method::FlowMap> flow_maps;  // by average task key
+  std::vector<MacroRun> macro_runs{};                // by fill, speed fraction (then task key)
 };
 
 // Throws std::invalid_argument when there is no upscale input, an upscale names an average task

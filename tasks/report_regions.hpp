@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "engine/task.hpp"
+#include "method/sites.hpp"
 #include "tasks/sites.hpp"
 
 namespace millflow::tasks::report {
@@ -27,6 +28,6 @@ struct RegionSection {
 // without sites inputs. Throws std::invalid_argument naming a sites task whose average task has
 // no flow map.
 RegionSection region_section(const std::vector<engine::TaskInput>& inputs,
-                             const std::map<std::string, FlowMap>& flow_maps);
+                             const std::map<std::string, method::FlowMap>& flow_maps);
 
 }  // namespace millflow::tasks::report

@@ -8,8 +8,8 @@
 
 #include <fmt/format.h>
 
+#include "method/sites.hpp"
 #include "tasks/kinds.hpp"
-#include "tasks/sites.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -112,8 +112,8 @@ CellFigures figures_of(const json& cell) {
 }
 
 // What a cell at `site` counts for (tasks/upscale.hpp, Weights).
-double weight(const json& site, const json& cell, WeightBasis basis) {
-  if (basis == WeightBasis::volume) return site.at("weight_m3").get<double>();
+double weight(const json& site, const json& cell, method::WeightBasis basis) {
+  if (basis == method::WeightBasis::volume) return site.at("weight_m3").get<double>();
   return site.at("solid_volume_m3").get<double>() / cell.at("media_solid_fraction").get<double>();
 }
 
@@ -159,7 +159,7 @@ struct PowerSums {
   Sum powder, input, collisions, rate;
   Sum input_paired, input_no_powder, collisions_no_powder, rate_no_powder;
 
-  void add(const json& site, WeightBasis basis, const json& loaded, const json* baseline) {
+  void add(const json& site, method::WeightBasis basis, const json& loaded, const json* baseline) {
     ++sites;
     volume += site.at("weight_m3").get<double>();
     solid_volume += site.at("solid_volume_m3").get<double>();
@@ -259,7 +259,7 @@ std::map<std::string, double> macro_dissipation(const json& regions) {
 json dominant_of(const std::map<std::string, double>& powder) {
   json dominant = nullptr;
   double most = 0.0;
-  for (const std::string& name : region_names()) {
+  for (const std::string& name : method::region_names()) {
     const auto found = powder.find(name);
     if (found != powder.end() && found->second > most) {
       most = found->second;
@@ -278,7 +278,7 @@ json method_result(const std::string& method, const std::map<std::string, PowerS
   for (const auto& [name, sums] : regions) all.merge(sums);
   json rows = json::array();
   std::map<std::string, double> powder;
-  for (const std::string& name : region_names()) {
+  for (const std::string& name : method::region_names()) {
     const auto found = regions.find(name);
     if (found == regions.end()) continue;
     json row = method_json(found->second, all.powder);
@@ -465,9 +465,9 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   const double load = params.at("powder_load").get<double>();
   const json& macro = only_input(context, "macro").result;
   const json& sites_result = only_input(context, "sites").result;
-  const WeightBasis basis = sites_result.at("weight_by").get<std::string>() == "volume"
-                                ? WeightBasis::volume
-                                : WeightBasis::solid_volume;
+  const method::WeightBasis basis = sites_result.at("weight_by").get<std::string>() == "volume"
+                                        ? method::WeightBasis::volume
+                                        : method::WeightBasis::solid_volume;
   const UsableCells cells =
       usable_cells(context, load, params.at("upscale").at("include_unsteady").get<bool>());
 

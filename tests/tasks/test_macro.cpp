@@ -39,7 +39,7 @@ double ball_mass(double diameter) {
 }
 
 TEST(MacroParams, CollisionTimeGivesThatContactDurationForTheReferencePairs) {
-  const MacroSettings settings = macro_settings(tiny_macro_params(), "key");
+  const method::MacroSettings settings = macro_settings(tiny_macro_params(), "key");
   const double m = ball_mass(0.012);
   const double zeta = dem::damping_ratio_for_restitution(0.5);
   // Two balls: m_eff = m / 2; a ball on the liner (a wall): m_eff = m.
@@ -65,7 +65,7 @@ TEST(MacroParams, NormalStiffnessAndSizeDistributionAndEndWalls) {
       {"size_distribution",
        {{{"diameter", 0.016}, {"mass_fraction", 3}}, {{"diameter", 0.008}, {"mass_fraction", 1}}}}};
   params["mill"]["axial_ends"] = "walls";
-  const MacroSettings settings = macro_settings(params, "key");
+  const method::MacroSettings settings = macro_settings(params, "key");
   EXPECT_EQ(settings.mill.ball_ball.normal_stiffness, 2.5e5);
   EXPECT_EQ(settings.mill.ball_liner.normal_stiffness, 2.5e5);
   EXPECT_NEAR(dem::mean_ball_diameter(settings.mill), 0.75 * 0.016 + 0.25 * 0.008, 1e-15);
@@ -102,9 +102,9 @@ TEST(MacroParams, MissingValuesAndPairsAreNamed) {
 TEST(MacroParams, CorrelationsMatchTheFactsSheet) {
   // docs/method.md, reference points: Bond ~8 kW/t at D = 1 m, ~13 kW/t at D = 5 m; Hogg-Fuerstenau
   // ~6.4 kW/t at D = 1 m (J = 0.3, phi_c = 0.75).
-  EXPECT_NEAR(bond_kw_per_tonne(1.0, 0.3, 0.75), 8.0, 0.3);
-  EXPECT_NEAR(bond_kw_per_tonne(5.0, 0.3, 0.75), 13.0, 0.5);
-  EXPECT_NEAR(hogg_fuerstenau_kw_per_tonne(1.0, 0.3, 0.75), 6.4, 0.1);
+  EXPECT_NEAR(method::bond_kw_per_tonne(1.0, 0.3, 0.75), 8.0, 0.3);
+  EXPECT_NEAR(method::bond_kw_per_tonne(5.0, 0.3, 0.75), 13.0, 0.5);
+  EXPECT_NEAR(method::hogg_fuerstenau_kw_per_tonne(1.0, 0.3, 0.75), 6.4, 0.1);
 }
 
 class MacroRunTest : public ::testing::Test {

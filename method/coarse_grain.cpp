@@ -1,4 +1,4 @@
-#include "tasks/coarse_grain.hpp"
+#include "method/coarse_grain.hpp"
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
@@ -9,7 +9,7 @@
 #include <numbers>
 #include <stdexcept>
 
-namespace millflow::tasks {
+namespace millflow::method {
 namespace {
 
 using Eigen::Vector3d;
@@ -470,4 +470,4 @@ std::vector<CellArray> cell_arrays(const CoarseFields& f) {
   return out;
 }
 
-}  // namespace millflow::tasks
+}  // namespace millflow::method
