@@ -1,6 +1,7 @@
 #pragma once
 // The `upscale` task kind: mill-scale answers of one sweep point (fill, speed, powder load) from
-// its shear cells.
+// its shear cells. The sums themselves (weights, standard errors, the macro-anchored scaling,
+// spectra) are method/upscale.hpp; this kind reads the inputs and writes the result.
 //
 // Parameters: {"powder_load": U, "upscale": {"include_unsteady"}, "media_density_kg_m3",
 // "powder_density_kg_m3"}. Inputs, told apart by kind: the point's macro, average and sites
