@@ -31,6 +31,7 @@
 #include <map>
 
 #include "method/coarse_grain.hpp"
+#include "method/fields_file.hpp"
 #include "method/macro_measure.hpp"
 #include "tasks/average.hpp"
 #include "tasks/sites.hpp"
@@ -146,7 +147,7 @@ void SlowMillFlow(benchmark::State& state) {
     fields = method::coarse_grain(settings, 1, [&](std::size_t) { return run.frames; });
     const json mill = {
         {"mill_radius_m", radius}, {"media_diameter_m", kBall}, {"angular_velocity_rad_s", omega}};
-    map = flow_map_from_document(fields_document(fields, mill));
+    map = method::flow_map_from_document(method::fields_document(fields, mill));
     selection = method::select_sites(map, method::RegionRules{}, angles, method::region_names(), 1);
   }
   const method::CrossSectionGrid& g = fields.grid;

@@ -203,6 +203,26 @@ RegionSummary summarise(const FlowMap& map, const std::vector<std::size_t>& cell
 }
 }  // namespace
 
+// Each rule's name in /sites/rules.
+constexpr std::pair<const char*, double RegionRules::*> kRuleFields[] = {
+    {"charge_solid_fraction", &RegionRules::charge_solid_fraction},
+    {"flight_solid_fraction", &RegionRules::flight_solid_fraction},
+    {"liner_layer_diameters", &RegionRules::liner_layer_diameters},
+    {"toe_search_radius_fraction", &RegionRules::toe_search_radius_fraction},
+    {"impact_dissipation_fraction", &RegionRules::impact_dissipation_fraction},
+    {"toe_min_radius_fraction", &RegionRules::toe_min_radius_fraction},
+    {"shoulder_radius_fraction", &RegionRules::shoulder_radius_fraction},
+    {"en_masse_max_slip", &RegionRules::en_masse_max_slip}};
+
+void to_json(nlohmann::json& out, const RegionRules& rules) {
+  out = nlohmann::json::object();
+  for (const auto& [name, field] : kRuleFields) out[name] = rules.*field;
+}
+
+void from_json(const nlohmann::json& in, RegionRules& rules) {
+  for (const auto& [name, field] : kRuleFields) rules.*field = in.at(name).get<double>();
+}
+
 const std::vector<std::string>& region_names() {
   static const std::vector<std::string> names = {"near_liner", "cataracting", "toe",
                                                  "shoulder",   "cascading",   "bulk"};

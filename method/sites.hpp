@@ -61,6 +61,10 @@ struct RegionRules {
   double en_masse_max_slip = 0.5;
 };
 
+// The rules as /sites/rules and the sites result write them, a key per field of the same name.
+void to_json(nlohmann::json& out, const RegionRules& rules);
+void from_json(const nlohmann::json& in, RegionRules& rules);
+
 // Where the macro run saw the charge touch the shell (degrees, atan2(y, x)); none when
 // centrifuging.
 struct ChargeAngles {

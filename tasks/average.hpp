@@ -10,15 +10,14 @@
 // flow/segment_NNNN.mfs hold the frames.
 //
 // Artifacts: fields.vti (every field as VTK cell data, for ParaView) and fields.json (the same
-// arrays with the grid and the mill, read by `sites`). Result: the grid, the kernel width, the
-// mass-conservation check (integral of the solid fraction x slice length vs the media volume),
-// the maximum and the mean over the charge of every scalar field, and the mill-wide collision
-// rate and dissipated power per contact category.
+// arrays with the grid and the mill, method/fields_file.hpp, read by `sites` and the report).
+// Result: the grid, the kernel width, the mass-conservation check (integral of the solid fraction x
+// slice length vs the media volume), the maximum and the mean over the charge of every scalar
+// field, and the mill-wide collision rate and dissipated power per contact category.
 #include <nlohmann/json.hpp>
 
 #include "engine/task.hpp"
 #include "method/coarse_grain.hpp"
-#include "method/sites.hpp"
 
 namespace millflow::tasks {
 
@@ -26,13 +25,5 @@ namespace millflow::tasks {
 inline constexpr const char* kAverageVersion = "2";
 
 engine::TaskOutcome run_average(engine::TaskContext& context);
-
-// fields.json: {"grid": {nx, ny, half_width_m}, "slice_length_m", "arrays": {name: {components,
-// values}}} plus the entries of `mill` (merged at the top level).
-nlohmann::json fields_document(const method::CoarseFields& fields, const nlohmann::json& mill);
-
-// The fields the region rules read, from fields.json (the sites task and the report read it).
-// Throws std::invalid_argument naming a missing or mis-sized array.
-method::FlowMap flow_map_from_document(const nlohmann::json& fields);
 
 }  // namespace millflow::tasks

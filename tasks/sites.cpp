@@ -7,8 +7,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "method/fields_file.hpp"
 #include "method/vtk_image.hpp"
-#include "tasks/average.hpp"
 #include "tasks/kinds.hpp"
 
 namespace millflow::tasks {
@@ -55,7 +55,7 @@ json selection_json(const method::SiteSelection& selection, const method::Region
     weights += s.weight_m3;
     solid += s.solid_volume_m3;
   }
-  return {{"rules", region_rules_json(rules)},
+  return {{"rules", json(rules)},
           {"weight_by",
            selection.weight_by == method::WeightBasis::solid_volume ? "solid_volume" : "volume"},
           {"regions", regions_json(selection.regions)},
@@ -81,7 +81,7 @@ json rule_set_json(const std::string& name, const method::RegionRules& rules,
                        {"dissipation_w", r.dissipation_w},
                        {"dissipation_share", r.dissipation_share}});
   }
-  return {{"name", name}, {"rules", region_rules_json(rules)}, {"regions", regions}};
+  return {{"name", name}, {"rules", json(rules)}, {"regions", regions}};
 }
 
 method::ChargeAngles charge_angles(const json& macro_result) {
@@ -101,35 +101,16 @@ const engine::TaskInput& input_of_kind(const engine::TaskContext& context,
 }
 }  // namespace
 
-// Each rule's name in /sites/rules.
-constexpr std::pair<const char*, double method::RegionRules::*> kRuleFields[] = {
-    {"charge_solid_fraction", &method::RegionRules::charge_solid_fraction},
-    {"flight_solid_fraction", &method::RegionRules::flight_solid_fraction},
-    {"liner_layer_diameters", &method::RegionRules::liner_layer_diameters},
-    {"toe_search_radius_fraction", &method::RegionRules::toe_search_radius_fraction},
-    {"impact_dissipation_fraction", &method::RegionRules::impact_dissipation_fraction},
-    {"toe_min_radius_fraction", &method::RegionRules::toe_min_radius_fraction},
-    {"shoulder_radius_fraction", &method::RegionRules::shoulder_radius_fraction},
-    {"en_masse_max_slip", &method::RegionRules::en_masse_max_slip}};
-
-json region_rules_json(const method::RegionRules& rules) {
-  json out = json::object();
-  for (const auto& [name, field] : kRuleFields) out[name] = rules.*field;
-  return out;
-}
-
 method::RegionRules region_rules_from_json(const json& rules, const json& overrides) {
   json merged = rules;
   merged.update(overrides);
-  method::RegionRules out;
-  for (const auto& [name, field] : kRuleFields) out.*field = merged.at(name).get<double>();
-  return out;
+  return merged.get<method::RegionRules>();
 }
 
 engine::TaskOutcome run_sites(engine::TaskContext& context) {
   std::ifstream file(input_of_kind(context, "average").artifacts.at("fields.json"));
   const json fields = json::parse(file);
-  const method::FlowMap map = flow_map_from_document(fields);
+  const method::FlowMap map = method::flow_map_from_document(fields);
   const method::ChargeAngles angles = charge_angles(input_of_kind(context, "macro").result);
   const json& params = context.params.at("sites");
   const method::RegionRules rules = region_rules_from_json(params.at("rules"));

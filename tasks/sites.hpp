@@ -16,9 +16,6 @@ inline constexpr const char* kSitesVersion = "3";
 method::RegionRules region_rules_from_json(
     const nlohmann::json& rules, const nlohmann::json& overrides = nlohmann::json::object());
 
-// The rules as /sites/rules writes them.
-nlohmann::json region_rules_json(const method::RegionRules& rules);
-
 // Parameters: {"sites": {"per_region": n, "regions": [...], "weight_by", "rules": {...},
 // "alternatives": [{"name", "rules": {...}}]}}. Inputs, by kind: the average task (its
 // fields.json) and the macro task (its charge's toe and shoulder angles). Artifact: regions.vti

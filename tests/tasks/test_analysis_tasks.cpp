@@ -9,6 +9,7 @@
 
 #include "dem/rng.hpp"
 #include "engine/store.hpp"
+#include "method/fields_file.hpp"
 #include "method/macro_measure.hpp"
 #include "tasks/average.hpp"
 #include "tasks/macro.hpp"
@@ -66,7 +67,7 @@ const json kSitesParams = {
      {{"per_region", 2},
       {"regions", method::region_names()},
       {"weight_by", "solid_volume"},
-      {"rules", region_rules_json(method::RegionRules{})},
+      {"rules", json(method::RegionRules{})},
       {"alternatives", {{{"name", "strict"}, {"rules", {{"en_masse_max_slip", 0.3}}}}}}}}};
 
 // The macro run's result with the toe and shoulder its liner contacts show in `segments`.
@@ -130,7 +131,7 @@ TEST(AnalysisTasks, SlowMillBulkTurnsWithTheShellAndTheSurfaceShears) {
   // The physics, from the fields: bulk cells move with the shell, the sheared surface layer and
   // the toe shear faster and dissipate more than the bulk.
   const json fields = read_json(average.artifacts[1].file);
-  const method::FlowMap map = flow_map_from_document(fields);
+  const method::FlowMap map = method::flow_map_from_document(fields);
   const method::SiteSelection selection = method::select_sites(
       map, method::RegionRules{},
       {.toe_deg = macro_toe,

@@ -15,8 +15,8 @@
 #include "engine/sqlite.hpp"
 #include "engine/store.hpp"
 #include "engine/validation.hpp"
+#include "report/report_inputs.hpp"
 #include "tasks/macro_setup.hpp"
-#include "tasks/report_inputs.hpp"
 #include "tests/tasks/macro_fixtures.hpp"
 
 namespace millflow::tasks {

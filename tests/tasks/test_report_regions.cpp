@@ -6,9 +6,9 @@
 #include <fstream>
 #include <numbers>
 
-#include "tasks/average.hpp"
+#include "method/fields_file.hpp"
+#include "report/report_regions.hpp"
 #include "tasks/report.hpp"
-#include "tasks/report_regions.hpp"
 #include "tests/common/scratch_dir.hpp"
 #include "tests/tasks/upscale_inputs.hpp"
 
@@ -62,7 +62,7 @@ json sites_result() {
       {"fill", 0.3},
       {"speed_fraction", 0.75},
       {"average_task", "average-key"},
-      {"rules", region_rules_json(method::RegionRules{})},
+      {"rules", json(method::RegionRules{})},
       {"toe_angle_deg", 210.0},
       {"shoulder_angle_deg", -30.0},
       {"regions", regions},
@@ -78,7 +78,7 @@ std::size_t count_of(const std::string& text, const std::string& what) {
 
 TEST(ReportRegions, MapsTheRegionsWithTheChargeOutlineToeAndShoulder) {
   const std::map<std::string, method::FlowMap> maps = {
-      {"average-key", flow_map_from_document(fields_document())}};
+      {"average-key", method::flow_map_from_document(fields_document())}};
   const std::vector<engine::TaskInput> inputs = {
       {.key = "sites-key", .kind = "sites", .result = sites_result(), .artifacts = {}}};
   const report::RegionSection section = report::region_section(inputs, maps);
@@ -117,7 +117,7 @@ TEST(ReportRegions, ListsTheCellsLeftOut) {
       input.result["steady_state"]["steady"] = false;
   }
   const std::map<std::string, method::FlowMap> maps = {
-      {"average-key", flow_map_from_document(fields_document())}};
+      {"average-key", method::flow_map_from_document(fields_document())}};
   const std::vector<engine::TaskInput> inputs = {
       {"sites-key", "sites", sites_result(), {}},
       {"upscale-1", "upscale", testing::upscale(point, 1.0), {}}};

@@ -14,9 +14,8 @@
 
 #include "engine/task.hpp"
 #include "method/sites.hpp"
-#include "tasks/sites.hpp"
 
-namespace millflow::tasks::report {
+namespace millflow::report {
 
 struct RegionSection {
   std::vector<std::pair<std::string, std::string>> files;  // name, SVG text, by fill and speed
@@ -30,4 +29,4 @@ struct RegionSection {
 RegionSection region_section(const std::vector<engine::TaskInput>& inputs,
                              const std::map<std::string, method::FlowMap>& flow_maps);
 
-}  // namespace millflow::tasks::report
+}  // namespace millflow::report

@@ -1,5 +1,5 @@
-#include "tasks/report_inputs.hpp"
-#include "tasks/average.hpp"
+#include "report/report_inputs.hpp"
+#include "method/fields_file.hpp"
 
 #include <fmt/format.h>
 
@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <tuple>
 
-namespace millflow::tasks::report {
+namespace millflow::report {
 namespace {
 
 using nlohmann::json;
@@ -124,7 +124,7 @@ method::FlowMap read_flow_map(const engine::TaskInput& average) {
     throw std::invalid_argument(
         fmt::format("{}: cannot read {}", owner, artifact->second.string()));
   try {
-    return flow_map_from_document(json::parse(file));
+    return method::flow_map_from_document(json::parse(file));
   } catch (const std::exception& error) {
     throw std::invalid_argument(fmt::format("{}: fields.json: {}", owner, error.what()));
   }
@@ -220,4 +220,4 @@ ReportInputs read_report_inputs(const std::vector<engine::TaskInput>& inputs) {
   return report;
 }
 
-}  // namespace millflow::tasks::report
+}  // namespace millflow::report

@@ -1,4 +1,4 @@
-#include "tasks/svg_plot.hpp"
+#include "report/svg_plot.hpp"
 
 #include <fmt/format.h>
 
@@ -9,7 +9,7 @@
 #include <optional>
 #include <stdexcept>
 
-namespace millflow::tasks::svg {
+namespace millflow::report::svg {
 namespace {
 
 // Exact for |exponent| <= 22 (every such power of ten is a double).
@@ -690,4 +690,4 @@ Figure panel_grid(const std::vector<Figure>& panels, int columns, const std::str
   return {width, height, out + "</svg>\n"};
 }
 
-}  // namespace millflow::tasks::svg
+}  // namespace millflow::report::svg

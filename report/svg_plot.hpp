@@ -22,7 +22,7 @@
 
 #include "method/cross_section_grid.hpp"
 
-namespace millflow::tasks::svg {
+namespace millflow::report::svg {
 
 enum class Scale { linear, log };
 
@@ -155,4 +155,4 @@ Figure category_map(const CategoryMap& map);
 inline constexpr double kPanelGap = 24;
 Figure panel_grid(const std::vector<Figure>& panels, int columns, const std::string& title);
 
-}  // namespace millflow::tasks::svg
+}  // namespace millflow::report::svg

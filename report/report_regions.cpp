@@ -1,4 +1,4 @@
-#include "tasks/report_regions.hpp"
+#include "report/report_regions.hpp"
 
 #include <fmt/format.h>
 
@@ -6,9 +6,9 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "tasks/svg_plot.hpp"
+#include "report/svg_plot.hpp"
 
-namespace millflow::tasks::report {
+namespace millflow::report {
 namespace {
 
 using nlohmann::json;
@@ -27,7 +27,7 @@ method::ChargeAngles angles_of(const json& sites) {
 svg::Figure region_map(const std::string& title, const method::FlowMap& map, const json& sites) {
   const method::ChargeAngles angles = angles_of(sites);
   const method::Classification regions =
-      method::classify_regions(map, region_rules_from_json(sites.at("rules")), angles);
+      method::classify_regions(map, sites.at("rules").get<method::RegionRules>(), angles);
   svg::CategoryMap figure{.title = title,
                           .grid = map.grid,
                           .category = regions.region_of_cell,
@@ -187,4 +187,4 @@ RegionSection region_section(const std::vector<engine::TaskInput>& inputs,
   return section;
 }
 
-}  // namespace millflow::tasks::report
+}  // namespace millflow::report

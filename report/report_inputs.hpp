@@ -16,7 +16,7 @@
 #include "engine/task.hpp"
 #include "method/sites.hpp"
 
-namespace millflow::tasks::report {
+namespace millflow::report {
 
 struct RegionResult {
   std::string region{};
@@ -93,4 +93,4 @@ struct ReportInputs {
 // that is not an input, or an average input has no readable fields.json.
 ReportInputs read_report_inputs(const std::vector<engine::TaskInput>& inputs);
 
-}  // namespace millflow::tasks::report
+}  // namespace millflow::report
