@@ -12,12 +12,25 @@ namespace {
 
 using nlohmann::json;
 
+// The kind whose parameters these are: the shear_cell kind reads its media and interactions
+// through the functions below too, and a missing value must be reported as missing from its own.
+struct ParamsOwner {
+  const char* kind;
+  const char* planner;
+};
+
+ParamsOwner owner_of(const json& params) {
+  if (params.contains("shear_cell")) return {"shear_cell", "tasks::shear_cells_params"};
+  return {"macro", "tasks::macro_params"};
+}
+
 const json& field(const json& params, const std::string& path) {
   const json::json_pointer pointer(path);
   if (!params.contains(pointer)) {
+    const ParamsOwner owner = owner_of(params);
     throw engine::InvalidInput(
-        {{path, "is missing from the macro task's parameters",
-          "plan macro tasks from a validated campaign (tasks::macro_params)"}});
+        {{path, fmt::format("is missing from the {} task's parameters", owner.kind),
+          fmt::format("plan {} tasks from a validated campaign ({})", owner.kind, owner.planner)}});
   }
   return params.at(pointer);
 }

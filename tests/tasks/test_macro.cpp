@@ -99,6 +99,29 @@ TEST(MacroParams, MissingValuesAndPairsAreNamed) {
   }
 }
 
+// The shear_cell kind reads its media through the same functions: a value missing there is
+// missing from the shear cell's parameters, not from a macro task's.
+TEST(MacroParams, AMissingValueIsNamedAsMissingFromTheKindThatReadsIt) {
+  json params = tiny_macro_params();
+  params.erase("media");
+  try {
+    media_diameter(params);
+    FAIL() << "no error";
+  } catch (const engine::InvalidInput& e) {
+    EXPECT_EQ(e.errors().at(0).problem, "is missing from the macro task's parameters");
+  }
+  params["shear_cell"] = json::object();
+  try {
+    media_diameter(params);
+    FAIL() << "no error";
+  } catch (const engine::InvalidInput& e) {
+    EXPECT_EQ(e.errors().at(0).path, "/media");
+    EXPECT_EQ(e.errors().at(0).problem, "is missing from the shear_cell task's parameters");
+    EXPECT_EQ(e.errors().at(0).fix,
+              "plan shear_cell tasks from a validated campaign (tasks::shear_cells_params)");
+  }
+}
+
 TEST(MacroParams, CorrelationsMatchTheFactsSheet) {
   // docs/method.md, reference points: Bond ~8 kW/t at D = 1 m, ~13 kW/t at D = 5 m; Hogg-Fuerstenau
   // ~6.4 kW/t at D = 1 m (J = 0.3, phi_c = 0.75).
