@@ -81,7 +81,7 @@
 // within_tolerance}.
 //
 // Coupling check: per site, the media-only cell's shear stress over the macro flow's shear stress
-// on the shear plane at the site (tasks/coarse_grain.hpp); within tolerance when |ratio - 1| <=
+// on the shear plane at the site (method/coarse_grain.hpp); within tolerance when |ratio - 1| <=
 // kCouplingTolerance. A ratio with a zero denominator is null.
 #include "engine/campaign.hpp"
 #include "engine/task.hpp"

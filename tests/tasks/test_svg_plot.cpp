@@ -1,6 +1,6 @@
 // The report's SVG writer: tick choice (values derived by hand from the 1-2-5 rule), log ticks,
 // XML escaping, and charts, histograms and heat maps that are well-formed XML with one element per
-// datum (see the element conventions in tasks/svg_plot.hpp).
+// datum (see the element conventions in report/svg_plot.hpp).
 #include "report/svg_plot.hpp"
 
 #include <fmt/format.h>
