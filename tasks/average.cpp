@@ -14,6 +14,7 @@
 #include "method/vtk_image.hpp"
 #include "tasks/kinds.hpp"
 #include "util/durable_file.hpp"
+#include "util/sphere.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -38,7 +39,7 @@ double media_density(const json& macro, const std::filesystem::path& first_segme
   const auto frames = dem::read_flow_segment(first_segment);
   if (frames.empty()) throw std::invalid_argument("the first flow segment holds no frames");
   double volume = 0.0;
-  for (float r : frames.front().radius) volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+  for (float r : frames.front().radius) volume += util::sphere_volume_of_radius(r);
   return macro.at("ball_mass_kg").get<double>() / volume;
 }
 
