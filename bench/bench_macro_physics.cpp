@@ -12,7 +12,7 @@
 // Counters: power_kw, kw_per_t (per tonne of balls), bond_kw_per_t (Bond's correlation at the
 // same D, J, phi_c), hogg_kw (Hogg-Fuerstenau's power for this slice's ball mass, repose 35 deg),
 // power_sem_kw (the standard error of power_kw from quarter-revolution means), toe/shoulder (deg,
-// see tasks/macro_measure.hpp), torque_arm_kw, wall_s (the run's wall time),
+// see method/macro_measure.hpp), torque_arm_kw, wall_s (the run's wall time),
 // particle_steps_per_s (wall clock, 2 threads; per core: divide by 2), particle_steps_per_cpu_s
 // (per CPU-second the process used: per core on a machine shared with other work).
 #include <benchmark/benchmark.h>

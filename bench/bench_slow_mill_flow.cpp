@@ -30,9 +30,10 @@
 #include <cmath>
 #include <map>
 
+#include "method/coarse_grain.hpp"
+#include "method/fields_file.hpp"
+#include "method/macro_measure.hpp"
 #include "tasks/average.hpp"
-#include "tasks/coarse_grain.hpp"
-#include "tasks/macro_measure.hpp"
 #include "tasks/sites.hpp"
 #include "tests/dem/scenes.hpp"
 #include "tests/tasks/macro_fixtures.hpp"
@@ -103,8 +104,8 @@ void check_claims(benchmark::State& state) {
 
 // Of the `fraction` of charge cells highest in `field`, the share in the cascading layer or the
 // toe.
-double top_share_in_surface(const std::vector<double>& field, const SiteSelection& selection,
-                            double fraction) {
+double top_share_in_surface(const std::vector<double>& field,
+                            const method::SiteSelection& selection, double fraction) {
   std::vector<std::size_t> cells;
   for (std::size_t c = 0; c < field.size(); ++c) {
     if (selection.region_of_cell[c] >= 0) cells.push_back(c);
@@ -115,7 +116,7 @@ double top_share_in_surface(const std::vector<double>& field, const SiteSelectio
   std::size_t surface = 0;
   for (std::size_t k = 0; k < top; ++k) {
     const int region = selection.region_of_cell[cells[k]];
-    surface += (region == 2 || region == 4) ? 1 : 0;  // toe, cascading (region_names())
+    surface += (region == 2 || region == 4) ? 1 : 0;  // toe, cascading (method::region_names())
   }
   return static_cast<double>(surface) / static_cast<double>(top);
 }
@@ -126,7 +127,7 @@ void SlowMillFlow(benchmark::State& state) {
   const double omega = run.macro.at("angular_velocity_rad_s").get<double>();
   const int cells =
       static_cast<int>(std::lround(2 * radius / kBall * static_cast<double>(state.range(2))));
-  CoarseGrainSettings settings{
+  method::CoarseGrainSettings settings{
       .grid = {.nx = cells, .ny = cells, .half_width = radius},
       .slice_length = run.macro.at("mill").at("length_m").get<double>(),
       .kernel_width = 0.1 * static_cast<double>(state.range(1)) * kBall,
@@ -134,22 +135,22 @@ void SlowMillFlow(benchmark::State& state) {
       .event_window = run.frames.size() * run.macro.at("sample_interval_s").get<double>(),
       .categories = run.macro.at("categories").get<std::vector<std::string>>()};
   // The toe and shoulder where the balls touch the shell, as the macro task finds them.
-  ChargeShape shape;
+  method::ChargeShape shape;
   for (const auto& frame : run.frames) shape.add_frame(frame, 0);
-  ChargeAngles angles;
+  method::ChargeAngles angles;
   if (const auto found = shape.angles())
     angles = {.toe_deg = found->toe_deg, .shoulder_deg = found->shoulder_deg};
-  CoarseFields fields;
-  SiteSelection selection;
-  FlowMap map;
+  method::CoarseFields fields;
+  method::SiteSelection selection;
+  method::FlowMap map;
   for (auto _ : state) {
-    fields = coarse_grain(settings, 1, [&](std::size_t) { return run.frames; });
+    fields = method::coarse_grain(settings, 1, [&](std::size_t) { return run.frames; });
     const json mill = {
         {"mill_radius_m", radius}, {"media_diameter_m", kBall}, {"angular_velocity_rad_s", omega}};
-    map = flow_map_from_document(fields_document(fields, mill));
-    selection = select_sites(map, RegionRules{}, angles, region_names(), 1);
+    map = method::flow_map_from_document(method::fields_document(fields, mill));
+    selection = method::select_sites(map, method::RegionRules{}, angles, method::region_names(), 1);
   }
-  const CrossSectionGrid& g = fields.grid;
+  const method::CrossSectionGrid& g = fields.grid;
   double spin = 0.0, slip = 0.0, speed = 0.0, solid = 0.0;
   for (std::size_t c = 0; c < g.size(); ++c) {
     if (selection.region_of_cell[c] != 5) continue;  // bulk

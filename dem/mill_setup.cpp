@@ -60,6 +60,11 @@ double mean_ball_diameter(const MillSetup& setup) {
   return mean;
 }
 
+double reference_ball_mass(const MillSetup& setup) {
+  const double d = mean_ball_diameter(setup);
+  return setup.media.density * std::numbers::pi * d * d * d / 6.0;
+}
+
 std::vector<std::size_t> balls_per_class(const MillSetup& setup) {
   const double solid_volume =
       setup.fill * mill_free_cross_section_area(setup.shell) * setup.shell.length * setup.packing;

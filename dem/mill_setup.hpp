@@ -46,6 +46,10 @@ std::vector<BallSizeClass> ball_size_classes(const MillSetup& setup);
 // for collision times.
 double mean_ball_diameter(const MillSetup& setup);
 
+// Mass of a ball of the media's mass-weighted mean diameter, kg: the reference mass of the
+// collision-time stiffness.
+double reference_ball_mass(const MillSetup& setup);
+
 // Balls per size class: the bed of all classes at packing `packing` fills J of the mill's free
 // volume, each class taking its mass fraction of the solid volume (one material: mass fraction =
 // volume fraction), rounded to whole balls.

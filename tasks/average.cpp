@@ -10,9 +10,11 @@
 
 #include "engine/campaign.hpp"
 #include "engine/validation.hpp"
+#include "method/fields_file.hpp"
+#include "method/vtk_image.hpp"
 #include "tasks/kinds.hpp"
-#include "tasks/vtk_image.hpp"
 #include "util/durable_file.hpp"
+#include "util/sphere.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -37,17 +39,17 @@ double media_density(const json& macro, const std::filesystem::path& first_segme
   const auto frames = dem::read_flow_segment(first_segment);
   if (frames.empty()) throw std::invalid_argument("the first flow segment holds no frames");
   double volume = 0.0;
-  for (float r : frames.front().radius) volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+  for (float r : frames.front().radius) volume += util::sphere_volume_of_radius(r);
   return macro.at("ball_mass_kg").get<double>() / volume;
 }
 
-CoarseGrainSettings settings_for(const json& params, const json& macro, double density) {
+method::CoarseGrainSettings settings_for(const json& params, const json& macro, double density) {
   const json& average = params.at("average");
   const double diameter = macro.at("media_diameter_m").get<double>();
-  CoarseGrainSettings s;
-  s.grid = CrossSectionGrid{.nx = average.at("grid_cells").at(0).get<int>(),
-                            .ny = average.at("grid_cells").at(1).get<int>(),
-                            .half_width = macro.at("mill").at("radius_m").get<double>()};
+  method::CoarseGrainSettings s;
+  s.grid = method::CrossSectionGrid{.nx = average.at("grid_cells").at(0).get<int>(),
+                                    .ny = average.at("grid_cells").at(1).get<int>(),
+                                    .half_width = macro.at("mill").at("radius_m").get<double>()};
   s.slice_length = macro.at("mill").at("length_m").get<double>();
   s.kernel_width = average.at("kernel_width_diameters").get<double>() * diameter;
   s.media_density = density;
@@ -58,9 +60,9 @@ CoarseGrainSettings settings_for(const json& params, const json& macro, double d
 }
 
 // Maximum, and mean over the cells holding charge (solid fraction at or above `charge`).
-json scalar_summaries(const CoarseFields& fields, double charge) {
+json scalar_summaries(const method::CoarseFields& fields, double charge) {
   json out = json::object();
-  for (const CellArray& array : cell_arrays(fields)) {
+  for (const method::CellArray& array : method::cell_arrays(fields)) {
     if (array.components != 1) continue;
     double max = 0.0, sum = 0.0;
     int count = 0;
@@ -76,7 +78,7 @@ json scalar_summaries(const CoarseFields& fields, double charge) {
   return out;
 }
 
-json mill_wide_rates(const CoarseFields& fields) {
+json mill_wide_rates(const method::CoarseFields& fields) {
   json out = json::object();
   for (std::size_t k = 0; k < fields.categories.size(); ++k) {
     out[fields.categories[k]] = {
@@ -94,23 +96,10 @@ void write_json(const std::filesystem::path& file, const json& document) {
 
 }  // namespace
 
-json fields_document(const CoarseFields& fields, const json& mill) {
-  json arrays = json::object();
-  for (CellArray& array : cell_arrays(fields)) {
-    arrays[array.name] = {{"components", array.components}, {"values", std::move(array.values)}};
-  }
-  json document = mill;
-  document["grid"] = {
-      {"nx", fields.grid.nx}, {"ny", fields.grid.ny}, {"half_width_m", fields.grid.half_width}};
-  document["slice_length_m"] = fields.slice_length;
-  document["arrays"] = std::move(arrays);
-  return document;
-}
-
 engine::TaskOutcome run_average(engine::TaskContext& context) {
   const engine::TaskInput& macro = context.inputs.at(0);
   const auto segments = flow_segments(macro);
-  const CoarseGrainSettings settings =
+  const method::CoarseGrainSettings settings =
       settings_for(context.params, macro.result, media_density(macro.result, segments.front()));
 
   std::atomic<std::size_t> loaded{0};
@@ -121,7 +110,7 @@ engine::TaskOutcome run_average(engine::TaskContext& context) {
                      "averaging flow segments");
     return frames;
   };
-  const CoarseFields fields = coarse_grain(settings, segments.size(), load);
+  const method::CoarseFields fields = method::coarse_grain(settings, segments.size(), load);
 
   const json mill = {{"mill_radius_m", settings.grid.half_width},
                      {"media_diameter_m", macro.result.at("media_diameter_m")},
@@ -130,10 +119,10 @@ engine::TaskOutcome run_average(engine::TaskContext& context) {
   std::filesystem::create_directories(
       context.work_dir);  // the engine leaves its creation to the task
   const auto vti = context.work_dir / "fields.vti";
-  const auto arrays = cell_arrays(fields);
-  write_vtk_image(vti, fields.grid, arrays);
+  const auto arrays = method::cell_arrays(fields);
+  method::write_vtk_image(vti, fields.grid, arrays);
   const auto fields_json = context.work_dir / "fields.json";
-  write_json(fields_json, fields_document(fields, mill));
+  write_json(fields_json, method::fields_document(fields, mill));
 
   const double integrated = fields.solid_volume();
   json result = {

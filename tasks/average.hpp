@@ -1,5 +1,5 @@
 #pragma once
-// The `average` task kind: coarse-grained fields (tasks/coarse_grain.hpp) of one macro run.
+// The `average` task kind: coarse-grained fields (method/coarse_grain.hpp) of one macro run.
 //
 // Parameters: {"average": {"grid_cells": [nx, ny], "kernel_width_diameters": k}}; the kernel
 // width is k x the media diameter. Input 0: the macro task, whose result gives the mill
@@ -10,14 +10,14 @@
 // flow/segment_NNNN.mfs hold the frames.
 //
 // Artifacts: fields.vti (every field as VTK cell data, for ParaView) and fields.json (the same
-// arrays with the grid and the mill, read by `sites`). Result: the grid, the kernel width, the
-// mass-conservation check (integral of the solid fraction x slice length vs the media volume),
-// the maximum and the mean over the charge of every scalar field, and the mill-wide collision
-// rate and dissipated power per contact category.
+// arrays with the grid and the mill, method/fields_file.hpp, read by `sites` and the report).
+// Result: the grid, the kernel width, the mass-conservation check (integral of the solid fraction x
+// slice length vs the media volume), the maximum and the mean over the charge of every scalar
+// field, and the mill-wide collision rate and dissipated power per contact category.
 #include <nlohmann/json.hpp>
 
 #include "engine/task.hpp"
-#include "tasks/coarse_grain.hpp"
+#include "method/coarse_grain.hpp"
 
 namespace millflow::tasks {
 
@@ -25,9 +25,5 @@ namespace millflow::tasks {
 inline constexpr const char* kAverageVersion = "2";
 
 engine::TaskOutcome run_average(engine::TaskContext& context);
-
-// fields.json: {"grid": {nx, ny, half_width_m}, "slice_length_m", "arrays": {name: {components,
-// values}}} plus the entries of `mill` (merged at the top level).
-nlohmann::json fields_document(const CoarseFields& fields, const nlohmann::json& mill);
 
 }  // namespace millflow::tasks

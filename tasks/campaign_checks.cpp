@@ -11,6 +11,8 @@
 
 #include "engine/json_validator.hpp"
 
+#include "util/sphere.hpp"
+
 namespace millflow::tasks {
 namespace {
 
@@ -102,10 +104,6 @@ double largest_diameter(const std::vector<BallClass>& balls) {
   double largest = 0.0;
   for (const auto& ball : balls) largest = std::max(largest, ball.diameter);
   return largest;
-}
-
-double sphere_volume(double diameter) {
-  return std::numbers::pi / 6.0 * diameter * diameter * diameter;
 }
 
 class ConsistencyChecker {
@@ -334,7 +332,7 @@ class ConsistencyChecker {
         *fill * std::numbers::pi / 4 * *diameter * *diameter * *length * (1 - bed_void_fraction);
     double count = 0.0;
     for (const auto& ball : balls)
-      count += ball.mass_fraction * solid / sphere_volume(ball.diameter);
+      count += ball.mass_fraction * solid / util::sphere_volume_of_diameter(ball.diameter);
     return count;
   }
 
@@ -383,7 +381,7 @@ class ConsistencyChecker {
       if (stiffness.contains("collision_time")) {
         duration = stiffness.at("collision_time").get<double>();
       } else if (stiffness.contains("normal") && density) {
-        const double mass = *density * sphere_volume(smallest);
+        const double mass = *density * util::sphere_volume_of_diameter(smallest);
         const double effective = media_sides == 2 ? mass / 2 : mass;  // the liner is a wall
         duration = std::numbers::pi * std::sqrt(effective / stiffness.at("normal").get<double>());
       } else {
@@ -457,7 +455,7 @@ class ConsistencyChecker {
     if (!ratio || !load || size == nullptr || *load == 0.0) return;
     double cell = 1.0;  // in ball diameters cubed
     for (const auto& side : *size) cell *= side.get<double>();
-    const double count = *load * bed_void_fraction * cell / sphere_volume(*ratio);
+    const double count = *load * bed_void_fraction * cell / util::sphere_volume_of_diameter(*ratio);
     if (count <= max_powder_particles) return;
     const double smallest =
         std::cbrt(*load * bed_void_fraction * cell / max_powder_particles * 6 / std::numbers::pi);

@@ -12,12 +12,25 @@ namespace {
 
 using nlohmann::json;
 
+// The kind whose parameters these are: the shear_cell kind reads its media and interactions
+// through the functions below too, and a missing value must be reported as missing from its own.
+struct ParamsOwner {
+  const char* kind;
+  const char* planner;
+};
+
+ParamsOwner owner_of(const json& params) {
+  if (params.contains("shear_cell")) return {"shear_cell", "tasks::shear_cells_params"};
+  return {"macro", "tasks::macro_params"};
+}
+
 const json& field(const json& params, const std::string& path) {
   const json::json_pointer pointer(path);
   if (!params.contains(pointer)) {
+    const ParamsOwner owner = owner_of(params);
     throw engine::InvalidInput(
-        {{path, "is missing from the macro task's parameters",
-          "plan macro tasks from a validated campaign (tasks::macro_params)"}});
+        {{path, fmt::format("is missing from the {} task's parameters", owner.kind),
+          fmt::format("plan {} tasks from a validated campaign ({})", owner.kind, owner.planner)}});
   }
   return params.at(pointer);
 }
@@ -89,11 +102,6 @@ std::uint64_t macro_seed(std::uint64_t dem_seed, const std::string& task_key) {
   return hash ^ (dem_seed * 0x9e3779b97f4a7c15ULL);
 }
 
-double reference_ball_mass(const dem::MillSetup& mill) {
-  const double d = dem::mean_ball_diameter(mill);
-  return mill.media.density * std::numbers::pi * d * d * d / 6.0;
-}
-
 dem::InteractionSpec interaction_spec(const json& interaction, double reference_mass) {
   dem::InteractionSpec spec{
       .restitution = interaction.at("restitution").get<double>(),
@@ -111,8 +119,8 @@ dem::InteractionSpec interaction_spec(const json& interaction, double reference_
   return spec;
 }
 
-MacroSettings macro_settings(const json& params, const std::string& task_key) {
-  MacroSettings settings;
+method::MacroSettings macro_settings(const json& params, const std::string& task_key) {
+  method::MacroSettings settings;
   dem::MillSetup& mill = settings.mill;
   const auto media = field(params, "/media/material").get<std::string>();
   const auto liner = field(params, "/mill/liner_material").get<std::string>();
@@ -120,7 +128,7 @@ MacroSettings macro_settings(const json& params, const std::string& task_key) {
   mill.media = material(params, media);
   mill.liner = material(params, liner);
   set_media_sizes(params, mill);
-  const double ball_mass = reference_ball_mass(mill);
+  const double ball_mass = dem::reference_ball_mass(mill);
   mill.ball_ball = interaction_spec(find_interaction(params, media, media),
                                     dem::effective_mass(ball_mass, ball_mass));
   mill.ball_liner =

@@ -1,5 +1,6 @@
 #pragma once
-// Parameters of a `macro` task (tasks/kinds.hpp: macro_params) translated into a DEM mill.
+// Parameters of a `macro` task (tasks/kinds.hpp: macro_params) translated into a DEM mill and
+// the run's settings (method/macro_run.hpp).
 //
 // Contact stiffness per material pair, from the campaign's `stiffness`:
 //   {"normal": k}           k_n = k directly;
@@ -14,23 +15,12 @@
 #include <string>
 
 #include "dem/mill_setup.hpp"
+#include "method/macro_run.hpp"
 
 namespace millflow::tasks {
 
-struct MacroSettings {
-  dem::MillSetup mill;
-  int steps_per_collision = 20;
-  double skin_fraction = 0.3;  // neighbour skin / smallest ball diameter
-  double settle_time = 0.5;    // s, shell at rest
-  double warmup_revolutions = 2.0;
-  double measure_revolutions = 3.0;
-  double sample_interval = 0.01;        // s between flow frames
-  double vtk_interval = 0.1;            // s between VTK files
-  double checkpoint_interval_s = 60.0;  // wall-clock s between checkpoints
-};
-
 // Throws engine::InvalidInput naming the parameter path for a missing or unusable value.
-MacroSettings macro_settings(const nlohmann::json& params, const std::string& task_key);
+method::MacroSettings macro_settings(const nlohmann::json& params, const std::string& task_key);
 
 // The contact parameters of one campaign interaction, for contacts of effective mass
 // `reference_mass` (used only for a collision-time stiffness).
@@ -47,8 +37,5 @@ double media_diameter(const nlohmann::json& params);
 // The run's random seed: dem.seed mixed with the task key (FNV-1a of its text), so that every
 // task of a sweep packs its own bed, and the same task always the same one.
 std::uint64_t macro_seed(std::uint64_t dem_seed, const std::string& task_key);
-
-// Mass of a ball of the media's mass-weighted mean diameter, kg.
-double reference_ball_mass(const dem::MillSetup& mill);
 
 }  // namespace millflow::tasks

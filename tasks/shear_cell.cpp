@@ -10,8 +10,8 @@
 #include "dem/stiffness_policy.hpp"
 #include "dem/vtk.hpp"
 #include "engine/validation.hpp"
+#include "method/macro_measure.hpp"
 #include "tasks/checkpoint_cadence.hpp"
-#include "tasks/macro_measure.hpp"
 #include "tasks/macro_setup.hpp"
 
 namespace millflow::tasks {
@@ -49,8 +49,8 @@ json spectra_json(const dem::ShearCellMeasurements& m) {
   for (std::size_t k = 0; k < grid.bin_count(); ++k) edges.push_back(grid.bin_lower(k));
   if (grid.bin_count() > 0) edges.push_back(grid.bin_upper(grid.bin_count() - 1));
   return {{"bin_edges_j", edges},
-          {"media", histogram_json(m.media_collisions.dissipated_energy)},
-          {"powder", histogram_json(m.powder_collisions.dissipated_energy)}};
+          {"media", method::histogram_json(m.media_collisions.dissipated_energy)},
+          {"powder", method::histogram_json(m.powder_collisions.dissipated_energy)}};
 }
 
 }  // namespace

@@ -8,8 +8,9 @@
 
 #include <fmt/format.h>
 
+#include "method/sites.hpp"
+#include "method/upscale.hpp"
 #include "tasks/kinds.hpp"
-#include "tasks/sites.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -87,13 +88,8 @@ std::optional<double> standard_error(const json& cell, std::initializer_list<con
   return node->is_number() ? std::optional(node->get<double>()) : std::nullopt;
 }
 
-// The figures of one cell the upscaling sums, per unit cell volume, with their standard errors.
-struct CellFigures {
-  double input, powder, collisions, collision_rate;
-  std::optional<double> input_se, powder_se, collisions_se, collision_rate_se;
-};
-
-CellFigures figures_of(const json& cell) {
+// The figures the upscaling sums (method/upscale.hpp) from a shear cell's result.
+method::CellFigures figures_of(const json& cell) {
   const json& d = cell.at("dissipation_w_m3");
   const json& media = cell.at("collisions").at("media");
   const double count = media.at("count").get<double>(),
@@ -108,143 +104,54 @@ CellFigures figures_of(const json& cell) {
           .powder_se = standard_error(cell, {"powder_dissipation_w_m3"}),
           .collisions_se =
               media_media && wall_media ? std::optional(*media_media + *wall_media) : std::nullopt,
-          .collision_rate_se = count > 0.0 ? std::optional(rate / std::sqrt(count)) : std::nullopt};
+          .collision_rate_se = count > 0.0 ? std::optional(rate / std::sqrt(count)) : std::nullopt,
+          .media_solid_fraction = cell.at("media_solid_fraction").get<double>()};
 }
 
-// What a cell at `site` counts for (tasks/upscale.hpp, Weights).
-double weight(const json& site, const json& cell, WeightBasis basis) {
-  if (basis == WeightBasis::volume) return site.at("weight_m3").get<double>();
-  return site.at("solid_volume_m3").get<double>() / cell.at("media_solid_fraction").get<double>();
+// A shear cell's collision spectra (method/upscale.hpp) from its result.
+method::CellSpectra spectra_of(const json& cell) {
+  const json& spectra = cell.at("spectra");
+  return {.bin_edges_j = spectra.at("bin_edges_j").get<std::vector<double>>(),
+          .media_counts = spectra.at("media").at("counts").get<std::vector<double>>(),
+          .powder_counts = spectra.at("powder").at("counts").get<std::vector<double>>(),
+          .volume_m3 = cell.at("volume_m3").get<double>(),
+          .duration_s = cell.at("duration_s").get<double>()};
 }
 
-// A weighted sum of cells' figures and its variance; unknown once a cell lacks its error.
-struct Sum {
-  double value = 0.0, variance = 0.0;
-  bool known = true;
-
-  void add(double w, double x, const std::optional<double>& se) {
-    value += w * x;
-    if (se)
-      variance += w * w * *se * *se;
-    else
-      known = false;
-  }
-  void merge(const Sum& other) {
-    value += other.value;
-    variance += other.variance;
-    known = known && other.known;
-  }
-  Sum scaled(double k) const { return {k * value, k * k * variance, known}; }
-  std::optional<double> relative_error() const {
-    if (!known || value == 0.0) return std::nullopt;
-    return std::sqrt(variance) / std::abs(value);
-  }
-  json se() const { return known ? json(std::sqrt(variance)) : json(nullptr); }
-};
-
-// a / b with its standard error (relative errors in quadrature), null when b is not positive.
-std::pair<json, json> ratio(const Sum& a, const Sum& b) {
-  if (b.value <= 0.0) return {nullptr, nullptr};
-  const double r = a.value / b.value;
-  const auto ea = a.relative_error(), eb = b.relative_error();
-  return {r, ea && eb ? json(std::abs(r) * std::hypot(*ea, *eb)) : json(nullptr)};
+json optional_json(const std::optional<double>& value) {
+  return value ? json(*value) : json(nullptr);
 }
-
-// Sums over the sites of one region (or of all), W or collisions per second in the slice: at
-// load U over the sites with a loaded cell; at load 0 (and `input_paired`, at load U) over those
-// that also have a baseline cell.
-struct PowerSums {
-  int sites = 0, paired_sites = 0;
-  double volume = 0.0, solid_volume = 0.0;
-  Sum powder, input, collisions, rate;
-  Sum input_paired, input_no_powder, collisions_no_powder, rate_no_powder;
-
-  void add(const json& site, WeightBasis basis, const json& loaded, const json* baseline) {
-    ++sites;
-    volume += site.at("weight_m3").get<double>();
-    solid_volume += site.at("solid_volume_m3").get<double>();
-    const double w = weight(site, loaded, basis);
-    const CellFigures u = figures_of(loaded);
-    powder.add(w, u.powder, u.powder_se);
-    input.add(w, u.input, u.input_se);
-    collisions.add(w, u.collisions, u.collisions_se);
-    rate.add(w, u.collision_rate, u.collision_rate_se);
-    if (!baseline) return;
-    ++paired_sites;
-    const double w0 = weight(site, *baseline, basis);
-    const CellFigures b = figures_of(*baseline);
-    input_paired.add(w, u.input, u.input_se);
-    input_no_powder.add(w0, b.input, b.input_se);
-    collisions_no_powder.add(w0, b.collisions, b.collisions_se);
-    rate_no_powder.add(w0, b.collision_rate, b.collision_rate_se);
-  }
-
-  void merge(const PowerSums& r) {
-    sites += r.sites;
-    paired_sites += r.paired_sites;
-    volume += r.volume;
-    solid_volume += r.solid_volume;
-    for (auto [mine, theirs] : {std::pair{&powder, &r.powder},
-                                {&input, &r.input},
-                                {&collisions, &r.collisions},
-                                {&rate, &r.rate},
-                                {&input_paired, &r.input_paired},
-                                {&input_no_powder, &r.input_no_powder},
-                                {&collisions_no_powder, &r.collisions_no_powder},
-                                {&rate_no_powder, &r.rate_no_powder}}) {
-      mine->merge(*theirs);
-    }
-  }
-
-  // The region's sums with its cells' power at each load set to the macro dissipation D
-  // (tasks/upscale.hpp, macro_anchored; the scaling is taken as exact in the errors).
-  // The factors that set the cells' power input at load U and at load 0 to D.
-  std::pair<double, double> anchor_factors(double macro_dissipation) const {
-    return {input.value > 0.0 ? macro_dissipation / input.value : 0.0,
-            input_no_powder.value > 0.0 ? macro_dissipation / input_no_powder.value : 0.0};
-  }
-
-  PowerSums anchored(double macro_dissipation) const {
-    PowerSums a = *this;
-    const auto [k, k0] = anchor_factors(macro_dissipation);
-    for (Sum* loaded : {&a.powder, &a.input, &a.collisions, &a.rate, &a.input_paired})
-      *loaded = loaded->scaled(k);
-    for (Sum* reference : {&a.input_no_powder, &a.collisions_no_powder, &a.rate_no_powder})
-      *reference = reference->scaled(k0);
-    return a;
-  }
-};
 
 // The figures of one region (or of all) under one method.
-json method_json(const PowerSums& r, const Sum& total_powder) {
-  const auto [share, share_se] = ratio(r.powder, total_powder);
-  const auto [cushioning, cushioning_se] = ratio(r.collisions, r.collisions_no_powder);
-  const auto [rate_factor, rate_factor_se] = ratio(r.rate, r.rate_no_powder);
-  json energy_factor = nullptr, energy_factor_se = nullptr;
-  if (cushioning.is_number() && rate_factor.is_number() && rate_factor.get<double>() > 0.0) {
-    energy_factor = cushioning.get<double>() / rate_factor.get<double>();
-    if (cushioning_se.is_number() && rate_factor_se.is_number()) {
-      energy_factor_se = energy_factor.get<double>() *
-                         std::hypot(cushioning_se.get<double>() / cushioning.get<double>(),
-                                    rate_factor_se.get<double>() / rate_factor.get<double>());
+json method_json(const method::PowerSums& r, const method::Sum& total_powder) {
+  const method::Ratio share = method::ratio(r.powder, total_powder);
+  const method::Ratio cushioning = method::ratio(r.collisions, r.collisions_no_powder);
+  const method::Ratio rate_factor = method::ratio(r.rate, r.rate_no_powder);
+  std::optional<double> energy_factor, energy_factor_se;
+  if (cushioning.value && rate_factor.value && *rate_factor.value > 0.0) {
+    energy_factor = *cushioning.value / *rate_factor.value;
+    if (cushioning.standard_error && rate_factor.standard_error) {
+      energy_factor_se =
+          *energy_factor * std::hypot(*cushioning.standard_error / *cushioning.value,
+                                      *rate_factor.standard_error / *rate_factor.value);
     }
   }
   return {{"sites", r.sites},
           {"volume_m3", r.volume},
           {"solid_volume_m3", r.solid_volume},
           {"powder_power_w", r.powder.value},
-          {"powder_power_w_se", r.powder.se()},
-          {"powder_power_share", share},
-          {"powder_power_share_se", share_se},
+          {"powder_power_w_se", optional_json(r.powder.standard_error())},
+          {"powder_power_share", optional_json(share.value)},
+          {"powder_power_share_se", optional_json(share.standard_error)},
           {"media_power_w", r.input.value - r.powder.value},
           {"media_collision_power_w", r.collisions.value},
           {"media_collision_power_no_powder_w", r.collisions_no_powder.value},
-          {"cushioning", cushioning},
-          {"cushioning_se", cushioning_se},
-          {"cushioning_rate_factor", rate_factor},
-          {"cushioning_rate_factor_se", rate_factor_se},
-          {"cushioning_energy_factor", energy_factor},
-          {"cushioning_energy_factor_se", energy_factor_se}};
+          {"cushioning", optional_json(cushioning.value)},
+          {"cushioning_se", optional_json(cushioning.standard_error)},
+          {"cushioning_rate_factor", optional_json(rate_factor.value)},
+          {"cushioning_rate_factor_se", optional_json(rate_factor.standard_error)},
+          {"cushioning_energy_factor", optional_json(energy_factor)},
+          {"cushioning_energy_factor_se", optional_json(energy_factor_se)}};
 }
 
 // The macro run's dissipation per region, from a sites result's regions (or a rule set's).
@@ -259,7 +166,7 @@ std::map<std::string, double> macro_dissipation(const json& regions) {
 json dominant_of(const std::map<std::string, double>& powder) {
   json dominant = nullptr;
   double most = 0.0;
-  for (const std::string& name : region_names()) {
+  for (const std::string& name : method::region_names()) {
     const auto found = powder.find(name);
     if (found != powder.end() && found->second > most) {
       most = found->second;
@@ -271,14 +178,15 @@ json dominant_of(const std::map<std::string, double>& powder) {
 
 // The regions of one method in region_names() order, with the totals, from its per-region sums.
 // `cells` (the unscaled sums) give each region's cell_to_macro_power_ratio under both methods.
-json method_result(const std::string& method, const std::map<std::string, PowerSums>& regions,
+json method_result(const std::string& method,
+                   const std::map<std::string, method::PowerSums>& regions,
                    const std::map<std::string, double>& macro,
-                   const std::map<std::string, PowerSums>& cells) {
-  PowerSums all;
+                   const std::map<std::string, method::PowerSums>& cells) {
+  method::PowerSums all;
   for (const auto& [name, sums] : regions) all.merge(sums);
   json rows = json::array();
   std::map<std::string, double> powder;
-  for (const std::string& name : region_names()) {
+  for (const std::string& name : method::region_names()) {
     const auto found = regions.find(name);
     if (found == regions.end()) continue;
     json row = method_json(found->second, all.powder);
@@ -286,7 +194,7 @@ json method_result(const std::string& method, const std::map<std::string, PowerS
     row["region"] = name;
     row["method"] = method;
     row["macro_dissipation_w"] = dissipation;
-    const PowerSums& own = cells.at(name);
+    const method::PowerSums& own = cells.at(name);
     row["cell_to_macro_power_ratio"] = own.paired_sites > 0
                                            ? ratio_or_null(own.input_no_powder.value, dissipation)
                                            : json(nullptr);
@@ -300,81 +208,19 @@ json method_result(const std::string& method, const std::map<std::string, PowerS
   return result;
 }
 
-// Collision rates per energy bin in the slice: the "media" and "powder" spectra of the loaded
-// cells and the "media" spectrum of the baseline cells.
-class SpectrumSum {
- public:
-  void add(double weight, const json& cell) {
-    accumulate(cell, "media", weight, media_);
-    accumulate(cell, "powder", weight, powder_);
-  }
-  void add_baseline(double weight, const json& cell) {
-    accumulate(cell, "media", weight, media_no_powder_);
-  }
-  // Another sum, its loaded spectra scaled by k and its baseline spectrum by k0.
-  void add_scaled(const SpectrumSum& other, double k, double k0) {
-    if (other.edges_.empty()) return;
-    if (edges_.empty()) {
-      edges_ = other.edges_;
-      for (auto* r : {&media_, &powder_, &media_no_powder_}) r->assign(edges_.size() - 1, 0.0);
-    } else if (other.edges_ != edges_) {
-      throw std::invalid_argument(
-          "upscale: shear cells with different spectrum bins: re-run them with one version");
-    }
-    for (std::size_t b = 0; b < media_.size(); ++b) {
-      media_[b] += k * other.media_[b];
-      powder_[b] += k * other.powder_[b];
-      media_no_powder_[b] += k0 * other.media_no_powder_[b];
-    }
-  }
+json spectra_json(const method::SpectrumSum& sum) {
+  return {{"bin_edges_j", sum.bin_edges_j()},
+          {"powder_rate_per_s", sum.powder()},
+          {"media_rate_per_s", sum.media()},
+          {"media_rate_no_powder_per_s", sum.media_no_powder()}};
+}
 
-  json to_json() const {
-    return {{"bin_edges_j", edges_},
-            {"powder_rate_per_s", powder_},
-            {"media_rate_per_s", media_},
-            {"media_rate_no_powder_per_s", media_no_powder_}};
-  }
-
-  // tasks/upscale.hpp, spectra: the media spectrum above the media-only median's bin.
-  json media_shift() const {
-    const double total = sum_from(media_no_powder_, 0);
-    if (total <= 0.0) return nullptr;
-    std::size_t median = 0;
-    double below = 0.0;
-    while (median + 1 < media_no_powder_.size() && below + media_no_powder_[median] < 0.5 * total)
-      below += media_no_powder_[median++];
-    const double loaded = sum_from(media_, 0);
-    return {
-        {"threshold_j", edges_[median]},
-        {"fraction_above", loaded > 0.0 ? json(sum_from(media_, median) / loaded) : json(nullptr)},
-        {"fraction_above_no_powder", sum_from(media_no_powder_, median) / total}};
-  }
-
- private:
-  static double sum_from(const std::vector<double>& rates, std::size_t first) {
-    double sum = 0.0;
-    for (std::size_t k = first; k < rates.size(); ++k) sum += rates[k];
-    return sum;
-  }
-
-  void accumulate(const json& cell, const char* kind, double weight, std::vector<double>& rates) {
-    const json& spectra = cell.at("spectra");
-    const auto edges = spectra.at("bin_edges_j").get<std::vector<double>>();
-    if (edges_.empty()) {
-      edges_ = edges;
-      for (auto* r : {&media_, &powder_, &media_no_powder_}) r->assign(edges.size() - 1, 0.0);
-    } else if (edges != edges_) {
-      throw std::invalid_argument(
-          "upscale: shear cells with different spectrum bins: re-run them with one version");
-    }
-    const double scale =
-        weight / (cell.at("volume_m3").get<double>() * cell.at("duration_s").get<double>());
-    const json& counts = spectra.at(kind).at("counts");
-    for (std::size_t k = 0; k < rates.size(); ++k) rates[k] += scale * counts.at(k).get<double>();
-  }
-
-  std::vector<double> edges_, media_, powder_, media_no_powder_;
-};
+json shift_json(const std::optional<method::SpectrumShift>& shift) {
+  if (!shift) return nullptr;
+  return {{"threshold_j", shift->threshold_j},
+          {"fraction_above", optional_json(shift->fraction_above)},
+          {"fraction_above_no_powder", shift->fraction_above_no_powder}};
+}
 
 // Powder mass over media mass in a loaded cell.
 double powder_mass_ratio(const json& cell, const json& params) {
@@ -385,7 +231,7 @@ double powder_mass_ratio(const json& cell, const json& params) {
 }
 
 // Each rule set's powder power per region with the macro-anchored method (tasks/upscale.hpp).
-json sensitivity(const json& rule_sets, const std::map<std::string, PowerSums>& cells) {
+json sensitivity(const json& rule_sets, const std::map<std::string, method::PowerSums>& cells) {
   json result = json::array();
   for (const json& set : rule_sets) {
     std::map<std::string, double> powder;
@@ -465,14 +311,14 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   const double load = params.at("powder_load").get<double>();
   const json& macro = only_input(context, "macro").result;
   const json& sites_result = only_input(context, "sites").result;
-  const WeightBasis basis = sites_result.at("weight_by").get<std::string>() == "volume"
-                                ? WeightBasis::volume
-                                : WeightBasis::solid_volume;
+  const method::WeightBasis basis = sites_result.at("weight_by").get<std::string>() == "volume"
+                                        ? method::WeightBasis::volume
+                                        : method::WeightBasis::solid_volume;
   const UsableCells cells =
       usable_cells(context, load, params.at("upscale").at("include_unsteady").get<bool>());
 
-  std::map<std::string, PowerSums> by_region;
-  std::map<std::string, SpectrumSum> region_spectra;
+  std::map<std::string, method::PowerSums> by_region;
+  std::map<std::string, method::SpectrumSum> region_spectra;
   double powder_mass = 0.0, solid_volume = 0.0;
   json site_rows = json::array();
   for (const json& site : sites_result.at("sites")) {
@@ -481,17 +327,22 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
     const json* reference = cell_of(cells.baseline, id);
     site_rows.push_back(site_row(site, cell, reference));
     if (!cell) continue;
-    by_region[site.at("region").get<std::string>()].add(site, basis, *cell, reference);
-    SpectrumSum& spectra = region_spectra[site.at("region").get<std::string>()];
-    spectra.add(weight(site, *cell, basis), *cell);
-    if (reference) spectra.add_baseline(weight(site, *reference, basis), *reference);
-    powder_mass += site.at("solid_volume_m3").get<double>() * powder_mass_ratio(*cell, params);
-    solid_volume += site.at("solid_volume_m3").get<double>();
+    const method::Site typed = site.get<method::Site>();
+    const method::CellFigures loaded = figures_of(*cell);
+    const std::optional<method::CellFigures> baseline =
+        reference ? std::optional(figures_of(*reference)) : std::nullopt;
+    by_region[typed.region].add(typed, basis, loaded, baseline ? &*baseline : nullptr);
+    method::SpectrumSum& spectra = region_spectra[typed.region];
+    spectra.add(method::site_weight(typed, loaded, basis), spectra_of(*cell));
+    if (baseline)
+      spectra.add_baseline(method::site_weight(typed, *baseline, basis), spectra_of(*reference));
+    powder_mass += typed.solid_volume_m3 * powder_mass_ratio(*cell, params);
+    solid_volume += typed.solid_volume_m3;
   }
 
   const auto macro_by_region = macro_dissipation(sites_result.at("regions"));
-  std::map<std::string, PowerSums> anchored;
-  SpectrumSum spectra, anchored_spectra;
+  std::map<std::string, method::PowerSums> anchored;
+  method::SpectrumSum spectra, anchored_spectra;
   double covered = 0.0;
   for (const auto& [name, sums] : by_region) {
     const double dissipation = macro_by_region.count(name) ? macro_by_region.at(name) : 0.0;
@@ -506,11 +357,11 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   json macro_anchored = method_result("macro_anchored", anchored, macro_by_region, by_region);
   macro_anchored["macro_dissipation_w"] = covered;
   macro_anchored["uncovered_macro_dissipation_w"] = regions_dissipation - covered;
-  macro_anchored["spectra"] = anchored_spectra.to_json();
-  macro_anchored["media_spectrum_shift"] = anchored_spectra.media_shift();
+  macro_anchored["spectra"] = spectra_json(anchored_spectra);
+  macro_anchored["media_spectrum_shift"] = shift_json(anchored_spectra.media_shift());
 
   json result = method_result("cells", by_region, macro_by_region, by_region);
-  PowerSums all;
+  method::PowerSums all;
   for (const auto& [name, sums] : by_region) all.merge(sums);
   const double mass_ratio = solid_volume > 0.0 ? powder_mass / solid_volume : 0.0;
   const double power_draw = macro.at("power").at("mean_w").get<double>();
@@ -528,8 +379,8 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
                                        : json(nullptr)},
       {"macro_anchored", macro_anchored},
       {"sensitivity", sensitivity(sites_result.at("rule_sets"), by_region)},
-      {"spectra", spectra.to_json()},
-      {"media_spectrum_shift", spectra.media_shift()},
+      {"spectra", spectra_json(spectra)},
+      {"media_spectrum_shift", shift_json(spectra.media_shift())},
       {"left_out_cells", cells.flagged},
       {"sites", site_rows},
   });

@@ -1,6 +1,7 @@
 #pragma once
 // The `upscale` task kind: mill-scale answers of one sweep point (fill, speed, powder load) from
-// its shear cells.
+// its shear cells. The sums themselves (weights, standard errors, the macro-anchored scaling,
+// spectra) are method/upscale.hpp; this kind reads the inputs and writes the result.
 //
 // Parameters: {"powder_load": U, "upscale": {"include_unsteady"}, "media_density_kg_m3",
 // "powder_density_kg_m3"}. Inputs, told apart by kind: the point's macro, average and sites
@@ -80,7 +81,7 @@
 // within_tolerance}.
 //
 // Coupling check: per site, the media-only cell's shear stress over the macro flow's shear stress
-// on the shear plane at the site (tasks/coarse_grain.hpp); within tolerance when |ratio - 1| <=
+// on the shear plane at the site (method/coarse_grain.hpp); within tolerance when |ratio - 1| <=
 // kCouplingTolerance. A ratio with a zero denominator is null.
 #include "engine/campaign.hpp"
 #include "engine/task.hpp"

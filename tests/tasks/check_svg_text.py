@@ -2,7 +2,7 @@
 """Checks every SVG figure in a directory the way a reader sees it: rsvg-convert (librsvg2-bin)
 renders it to a PNG of the canvas' size, and no text runs outside the canvas or over another
 text. Text boxes come from the SVG's own text elements (position, anchor, font size, rotation,
-the translations of enclosing groups) with tasks/svg_plot.hpp's estimate of a label's extent:
+the translations of enclosing groups) with report/svg_plot.hpp's estimate of a label's extent:
 0.64 em per character, 0.75 em above the baseline and 0.22 em below.
 
 usage: check_svg_text.py DIR

@@ -9,9 +9,10 @@
 
 #include "dem/rng.hpp"
 #include "engine/store.hpp"
+#include "method/fields_file.hpp"
+#include "method/macro_measure.hpp"
 #include "tasks/average.hpp"
 #include "tasks/macro.hpp"
-#include "tasks/macro_measure.hpp"
 #include "tasks/sites.hpp"
 #include "tests/tasks/golden.hpp"
 #include "tests/tasks/mill_frames.hpp"
@@ -64,14 +65,14 @@ const json kAverageParams = {
 const json kSitesParams = {
     {"sites",
      {{"per_region", 2},
-      {"regions", region_names()},
+      {"regions", method::region_names()},
       {"weight_by", "solid_volume"},
-      {"rules", region_rules_json(RegionRules{})},
+      {"rules", json(method::RegionRules{})},
       {"alternatives", {{{"name", "strict"}, {"rules", {{"en_masse_max_slip", 0.3}}}}}}}}};
 
 // The macro run's result with the toe and shoulder its liner contacts show in `segments`.
 engine::TaskInput macro_with_charge(const std::vector<fs::path>& segments, json result) {
-  ChargeShape shape;
+  method::ChargeShape shape;
   for (const auto& segment : segments) {
     for (const auto& frame : dem::read_flow_segment(segment)) shape.add_frame(frame, 0);
   }
@@ -130,12 +131,12 @@ TEST(AnalysisTasks, SlowMillBulkTurnsWithTheShellAndTheSurfaceShears) {
   // The physics, from the fields: bulk cells move with the shell, the sheared surface layer and
   // the toe shear faster and dissipate more than the bulk.
   const json fields = read_json(average.artifacts[1].file);
-  const FlowMap map = flow_map_from_document(fields);
-  const SiteSelection selection = select_sites(
-      map, RegionRules{},
+  const method::FlowMap map = method::flow_map_from_document(fields);
+  const method::SiteSelection selection = method::select_sites(
+      map, method::RegionRules{},
       {.toe_deg = macro_toe,
        .shoulder_deg = macro.result.at("charge").at("shoulder_angle_deg").get<double>()},
-      region_names(), 2);
+      method::region_names(), 2);
   const auto& velocity = fields.at("arrays").at("velocity_m_s").at("values");
   const double omega = map.angular_velocity;
   double slip = 0.0, speed = 0.0, spin = 0.0, solid_bulk = 0.0;

@@ -8,7 +8,7 @@
 #include <numbers>
 
 #include "dem/rng.hpp"
-#include "tasks/coarse_grain.hpp"
+#include "method/coarse_grain.hpp"
 #include "tests/tasks/mill_frames.hpp"
 
 namespace millflow::tasks {
@@ -28,9 +28,9 @@ void add_particle(dem::FlowFrame& frame, const Vector3d& x, const Vector3d& v, d
   frame.material.push_back(0);
 }
 
-CoarseGrainSettings settings(int cells, double width) {
-  CoarseGrainSettings s;
-  s.grid = CrossSectionGrid{.nx = cells, .ny = cells, .half_width = 0.1};
+method::CoarseGrainSettings settings(int cells, double width) {
+  method::CoarseGrainSettings s;
+  s.grid = method::CrossSectionGrid{.nx = cells, .ny = cells, .half_width = 0.1};
   s.slice_length = 0.04;
   s.kernel_width = width;
   s.media_density = 7800.0;
@@ -39,8 +39,9 @@ CoarseGrainSettings settings(int cells, double width) {
   return s;
 }
 
-CoarseFields grain(const CoarseGrainSettings& s, const std::vector<dem::FlowFrame>& frames) {
-  return coarse_grain(s, 1, [&](std::size_t) { return frames; });
+method::CoarseFields grain(const method::CoarseGrainSettings& s,
+                           const std::vector<dem::FlowFrame>& frames) {
+  return method::coarse_grain(s, 1, [&](std::size_t) { return frames; });
 }
 
 // Particles on a square lattice of spacing `a` where `inside(x, y)`, moving with `velocity(x)`.
@@ -68,7 +69,7 @@ TEST(CoarseGrain, SolidFractionIntegratesToTheParticleVolumeEvenNextToTheShell) 
       volume += 4.0 / 3.0 * std::numbers::pi * std::pow(double{0.004f}, 3) / 2.0;
     }
   }
-  const CoarseFields f = grain(settings(30, 0.008), frames);
+  const method::CoarseFields f = grain(settings(30, 0.008), frames);
   EXPECT_NEAR(f.media_volume, volume, 1e-12 * volume);
   EXPECT_NEAR(f.solid_volume(), volume, 1e-9 * volume);
   for (std::size_t c = 0; c < f.grid.size(); ++c) {
@@ -85,7 +86,7 @@ TEST(CoarseGrain, RigidRotationHasTheShellVelocityAndNoShear) {
   };
   const auto frame = lattice(
       0.0025, 0.001, [&](double x, double y) { return std::hypot(x, y) < edge; }, rotation);
-  const CoarseFields f = grain(settings(40, w), {frame, frame});
+  const method::CoarseFields f = grain(settings(40, w), {frame, frame});
   int checked = 0;
   for (std::size_t c = 0; c < f.grid.size(); ++c) {
     const Vector3d centre(f.grid.x_of(c), f.grid.y_of(c), 0.0);
@@ -105,7 +106,7 @@ TEST(CoarseGrain, SimpleShearGivesItsShearRateAndNoStress) {
   const auto frame = lattice(
       0.0025, 0.001, [&](double x, double y) { return std::abs(x) < half && std::abs(y) < half; },
       shear);
-  const CoarseFields f = grain(settings(40, w), {frame});
+  const method::CoarseFields f = grain(settings(40, w), {frame});
   int checked = 0;
   for (std::size_t c = 0; c < f.grid.size(); ++c) {
     if (std::abs(f.grid.x_of(c)) > half - 7 * w || std::abs(f.grid.y_of(c)) > half - 7 * w)
@@ -130,7 +131,8 @@ TEST(CoarseGrain, ShearPlaneTractionOfASimpleShearIsOnTheLayers) {
     stress(1, 1) = -200.0;
     stress(2, 2) = -250.0;
     stress(0, 1) = stress(1, 0) = -gdot * 16.0;
-    const ShearPlaneTraction traction = shear_plane_traction(gradient, strain_rate, stress);
+    const method::ShearPlaneTraction traction =
+        method::shear_plane_traction(gradient, strain_rate, stress);
     EXPECT_NEAR(traction.normal, 200.0, 1e-9) << gdot;
     EXPECT_NEAR(traction.shear, 80.0, 1e-9) << gdot;
   }
@@ -147,8 +149,8 @@ TEST(CoarseGrain, TwoPressedParticlesGiveTheVirialPressure) {
   frame.contact_point = {{0.0f, 0.0f, 0.0f}};
   frame.contact_force = {{static_cast<float>(-force), 0.0f, 0.0f}};  // b pushes a towards -x
   frame.contact_branch = {{static_cast<float>(d), 0.0f, 0.0f}};
-  const CoarseGrainSettings s = settings(41, w);  // a cell centred on the contact
-  const CoarseFields f = grain(s, {frame});
+  const method::CoarseGrainSettings s = settings(41, w);  // a cell centred on the contact
+  const method::CoarseFields f = grain(s, {frame});
 
   // The integral of the pressure is the virial sum f.b / 3; compressive is positive.
   const double virial = force * d / 3.0;
@@ -173,7 +175,7 @@ TEST(CoarseGrain, CollisionRatesAndPowerPerCategoryIntegrateToTheEvents) {
   frame.event_dissipated = {0.5f, 0.25f, 0.125f};
   frame.event_category = {0, 1, 0};
   frame.event_with_wall = {0, 1, 0};
-  const CoarseFields f = grain(settings(20, 0.01), {frame});  // the events span 2 s
+  const method::CoarseFields f = grain(settings(20, 0.01), {frame});  // the events span 2 s
   EXPECT_NEAR(f.integral(f.collision_frequency), 3 / 2.0, 1e-12);
   EXPECT_NEAR(f.integral(f.collision_frequency_by_category[1]), 1 / 2.0, 1e-12);
   EXPECT_NEAR(f.integral(f.dissipation), 0.875 / 2.0, 1e-12);
@@ -203,12 +205,12 @@ TEST(CoarseGrain, SameBitsAtOneAndTwoThreads) {
     }
   }
   auto run = [&](int threads) {
-    CoarseFields f;
+    method::CoarseFields f;
     tbb::task_arena(threads).execute([&] {
-      f = coarse_grain(settings(24, 0.01), segments.size(),
-                       [&](std::size_t k) { return segments[k]; });
+      f = method::coarse_grain(settings(24, 0.01), segments.size(),
+                               [&](std::size_t k) { return segments[k]; });
     });
-    return cell_arrays(f);
+    return method::cell_arrays(f);
   };
   const auto one = run(1), two = run(2);
   ASSERT_EQ(one.size(), two.size());
@@ -221,11 +223,11 @@ TEST(CoarseGrain, SameBitsAtOneAndTwoThreads) {
 
 TEST(CoarseGrain, RealMillFramesConserveTheMediaVolumeWithinOnePercent) {
   const auto& sample = testing::small_mill_sample();
-  CoarseGrainSettings s = settings(20, 1.5 * 0.01);
+  method::CoarseGrainSettings s = settings(20, 1.5 * 0.01);
   s.categories = sample.macro_result.at("categories").get<std::vector<std::string>>();
-  const CoarseFields f = coarse_grain(s, sample.segments.size(), [&](std::size_t k) {
-    return dem::read_flow_segment(sample.segments[k]);
-  });
+  const method::CoarseFields f = method::coarse_grain(
+      s, sample.segments.size(),
+      [&](std::size_t k) { return dem::read_flow_segment(sample.segments[k]); });
   const double balls = sample.macro_result.at("n_balls").get<double>() * 4.0 / 3.0 *
                        std::numbers::pi * std::pow(0.005, 3);
   EXPECT_NEAR(f.media_volume, balls, 1e-5 * balls);

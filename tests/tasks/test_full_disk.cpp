@@ -13,7 +13,7 @@
 #include "dem/binary_io.hpp"
 #include "dem/vtk.hpp"
 #include "engine/artifacts.hpp"
-#include "tasks/vtk_image.hpp"
+#include "method/vtk_image.hpp"
 #include "tests/dem/scenes.hpp"
 #include "tests/tasks/macro_fixtures.hpp"
 #include "util/durable_file.hpp"
@@ -73,10 +73,12 @@ TEST(FullDisk, DemWritersReportItAndKeepThePreviousFile) {
 
 TEST(FullDisk, VtkImageReportsItInsteadOfTerminating) {
   ScratchDir scratch("full_disk_vti");
-  const CrossSectionGrid grid{.nx = 20, .ny = 20, .half_width = 0.5};
-  const std::vector<CellArray> arrays{{"density", 1, std::vector<double>(grid.size(), 1.5)}};
-  expect_full_disk_error(scratch.path(),
-                         [&] { write_vtk_image(scratch.path() / "fields.vti", grid, arrays); });
+  const method::CrossSectionGrid grid{.nx = 20, .ny = 20, .half_width = 0.5};
+  const std::vector<method::CellArray> arrays{
+      {"density", 1, std::vector<double>(grid.size(), 1.5)}};
+  expect_full_disk_error(scratch.path(), [&] {
+    method::write_vtk_image(scratch.path() / "fields.vti", grid, arrays);
+  });
 }
 
 TEST(FullDisk, AnArtifactThatCannotBeStoredIsAnErrorAndLeavesNoPart) {

@@ -15,8 +15,8 @@
 #include "engine/sqlite.hpp"
 #include "engine/store.hpp"
 #include "engine/validation.hpp"
+#include "report/report_inputs.hpp"
 #include "tasks/macro_setup.hpp"
-#include "tasks/report_inputs.hpp"
 #include "tests/tasks/macro_fixtures.hpp"
 
 namespace millflow::tasks {
@@ -39,7 +39,7 @@ double ball_mass(double diameter) {
 }
 
 TEST(MacroParams, CollisionTimeGivesThatContactDurationForTheReferencePairs) {
-  const MacroSettings settings = macro_settings(tiny_macro_params(), "key");
+  const method::MacroSettings settings = macro_settings(tiny_macro_params(), "key");
   const double m = ball_mass(0.012);
   const double zeta = dem::damping_ratio_for_restitution(0.5);
   // Two balls: m_eff = m / 2; a ball on the liner (a wall): m_eff = m.
@@ -65,7 +65,7 @@ TEST(MacroParams, NormalStiffnessAndSizeDistributionAndEndWalls) {
       {"size_distribution",
        {{{"diameter", 0.016}, {"mass_fraction", 3}}, {{"diameter", 0.008}, {"mass_fraction", 1}}}}};
   params["mill"]["axial_ends"] = "walls";
-  const MacroSettings settings = macro_settings(params, "key");
+  const method::MacroSettings settings = macro_settings(params, "key");
   EXPECT_EQ(settings.mill.ball_ball.normal_stiffness, 2.5e5);
   EXPECT_EQ(settings.mill.ball_liner.normal_stiffness, 2.5e5);
   EXPECT_NEAR(dem::mean_ball_diameter(settings.mill), 0.75 * 0.016 + 0.25 * 0.008, 1e-15);
@@ -99,12 +99,35 @@ TEST(MacroParams, MissingValuesAndPairsAreNamed) {
   }
 }
 
+// The shear_cell kind reads its media through the same functions: a value missing there is
+// missing from the shear cell's parameters, not from a macro task's.
+TEST(MacroParams, AMissingValueIsNamedAsMissingFromTheKindThatReadsIt) {
+  json params = tiny_macro_params();
+  params.erase("media");
+  try {
+    media_diameter(params);
+    FAIL() << "no error";
+  } catch (const engine::InvalidInput& e) {
+    EXPECT_EQ(e.errors().at(0).problem, "is missing from the macro task's parameters");
+  }
+  params["shear_cell"] = json::object();
+  try {
+    media_diameter(params);
+    FAIL() << "no error";
+  } catch (const engine::InvalidInput& e) {
+    EXPECT_EQ(e.errors().at(0).path, "/media");
+    EXPECT_EQ(e.errors().at(0).problem, "is missing from the shear_cell task's parameters");
+    EXPECT_EQ(e.errors().at(0).fix,
+              "plan shear_cell tasks from a validated campaign (tasks::shear_cells_params)");
+  }
+}
+
 TEST(MacroParams, CorrelationsMatchTheFactsSheet) {
   // docs/method.md, reference points: Bond ~8 kW/t at D = 1 m, ~13 kW/t at D = 5 m; Hogg-Fuerstenau
   // ~6.4 kW/t at D = 1 m (J = 0.3, phi_c = 0.75).
-  EXPECT_NEAR(bond_kw_per_tonne(1.0, 0.3, 0.75), 8.0, 0.3);
-  EXPECT_NEAR(bond_kw_per_tonne(5.0, 0.3, 0.75), 13.0, 0.5);
-  EXPECT_NEAR(hogg_fuerstenau_kw_per_tonne(1.0, 0.3, 0.75), 6.4, 0.1);
+  EXPECT_NEAR(method::bond_kw_per_tonne(1.0, 0.3, 0.75), 8.0, 0.3);
+  EXPECT_NEAR(method::bond_kw_per_tonne(5.0, 0.3, 0.75), 13.0, 0.5);
+  EXPECT_NEAR(method::hogg_fuerstenau_kw_per_tonne(1.0, 0.3, 0.75), 6.4, 0.1);
 }
 
 class MacroRunTest : public ::testing::Test {

@@ -19,7 +19,7 @@
 #include <stdexcept>
 #include <tuple>
 
-#include "tasks/report_inputs.hpp"
+#include "report/report_inputs.hpp"
 #include "tests/common/scratch_dir.hpp"
 #include "tests/tasks/upscale_inputs.hpp"
 

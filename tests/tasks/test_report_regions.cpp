@@ -6,8 +6,9 @@
 #include <fstream>
 #include <numbers>
 
+#include "method/fields_file.hpp"
+#include "report/report_regions.hpp"
 #include "tasks/report.hpp"
-#include "tasks/report_regions.hpp"
 #include "tests/common/scratch_dir.hpp"
 #include "tests/tasks/upscale_inputs.hpp"
 
@@ -23,7 +24,7 @@ constexpr int kCells = 20;
 // A bed below y = -0.1 m turning with the shell under a layer flowing left, in a 20 x 20 grid.
 json fields_document() {
   std::vector<double> nu, zero, dissipation, velocity;
-  const CrossSectionGrid grid{.nx = kCells, .ny = kCells, .half_width = kRadius};
+  const method::CrossSectionGrid grid{.nx = kCells, .ny = kCells, .half_width = kRadius};
   for (std::size_t c = 0; c < grid.size(); ++c) {
     const double x = grid.x_of(c), y = grid.y_of(c);
     const bool bed = y<-0.1, layer = y> - 0.25;
@@ -50,7 +51,7 @@ json fields_document() {
 // What a sites task of these fields reports, as far as the report reads it.
 json sites_result() {
   json regions = json::array(), narrow = json::array();
-  for (const std::string& name : region_names()) {
+  for (const std::string& name : method::region_names()) {
     regions.push_back({{"name", name},
                        {"volume_m3", 0.01},
                        {"solid_volume_m3", 0.006},
@@ -61,7 +62,7 @@ json sites_result() {
       {"fill", 0.3},
       {"speed_fraction", 0.75},
       {"average_task", "average-key"},
-      {"rules", region_rules_json(RegionRules{})},
+      {"rules", json(method::RegionRules{})},
       {"toe_angle_deg", 210.0},
       {"shoulder_angle_deg", -30.0},
       {"regions", regions},
@@ -76,8 +77,8 @@ std::size_t count_of(const std::string& text, const std::string& what) {
 }
 
 TEST(ReportRegions, MapsTheRegionsWithTheChargeOutlineToeAndShoulder) {
-  const std::map<std::string, FlowMap> maps = {
-      {"average-key", flow_map_from_document(fields_document())}};
+  const std::map<std::string, method::FlowMap> maps = {
+      {"average-key", method::flow_map_from_document(fields_document())}};
   const std::vector<engine::TaskInput> inputs = {
       {.key = "sites-key", .kind = "sites", .result = sites_result(), .artifacts = {}}};
   const report::RegionSection section = report::region_section(inputs, maps);
@@ -85,15 +86,15 @@ TEST(ReportRegions, MapsTheRegionsWithTheChargeOutlineToeAndShoulder) {
   EXPECT_EQ(section.files[0].first, "regions_0.3_0.75.svg");
   const std::string& svg = section.files[0].second;
   // One rect per charge cell, one swatch per region and the background.
-  const FlowMap& map = maps.at("average-key");
+  const method::FlowMap& map = maps.at("average-key");
   std::size_t charge = 0;
   for (std::size_t c = 0; c < map.grid.size(); ++c)
     charge += map.grid.inside_mill(c) && map.solid_fraction[c] >= 0.02 ? 1 : 0;
-  EXPECT_EQ(count_of(svg, "<rect"), charge + region_names().size() + 1);
+  EXPECT_EQ(count_of(svg, "<rect"), charge + method::region_names().size() + 1);
   EXPECT_EQ(count_of(svg, "<path"), 1u) << "the charge outline";
   EXPECT_EQ(count_of(svg, "stroke-dasharray"), 1u) << "the toe's disc";
   EXPECT_EQ(count_of(svg, "<circle"), 3u) << "mill, toe disc, shoulder";
-  for (const std::string& name : region_names())
+  for (const std::string& name : method::region_names())
     EXPECT_NE(svg.find(">" + name + "<"), std::string::npos);
   EXPECT_NE(svg.find(">shoulder<"), std::string::npos);
   EXPECT_NE(svg.find(">toe<"), std::string::npos);
@@ -115,8 +116,8 @@ TEST(ReportRegions, ListsTheCellsLeftOut) {
     if (input.key == "bulk-0@" + std::to_string(1.0))
       input.result["steady_state"]["steady"] = false;
   }
-  const std::map<std::string, FlowMap> maps = {
-      {"average-key", flow_map_from_document(fields_document())}};
+  const std::map<std::string, method::FlowMap> maps = {
+      {"average-key", method::flow_map_from_document(fields_document())}};
   const std::vector<engine::TaskInput> inputs = {
       {"sites-key", "sites", sites_result(), {}},
       {"upscale-1", "upscale", testing::upscale(point, 1.0), {}}};

@@ -38,7 +38,7 @@ std::pair<double, double> surface_meets_shell() {
   return {angle(left), angle(right)};
 }
 
-ChargeAngles macro_angles() {
+method::ChargeAngles macro_angles() {
   const auto [left, right] = surface_meets_shell();
   return {.toe_deg = left, .shoulder_deg = right};
 }
@@ -49,9 +49,9 @@ std::pair<double, double> toe_point() {
   return {r * std::cos(a), r * std::sin(a)};
 }
 
-FlowMap synthetic_map(double landing_radius = 0.02, bool mirror = false) {
-  FlowMap map;
-  map.grid = CrossSectionGrid{.nx = 40, .ny = 40, .half_width = kR};
+method::FlowMap synthetic_map(double landing_radius = 0.02, bool mirror = false) {
+  method::FlowMap map;
+  map.grid = method::CrossSectionGrid{.nx = 40, .ny = 40, .half_width = kR};
   map.slice_length = 0.04;
   map.media_diameter = kD;
   map.angular_velocity = mirror ? -kOmega : kOmega;
@@ -92,14 +92,14 @@ FlowMap synthetic_map(double landing_radius = 0.02, bool mirror = false) {
   return map;
 }
 
-int region_at(const FlowMap& map, const Classification& s, double x, double y) {
+int region_at(const method::FlowMap& map, const method::Classification& s, double x, double y) {
   const int i = static_cast<int>((x + kR) / map.grid.dx()),
             j = static_cast<int>((y + kR) / map.grid.dy());
   return s.region_of_cell[map.grid.index(i, j)];
 }
 
 int region(const std::string& name) {
-  const auto& names = region_names();
+  const auto& names = method::region_names();
   return static_cast<int>(std::find(names.begin(), names.end(), name) - names.begin());
 }
 
@@ -109,8 +109,9 @@ double angle_between(double a, double b) {
 }
 
 TEST(Sites, RegionsFollowTheRules) {
-  const FlowMap map = synthetic_map();
-  const SiteSelection s = select_sites(map, RegionRules{}, macro_angles(), region_names(), 3);
+  const method::FlowMap map = synthetic_map();
+  const method::SiteSelection s =
+      method::select_sites(map, method::RegionRules{}, macro_angles(), method::region_names(), 3);
   const auto [toe_x, toe_y] = toe_point();
   ASSERT_TRUE(s.toe);
   EXPECT_EQ(region_at(map, s, 0.001, -0.06), region("bulk"));  // turns with the shell
@@ -133,8 +134,9 @@ TEST(Sites, RegionsFollowTheRules) {
 
 TEST(Sites, TheToeGrowsToHoldALargerImpactZone) {
   for (const double landing : {0.01, 0.03, 0.04}) {
-    const FlowMap map = synthetic_map(landing);
-    const Classification s = classify_regions(map, RegionRules{}, macro_angles());
+    const method::FlowMap map = synthetic_map(landing);
+    const method::Classification s =
+        method::classify_regions(map, method::RegionRules{}, macro_angles());
     ASSERT_TRUE(s.toe);
     // At least the smallest toe, and no larger than the landing zone needs (half a diagonal).
     EXPECT_NEAR(s.toe->radius_m,
@@ -152,8 +154,9 @@ TEST(Sites, TheToeGrowsToHoldALargerImpactZone) {
 }
 
 TEST(Sites, WeightsSumToTheChargeVolumeAndSolidVolume) {
-  const FlowMap map = synthetic_map();
-  const SiteSelection s = select_sites(map, RegionRules{}, macro_angles(), region_names(), 3);
+  const method::FlowMap map = synthetic_map();
+  const method::SiteSelection s =
+      method::select_sites(map, method::RegionRules{}, macro_angles(), method::region_names(), 3);
   const double cell_volume = map.grid.cell_area() * map.slice_length;
   double charge = 0.0, solid = 0.0;
   for (std::size_t c = 0; c < map.grid.size(); ++c) {
@@ -161,7 +164,7 @@ TEST(Sites, WeightsSumToTheChargeVolumeAndSolidVolume) {
     solid += map.solid_fraction[c] * cell_volume;
   }
   double weights = 0.0, solid_weights = 0.0, shares = 0.0;
-  for (const Site& site : s.sites) {
+  for (const method::Site& site : s.sites) {
     weights += site.weight_m3;
     solid_weights += site.solid_volume_m3;
     shares += site.dissipation_share;
@@ -190,20 +193,20 @@ TEST(Sites, WeightsSumToTheChargeVolumeAndSolidVolume) {
 }
 
 TEST(Sites, SitesSplitTheirRegionIntoNearlyEqualWeights) {
-  const FlowMap map = synthetic_map();
+  const method::FlowMap map = synthetic_map();
   const double cell_volume = map.grid.cell_area() * map.slice_length;
   // The toe mixes bed (0.6) and flight (0.1) cells: equal solid volumes need unequal counts.
-  const SiteSelection by_solid =
-      select_sites(map, RegionRules{}, macro_angles(), {"toe"}, 3, WeightBasis::solid_volume);
-  const SiteSelection by_volume =
-      select_sites(map, RegionRules{}, macro_angles(), {"toe"}, 3, WeightBasis::volume);
+  const method::SiteSelection by_solid = method::select_sites(
+      map, method::RegionRules{}, macro_angles(), {"toe"}, 3, method::WeightBasis::solid_volume);
+  const method::SiteSelection by_volume = method::select_sites(
+      map, method::RegionRules{}, macro_angles(), {"toe"}, 3, method::WeightBasis::volume);
   ASSERT_EQ(by_solid.sites.size(), 3u);
   ASSERT_EQ(by_volume.sites.size(), 3u);
   const double toe_solid =
       by_solid.regions[static_cast<std::size_t>(region("toe"))].solid_volume_m3;
-  for (const Site& site : by_solid.sites)
+  for (const method::Site& site : by_solid.sites)
     EXPECT_NEAR(site.solid_volume_m3, toe_solid / 3, 0.6 * cell_volume) << site.site_id;
-  for (const Site& site : by_volume.sites) {
+  for (const method::Site& site : by_volume.sites) {
     EXPECT_NEAR(site.weight_m3 / cell_volume,
                 by_volume.regions[static_cast<std::size_t>(region("toe"))].cells / 3.0, 1.0)
         << site.site_id;
@@ -211,8 +214,9 @@ TEST(Sites, SitesSplitTheirRegionIntoNearlyEqualWeights) {
 }
 
 TEST(Sites, OnlyRequestedRegionsGetSites) {
-  const FlowMap map = synthetic_map();
-  const SiteSelection s = select_sites(map, RegionRules{}, macro_angles(), {"shoulder", "toe"}, 2);
+  const method::FlowMap map = synthetic_map();
+  const method::SiteSelection s =
+      method::select_sites(map, method::RegionRules{}, macro_angles(), {"shoulder", "toe"}, 2);
   ASSERT_EQ(s.sites.size(), 4u);
   const double toe_volume = s.regions[static_cast<std::size_t>(region("toe"))].volume_m3;
   EXPECT_NEAR(s.sites[2].weight_m3 + s.sites[3].weight_m3, toe_volume, 1e-15);
@@ -221,47 +225,51 @@ TEST(Sites, OnlyRequestedRegionsGetSites) {
 }
 
 TEST(Sites, ACentrifugingChargeHasNoToeOrShoulder) {
-  const FlowMap map = synthetic_map();
-  const SiteSelection s = select_sites(map, RegionRules{}, {}, region_names(), 1);
+  const method::FlowMap map = synthetic_map();
+  const method::SiteSelection s =
+      method::select_sites(map, method::RegionRules{}, {}, method::region_names(), 1);
   EXPECT_FALSE(s.toe);
   EXPECT_EQ(s.regions[static_cast<std::size_t>(region("toe"))].cells, 0u);
   EXPECT_EQ(s.regions[static_cast<std::size_t>(region("shoulder"))].cells, 0u);
 }
 
 TEST(Sites, AClockwiseMillMovesItsBulkWithTheShellToo) {
-  const FlowMap map = synthetic_map(0.02, true);
-  const Classification s = classify_regions(map, RegionRules{}, {});
+  const method::FlowMap map = synthetic_map(0.02, true);
+  const method::Classification s = method::classify_regions(map, method::RegionRules{}, {});
   EXPECT_EQ(region_at(map, s, 0.001, -0.06), region("bulk"));
   EXPECT_EQ(region_at(map, s, -0.001, kSurface0 - 0.004), region("cascading"));
 }
 
 TEST(Sites, WiderRulesGiveTheEnMasseRegionMoreOfTheCharge) {
-  const FlowMap map = synthetic_map();
-  RegionRules strict, loose;
+  const method::FlowMap map = synthetic_map();
+  method::RegionRules strict, loose;
   strict.en_masse_max_slip = 0.3;
   loose.en_masse_max_slip = 0.7;
   // The stream's slip is far above both, the bed's zero: the regions do not move with the slip...
   const auto bulk = static_cast<std::size_t>(region("bulk"));
-  EXPECT_EQ(classify_regions(map, strict, macro_angles()).regions[bulk].cells,
-            classify_regions(map, loose, macro_angles()).regions[bulk].cells);
+  EXPECT_EQ(method::classify_regions(map, strict, macro_angles()).regions[bulk].cells,
+            method::classify_regions(map, loose, macro_angles()).regions[bulk].cells);
   // ... until the bed itself slips: at 0.5 |omega r| behind the shell it is bulk for the loose
   // rules only.
-  FlowMap slipping = map;
+  method::FlowMap slipping = map;
   for (std::size_t c = 0; c < map.grid.size(); ++c) {
     slipping.velocity_x[c] *= 0.5;
     slipping.velocity_y[c] *= 0.5;
   }
-  EXPECT_EQ(region_at(slipping, classify_regions(slipping, strict, macro_angles()), 0.001, -0.06),
-            region("cascading"));
-  EXPECT_EQ(region_at(slipping, classify_regions(slipping, loose, macro_angles()), 0.001, -0.06),
-            region("bulk"));
+  EXPECT_EQ(
+      region_at(slipping, method::classify_regions(slipping, strict, macro_angles()), 0.001, -0.06),
+      region("cascading"));
+  EXPECT_EQ(
+      region_at(slipping, method::classify_regions(slipping, loose, macro_angles()), 0.001, -0.06),
+      region("bulk"));
 }
 
 TEST(Sites, RefusesUnknownRegionsAndZeroSites) {
-  const FlowMap map = synthetic_map();
-  EXPECT_THROW(select_sites(map, RegionRules{}, macro_angles(), {"belly"}, 2),
+  const method::FlowMap map = synthetic_map();
+  EXPECT_THROW(method::select_sites(map, method::RegionRules{}, macro_angles(), {"belly"}, 2),
                std::invalid_argument);
-  EXPECT_THROW(select_sites(map, RegionRules{}, macro_angles(), {"toe"}, 0), std::invalid_argument);
+  EXPECT_THROW(method::select_sites(map, method::RegionRules{}, macro_angles(), {"toe"}, 0),
+               std::invalid_argument);
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 // The report's SVG writer: tick choice (values derived by hand from the 1-2-5 rule), log ticks,
 // XML escaping, and charts, histograms and heat maps that are well-formed XML with one element per
-// datum (see the element conventions in tasks/svg_plot.hpp).
-#include "tasks/svg_plot.hpp"
+// datum (see the element conventions in report/svg_plot.hpp).
+#include "report/svg_plot.hpp"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-namespace millflow::tasks::svg {
+namespace millflow::report::svg {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -322,4 +322,4 @@ TEST(PanelGrid, NestsEveryPanelInOneDocument) {
 }
 
 }  // namespace
-}  // namespace millflow::tasks::svg
+}  // namespace millflow::report::svg

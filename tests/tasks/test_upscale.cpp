@@ -32,7 +32,7 @@ TEST(Upscale, PowersSharesAndCushioningAreTheSiteWeightedSums) {
   EXPECT_EQ(r.at("average_task"), "average-key");
   EXPECT_DOUBLE_EQ(r.at("mill").at("diameter_m"), 1.0);
 
-  ASSERT_EQ(r.at("regions").size(), 2u);  // region_names() order: toe before bulk
+  ASSERT_EQ(r.at("regions").size(), 2u);  // method::region_names() order: toe before bulk
   const json& toe = r.at("regions").at(0);
   const json& bulk = r.at("regions").at(1);
   EXPECT_EQ(toe.at("region"), "toe");

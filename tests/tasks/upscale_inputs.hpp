@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "engine/task.hpp"
+#include "method/sites.hpp"
 #include "tasks/upscale.hpp"
 
 namespace millflow::tasks::testing {
@@ -16,14 +17,15 @@ using nlohmann::json;
 
 inline json site(const std::string& id, const std::string& region, double weight,
                  double macro_shear_stress) {
-  return {{"site_id", id},
-          {"region", region},
-          {"position_m", {0.1, -0.2}},
-          {"weight_m3", weight},
-          {"solid_volume_m3", 0.6 * weight},
-          {"shear_rate_per_s", 5.0},
-          {"normal_stress_pa", 2000.0},
-          {"shear_stress_pa", macro_shear_stress}};
+  return method::Site{.site_id = id,
+                      .region = region,
+                      .x = 0.1,
+                      .y = -0.2,
+                      .weight_m3 = weight,
+                      .solid_volume_m3 = 0.6 * weight,
+                      .shear_rate = 5.0,
+                      .normal_stress = 2000.0,
+                      .shear_stress = macro_shear_stress};
 }
 
 struct CellValues {

@@ -13,9 +13,9 @@
 #include <vector>
 
 #include "engine/task.hpp"
-#include "tasks/sites.hpp"
+#include "method/sites.hpp"
 
-namespace millflow::tasks::report {
+namespace millflow::report {
 
 struct RegionSection {
   std::vector<std::pair<std::string, std::string>> files;  // name, SVG text, by fill and speed
@@ -27,6 +27,6 @@ struct RegionSection {
 // without sites inputs. Throws std::invalid_argument naming a sites task whose average task has
 // no flow map.
 RegionSection region_section(const std::vector<engine::TaskInput>& inputs,
-                             const std::map<std::string, FlowMap>& flow_maps);
+                             const std::map<std::string, method::FlowMap>& flow_maps);
 
-}  // namespace millflow::tasks::report
+}  // namespace millflow::report

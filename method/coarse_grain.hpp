@@ -49,9 +49,9 @@
 #include <vector>
 
 #include "dem/flow_sample.hpp"
-#include "tasks/cross_section_grid.hpp"
+#include "method/cross_section_grid.hpp"
 
-namespace millflow::tasks {
+namespace millflow::method {
 
 inline constexpr std::size_t kParallelSegments = 4;
 
@@ -119,4 +119,4 @@ CoarseFields coarse_grain(const CoarseGrainSettings& settings, std::size_t segme
 // collision_frequency_per_m3_s.<name>, dissipation_w_m3.<name>.
 std::vector<CellArray> cell_arrays(const CoarseFields& fields);
 
-}  // namespace millflow::tasks
+}  // namespace millflow::method

@@ -1,4 +1,5 @@
-#include "tasks/report_inputs.hpp"
+#include "report/report_inputs.hpp"
+#include "method/fields_file.hpp"
 
 #include <fmt/format.h>
 
@@ -7,7 +8,7 @@
 #include <stdexcept>
 #include <tuple>
 
-namespace millflow::tasks::report {
+namespace millflow::report {
 namespace {
 
 using nlohmann::json;
@@ -112,7 +113,7 @@ void read_spectra(const FieldReader& in, UpscalePoint& point) {
     in.refuse("/spectra/media_rate_per_s", fmt::format("does not hold {} bins", bins));
 }
 
-FlowMap read_flow_map(const engine::TaskInput& average) {
+method::FlowMap read_flow_map(const engine::TaskInput& average) {
   const std::string owner = fmt::format("average task {}", average.key);
   const auto artifact = average.artifacts.find("fields.json");
   if (artifact == average.artifacts.end()) {
@@ -123,7 +124,7 @@ FlowMap read_flow_map(const engine::TaskInput& average) {
     throw std::invalid_argument(
         fmt::format("{}: cannot read {}", owner, artifact->second.string()));
   try {
-    return flow_map_from_document(json::parse(file));
+    return method::flow_map_from_document(json::parse(file));
   } catch (const std::exception& error) {
     throw std::invalid_argument(fmt::format("{}: fields.json: {}", owner, error.what()));
   }
@@ -219,4 +220,4 @@ ReportInputs read_report_inputs(const std::vector<engine::TaskInput>& inputs) {
   return report;
 }
 
-}  // namespace millflow::tasks::report
+}  // namespace millflow::report

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-namespace millflow::tasks {
+namespace millflow::method {
 
 // nx x ny square-ish cells over [-half_width, half_width]^2; cell (i, j) has index j * nx + i, so
 // rows of constant y are contiguous (the order VTK image data uses).
@@ -43,4 +43,4 @@ struct CellArray {
   std::vector<double> values;
 };
 
-}  // namespace millflow::tasks
+}  // namespace millflow::method

@@ -1,4 +1,4 @@
-#include "tasks/svg_plot.hpp"
+#include "report/svg_plot.hpp"
 
 #include <fmt/format.h>
 
@@ -9,7 +9,7 @@
 #include <optional>
 #include <stdexcept>
 
-namespace millflow::tasks::svg {
+namespace millflow::report::svg {
 namespace {
 
 // Exact for |exponent| <= 22 (every such power of ten is a double).
@@ -502,7 +502,7 @@ Figure heat_map(const HeatMap& map) {
   constexpr double kSide = 300, kLeft = 60, kTop = 36, kBarX = kLeft + kSide + 20, kBarWidth = 16;
   constexpr double kTickFont = 10, kHeight = kTop + kSide + 46;
   constexpr int kBarSteps = 32;
-  const CrossSectionGrid& grid = map.grid;
+  const method::CrossSectionGrid& grid = map.grid;
   if (grid.nx < 1 || grid.ny < 1 || !(grid.half_width > 0.0) || map.values.size() != grid.size() ||
       (!map.blank.empty() && map.blank.size() != grid.size())) {
     throw std::invalid_argument(fmt::format(
@@ -592,7 +592,7 @@ Figure heat_map(const HeatMap& map) {
 Figure category_map(const CategoryMap& map) {
   constexpr double kSide = 300, kLeft = 16, kTop = 36, kLegendX = kLeft + kSide + 24;
   constexpr double kWidth = kLegendX + 130, kHeight = kTop + kSide + 24;
-  const CrossSectionGrid& grid = map.grid;
+  const method::CrossSectionGrid& grid = map.grid;
   const auto categories = static_cast<int>(map.names.size());
   if (grid.nx < 1 || grid.ny < 1 || !(grid.half_width > 0.0) ||
       map.category.size() != grid.size() ||
@@ -690,4 +690,4 @@ Figure panel_grid(const std::vector<Figure>& panels, int columns, const std::str
   return {width, height, out + "</svg>\n"};
 }
 
-}  // namespace millflow::tasks::svg
+}  // namespace millflow::report::svg

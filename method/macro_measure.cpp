@@ -1,4 +1,4 @@
-#include "tasks/macro_measure.hpp"
+#include "method/macro_measure.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 
 #include <fmt/format.h>
 
-namespace millflow::tasks {
+namespace millflow::method {
 namespace {
 
 constexpr double kSpectrumMin = 1e-12, kSpectrumMax = 1e4;
@@ -305,4 +305,4 @@ nlohmann::json FrameMeans::to_json(double omega) const {
           {"drive_power_w", total * omega}};
 }
 
-}  // namespace millflow::tasks
+}  // namespace millflow::method

@@ -13,7 +13,7 @@
 #include "dem/system.hpp"
 #include "dem/wall_geometry.hpp"
 
-namespace millflow::tasks {
+namespace millflow::method {
 
 // Power drawn by the shell, P = -torque_z(shell) x omega, every step. The mean is over every
 // step of the window; the time series holds block means of `block_steps` steps (about 200 per
@@ -143,4 +143,4 @@ std::vector<dem::CollisionEvent> read_events(dem::BinaryReader& in);
 // A histogram's bin counts, underflow and overflow (the bin edges are shared and written once).
 nlohmann::json histogram_json(const dem::LogHistogram& h);
 
-}  // namespace millflow::tasks
+}  // namespace millflow::method

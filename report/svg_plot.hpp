@@ -20,9 +20,9 @@
 #include <string_view>
 #include <vector>
 
-#include "tasks/cross_section_grid.hpp"
+#include "method/cross_section_grid.hpp"
 
-namespace millflow::tasks::svg {
+namespace millflow::report::svg {
 
 enum class Scale { linear, log };
 
@@ -118,7 +118,7 @@ struct MapMarker {
 struct HeatMap {
   std::string title{};
   std::string quantity{};  // colour-bar label with unit
-  CrossSectionGrid grid{};
+  method::CrossSectionGrid grid{};
   std::vector<double> values{};  // grid.size(), index j * nx + i
   Scale scale = Scale::linear;
   std::vector<MapMarker> markers{};
@@ -141,7 +141,7 @@ struct MapDisc {
 
 struct CategoryMap {
   std::string title{};
-  CrossSectionGrid grid{};
+  method::CrossSectionGrid grid{};
   std::vector<int> category{};  // grid.size()
   std::vector<std::string> names{};
   std::vector<MapMarker> markers{};
@@ -155,4 +155,4 @@ Figure category_map(const CategoryMap& map);
 inline constexpr double kPanelGap = 24;
 Figure panel_grid(const std::vector<Figure>& panels, int columns, const std::string& title);
 
-}  // namespace millflow::tasks::svg
+}  // namespace millflow::report::svg

@@ -1,4 +1,4 @@
-#include "tasks/report_regions.hpp"
+#include "report/report_regions.hpp"
 
 #include <fmt/format.h>
 
@@ -6,9 +6,9 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "tasks/svg_plot.hpp"
+#include "report/svg_plot.hpp"
 
-namespace millflow::tasks::report {
+namespace millflow::report {
 namespace {
 
 using nlohmann::json;
@@ -17,21 +17,21 @@ std::string number(const json& value) {
   return value.is_number() ? fmt::format("{:.4g}", value.get<double>()) : "n/a";
 }
 
-ChargeAngles angles_of(const json& sites) {
+method::ChargeAngles angles_of(const json& sites) {
   auto angle = [&](const char* key) {
     return sites.at(key).is_number() ? std::optional(sites.at(key).get<double>()) : std::nullopt;
   };
   return {.toe_deg = angle("toe_angle_deg"), .shoulder_deg = angle("shoulder_angle_deg")};
 }
 
-svg::Figure region_map(const std::string& title, const FlowMap& map, const json& sites) {
-  const ChargeAngles angles = angles_of(sites);
-  const Classification regions =
-      classify_regions(map, region_rules_from_json(sites.at("rules")), angles);
+svg::Figure region_map(const std::string& title, const method::FlowMap& map, const json& sites) {
+  const method::ChargeAngles angles = angles_of(sites);
+  const method::Classification regions =
+      method::classify_regions(map, sites.at("rules").get<method::RegionRules>(), angles);
   svg::CategoryMap figure{.title = title,
                           .grid = map.grid,
                           .category = regions.region_of_cell,
-                          .names = region_names()};
+                          .names = method::region_names()};
   if (regions.toe) {
     figure.discs.push_back({.x = regions.toe->x,
                             .y = regions.toe->y,
@@ -118,7 +118,7 @@ std::string left_out_rows(const json& upscale) {
 }  // namespace
 
 RegionSection region_section(const std::vector<engine::TaskInput>& inputs,
-                             const std::map<std::string, FlowMap>& flow_maps) {
+                             const std::map<std::string, method::FlowMap>& flow_maps) {
   // Sites tasks by fill and speed, and the sensitivity of each of their upscales by load.
   std::map<std::pair<double, double>, const engine::TaskInput*> sites_tasks;
   std::map<std::string, std::map<double, json>> sensitivity;
@@ -187,4 +187,4 @@ RegionSection region_section(const std::vector<engine::TaskInput>& inputs,
   return section;
 }
 
-}  // namespace millflow::tasks::report
+}  // namespace millflow::report

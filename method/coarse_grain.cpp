@@ -1,4 +1,4 @@
-#include "tasks/coarse_grain.hpp"
+#include "method/coarse_grain.hpp"
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
@@ -9,7 +9,9 @@
 #include <numbers>
 #include <stdexcept>
 
-namespace millflow::tasks {
+#include "util/sphere.hpp"
+
+namespace millflow::method {
 namespace {
 
 using Eigen::Vector3d;
@@ -129,10 +131,6 @@ struct Sums {
   }
 };
 
-double sphere_volume(double radius) {
-  return 4.0 / 3.0 * std::numbers::pi * radius * radius * radius;
-}
-
 // Pass 1: mass, volume, momentum, contact stress and collision events of one frame.
 class FirstPass {
  public:
@@ -149,7 +147,7 @@ class FirstPass {
  private:
   void add_particles(const dem::FlowFrame& frame, Sums& sums) {
     for (std::size_t p = 0; p < frame.position.size(); ++p) {
-      const double volume = sphere_volume(frame.radius[p]);
+      const double volume = util::sphere_volume_of_radius(frame.radius[p]);
       const double mass = settings_.media_density * volume;
       const Vector3d momentum = mass * to_vector(frame.velocity[p]);
       sums.particle_volume += volume;
@@ -216,7 +214,7 @@ class SecondPass {
   void add(const dem::FlowFrame& frame, Sums& sums) {
     const double area = settings_.grid.cell_area();
     for (std::size_t p = 0; p < frame.position.size(); ++p) {
-      const double mass = settings_.media_density * sphere_volume(frame.radius[p]);
+      const double mass = settings_.media_density * util::sphere_volume_of_radius(frame.radius[p]);
       kernel_.evaluate(frame.position[p][0], frame.position[p][1], footprint_);
       Vector3d local_mean = Vector3d::Zero();
       for (std::size_t k = 0; k < footprint_.cells.size(); ++k) {
@@ -470,4 +468,4 @@ std::vector<CellArray> cell_arrays(const CoarseFields& f) {
   return out;
 }
 
-}  // namespace millflow::tasks
+}  // namespace millflow::method

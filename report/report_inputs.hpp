@@ -1,8 +1,8 @@
 #pragma once
 // The inputs of the `report` task, read from its upstream tasks by kind: every "upscale" task's
-// result (the contract in /work/upscale-contract.md, written by tasks/upscale), the
+// result (tasks/upscale.hpp says what it holds), the
 // fields.json artifact of every "average" task an upscale names, and every "macro" task's charge
-// shape and collision spectra (tasks/macro.hpp). Points are sorted by fill, speed
+// shape and collision spectra (method/macro_run.hpp). Points are sorted by fill, speed
 // fraction, powder load (then task key), so the report is the same whatever the input order.
 //
 // A missing or ill-typed value throws std::invalid_argument naming the task kind and key, the
@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "engine/task.hpp"
-#include "tasks/sites.hpp"
+#include "method/sites.hpp"
 
-namespace millflow::tasks::report {
+namespace millflow::report {
 
 struct RegionResult {
   std::string region{};
@@ -84,13 +84,13 @@ struct MacroRun {
 MacroRun read_macro(const std::string& task_key, const nlohmann::json& result);
 
 struct ReportInputs {
-  std::vector<UpscalePoint> points{};        // sorted (see above)
-  std::map<std::string, FlowMap> flow_maps;  // by average task key
-  std::vector<MacroRun> macro_runs{};        // by fill, speed fraction (then task key)
+  std::vector<UpscalePoint> points{};                // sorted (see above)
+  std::map<std::string, method::FlowMap> flow_maps;  // by average task key
+  std::vector<MacroRun> macro_runs{};                // by fill, speed fraction (then task key)
 };
 
 // Throws std::invalid_argument when there is no upscale input, an upscale names an average task
 // that is not an input, or an average input has no readable fields.json.
 ReportInputs read_report_inputs(const std::vector<engine::TaskInput>& inputs);
 
-}  // namespace millflow::tasks::report
+}  // namespace millflow::report

@@ -4,13 +4,13 @@
 #include <filesystem>
 #include <span>
 
-#include "tasks/cross_section_grid.hpp"
+#include "method/cross_section_grid.hpp"
 
-namespace millflow::tasks {
+namespace millflow::method {
 
 // Throws std::invalid_argument for an array whose size is not cells x components, and
 // std::system_error when the file cannot be written.
 void write_vtk_image(const std::filesystem::path& file, const CrossSectionGrid& grid,
                      std::span<const CellArray> arrays);
 
-}  // namespace millflow::tasks
+}  // namespace millflow::method

@@ -1,4 +1,4 @@
-#include "tasks/vtk_image.hpp"
+#include "method/vtk_image.hpp"
 
 #include <fmt/format.h>
 
@@ -8,7 +8,7 @@
 
 #include "util/durable_file.hpp"
 
-namespace millflow::tasks {
+namespace millflow::method {
 
 void write_vtk_image(const std::filesystem::path& file, const CrossSectionGrid& grid,
                      std::span<const CellArray> arrays) {
@@ -47,4 +47,4 @@ void write_vtk_image(const std::filesystem::path& file, const CrossSectionGrid& 
   util::write_file_durably(file, text);
 }
 
-}  // namespace millflow::tasks
+}  // namespace millflow::method
