@@ -83,6 +83,19 @@ const ShearCellSetup& checked(const ShearCellSetup& s) {
 
 }  // namespace
 
+ShearCellPopulation shear_cell_population(const ShearCellSetup& s) {
+  ShearCellPopulation population{.media = media_count_for(s),
+                                 .powder = powder_count_for(s),
+                                 .solid_fraction = nominal_solid_fraction(s),
+                                 .placement_height = placement_height(s)};
+  if (s.boundary == ShearCellSetup::Boundary::RoughWalls) {
+    const Vec3 length = make_domain(s).length();
+    population.wall_balls = 2 * wall_layer_columns(length.x(), s.media_diameter) *
+                            wall_layer_columns(length.z(), s.media_diameter);
+  }
+  return population;
+}
+
 void validate(const ShearCellSetup& s) {
   require(s.media_diameter > 0.0 && std::isfinite(s.media_diameter),
           fmt::format("media diameter = {} m must be > 0", s.media_diameter));

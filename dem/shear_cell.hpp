@@ -88,6 +88,16 @@ void validate(const ShearCellSetup& setup);
 
 // Size-scaled stiffness (k_n ~ E d, a model choice): the stiffness of a pair of diameters d_a,
 // d_b is k_ref * d_eff / d_ref with d_eff = 2 d_a d_b / (d_a + d_b) the harmonic-mean diameter.
+// The particles a cell of this setup is built with (ShearCell's constructor places exactly
+// these) and the height of its loose fill before compaction: what a cost estimate needs before
+// any cell exists.
+struct ShearCellPopulation {
+  std::size_t media = 0, powder = 0, wall_balls = 0;
+  double solid_fraction = 0.0;    // media and powder in the nominal gap
+  double placement_height = 0.0;  // m
+};
+ShearCellPopulation shear_cell_population(const ShearCellSetup& setup);
+
 double size_scaled_stiffness(double reference_stiffness, double reference_diameter,
                              double diameter_a, double diameter_b);
 

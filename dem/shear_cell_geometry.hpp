@@ -3,6 +3,7 @@
 // geometry derived from its setup, and the constants more than one of its jobs uses.
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <numbers>
 #include <stdexcept>
@@ -43,11 +44,20 @@ inline double powder_diameter(const ShearCellSetup& s) {
   return s.powder_diameter_ratio * s.media_diameter;
 }
 
+// Wall balls along one side of length `length` of a wall layer: kWallBallSpacing apart or closer.
+inline std::size_t wall_layer_columns(double length, double media_diameter) {
+  return static_cast<std::size_t>(std::ceil(length / (kWallBallSpacing * media_diameter)));
+}
+
 // Height of the particle bed when it is filled at kPlacementSolidFraction.
+// Solid fraction of media and powder together in the nominal gap.
+inline double nominal_solid_fraction(const ShearCellSetup& s) {
+  return s.media_solid_fraction +
+         s.powder_load * (1.0 - s.media_solid_fraction) * s.powder_bed_solid_fraction;
+}
+
 inline double placement_height(const ShearCellSetup& s) {
-  const double solid = s.media_solid_fraction +
-                       s.powder_load * (1.0 - s.media_solid_fraction) * s.powder_bed_solid_fraction;
-  return std::max(1.0, solid / kPlacementSolidFraction) * nominal_gap(s);
+  return std::max(1.0, nominal_solid_fraction(s) / kPlacementSolidFraction) * nominal_gap(s);
 }
 
 // Height between the wall ball centre planes at which the walled cell is filled.

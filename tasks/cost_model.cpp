@@ -12,15 +12,12 @@
 #include "dem/mill_setup.hpp"
 #include "tasks/macro_setup.hpp"
 #include "tasks/shear_cell.hpp"
+#include "util/sphere.hpp"
 
 namespace millflow::tasks {
 namespace {
 
 using nlohmann::json;
-
-double sphere_volume(double diameter) {
-  return std::numbers::pi / 6.0 * diameter * diameter * diameter;
-}
 
 double contact_duration(const dem::InteractionSpec& spec, double effective_mass) {
   return dem::collision_duration(spec.normal_stiffness, effective_mass,
@@ -111,7 +108,7 @@ std::string range(double low, double high) {
 }  // namespace
 
 MacroRunSize macro_run_size(const json& macro_params) {
-  const MacroSettings settings = macro_settings(macro_params, "");
+  const method::MacroSettings settings = macro_settings(macro_params, "");
   const dem::MillSetup& mill = settings.mill;
   MacroRunSize size;
   const auto counts = dem::balls_per_class(mill);
@@ -121,7 +118,7 @@ MacroRunSize macro_run_size(const json& macro_params) {
     size.balls += counts[c];
     if (counts[c] > 0) smallest = std::min(smallest, classes[c].diameter);
   }
-  const double lightest = mill.media.density * sphere_volume(smallest);
+  const double lightest = mill.media.density * util::sphere_volume_of_diameter(smallest);
   const double contact = std::min(contact_duration(mill.ball_ball, 0.5 * lightest),
                                   contact_duration(mill.ball_liner, lightest));
   size.time_step_s = contact / settings.steps_per_collision;
@@ -144,7 +141,7 @@ TaskCost macro_cost(const json& macro_params) {
 }
 
 json typical_site(const json& macro_params, const std::string& region) {
-  const MacroSettings settings = macro_settings(macro_params, "");
+  const method::MacroSettings settings = macro_settings(macro_params, "");
   const dem::MillSetup& mill = settings.mill;
   const double diameter = 2.0 * mill.shell.radius;
   const double omega = mill.speed_fraction *
@@ -159,24 +156,15 @@ ShearCellSize shear_cell_size(const json& cell_params, const json& site) {
   dem::ShearCellSetup setup = shear_cell_setup(cell_params, site, "");
   apply_stiffness_policy(cell_params, setup);
   const double d = setup.media_diameter, d_p = setup.powder_diameter_ratio * d;
-  const double area = setup.size_diameters.x() * setup.size_diameters.z() * d * d;
   const double height = setup.size_diameters.y() * d;
+  const dem::ShearCellPopulation population = dem::shear_cell_population(setup);
   ShearCellSize size;
-  size.media = static_cast<std::size_t>(
-      std::llround(setup.media_solid_fraction * area * height / sphere_volume(d)));
-  size.powder = static_cast<std::size_t>(
-      std::llround(setup.powder_load * (1.0 - setup.media_solid_fraction) * area * height *
-                   setup.powder_bed_solid_fraction / sphere_volume(d_p)));
+  size.media = population.media;
+  size.powder = population.powder;
+  size.wall_balls = population.wall_balls;
   const bool walls = setup.boundary == dem::ShearCellSetup::Boundary::RoughWalls;
-  if (walls) {
-    constexpr double kWallBallSpacing = 0.5;  // dem/shear_cell.cpp's lattice, in diameters
-    // In metres, as the cell counts them (3 d / 0.5 d can round up to 7 there).
-    size.wall_balls = 2 * static_cast<std::size_t>(
-                              std::ceil(setup.size_diameters.x() * d / (kWallBallSpacing * d)) *
-                              std::ceil(setup.size_diameters.z() * d / (kWallBallSpacing * d)));
-  }
-  const double media_mass = setup.media.density * sphere_volume(d);
-  const double powder_mass = setup.powder.density * sphere_volume(d_p);
+  const double media_mass = setup.media.density * util::sphere_volume_of_diameter(d);
+  const double powder_mass = setup.powder.density * util::sphere_volume_of_diameter(d_p);
   const double media_contact = contact_duration(setup.media_media, 0.5 * media_mass);
   double shortest = media_contact;
   if (walls) shortest = std::min(shortest, contact_duration(setup.media_media, media_mass));
@@ -200,14 +188,11 @@ ShearCellSize shear_cell_size(const json& cell_params, const json& site) {
                              strain_step;
   // Compaction: the barostat (or the servo) closes the loose fill at its speed limit
   // gain x d / ((H / d) t_c,media).
-  const double solid = setup.media_solid_fraction + setup.powder_load *
-                                                        (1.0 - setup.media_solid_fraction) *
-                                                        setup.powder_bed_solid_fraction;
-  const double placement_height = std::max(1.0, solid / 0.3) * height;
-  const double compacted_height = std::max(1.0, solid / kCompactedSolidFraction) * height;
+  const double compacted_height =
+      std::max(1.0, population.solid_fraction / kCompactedSolidFraction) * height;
   const double speed_limit = setup.servo_gain * d / ((height / d) * media_contact);
-  size.compaction_steps =
-      std::max(0.0, placement_height - compacted_height) / speed_limit / size.time_step_s;
+  size.compaction_steps = std::max(0.0, population.placement_height - compacted_height) /
+                          speed_limit / size.time_step_s;
   return size;
 }
 

@@ -53,7 +53,7 @@ TEST(CostModel, MacroBallsAndTimeStepAreTheMillSetUpsOwn) {
   for (const char* file : {"campaigns/quick.json", "tests/tasks/good_campaigns/minimal.json"}) {
     const json params = tasks::macro_params(first_point(file));
     const tasks::MacroRunSize size = tasks::macro_run_size(params);
-    const tasks::MacroSettings settings = tasks::macro_settings(params, "macro");
+    const method::MacroSettings settings = tasks::macro_settings(params, "macro");
     dem::System mill = dem::build_mill(settings.mill);
     mill.set_time_step_from_collisions(settings.steps_per_collision);
     EXPECT_EQ(size.balls, mill.size()) << file;
