@@ -103,10 +103,10 @@ class InsertionGrid {
 void ShearCell::place_wall_layer(GroupId group, double y) {
   const double d = setup_.media_diameter;
   const Vec3 length = system_.domain().length();
-  const int nx = static_cast<int>(std::ceil(length.x() / (kWallBallSpacing * d)));
-  const int nz = static_cast<int>(std::ceil(length.z() / (kWallBallSpacing * d)));
-  for (int i = 0; i < nx; ++i) {
-    for (int k = 0; k < nz; ++k) {
+  const std::size_t nx = wall_layer_columns(length.x(), d);
+  const std::size_t nz = wall_layer_columns(length.z(), d);
+  for (std::size_t i = 0; i < nx; ++i) {
+    for (std::size_t k = 0; k < nz; ++k) {
       const double height = y + kWallBallJitter * d * system_.rng().uniform(-1.0, 1.0);
       const Vec3 x((i + 0.5) * length.x() / nx, height, (k + 0.5) * length.z() / nz);
       system_.add_particle(
@@ -171,13 +171,25 @@ void ShearCell::place_media_lattice() {
               setup_.size_diameters.x(), setup_.size_diameters.y(), setup_.size_diameters.z(),
               sites.size(), media_count_, setup_.media_solid_fraction));
   Rng& rng = system_.rng();
+  // The imposed profile plus a random velocity of a tenth of the shear velocity across one ball,
+  // without net momentum: the lattice's z-planes can lie exactly d apart (cells 2-2.8 d or
+  // 4-4.2 d deep), and a fill moving only in the x-y plane would then shear for ever as a stack
+  // of 2-D layers (p_zz = 0).
+  const double agitation = 0.1 * setup_.shear_rate * d;
+  std::vector<Vec3> agitations(media_count_);
+  Vec3 mean_agitation = Vec3::Zero();
   for (std::size_t n = 0; n < media_count_; ++n) {  // partial Fisher-Yates shuffle
     const std::size_t pick =
         n + static_cast<std::size_t>(rng.uniform() * static_cast<double>(sites.size() - n));
     std::swap(sites[n], sites[pick]);
-    const double y_mid = system_.domain().lo.y() + 0.5 * length.y();
-    const Vec3 velocity(setup_.shear_rate * (sites[n].y() - y_mid), 0.0,
-                        0.0);  // the imposed profile
+    agitations[n] =
+        agitation * Vec3(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0));
+    mean_agitation += agitations[n] / static_cast<double>(media_count_);
+  }
+  const double y_mid = system_.domain().lo.y() + 0.5 * length.y();
+  for (std::size_t n = 0; n < media_count_; ++n) {
+    const Vec3 velocity =
+        Vec3(setup_.shear_rate * (sites[n].y() - y_mid), 0.0, 0.0) + agitations[n] - mean_agitation;
     system_.add_particle(
         {.position = sites[n], .velocity = velocity, .radius = 0.5 * d, .material = media_});
   }

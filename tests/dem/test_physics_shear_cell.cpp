@@ -29,6 +29,23 @@ class ShearCellPhysics : public ::testing::Test {
   void SetUp() override { spdlog::set_level(spdlog::level::warn); }
 };
 
+// A Lees-Edwards cell 4 d deep along z: its FCC lattice has its z-planes exactly d apart, and a
+// fill moving only in the x-y plane would shear as a stack of 2-D layers with p_zz = 0 for ever.
+TEST_F(ShearCellPhysics, LeesEdwardsCellFourDiametersDeepShearsInThreeDimensions) {
+  ShearCellSetup setup = small_shear_cell(0.1);
+  setup.boundary = ShearCellSetup::Boundary::LeesEdwards;
+  setup.size_diameters = Vec3(4, 4, 4);
+  setup.media_media.normal_stiffness = 1e4 * setup.normal_stress * setup.media_diameter;
+  ShearCell cell(setup);
+  cell.compact();
+  cell.warm_up(2.0, 2);
+  const ShearCellMeasurements m = cell.measure(1.0);
+  const double p_yy = m.stress_tensor[1], p_zz = m.stress_tensor[2];
+  ASSERT_GT(p_yy, 0.0);
+  // Sheared spheres carry comparable normal stresses on every axis (p_zz / p_yy ~ 0.7-1).
+  EXPECT_GT(p_zz / p_yy, 0.4) << "p_zz = " << p_zz << " Pa, p_yy = " << p_yy << " Pa";
+}
+
 TEST_F(ShearCellPhysics, ServoHoldsTheNormalStressAndTheEnergyBalanceCloses) {
   ShearCellSetup setup = small_shear_cell(0.1);
   // The integrator's energy error is first order in dt here (1.0%, 0.55%, 0.27% at 20, 40, 80
