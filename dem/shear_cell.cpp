@@ -31,14 +31,16 @@ double contact_virial(const System& system, int row, int col) {
 constexpr std::uint64_t kReorderEverySteps = 1000;
 
 std::size_t media_count_for(const ShearCellSetup& s) {
-  return static_cast<std::size_t>(std::llround(s.media_solid_fraction * cell_area(s) *
-                                               nominal_gap(s) / sphere_volume(s.media_diameter)));
+  return static_cast<std::size_t>(
+      std::llround(s.media_solid_fraction * cell_area(s) * nominal_gap(s) /
+                   sphere_volume_of_diameter(s.media_diameter)));
 }
 
 std::size_t powder_count_for(const ShearCellSetup& s) {
   const double solid = s.powder_load * (1.0 - s.media_solid_fraction) * cell_area(s) *
                        nominal_gap(s) * s.powder_bed_solid_fraction;
-  return static_cast<std::size_t>(std::llround(solid / sphere_volume(powder_diameter(s))));
+  return static_cast<std::size_t>(
+      std::llround(solid / sphere_volume_of_diameter(powder_diameter(s))));
 }
 
 MaterialTable make_materials(const ShearCellSetup& s) {

@@ -10,8 +10,11 @@
 #include <string>
 
 #include "dem/shear_cell.hpp"
+#include "util/sphere.hpp"
 
 namespace millflow::dem::shear_cell_detail {
+
+using util::sphere_volume_of_diameter;
 
 // Solid fraction at which the walled cell is first filled: random sequential addition jams near
 // 0.38, so particles go into a taller, looser cell that the servo then compresses.
@@ -25,10 +28,6 @@ inline constexpr double kWallBallJitter = 0.25;
 // First guess of bulk / nominal shear rate (rough walls slip, the bulk at ~40% of nominal:
 // docs/method.md).
 inline constexpr double kInitialBulkFraction = 0.5;
-
-inline double sphere_volume(double diameter) {
-  return std::numbers::pi / 6.0 * diameter * diameter * diameter;
-}
 
 inline void require(bool ok, const std::string& message) {
   if (!ok) throw std::invalid_argument("shear cell: " + message);

@@ -24,7 +24,7 @@ constexpr double kRelaxationStrain = 0.1;
 std::unique_ptr<StressControl> ShearCell::make_stress_control() const {
   const double d = setup_.media_diameter, gap = nominal_gap(setup_);
   const PairParams& media = system_.materials().pair(media_, media_);
-  const double media_mass = setup_.media.density * sphere_volume(d);
+  const double media_mass = setup_.media.density * sphere_volume_of_diameter(d);
   const double t_c =
       collision_duration(media.normal_stiffness, 0.5 * media_mass, media.damping_ratio);
   const double crossing_time = (gap / d) * t_c;

@@ -1,5 +1,7 @@
 #include "dem/system.hpp"
 
+#include "util/sphere.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -94,7 +96,7 @@ ParticleId System::add_particle(const ParticleSpec& spec) {
     throw std::invalid_argument(fmt::format("particle {}: group {} is not defined ({} groups)", id,
                                             spec.group, groups_.size()));
   }
-  const double volume = 4.0 / 3.0 * std::numbers::pi * spec.radius * spec.radius * spec.radius;
+  const double volume = util::sphere_volume_of_radius(spec.radius);
   const double mass = materials_.material(spec.material).density * volume;
   const bool free = spec.group == kFreeParticle;
   Vec3 position = spec.position, velocity = free ? spec.velocity : groups_[spec.group - 1].velocity;
