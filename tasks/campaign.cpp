@@ -341,7 +341,9 @@ std::vector<engine::FieldRule> micro_fields() {
             "whether the campaign runs the microscale shear cells below its sites (false stops at "
             "the sites)")
           .defaults(true),
-      Field("/shear_cell/boundary", FieldType::enumeration, "boundaries in the gradient direction")
+      Field("/shear_cell/boundary", FieldType::enumeration,
+            "boundaries in the gradient direction; \"walls\" (rough walls) fails validation at "
+            "realistic stiffness and is for testing only (docs/cell_validation.md)")
           .defaults("lees_edwards")
           .choices({"walls", "lees_edwards"}),
       Field("/shear_cell/size_diameters", FieldType::array,
