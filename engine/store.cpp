@@ -834,6 +834,13 @@ std::optional<ViewRows> find_campaign_view_rows(sql::Connection& db, const std::
   return found;
 }
 
+std::optional<CoordinatorRecord> find_coordinator(sql::Connection& db) {
+  if (db.user_version() == 0) return std::nullopt;
+  auto row = db.prepare("SELECT pid, host, started_at, coalesce(campaign, '') FROM coordinator");
+  if (!row.step()) return std::nullopt;
+  return CoordinatorRecord{row.integer(0), row.text(1), row.real(2), row.text(3)};
+}
+
 QueryRows run_read_only_query(sql::Connection& db, const fs::path& db_path,
                               const std::string& sql_text) {
   std::optional<sql::Statement> statement;

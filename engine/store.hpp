@@ -247,6 +247,16 @@ struct ViewRows {
 std::optional<ViewRows> find_campaign_view_rows(sql::Connection& db, const std::string& view,
                                                 std::int64_t campaign);
 
+// The coordinator row (engine/coordinator_lock.hpp); none when no coordinator ever held the
+// database or when the file has no schema yet (a first submit that died before creating it).
+struct CoordinatorRecord {
+  std::int64_t pid = 0;
+  std::string host;
+  double started_at = 0;
+  std::string campaign;
+};
+std::optional<CoordinatorRecord> find_coordinator(sql::Connection& db);
+
 // `millflow query`: runs one read-only statement of the user's and returns every row. A
 // statement SQLite cannot prepare, or one that would write, is InvalidInput.
 struct QueryValue {
