@@ -27,13 +27,12 @@ std::optional<CoordinatorRow> coordinator_row(const std::filesystem::path& db) {
   // Not open_read_only: a database whose first submit died before creating the schema is one to
   // submit to again, not an error.
   sql::Connection connection(db, sql::Access::read_only);
-  if (connection.user_version() == 0) return std::nullopt;
-  auto row =
-      connection.prepare("SELECT pid, host, started_at, coalesce(campaign, '') FROM coordinator");
-  if (!row.step()) return std::nullopt;
-  return CoordinatorRow{row.integer(0),
-                        fmt::format("pid {} on {} since {} (campaign \"{}\")", row.integer(0),
-                                    row.text(1), iso8601_utc(row.real(2)), row.text(3))};
+  const auto coordinator = find_coordinator(connection);
+  if (!coordinator) return std::nullopt;
+  return CoordinatorRow{
+      coordinator->pid,
+      fmt::format("pid {} on {} since {} (campaign \"{}\")", coordinator->pid, coordinator->host,
+                  iso8601_utc(coordinator->started_at), coordinator->campaign)};
 }
 
 // Whether some process holds the flock of the database's lock file. Creates nothing.

@@ -26,24 +26,7 @@ namespace fs = std::filesystem;
 namespace {
 
 using Row = std::vector<std::string>;
-
-struct Table {
-  Row header;
-  std::vector<Row> rows;
-};
-
-Table read_table(sql::Statement& statement) {
-  Table table;
-  for (int column = 0; column < statement.columns(); ++column)
-    table.header.push_back(statement.column_name(column));
-  while (statement.step()) {
-    Row row;
-    for (int column = 0; column < statement.columns(); ++column)
-      row.push_back(statement.text(column));
-    table.rows.push_back(std::move(row));
-  }
-  return table;
-}
+using Table = TextTable;
 
 void print_csv(const Table& table, std::ostream& out) {
   auto print_row = [&](const Row& row) {
@@ -71,18 +54,18 @@ void print_aligned(const Table& table, std::ostream& out) {
   for (const auto& row : table.rows) print_row(row);
 }
 
-nlohmann::json cell_json(sql::Statement& statement, int column) {
-  switch (statement.column_type(column)) {
+nlohmann::json cell_json(const QueryValue& value) {
+  switch (value.type) {
     case SQLITE_NULL:
       return nullptr;
     case SQLITE_INTEGER:
-      return statement.integer(column);
+      return value.integer;
     case SQLITE_FLOAT:
-      return statement.real(column);
+      return value.real;
     default: {
       // Text holding a JSON object or array (params, result, json_extract of a nested value)
       // is answered as that JSON, not as a string of it.
-      std::string text = statement.text(column);
+      const std::string& text = value.text;
       if (!text.empty() && (text.front() == '{' || text.front() == '[')) {
         auto parsed = nlohmann::json::parse(text, nullptr, false);
         if (!parsed.is_discarded()) return parsed;
@@ -92,43 +75,13 @@ nlohmann::json cell_json(sql::Statement& statement, int column) {
   }
 }
 
-// A task's status as shown (t: tasks, r: results): "skipped" for a done task whose result says
-// it skipped its work (engine/runtime.hpp, RunSummary::skipped_their_work).
-std::string shown_status_sql() {
-  return "CASE WHEN t.status = 'done' AND json_extract(r.result, '$.skipped') IS NOT NULL THEN "
-         "'skipped' ELSE t.status END";
-}
-
 std::int64_t campaign_id(sql::Connection& db, const std::string& name) {
-  auto row = db.prepare("SELECT id FROM campaigns WHERE name = ?");
-  row.bind_all(name);
-  if (!row.step()) {
+  const auto id = find_campaign_id(db, name);
+  if (!id) {
     throw InvalidInput({{"", "no campaign named \"" + name + "\"",
                          "run `millflow status` to list the campaigns"}});
   }
-  return row.integer(0);
-}
-
-std::vector<std::string> lineage(sql::Connection& db, const std::string& key, bool upward) {
-  auto next =
-      db.prepare(upward ? "SELECT upstream FROM edges WHERE downstream = ? ORDER BY position"
-                        : "SELECT downstream FROM edges WHERE upstream = ? ORDER BY downstream");
-  std::vector<std::string> found;
-  std::set<std::string> seen{key};
-  std::vector<std::string> frontier{key};
-  while (!frontier.empty()) {
-    const std::string current = frontier.back();
-    frontier.pop_back();
-    next.bind_all(current);
-    while (next.step()) {
-      const std::string other = next.text(0);
-      if (seen.insert(other).second) {
-        found.push_back(other);
-        frontier.push_back(other);
-      }
-    }
-  }
-  return found;
+  return *id;
 }
 
 std::string kind_and_status(sql::Connection& db, const std::string& key) {
@@ -140,15 +93,7 @@ std::string kind_and_status(sql::Connection& db, const std::string& key) {
 
 // The batch job of each task of the campaign that is not finished yet (latest attempt).
 void print_unfinished_jobs(sql::Connection& db, std::int64_t campaign, std::ostream& out) {
-  if (db.user_version() < 2) return;
-  auto rows = db.prepare(
-      "SELECT t.kind, substr(t.key, 1, 16) AS task, j.attempt, j.executor, j.job_id, j.state FROM "
-      "campaign_tasks ct "
-      "JOIN tasks t ON t.key = ct.task_key JOIN jobs j ON j.task_key = t.key AND j.attempt = "
-      "t.attempts "
-      "WHERE ct.campaign_id = ? AND t.status = 'running' ORDER BY j.job_id");
-  rows.bind_all(campaign);
-  const Table jobs = read_table(rows);
+  const Table jobs = unfinished_jobs(db, campaign);
   if (jobs.rows.empty()) return;
   out << "\nbatch jobs of running tasks:\n";
   print_aligned(jobs, out);
@@ -163,61 +108,35 @@ void print_status(const fs::path& db, const std::string& campaign, std::ostream&
   // A campaign left 'running' by a coordinator that died is shown as what it is.
   const bool running = coordinator && coordinator->alive;
   if (campaign.empty()) {
-    auto rows = connection.prepare(
-        "SELECT c.name AS campaign, CASE WHEN c.outcome = 'running' AND NOT ? THEN 'interrupted' "
-        "ELSE c.outcome END AS outcome, count(t.key) AS tasks, sum(t.status = 'done') AS "
-        "done, "
-        "sum(t.status = 'failed') AS failed, sum(t.status IN ('pending', 'running', "
-        "'interrupted')) AS to_run "
-        "FROM campaigns c LEFT JOIN campaign_tasks ct ON ct.campaign_id = c.id LEFT JOIN tasks t "
-        "ON t.key = ct.task_key "
-        "GROUP BY c.id ORDER BY c.submitted_at");
-    rows.bind_all(running ? 1 : 0);
-    print_aligned(read_table(rows), out);
+    print_aligned(campaign_summaries(connection, running), out);
     return;
   }
-  auto rows = connection.prepare(
-      "SELECT t.kind, " + shown_status_sql() +
-      " AS status, count(*) AS tasks FROM campaign_tasks ct JOIN tasks t ON t.key = "
-      "ct.task_key LEFT JOIN results r ON r.task_key = t.key "
-      "WHERE ct.campaign_id = ? GROUP BY t.kind, 2 ORDER BY t.kind, 2");
   const std::int64_t id = campaign_id(connection, campaign);
-  rows.bind_all(id);
-  print_aligned(read_table(rows), out);
+  print_aligned(campaign_status_counts(connection, id), out);
   print_unfinished_jobs(connection, id, out);
 }
 
 void run_query(const fs::path& db, const std::string& sql_text, TableFormat format,
                std::ostream& out) {
   auto connection = open_read_only(db);
-  std::optional<sql::Statement> statement;
-  try {
-    statement.emplace(connection.prepare(sql_text));
-  } catch (const sql::Error& error) {
-    if (is_damaged_database_error(error.what()))
-      throw InvalidInput(
-          {{"--db", damaged_database_problem(db, error.what()), damaged_database_fix(db)}});
-    throw InvalidInput(
-        {{"", error.what(),
-          "check the SQL; `millflow query \"SELECT name FROM sqlite_master\"` lists tables"}});
-  }
-  if (!statement->read_only()) {
-    throw InvalidInput(
-        {{"", "refused: the statement would modify the database",
-          "millflow query only reads; the store is written by millflow submit/resume alone"}});
-  }
+  const QueryRows result = run_read_only_query(connection, db, sql_text);
   if (format == TableFormat::json) {
     nlohmann::json rows = nlohmann::json::array();
-    while (statement->step()) {
+    for (const auto& values : result.rows) {
       nlohmann::json row = nlohmann::json::object();
-      for (int column = 0; column < statement->columns(); ++column)
-        row[statement->column_name(column)] = cell_json(*statement, column);
+      for (size_t column = 0; column < values.size(); ++column)
+        row[result.columns[column]] = cell_json(values[column]);
       rows.push_back(std::move(row));
     }
     out << rows.dump(2) << '\n';
     return;
   }
-  const Table table = read_table(*statement);
+  Table table{result.columns, {}};
+  for (const auto& values : result.rows) {
+    Row row;
+    for (const auto& value : values) row.push_back(value.text);
+    table.rows.push_back(std::move(row));
+  }
   if (format == TableFormat::csv)
     print_csv(table, out);
   else
@@ -225,11 +144,7 @@ void run_query(const fs::path& db, const std::string& sql_text, TableFormat form
 }
 
 std::string resolve_task(sql::Connection& db, const std::string& prefix) {
-  auto rows =
-      db.prepare("SELECT key FROM tasks WHERE key >= ? AND key < ? || 'g' ORDER BY key LIMIT 2");
-  rows.bind_all(prefix, prefix);
-  std::vector<std::string> keys;
-  while (rows.step()) keys.push_back(rows.text(0));
+  const std::vector<std::string> keys = find_task_keys_with_prefix(db, prefix, 2);
   if (prefix.empty() || keys.empty()) {
     throw InvalidInput({{"", "no task key starts with \"" + prefix + "\"",
                          "copy a key from `millflow status` or `millflow query`"}});
@@ -244,17 +159,13 @@ void print_show(const fs::path& db, const std::string& task, std::ostream& out) 
   auto connection = open_read_only(db);
   const std::string key = resolve_task(connection, task);
   const auto record = *find_task(connection, key);
-  auto times = connection.prepare(
-      "SELECT started_at, coalesce(duration_s, ''), coalesce(host, ''), coalesce(code_version, '') "
-      "FROM tasks WHERE key = ?");
-  times.bind_all(key);
-  times.step();
-  const std::string started = times.is_null(0) ? std::string("never") : iso8601_utc(times.real(0));
+  const TaskRunInfo run = find_task_run_info(connection, key);
+  const std::string started = run.started_at ? iso8601_utc(*run.started_at) : std::string("never");
   out << fmt::format("task {}\nkind {} (version {})\nstatus {} after {} attempt(s){}\n", key,
                      record.spec.kind, record.spec.version, to_string(record.status),
                      record.attempts, record.error.empty() ? "" : "\nerror " + record.error);
-  out << fmt::format("started {} duration {} s host {} code {}\n", started, times.text(1),
-                     times.text(2), times.text(3));
+  out << fmt::format("started {} duration {} s host {} code {}\n", started, run.duration_s,
+                     run.host, run.code_version);
   out << "params " << record.spec.params.dump(2) << '\n';
   if (const auto result = find_result(connection, key)) out << "result " << result->dump(2) << '\n';
   const ArtifactStore artifacts(artifacts_dir(db));
@@ -268,9 +179,9 @@ void print_show(const fs::path& db, const std::string& task, std::ostream& out) 
                        job.executor, job.job_id, job.attempt, job.state, job.job_name,
                        job.stdout_file.string(), job.stderr_file.string());
   }
-  for (const auto& upstream : lineage(connection, key, true))
+  for (const auto& upstream : find_lineage(connection, key, LineageDirection::upstream))
     out << "upstream   " << kind_and_status(connection, upstream) << '\n';
-  for (const auto& downstream : lineage(connection, key, false))
+  for (const auto& downstream : find_lineage(connection, key, LineageDirection::downstream))
     out << "downstream " << kind_and_status(connection, downstream) << '\n';
 }
 
@@ -294,38 +205,23 @@ const std::map<std::string, std::string>& status_colours() {
 }
 
 void print_task_graph(sql::Connection& db, std::int64_t campaign, std::ostream& out) {
-  auto nodes = db.prepare(
-      "SELECT t.key, t.kind, " + shown_status_sql() +
-      " FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key LEFT JOIN results r ON "
-      "r.task_key = t.key WHERE ct.campaign_id = ? ORDER BY t.rowid");
-  nodes.bind_all(campaign);
-  while (nodes.step()) {
-    out << fmt::format("  \"{}\" [label=\"{}\\n{}\", fillcolor={}];\n", nodes.text(0),
-                       nodes.text(1), nodes.text(0).substr(0, 12),
-                       status_colours().at(nodes.text(2)));
+  for (const TaskNode& node : find_campaign_task_nodes(db, campaign)) {
+    out << fmt::format("  \"{}\" [label=\"{}\\n{}\", fillcolor={}];\n", node.key, node.kind,
+                       node.key.substr(0, 12), status_colours().at(node.shown_status));
   }
-  auto edges = db.prepare(
-      "SELECT e.upstream, e.downstream FROM edges e JOIN campaign_tasks ct ON ct.task_key = "
-      "e.downstream WHERE ct.campaign_id = ? ORDER BY e.downstream, e.position");
-  edges.bind_all(campaign);
-  while (edges.step()) out << fmt::format("  \"{}\" -> \"{}\";\n", edges.text(0), edges.text(1));
+  for (const auto& [upstream, downstream] : find_campaign_edges(db, campaign))
+    out << fmt::format("  \"{}\" -> \"{}\";\n", upstream, downstream);
 }
 
 // One node per kind (its tasks counted by status, coloured by the most pressing status present),
 // one edge per pair of kinds with the number of task edges between them.
 void print_kind_graph(sql::Connection& db, std::int64_t campaign, std::ostream& out) {
-  auto counts = db.prepare(
-      "SELECT t.kind, " + shown_status_sql() +
-      " AS shown, count(*), min(t.rowid) FROM campaign_tasks ct JOIN tasks t ON t.key = "
-      "ct.task_key LEFT JOIN results r ON r.task_key = t.key WHERE ct.campaign_id = ? GROUP BY "
-      "t.kind, shown");
-  counts.bind_all(campaign);
   std::map<std::string, std::map<TaskStatus, std::int64_t>> by_kind;
   std::map<std::string, std::int64_t> first_row;  // kinds in graph order: planned upstream first
-  while (counts.step()) {
-    by_kind[counts.text(0)][task_status_from(counts.text(1))] = counts.integer(2);
-    auto [where, inserted] = first_row.emplace(counts.text(0), counts.integer(3));
-    if (!inserted) where->second = std::min(where->second, counts.integer(3));
+  for (const KindStatusCount& count : count_campaign_tasks_by_kind(db, campaign)) {
+    by_kind[count.kind][task_status_from(count.shown_status)] = count.tasks;
+    auto [where, inserted] = first_row.emplace(count.kind, count.first_row);
+    if (!inserted) where->second = std::min(where->second, count.first_row);
   }
   std::vector<std::pair<std::int64_t, std::string>> kinds;
   for (const auto& [kind, row] : first_row) kinds.emplace_back(row, kind);
@@ -348,15 +244,9 @@ void print_kind_graph(sql::Connection& db, std::int64_t campaign, std::ostream& 
                        total, total == 1 ? "" : "s", parts,
                        status_colours().at(std::string(to_string(colour_of))));
   }
-  auto edges = db.prepare(
-      "SELECT up.kind, down.kind, count(*) FROM edges e JOIN campaign_tasks ct ON ct.task_key = "
-      "e.downstream AND ct.campaign_id = ? JOIN tasks up ON up.key = e.upstream JOIN tasks down "
-      "ON down.key = e.downstream GROUP BY up.kind, down.kind ORDER BY min(down.rowid), "
-      "min(up.rowid)");
-  edges.bind_all(campaign);
-  while (edges.step()) {
-    out << fmt::format("  \"{}\" -> \"{}\" [label=\"{}\"];\n", edges.text(0), edges.text(1),
-                       edges.integer(2));
+  for (const KindEdge& edge : count_campaign_edges_by_kind(db, campaign)) {
+    out << fmt::format("  \"{}\" -> \"{}\" [label=\"{}\"];\n", edge.upstream_kind,
+                       edge.downstream_kind, edge.edges);
   }
 }
 
@@ -378,17 +268,13 @@ std::vector<fs::path> export_campaign(const fs::path& db, const std::string& cam
                                       TableFormat format, const fs::path& out_dir) {
   auto connection = open_read_only(db);
   campaign_id(connection, campaign);
-  auto rows = connection.prepare(
-      "SELECT task_key, kind, status, params, coalesce(result, 'null') FROM task_results WHERE "
-      "campaign = ? ORDER BY kind, task_key");
-  rows.bind_all(campaign);
   nlohmann::json tasks = nlohmann::json::array();
-  while (rows.step()) {
-    tasks.push_back({{"task_key", rows.text(0)},
-                     {"kind", rows.text(1)},
-                     {"status", rows.text(2)},
-                     {"params", nlohmann::json::parse(rows.text(3))},
-                     {"result", nlohmann::json::parse(rows.text(4))}});
+  for (TaskResultRow& row : find_task_results(connection, campaign)) {
+    tasks.push_back({{"task_key", std::move(row.task_key)},
+                     {"kind", std::move(row.kind)},
+                     {"status", std::move(row.status)},
+                     {"params", std::move(row.params)},
+                     {"result", std::move(row.result)}});
   }
   fs::create_directories(out_dir);
   if (format == TableFormat::json) {
@@ -440,12 +326,9 @@ std::vector<fs::path> export_campaign(const fs::path& db, const std::string& cam
 std::vector<TaskArtifacts> finished_task_artifacts(const fs::path& db, const std::string& campaign,
                                                    const std::string& kind) {
   auto connection = open_read_only(db);
-  auto rows = connection.prepare(
-      "SELECT t.key FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
-      "WHERE ct.campaign_id = ? AND t.kind = ? AND t.status = 'done' ORDER BY t.key");
-  rows.bind_all(campaign_id(connection, campaign), kind);
   std::vector<TaskArtifacts> tasks;
-  while (rows.step()) tasks.push_back({rows.text(0), {}});
+  for (std::string& key : find_done_task_keys(connection, campaign_id(connection, campaign), kind))
+    tasks.push_back({std::move(key), {}});
   for (TaskArtifacts& task : tasks) task.artifacts = find_artifacts(connection, task.task_key);
   return tasks;
 }
@@ -471,9 +354,7 @@ std::vector<fs::path> copy_artifacts(const fs::path& db,
 std::vector<std::string> collect_garbage(const fs::path& db, bool dry_run) {
   CoordinatorLock lock(db);
   auto connection = open_read_only(db);
-  std::set<std::string> referenced;
-  auto rows = connection.prepare("SELECT DISTINCT sha256 FROM artifacts");
-  while (rows.step()) referenced.insert(rows.text(0));
+  const std::set<std::string> referenced = find_referenced_digests(connection);
   const ArtifactStore artifacts(artifacts_dir(db));
   std::vector<std::string> unreferenced;
   for (const auto& digest : artifacts.stored_digests()) {

@@ -15,19 +15,6 @@ namespace millflow::engine {
 namespace fs = std::filesystem;
 namespace {
 
-std::optional<std::int64_t> find_campaign_id(sql::Connection& db, const std::string& name) {
-  auto row = db.prepare("SELECT id FROM campaigns WHERE name = ?");
-  row.bind_all(name);
-  if (!row.step()) return std::nullopt;
-  return row.integer(0);
-}
-
-bool has_view(sql::Connection& db, const std::string& name) {
-  auto row = db.prepare("SELECT 1 FROM sqlite_master WHERE type = 'view' AND name = ?");
-  row.bind_all(name);
-  return row.step();
-}
-
 // A folder name from a sweep point: "fill0.3_speed_fraction0.75_<key8>", characters that do not
 // belong in a file name replaced by '-'.
 std::string folder_label(const TaskCoordinates& point, const std::string& key) {
@@ -75,27 +62,23 @@ std::map<std::string, std::string> csv_columns(const nlohmann::json& value) {
 
 SweepPoints read_sweep_points(sql::Connection& db, std::int64_t campaign_id) {
   SweepPoints points;
-  if (!has_view(db, kSweepPointsView)) return points;
-  auto rows = db.prepare(
-      fmt::format("SELECT s.* FROM {} s JOIN campaign_tasks ct ON ct.task_key = s.task_key "
-                  "WHERE ct.campaign_id = ?",
-                  kSweepPointsView));
-  rows.bind_all(campaign_id);
+  const auto view = find_campaign_view_rows(db, kSweepPointsView, campaign_id);
+  if (!view) return points;
   int key_column = -1;
-  for (int column = 0; column < rows.columns(); ++column) {
-    if (rows.column_name(column) == "task_key")
+  for (int column = 0; column < static_cast<int>(view->columns.size()); ++column) {
+    if (view->columns[column] == "task_key")
       key_column = column;
     else
-      points.columns.push_back(rows.column_name(column));
+      points.columns.push_back(view->columns[column]);
   }
   if (key_column < 0) throw std::logic_error("the sweep_points view has no task_key column");
-  while (rows.step()) {
+  for (const auto& row : view->rows) {
     TaskCoordinates point;
-    for (int column = 0; column < rows.columns(); ++column) {
-      if (column == key_column || rows.is_null(column)) continue;
-      point.emplace_back(rows.column_name(column), rows.text(column));
+    for (int column = 0; column < static_cast<int>(row.size()); ++column) {
+      if (column == key_column || !row[column]) continue;
+      point.emplace_back(view->columns[column], *row[column]);
     }
-    points.by_task[rows.text(key_column)] = std::move(point);
+    points.by_task[row[key_column].value_or("")] = std::move(point);
   }
   return points;
 }
@@ -109,18 +92,11 @@ std::vector<fs::path> export_files(const fs::path& db, const std::string& task_o
     return copy_artifacts(db, find_artifacts(connection, key), out_dir);
   }
   const SweepPoints points = read_sweep_points(connection, *campaign);
-  auto tasks = connection.prepare(
-      "SELECT t.kind, t.key FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
-      "WHERE ct.campaign_id = ? AND t.status = 'done' AND EXISTS (SELECT 1 FROM artifacts a "
-      "WHERE a.task_key = t.key) ORDER BY t.kind, t.key");
-  tasks.bind_all(*campaign);
-  std::vector<std::pair<std::string, std::string>> kinds_and_keys;
-  while (tasks.step()) kinds_and_keys.emplace_back(tasks.text(0), tasks.text(1));
   std::vector<fs::path> written;
   std::string index = "kind,task_key,folder";
   for (const auto& column : points.columns) index += fmt::format(",{}", csv_field(column));
   index += '\n';
-  for (const auto& [kind, key] : kinds_and_keys) {
+  for (const auto& [kind, key] : find_done_tasks_with_artifacts(connection, *campaign)) {
     const auto found = points.by_task.find(key);
     const TaskCoordinates point = found == points.by_task.end() ? TaskCoordinates{} : found->second;
     const fs::path folder = fs::path(kind) / folder_label(point, key);
@@ -143,12 +119,9 @@ std::vector<fs::path> export_files(const fs::path& db, const std::string& task_o
 std::vector<std::string> task_log(const fs::path& db, const std::string& task) {
   auto connection = open_read_only(db);
   const std::string key = resolve_task(connection, task);
-  auto rows =
-      connection.prepare("SELECT at, level, message FROM log_lines WHERE task_key = ? ORDER BY id");
-  rows.bind_all(key);
   std::vector<std::string> lines;
-  while (rows.step())
-    lines.push_back(fmt::format("{} {} {}", iso8601_utc(rows.real(0)), rows.text(1), rows.text(2)));
+  for (const LogLine& line : find_log_lines(connection, key))
+    lines.push_back(fmt::format("{} {} {}", iso8601_utc(line.at), line.level, line.message));
   return lines;
 }
 

@@ -597,4 +597,284 @@ void Store::clear_coordinator() {
   db_.exec("DELETE FROM coordinator");
 }
 
+namespace {
+
+// A task's status as shown (t: tasks, r: results): "skipped" for a done task whose result says
+// it skipped its work.
+constexpr std::string_view kShownStatus =
+    "CASE WHEN t.status = 'done' AND json_extract(r.result, '$.skipped') IS NOT NULL THEN "
+    "'skipped' ELSE t.status END";
+
+TextTable read_text_table(sql::Statement& statement) {
+  TextTable table;
+  for (int column = 0; column < statement.columns(); ++column)
+    table.header.push_back(statement.column_name(column));
+  while (statement.step()) {
+    std::vector<std::string> row;
+    for (int column = 0; column < statement.columns(); ++column)
+      row.push_back(statement.text(column));
+    table.rows.push_back(std::move(row));
+  }
+  return table;
+}
+
+}  // namespace
+
+std::optional<std::int64_t> find_campaign_id(sql::Connection& db, const std::string& name) {
+  auto row = db.prepare("SELECT id FROM campaigns WHERE name = ?");
+  row.bind_all(name);
+  if (!row.step()) return std::nullopt;
+  return row.integer(0);
+}
+
+std::vector<std::string> find_task_keys_with_prefix(sql::Connection& db, const std::string& prefix,
+                                                    int limit) {
+  auto rows =
+      db.prepare("SELECT key FROM tasks WHERE key >= ? AND key < ? || 'g' ORDER BY key LIMIT ?");
+  rows.bind_all(prefix, prefix, limit);
+  std::vector<std::string> keys;
+  while (rows.step()) keys.push_back(rows.text(0));
+  return keys;
+}
+
+TaskRunInfo find_task_run_info(sql::Connection& db, const std::string& key) {
+  auto row = db.prepare(
+      "SELECT started_at, coalesce(duration_s, ''), coalesce(host, ''), coalesce(code_version, '') "
+      "FROM tasks WHERE key = ?");
+  row.bind_all(key);
+  row.step();
+  TaskRunInfo info;
+  if (!row.is_null(0)) info.started_at = row.real(0);
+  info.duration_s = row.text(1);
+  info.host = row.text(2);
+  info.code_version = row.text(3);
+  return info;
+}
+
+std::vector<std::string> find_lineage(sql::Connection& db, const std::string& key,
+                                      LineageDirection direction) {
+  auto next =
+      db.prepare(direction == LineageDirection::upstream
+                     ? "SELECT upstream FROM edges WHERE downstream = ? ORDER BY position"
+                     : "SELECT downstream FROM edges WHERE upstream = ? ORDER BY downstream");
+  std::vector<std::string> found;
+  std::set<std::string> seen{key};
+  std::vector<std::string> frontier{key};
+  while (!frontier.empty()) {
+    const std::string current = frontier.back();
+    frontier.pop_back();
+    next.bind_all(current);
+    while (next.step()) {
+      const std::string other = next.text(0);
+      if (seen.insert(other).second) {
+        found.push_back(other);
+        frontier.push_back(other);
+      }
+    }
+  }
+  return found;
+}
+
+std::vector<LogLine> find_log_lines(sql::Connection& db, const std::string& key) {
+  auto rows = db.prepare("SELECT at, level, message FROM log_lines WHERE task_key = ? ORDER BY id");
+  rows.bind_all(key);
+  std::vector<LogLine> lines;
+  while (rows.step()) lines.push_back({rows.real(0), rows.text(1), rows.text(2)});
+  return lines;
+}
+
+std::set<std::string> find_referenced_digests(sql::Connection& db) {
+  auto rows = db.prepare("SELECT DISTINCT sha256 FROM artifacts");
+  std::set<std::string> digests;
+  while (rows.step()) digests.insert(rows.text(0));
+  return digests;
+}
+
+TextTable campaign_summaries(sql::Connection& db, bool coordinator_running) {
+  auto rows = db.prepare(
+      "SELECT c.name AS campaign, CASE WHEN c.outcome = 'running' AND NOT ? THEN 'interrupted' "
+      "ELSE c.outcome END AS outcome, count(t.key) AS tasks, sum(t.status = 'done') AS done, "
+      "sum(t.status = 'failed') AS failed, sum(t.status IN ('pending', 'running', "
+      "'interrupted')) AS to_run "
+      "FROM campaigns c LEFT JOIN campaign_tasks ct ON ct.campaign_id = c.id LEFT JOIN tasks t "
+      "ON t.key = ct.task_key "
+      "GROUP BY c.id ORDER BY c.submitted_at");
+  rows.bind_all(coordinator_running ? 1 : 0);
+  return read_text_table(rows);
+}
+
+TextTable campaign_status_counts(sql::Connection& db, std::int64_t campaign) {
+  auto rows = db.prepare(fmt::format(
+      "SELECT t.kind, {} AS status, count(*) AS tasks FROM campaign_tasks ct JOIN tasks t ON "
+      "t.key = ct.task_key LEFT JOIN results r ON r.task_key = t.key "
+      "WHERE ct.campaign_id = ? GROUP BY t.kind, 2 ORDER BY t.kind, 2",
+      kShownStatus));
+  rows.bind_all(campaign);
+  return read_text_table(rows);
+}
+
+TextTable unfinished_jobs(sql::Connection& db, std::int64_t campaign) {
+  if (db.user_version() < 2) return {};
+  auto rows = db.prepare(
+      "SELECT t.kind, substr(t.key, 1, 16) AS task, j.attempt, j.executor, j.job_id, j.state FROM "
+      "campaign_tasks ct "
+      "JOIN tasks t ON t.key = ct.task_key JOIN jobs j ON j.task_key = t.key AND j.attempt = "
+      "t.attempts "
+      "WHERE ct.campaign_id = ? AND t.status = 'running' ORDER BY j.job_id");
+  rows.bind_all(campaign);
+  return read_text_table(rows);
+}
+
+std::vector<TaskNode> find_campaign_task_nodes(sql::Connection& db, std::int64_t campaign) {
+  auto rows = db.prepare(fmt::format(
+      "SELECT t.key, t.kind, {} FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key LEFT "
+      "JOIN results r ON r.task_key = t.key WHERE ct.campaign_id = ? ORDER BY t.rowid",
+      kShownStatus));
+  rows.bind_all(campaign);
+  std::vector<TaskNode> nodes;
+  while (rows.step()) nodes.push_back({rows.text(0), rows.text(1), rows.text(2)});
+  return nodes;
+}
+
+std::vector<std::pair<std::string, std::string>> find_campaign_edges(sql::Connection& db,
+                                                                     std::int64_t campaign) {
+  auto rows = db.prepare(
+      "SELECT e.upstream, e.downstream FROM edges e JOIN campaign_tasks ct ON ct.task_key = "
+      "e.downstream WHERE ct.campaign_id = ? ORDER BY e.downstream, e.position");
+  rows.bind_all(campaign);
+  std::vector<std::pair<std::string, std::string>> edges;
+  while (rows.step()) edges.emplace_back(rows.text(0), rows.text(1));
+  return edges;
+}
+
+std::vector<KindStatusCount> count_campaign_tasks_by_kind(sql::Connection& db,
+                                                          std::int64_t campaign) {
+  auto rows = db.prepare(fmt::format(
+      "SELECT t.kind, {} AS shown, count(*), min(t.rowid) FROM campaign_tasks ct JOIN tasks t ON "
+      "t.key = ct.task_key LEFT JOIN results r ON r.task_key = t.key WHERE ct.campaign_id = ? "
+      "GROUP BY t.kind, shown",
+      kShownStatus));
+  rows.bind_all(campaign);
+  std::vector<KindStatusCount> counts;
+  while (rows.step())
+    counts.push_back({rows.text(0), rows.text(1), rows.integer(2), rows.integer(3)});
+  return counts;
+}
+
+std::vector<KindEdge> count_campaign_edges_by_kind(sql::Connection& db, std::int64_t campaign) {
+  auto rows = db.prepare(
+      "SELECT up.kind, down.kind, count(*) FROM edges e JOIN campaign_tasks ct ON ct.task_key = "
+      "e.downstream AND ct.campaign_id = ? JOIN tasks up ON up.key = e.upstream JOIN tasks down "
+      "ON down.key = e.downstream GROUP BY up.kind, down.kind ORDER BY min(down.rowid), "
+      "min(up.rowid)");
+  rows.bind_all(campaign);
+  std::vector<KindEdge> edges;
+  while (rows.step()) edges.push_back({rows.text(0), rows.text(1), rows.integer(2)});
+  return edges;
+}
+
+std::vector<TaskResultRow> find_task_results(sql::Connection& db, const std::string& campaign) {
+  auto rows = db.prepare(
+      "SELECT task_key, kind, status, params, coalesce(result, 'null') FROM task_results WHERE "
+      "campaign = ? ORDER BY kind, task_key");
+  rows.bind_all(campaign);
+  std::vector<TaskResultRow> tasks;
+  while (rows.step()) {
+    tasks.push_back({rows.text(0), rows.text(1), rows.text(2), nlohmann::json::parse(rows.text(3)),
+                     nlohmann::json::parse(rows.text(4))});
+  }
+  return tasks;
+}
+
+std::vector<std::string> find_done_task_keys(sql::Connection& db, std::int64_t campaign,
+                                             const std::string& kind) {
+  auto rows = db.prepare(
+      "SELECT t.key FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
+      "WHERE ct.campaign_id = ? AND t.kind = ? AND t.status = 'done' ORDER BY t.key");
+  rows.bind_all(campaign, kind);
+  std::vector<std::string> keys;
+  while (rows.step()) keys.push_back(rows.text(0));
+  return keys;
+}
+
+std::vector<KindAndKey> find_done_tasks_with_artifacts(sql::Connection& db, std::int64_t campaign) {
+  auto rows = db.prepare(
+      "SELECT t.kind, t.key FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
+      "WHERE ct.campaign_id = ? AND t.status = 'done' AND EXISTS (SELECT 1 FROM artifacts a "
+      "WHERE a.task_key = t.key) ORDER BY t.kind, t.key");
+  rows.bind_all(campaign);
+  std::vector<KindAndKey> tasks;
+  while (rows.step()) tasks.push_back({rows.text(0), rows.text(1)});
+  return tasks;
+}
+
+std::optional<ViewRows> find_campaign_view_rows(sql::Connection& db, const std::string& view,
+                                                std::int64_t campaign) {
+  auto exists = db.prepare("SELECT 1 FROM sqlite_master WHERE type = 'view' AND name = ?");
+  exists.bind_all(view);
+  if (!exists.step()) return std::nullopt;
+  auto rows = db.prepare(
+      fmt::format("SELECT s.* FROM {} s JOIN campaign_tasks ct ON ct.task_key = s.task_key "
+                  "WHERE ct.campaign_id = ?",
+                  view));
+  rows.bind_all(campaign);
+  ViewRows found;
+  for (int column = 0; column < rows.columns(); ++column)
+    found.columns.push_back(rows.column_name(column));
+  while (rows.step()) {
+    std::vector<std::optional<std::string>> row;
+    for (int column = 0; column < rows.columns(); ++column) {
+      if (rows.is_null(column))
+        row.emplace_back();
+      else
+        row.emplace_back(rows.text(column));
+    }
+    found.rows.push_back(std::move(row));
+  }
+  return found;
+}
+
+std::optional<CoordinatorRecord> find_coordinator(sql::Connection& db) {
+  if (db.user_version() == 0) return std::nullopt;
+  auto row = db.prepare("SELECT pid, host, started_at, coalesce(campaign, '') FROM coordinator");
+  if (!row.step()) return std::nullopt;
+  return CoordinatorRecord{row.integer(0), row.text(1), row.real(2), row.text(3)};
+}
+
+QueryRows run_read_only_query(sql::Connection& db, const fs::path& db_path,
+                              const std::string& sql_text) {
+  std::optional<sql::Statement> statement;
+  try {
+    statement.emplace(db.prepare(sql_text));
+  } catch (const sql::Error& error) {
+    if (is_damaged_database_error(error.what()))
+      throw InvalidInput({{"--db", damaged_database_problem(db_path, error.what()),
+                           damaged_database_fix(db_path)}});
+    throw InvalidInput(
+        {{"", error.what(),
+          "check the SQL; `millflow query \"SELECT name FROM sqlite_master\"` lists tables"}});
+  }
+  if (!statement->read_only()) {
+    throw InvalidInput(
+        {{"", "refused: the statement would modify the database",
+          "millflow query only reads; the store is written by millflow submit/resume alone"}});
+  }
+  QueryRows result;
+  for (int column = 0; column < statement->columns(); ++column)
+    result.columns.push_back(statement->column_name(column));
+  while (statement->step()) {
+    std::vector<QueryValue> row;
+    for (int column = 0; column < statement->columns(); ++column) {
+      QueryValue value;
+      value.type = statement->column_type(column);
+      if (value.type == SQLITE_INTEGER) value.integer = statement->integer(column);
+      if (value.type == SQLITE_FLOAT) value.real = statement->real(column);
+      value.text = statement->text(column);
+      row.push_back(std::move(value));
+    }
+    result.rows.push_back(std::move(row));
+  }
+  return result;
+}
+
 }  // namespace millflow::engine

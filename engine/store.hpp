@@ -48,9 +48,11 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <set>
 #include <string>
 #include <string_view>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "engine/artifacts.hpp"
@@ -139,6 +141,137 @@ struct StoredCampaign {
 std::optional<StoredCampaign> find_campaign(sql::Connection& db, const std::string& name);
 // The batch jobs of a task, by attempt (none before schema version 2, no job names before 3).
 std::vector<JobRecord> find_jobs(sql::Connection& db, const std::string& key);
+
+// Reads of the inspection and export commands (engine/inspect.hpp, engine/outputs.hpp). A task's
+// "shown" status is its status, except "skipped" for a done task whose result says it skipped
+// its work (engine/runtime.hpp, RunSummary::skipped_their_work).
+std::optional<std::int64_t> find_campaign_id(sql::Connection& db, const std::string& name);
+// Up to `limit` task keys starting with `prefix`, in key order.
+std::vector<std::string> find_task_keys_with_prefix(sql::Connection& db, const std::string& prefix,
+                                                    int limit);
+// What `show` prints of a task beside its record: started_at (none before its first launch), and
+// SQLite's text of duration_s, host and code_version ('' where NULL).
+struct TaskRunInfo {
+  std::optional<double> started_at;
+  std::string duration_s;
+  std::string host;
+  std::string code_version;
+};
+TaskRunInfo find_task_run_info(sql::Connection& db, const std::string& key);
+// Every task upstream (inputs, their inputs, ...) or downstream of a task, from the edges table,
+// each once, in the order a depth-first walk meets them (inputs by position, outputs by key).
+enum class LineageDirection { upstream, downstream };
+std::vector<std::string> find_lineage(sql::Connection& db, const std::string& key,
+                                      LineageDirection direction);
+// A task's log lines, oldest first.
+struct LogLine {
+  double at = 0;
+  std::string level;
+  std::string message;
+};
+std::vector<LogLine> find_log_lines(sql::Connection& db, const std::string& key);
+// Every artifact digest some task references.
+std::set<std::string> find_referenced_digests(sql::Connection& db);
+
+// A table as the status command prints it: column names (the SQL's) and each cell as SQLite's
+// text of it ('' for NULL).
+struct TextTable {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+};
+// Per campaign, in submission order: campaign, outcome, tasks, done, failed, to_run (pending,
+// running or interrupted). Unless a coordinator is running, a campaign left 'running' is shown
+// as 'interrupted' (its coordinator died).
+TextTable campaign_summaries(sql::Connection& db, bool coordinator_running);
+// One campaign's task counts: kind, status (shown), tasks.
+TextTable campaign_status_counts(sql::Connection& db, std::int64_t campaign);
+// The batch job of the latest attempt of each running task of the campaign: kind, task (key
+// prefix), attempt, executor, job_id, state; empty before schema version 2.
+TextTable unfinished_jobs(sql::Connection& db, std::int64_t campaign);
+
+// The campaign's members in the order they were stored, with their shown status.
+struct TaskNode {
+  std::string key;
+  std::string kind;
+  std::string shown_status;
+};
+std::vector<TaskNode> find_campaign_task_nodes(sql::Connection& db, std::int64_t campaign);
+// The edges into the campaign's members (upstream, downstream), by downstream and position.
+std::vector<std::pair<std::string, std::string>> find_campaign_edges(sql::Connection& db,
+                                                                     std::int64_t campaign);
+// The campaign's members counted by kind and shown status; first_row orders kinds as stored
+// (planned upstream kinds first).
+struct KindStatusCount {
+  std::string kind;
+  std::string shown_status;
+  std::int64_t tasks = 0;
+  std::int64_t first_row = 0;
+};
+std::vector<KindStatusCount> count_campaign_tasks_by_kind(sql::Connection& db,
+                                                          std::int64_t campaign);
+// The task edges into the campaign's members counted per (upstream kind, downstream kind), in
+// the order the kinds were stored.
+struct KindEdge {
+  std::string upstream_kind;
+  std::string downstream_kind;
+  std::int64_t edges = 0;
+};
+std::vector<KindEdge> count_campaign_edges_by_kind(sql::Connection& db, std::int64_t campaign);
+
+// The campaign's members with their status, params and result (null before it is done), by kind
+// and key: the rows of the task_results view.
+struct TaskResultRow {
+  std::string task_key;
+  std::string kind;
+  std::string status;
+  nlohmann::json params;
+  nlohmann::json result;
+};
+std::vector<TaskResultRow> find_task_results(sql::Connection& db, const std::string& campaign);
+// The done members of a campaign, by key: of one kind, or (kind and key, by kind then key) those
+// with at least one artifact.
+std::vector<std::string> find_done_task_keys(sql::Connection& db, std::int64_t campaign,
+                                             const std::string& kind);
+struct KindAndKey {
+  std::string kind;
+  std::string key;
+};
+std::vector<KindAndKey> find_done_tasks_with_artifacts(sql::Connection& db, std::int64_t campaign);
+// The rows of a view with a task_key column (such as sweep_points, engine/outputs.hpp) whose task
+// belongs to the campaign: the view's column names and each row's cells as SQLite's text (none
+// for NULL). No value when the database has no such view.
+struct ViewRows {
+  std::vector<std::string> columns;
+  std::vector<std::vector<std::optional<std::string>>> rows;
+};
+std::optional<ViewRows> find_campaign_view_rows(sql::Connection& db, const std::string& view,
+                                                std::int64_t campaign);
+
+// The coordinator row (engine/coordinator_lock.hpp); none when no coordinator ever held the
+// database or when the file has no schema yet (a first submit that died before creating it).
+struct CoordinatorRecord {
+  std::int64_t pid = 0;
+  std::string host;
+  double started_at = 0;
+  std::string campaign;
+};
+std::optional<CoordinatorRecord> find_coordinator(sql::Connection& db);
+
+// `millflow query`: runs one read-only statement of the user's and returns every row. A
+// statement SQLite cannot prepare, or one that would write, is InvalidInput.
+struct QueryValue {
+  int type = SQLITE_NULL;  // SQLITE_NULL, SQLITE_INTEGER, SQLITE_FLOAT, SQLITE_TEXT or SQLITE_BLOB
+  // integer and real are set for their own type only.
+  std::int64_t integer = 0;
+  double real = 0;
+  std::string text;  // SQLite's text of the value ('' for NULL)
+};
+struct QueryRows {
+  std::vector<std::string> columns;
+  std::vector<std::vector<QueryValue>> rows;
+};
+QueryRows run_read_only_query(sql::Connection& db, const std::filesystem::path& db_path,
+                              const std::string& sql_text);
 
 class Store {
  public:
