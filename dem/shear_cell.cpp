@@ -190,7 +190,6 @@ ShearCell::ShearCell(const ShearCellSetup& setup)
   set_wall_speed(walls() ? setup_.shear_rate * nominal_gap(setup_) / kInitialBulkFraction
                          : setup_.shear_rate * system_.domain().length().y());
   control_ = StressControlPtr(make_stress_control());
-  control_->attach(system_);
 }
 
 ShearCell::ShearCell(const ShearCellSetup& setup, System system)

@@ -127,6 +127,9 @@ inline constexpr std::size_t kOverlapBins = 2000;  // up to an overlap of the wh
 // The measured window is cut into blocks of this much strain; the standard errors group the
 // blocks into batches (dem/batch_means.hpp).
 inline constexpr double kBlockStrain = 0.05;
+// The wall-speed controller answers a warm-up window only when its solid fraction is within this
+// of the window before: the profile of a bed whose gap still shrinks is not the steady one.
+inline constexpr double kCompactedFractionChange = 0.02;
 
 struct ShearCellMeasurements {
   double strain = 0.0;    // target shear rate x duration
@@ -316,8 +319,9 @@ class ShearCell {
   WarmUpWindow start_window(double strain) const;
   void advance_window(WarmUpWindow& window, std::uint64_t max_steps);
   // Adjusts the wall speed from a finished window's profile (RoughWalls, the wall-speed
-  // controller); returns the window's means.
-  WindowMeans finish_window(const WarmUpWindow& window, int index);
+  // controller) once the bed has compacted (its solid fraction within kCompactedFractionChange
+  // of `previous`, the window before; nullptr for the first); returns the window's means.
+  WindowMeans finish_window(const WarmUpWindow& window, int index, const WindowMeans* previous);
   // The stationarity test (dem/stationarity.hpp) of the last warm-up windows; with walls the
   // wall-speed controller must have settled too.
   bool stationary(std::span<const WindowMeans> windows) const;

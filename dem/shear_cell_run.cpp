@@ -68,7 +68,8 @@ bool ShearCellRun::advance(std::uint64_t max_steps) {
 
 void ShearCellRun::start_next_piece() {
   if (phase_ == Phase::WarmUp) {
-    windows_.push_back(cell_.finish_window(window_, window_index_++));
+    const WindowMeans* previous = windows_.empty() ? nullptr : &windows_.back();
+    windows_.push_back(cell_.finish_window(window_, window_index_++, previous));
     // The last warmup_windows windows (at least 3) are the batches of the test.
     const std::size_t tested = std::max<std::size_t>(3, protocol_.warmup_windows);
     stationary_ = windows_.size() >= tested && cell_.stationary(std::span(windows_).last(tested));

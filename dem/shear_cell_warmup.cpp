@@ -49,10 +49,11 @@ void ShearCell::warm_up(double strain, int windows) {
   if (windows < 1)
     throw std::invalid_argument(
         fmt::format("shear cell: warm-up windows = {} must be >= 1", windows));
+  WindowMeans previous;
   for (int w = 0; w < windows; ++w) {
     WarmUpWindow window = start_window(strain / windows);
     advance_window(window, window.steps);
-    finish_window(window, w);
+    previous = finish_window(window, w, w > 0 ? &previous : nullptr);
   }
 }
 
@@ -87,7 +88,8 @@ void ShearCell::advance_window(WarmUpWindow& window, std::uint64_t max_steps) {
   }
 }
 
-WindowMeans ShearCell::finish_window(const WarmUpWindow& window, int index) {
+WindowMeans ShearCell::finish_window(const WarmUpWindow& window, int index,
+                                     const WindowMeans* previous) {
   const double measured = bulk_shear_rate(window.profile);
   const WindowMeans summary{
       .shear_stress = window.shear_sum / window.samples,
@@ -103,6 +105,11 @@ WindowMeans ShearCell::finish_window(const WarmUpWindow& window, int index) {
   // The bulk of a bed that has lost contact with the walls does not follow them: leave the speed
   // until the servo has closed the gap.
   if (!walls() || summary.normal_stress < kClosingStressFraction * setup_.normal_stress)
+    return summary;
+  // Nor while the bed still compacts: the profile of a shrinking gap is not the steady one, and
+  // answering it drove the walls to tens of m/s.
+  if (previous == nullptr ||
+      std::abs(summary.solid_fraction - previous->solid_fraction) > kCompactedFractionChange)
     return summary;
   const double speed = speed_controller_.update(measured, wall_speed_, gap());
   spdlog::debug(

@@ -80,18 +80,12 @@ double RoughWallServo::normal_stress(const System& system) const {
   return 0.5 * (system.group_load(top_).force.y() - system.group_load(bottom_).force.y()) / area_;
 }
 
-void RoughWallServo::attach(System& system) const {
-  KinematicGroup& top = system.group(top_);
-  top.servo_axis = 1;
-  top.servo_target_force = -settings().target_stress * area_;  // the wall pushes the bed along -y
-  top.servo_mobility = settings().mobility;
-  top.servo_max_speed = settings().max_speed;
-}
-
-bool RoughWallServo::answer(System& system, double, bool closing) {
-  KinematicGroup& top = system.group(top_);
-  top.servo_mobility =
-      closing ? settings().max_speed / std::abs(top.servo_target_force) : settings().mobility;
+bool RoughWallServo::answer(System& system, double stress, bool closing) {
+  const StressControlSettings& s = settings();
+  // The interval's mean load F = stress A against F_t: v = M (F - F_t) along +y (a wall carrying
+  // too much moves up).
+  const double speed = closing ? -s.max_speed : s.mobility * (stress - s.target_stress) * area_;
+  system.group(top_).velocity.y() = std::clamp(speed, -s.max_speed, s.max_speed);
   return false;
 }
 

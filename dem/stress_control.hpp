@@ -4,8 +4,10 @@
 // stress as a flowing bed of modulus K p would (K = kFlowingBedModulus), relaxing the error in
 // tau, never at the contacts' stiffness (the contacts of a flowing bed of stiff balls last only
 // a collision; a control tuned to them could not move the boundary):
-//  - RoughWallServo: the top wall's group moves along y at M (F_target - F), M = H / (K p A tau),
-//    clamped at v_max (System's group servo does it every step; the control sets M);
+//  - RoughWallServo: at the end of each control interval the top wall's group is set moving
+//    along y at M (F - F_target) from the interval's mean load F, M = H / (K p A tau), clamped at
+//    v_max. (Not every step on the instantaneous load: with ~25 stiff wall contacts
+//    M N k_n dt ~ 4 > 2 at the campaign's stiffness, and the wall chattered at +-v_max.)
 //  - LeesEdwardsBarostat: the box and the particles are stretched affinely along y by a PI law
 //    (documented at the class).
 // Both close the loose fill at v_max until the bed carries half the target (set_closing); the
@@ -45,8 +47,6 @@ class StressControl {
   // The normal stress the control holds, now, Pa: the wall load per area (walls) or the
   // virial's p_yy (Lees-Edwards).
   virtual double normal_stress(const System& system) const = 0;
-  // Sets up the system's side of the control (a fresh cell; a checkpoint keeps it).
-  virtual void attach(System& system) const = 0;
   // After each step: samples the normal stress and, at the end of a control interval, answers
   // its mean. True when the answer moved the particles (the box was stretched).
   bool after_step(System& system);
@@ -88,7 +88,6 @@ class RoughWallServo final : public StressControl {
     return std::make_unique<RoughWallServo>(*this);
   }
   double normal_stress(const System& system) const override;
-  void attach(System& system) const override;
 
  protected:
   // The wall load is free every step.
@@ -122,7 +121,6 @@ class LeesEdwardsBarostat final : public StressControl {
     return std::make_unique<LeesEdwardsBarostat>(*this);
   }
   double normal_stress(const System& system) const override;
-  void attach(System&) const override {}
   double work() const override { return work_; }
 
  protected:
