@@ -113,8 +113,7 @@ TEST(ReportRegions, NoSitesInputsMeansNoSection) {
 TEST(ReportRegions, ListsTheCellsLeftOut) {
   auto point = testing::point_inputs(0.3, 0.75);
   for (auto& input : point) {
-    if (input.key == "bulk-0@" + std::to_string(1.0))
-      input.result["steady_state"]["steady"] = false;
+    if (input.key == "bulk-0@" + std::to_string(1.0)) input.result["steady"] = false;
   }
   const std::map<std::string, method::FlowMap> maps = {
       {"average-key", method::flow_map_from_document(fields_document())}};
