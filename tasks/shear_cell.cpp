@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <filesystem>
-#include <numbers>
 
 #include <fmt/format.h>
 
@@ -13,6 +12,7 @@
 #include "method/cell_result.hpp"
 #include "tasks/checkpoint_cadence.hpp"
 #include "tasks/macro_setup.hpp"
+#include "util/sphere.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -21,10 +21,6 @@ using nlohmann::json;
 
 const json& at(const json& params, const std::string& path) {
   return params.at(json::json_pointer(path));
-}
-
-double sphere_mass(double density, double diameter) {
-  return density * std::numbers::pi * diameter * diameter * diameter / 6.0;
 }
 
 dem::ShearCellSetup::Boundary boundary(const std::string& name) {
@@ -64,9 +60,9 @@ dem::ShearCellSetup shear_cell_setup(const json& params, const json& site,
   setup.powder_diameter_ratio = at(cell, "/powder/diameter_ratio").get<double>();
   setup.powder_load = at(cell, "/powder/load").get<double>();
 
-  const double media_mass = sphere_mass(setup.media.density, setup.media_diameter);
+  const double media_mass = util::sphere_mass(setup.media.density, setup.media_diameter);
   const double powder_mass =
-      sphere_mass(setup.powder.density, setup.powder_diameter_ratio * setup.media_diameter);
+      util::sphere_mass(setup.powder.density, setup.powder_diameter_ratio * setup.media_diameter);
   setup.media_media = interaction_spec(find_interaction(params, media, media),
                                        dem::effective_mass(media_mass, media_mass));
   setup.media_powder = interaction_spec(find_interaction(params, media, powder),
