@@ -113,16 +113,15 @@ void read_spectra(const FieldReader& in, UpscalePoint& point) {
     in.refuse("/spectra/media_rate_per_s", fmt::format("does not hold {} bins", bins));
 }
 
-method::FlowMap read_flow_map(const engine::TaskInput& average) {
-  const std::string owner = fmt::format("average task {}", average.key);
-  const auto artifact = average.artifacts.find("fields.json");
-  if (artifact == average.artifacts.end()) {
+method::FlowMap read_flow_map(const std::string& average_key,
+                              const std::optional<std::filesystem::path>& fields) {
+  const std::string owner = fmt::format("average task {}", average_key);
+  if (!fields) {
     throw std::invalid_argument(owner + ": has no fields.json artifact; re-run the average task");
   }
-  std::ifstream file(artifact->second);
+  std::ifstream file(*fields);
   if (!file)
-    throw std::invalid_argument(
-        fmt::format("{}: cannot read {}", owner, artifact->second.string()));
+    throw std::invalid_argument(fmt::format("{}: cannot read {}", owner, fields->string()));
   try {
     return method::flow_map_from_document(json::parse(file));
   } catch (const std::exception& error) {
@@ -184,28 +183,26 @@ MacroRun read_macro(const std::string& task_key, const json& result) {
   return run;
 }
 
-ReportInputs read_report_inputs(const std::vector<engine::TaskInput>& inputs) {
+ReportInputs read_report_inputs(const ReportSources& sources) {
   ReportInputs report;
-  std::map<std::string, const engine::TaskInput*> averages;
-  for (const engine::TaskInput& input : inputs) {
-    if (input.kind == "upscale") report.points.push_back(read_upscale(input.key, input.result));
-    if (input.kind == "average") averages[input.key] = &input;
-    if (input.kind == "macro") report.macro_runs.push_back(read_macro(input.key, input.result));
-  }
+  for (const TaskResult& upscale : sources.upscales)
+    report.points.push_back(read_upscale(upscale.key, upscale.result));
+  for (const TaskResult& macro : sources.macros)
+    report.macro_runs.push_back(read_macro(macro.key, macro.result));
   if (report.points.empty()) {
     throw std::invalid_argument(
         "the report has no upscale input: plan it below the campaign's upscale tasks");
   }
   for (const UpscalePoint& point : report.points) {
     if (report.flow_maps.count(point.average_task) > 0) continue;
-    const auto average = averages.find(point.average_task);
-    if (average == averages.end()) {
+    const auto average = sources.average_fields.find(point.average_task);
+    if (average == sources.average_fields.end()) {
       throw std::invalid_argument(
           fmt::format("upscale task {}: field /average_task names {}, which is not an average "
                       "input of the report; plan the report below that average task",
                       point.task_key, point.average_task));
     }
-    report.flow_maps.emplace(point.average_task, read_flow_map(*average->second));
+    report.flow_maps.emplace(point.average_task, read_flow_map(average->first, average->second));
   }
   std::sort(report.points.begin(), report.points.end(),
             [](const UpscalePoint& a, const UpscalePoint& b) {
