@@ -438,11 +438,11 @@ TEST_F(Report, MacroFieldErrorsNameTheMacroTask) {
 }
 
 // Every figure renders (rsvg-convert) and no label leaves the canvas or covers another one,
-// from the SVG's own text boxes (tests/tasks/check_svg_text.py).
+// from the SVG's own text boxes (tests/report/check_svg_text.py).
 TEST_F(Report, FiguresRenderWithEveryLabelInsideTheCanvasAndApart) {
   run(inputs_, "work");
   const std::string command = std::string("/usr/bin/python3 ") + MILLFLOW_SOURCE_DIR +
-                              "/tests/tasks/check_svg_text.py " + (dir_.path() / "work").string();
+                              "/tests/report/check_svg_text.py " + (dir_.path() / "work").string();
   const int status = std::system(command.c_str());
   ASSERT_TRUE(WIFEXITED(status)) << command;
   if (WEXITSTATUS(status) == 77) GTEST_SKIP() << "rsvg-convert is not installed (librsvg2-bin)";
