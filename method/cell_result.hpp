@@ -4,26 +4,26 @@
 // the one spelling of its keys; cell_result() copies a dem::ShearCellMeasurements into it (that
 // type says how each quantity is measured, docs/shear_cells.md gives the rules).
 //
-// Result JSON, SI units. A cell that did not run: {skipped: reason, slot, powder_load}. A cell
-// that ran: site (the sites task's entry), slot, powder_load, media_count, powder_count,
-// wall_ball_count, stiffness {by pair: k_n_n_m, kappa, given_n_m, static_bound_n_m,
-// impact_bound_n_m}, strain, duration_s, steps, *_shear_rate_per_s (target, bulk, nominal),
-// wall_speed_m_s, wall_slip_m_s, gap_m, volume_m3, shear_stress_pa, normal_stress_pa, friction
-// (tau / p_yy), friction_mean_pressure (tau / p), stresses {xx, yy, zz, xy, xz, yz,
-// mean_pressure_pa, p_yy_pa} (compression positive), inertial_number (imposed rate in LE),
-// inertial_number_measured_rate, media/powder/total solid_fraction, power_density_w_m3,
-// dissipation_w_m3 {by contact type, total}, powder_dissipation_w_m3 (every type involving
-// powder), collisions {by contact type, media, powder: count, rate_per_m3_s}, spectra
-// {bin_edges_j, media, powder: dissipated energy histograms {counts, underflow, overflow}}, energy
-// {work_in_j, kinetic_change_j, elastic_change_j, dissipated_j, stress_control_work_j (in
-// work_in_j), balance_error}, steady_state {shear_stress_first_half_pa,
-// shear_stress_second_half_pa, deviation, steady (the halves agree)}, steady (stationary and the
-// halves agree), stationary_strain (null when the warm-up never passed the test), converged,
-// standard_errors {friction, friction_mean_pressure, shear_stress_pa, normal_stress_pa,
-// power_density_w_m3, powder_dissipation_w_m3, dissipation_w_m3 {by contact type, total}, blocks,
-// batch_blocks}, overlap {by contact type that touched: mean_fraction, p95_fraction,
-// max_fraction, contact_samples}, overlap_{mean,p95,max}_fraction (the type with the largest p95;
-// 0 without contacts), overlap_ok.
+// Result JSON (versioned by the kind's kShearCellVersion, tasks/shear_cell.hpp), SI units. A cell
+// that did not run: {skipped: reason, slot, powder_load}. A cell that ran: site (the sites task's
+// entry), slot, powder_load, media_count, powder_count, wall_ball_count, stiffness {by pair:
+// k_n_n_m, kappa, given_n_m, static_bound_n_m, impact_bound_n_m}, strain, duration_s, steps,
+// *_shear_rate_per_s (target, bulk, nominal), wall_speed_m_s, wall_slip_m_s, gap_m, volume_m3,
+// shear_stress_pa, normal_stress_pa, friction (tau / p_yy), friction_mean_pressure (tau / p),
+// stresses {xx, yy, zz, xy, xz, yz, mean_pressure_pa, p_yy_pa} (compression positive),
+// inertial_number (imposed rate in LE), inertial_number_measured_rate, media/powder/total
+// solid_fraction, power_density_w_m3, dissipation_w_m3 {by contact type, total},
+// powder_dissipation_w_m3 (every type involving powder), collisions {by contact type, media,
+// powder: count, rate_per_m3_s}, spectra {bin_edges_j, media, powder: dissipated energy histograms
+// {counts, underflow, overflow}}, energy {work_in_j, kinetic_change_j, elastic_change_j,
+// dissipated_j, stress_control_work_j (in work_in_j), balance_error}, steady_state
+// {shear_stress_first_half_pa, shear_stress_second_half_pa, deviation, steady (the halves agree)},
+// steady (stationary and the halves agree), stationary_strain (null when the warm-up never passed
+// the test), converged, standard_errors {friction, friction_mean_pressure, shear_stress_pa,
+// normal_stress_pa, power_density_w_m3, powder_dissipation_w_m3, dissipation_w_m3 {by contact type,
+// total}, blocks, batch_blocks}, overlap {by contact type that touched: mean_fraction,
+// p95_fraction, max_fraction, contact_samples}, overlap_{mean,p95,max}_fraction (the type with the
+// largest p95; 0 without contacts), overlap_ok.
 //
 // Reading an older cell: without `steady` the cell is steady when steady_state.steady is; without
 // `converged` it counts as converged when steady; without standard_errors it has none.
