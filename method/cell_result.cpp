@@ -20,14 +20,6 @@ CellCollisions collisions_of(const dem::CollisionStats& stats) {
   return {.count = stats.count, .rate_per_m3_s = stats.rate_per_volume};
 }
 
-CellHistogram histogram_of(const dem::LogHistogram& h) {
-  CellHistogram out{.counts = std::vector<double>(h.bin_count()),
-                    .underflow = h.underflow(),
-                    .overflow = h.overflow()};
-  for (std::size_t k = 0; k < out.counts.size(); ++k) out.counts[k] = h.count(k);
-  return out;
-}
-
 json collisions_json(const CellCollisions& c) {
   return {{"count", c.count}, {"rate_per_m3_s", c.rate_per_m3_s}};
 }
@@ -37,11 +29,7 @@ CellCollisions collisions_from(const json& in) {
           .rate_per_m3_s = in.at("rate_per_m3_s").get<double>()};
 }
 
-json histogram_json(const CellHistogram& h) {
-  return {{"counts", h.counts}, {"underflow", h.underflow}, {"overflow", h.overflow}};
-}
-
-CellHistogram histogram_from(const json& in) {
+EnergyHistogram histogram_from(const json& in) {
   return {.counts = in.at("counts").get<std::vector<double>>(),
           .underflow = in.at("underflow").get<double>(),
           .overflow = in.at("overflow").get<double>()};
@@ -151,8 +139,8 @@ CellResult cell_result(const dem::ShearCellMeasurements& m) {
       .dissipation_total_w_m3 = m.dissipation_density_total,
       .media_collisions = collisions_of(m.media_collisions),
       .powder_collisions = collisions_of(m.powder_collisions),
-      .media_spectrum = histogram_of(m.media_collisions.dissipated_energy),
-      .powder_spectrum = histogram_of(m.powder_collisions.dissipated_energy),
+      .media_spectrum = energy_histogram(m.media_collisions.dissipated_energy),
+      .powder_spectrum = energy_histogram(m.powder_collisions.dissipated_energy),
       .work_in_j = m.work_in,
       .kinetic_change_j = m.kinetic_change,
       .elastic_change_j = m.elastic_change,
@@ -189,10 +177,7 @@ CellResult cell_result(const dem::ShearCellMeasurements& m) {
                                 .max_fraction = o.max_fraction,
                                 .contact_samples = o.contacts};
   }
-  const dem::LogHistogram& grid = m.media_collisions.dissipated_energy;
-  for (std::size_t k = 0; k < grid.bin_count(); ++k)
-    r.spectrum_bin_edges_j.push_back(grid.bin_lower(k));
-  if (grid.bin_count() > 0) r.spectrum_bin_edges_j.push_back(grid.bin_upper(grid.bin_count() - 1));
+  r.spectrum_bin_edges_j = bin_edges(m.media_collisions.dissipated_energy);
   return r;
 }
 
@@ -254,8 +239,8 @@ void to_json(json& out, const CellResult& c) {
       {"collisions", collisions},
       {"spectra",
        {{"bin_edges_j", c.spectrum_bin_edges_j},
-        {"media", histogram_json(c.media_spectrum)},
-        {"powder", histogram_json(c.powder_spectrum)}}},
+        {"media", c.media_spectrum},
+        {"powder", c.powder_spectrum}}},
       {"energy",
        {{"work_in_j", c.work_in_j},
         {"kinetic_change_j", c.kinetic_change_j},

@@ -38,6 +38,7 @@
 
 #include "dem/shear_cell.hpp"
 #include "dem/stiffness_policy.hpp"
+#include "method/energy_histogram.hpp"
 
 namespace millflow::method {
 
@@ -50,12 +51,6 @@ struct CellCollisions {
 
 struct CellOverlap {
   double mean_fraction = 0.0, p95_fraction = 0.0, max_fraction = 0.0, contact_samples = 0.0;
-};
-
-// A histogram of dissipated energy per collision over the shared bin edges.
-struct CellHistogram {
-  std::vector<double> counts{};
-  double underflow = 0.0, overflow = 0.0;
 };
 
 // Standard errors of the window's means (batch means).
@@ -93,7 +88,7 @@ struct CellResult {
   ByContactType<CellCollisions> collisions{};
   CellCollisions media_collisions{}, powder_collisions{};
   std::vector<double> spectrum_bin_edges_j{};
-  CellHistogram media_spectrum{}, powder_spectrum{};
+  EnergyHistogram media_spectrum{}, powder_spectrum{};  // dissipated energy
   double work_in_j = 0.0, kinetic_change_j = 0.0, elastic_change_j = 0.0, dissipated_j = 0.0,
          stress_control_work_j = 0.0, energy_balance_error = 0.0;
   double shear_stress_first_half_pa = 0.0, shear_stress_second_half_pa = 0.0,

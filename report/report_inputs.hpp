@@ -3,7 +3,7 @@
 // kind into ReportSources): every "upscale" task's
 // result (tasks/upscale.hpp says what it holds), the
 // fields.json artifact of every "average" task an upscale names, and every "macro" task's charge
-// shape and collision spectra (method/macro_run.hpp). Points are sorted by fill, speed
+// shape and collision spectra (method/macro_result.hpp). Points are sorted by fill, speed
 // fraction, powder load (then task key), so the report is the same whatever the input order.
 //
 // A missing or ill-typed value throws std::invalid_argument naming the task kind and key, the

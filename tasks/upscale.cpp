@@ -11,6 +11,7 @@
 #include "method/sites.hpp"
 #include "method/upscale.hpp"
 #include "tasks/kinds.hpp"
+#include "tasks/macro.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -254,12 +255,12 @@ json coupling_summary(const json& sites) {
           {"within_tolerance", within}};
 }
 
-json mill_json(const json& macro) {
-  return {{"diameter_m", 2.0 * macro.at("mill").at("radius_m").get<double>()},
-          {"slice_length_m", macro.at("mill").at("length_m")},
-          {"ball_mass_kg", macro.at("ball_mass_kg")},
-          {"power_draw_w", macro.at("power").at("mean_w")},
-          {"specific_power_kw_per_t", macro.at("power").at("kw_per_t_balls")}};
+json mill_json(const method::MacroResult& macro) {
+  return {{"diameter_m", 2.0 * macro.mill.radius_m},
+          {"slice_length_m", macro.mill.length_m},
+          {"ball_mass_kg", macro.ball_mass_kg},
+          {"power_draw_w", macro.power.mean_w},
+          {"specific_power_kw_per_t", macro.power.kw_per_t_balls}};
 }
 
 }  // namespace
@@ -267,7 +268,7 @@ json mill_json(const json& macro) {
 engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   const json& params = context.params;
   const double load = params.at("powder_load").get<double>();
-  const json& macro = only_input(context, "macro").result;
+  const method::MacroResult macro = macro_result_of(only_input(context, "macro"));
   const json& sites_result = only_input(context, "sites").result;
   const method::WeightBasis basis = sites_result.at("weight_by").get<std::string>() == "volume"
                                         ? method::WeightBasis::volume
@@ -322,10 +323,10 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   method::PowerSums all;
   for (const auto& [name, sums] : by_region) all.merge(sums);
   const double mass_ratio = solid_volume > 0.0 ? powder_mass / solid_volume : 0.0;
-  const double power_draw = macro.at("power").at("mean_w").get<double>();
+  const double power_draw = macro.power.mean_w;
   result.update(json{
-      {"fill", macro.at("fill")},
-      {"speed_fraction", macro.at("speed_fraction")},
+      {"fill", macro.fill},
+      {"speed_fraction", macro.speed_fraction},
       {"powder_load", load},
       {"average_task", only_input(context, "average").key},
       {"sites_task", only_input(context, "sites").key},

@@ -10,6 +10,7 @@
 
 #include "engine/task.hpp"
 #include "method/cell_result.hpp"
+#include "method/macro_result.hpp"
 #include "method/sites.hpp"
 #include "tasks/upscale.hpp"
 
@@ -75,17 +76,16 @@ inline engine::TaskInput skipped_cell(const std::string& site_id, double load) {
 
 inline std::vector<engine::TaskInput> point_inputs(double fill = 0.3, double speed = 0.75,
                                                    double power_scale = 1.0) {
+  method::MacroResult macro;
+  macro.fill = fill;
+  macro.speed_fraction = speed;
+  macro.ball_mass_kg = 100.0;
+  macro.mill.radius_m = 0.5;
+  macro.mill.length_m = 0.1;
+  macro.power.mean_w = 1000.0 * power_scale;
+  macro.power.kw_per_t_balls = 10.0 * power_scale;
   std::vector<engine::TaskInput> inputs;
-  inputs.push_back(
-      {.key = "macro-key",
-       .kind = "macro",
-       .result = {{"fill", fill},
-                  {"speed_fraction", speed},
-                  {"ball_mass_kg", 100.0},
-                  {"mill", {{"radius_m", 0.5}, {"length_m", 0.1}}},
-                  {"power",
-                   {{"mean_w", 1000.0 * power_scale}, {"kw_per_t_balls", 10.0 * power_scale}}}},
-       .artifacts = {}});
+  inputs.push_back({.key = "macro-key", .kind = "macro", .result = macro, .artifacts = {}});
   inputs.push_back(
       {.key = "average-key", .kind = "average", .result = json::object(), .artifacts = {}});
   const json regions = {{{"name", "toe"}, {"dissipation_w", 2.0}},
