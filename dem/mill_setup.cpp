@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "dem/packing.hpp"
+#include "util/sphere.hpp"
 
 namespace millflow::dem {
 
@@ -61,8 +62,7 @@ double mean_ball_diameter(const MillSetup& setup) {
 }
 
 double reference_ball_mass(const MillSetup& setup) {
-  const double d = mean_ball_diameter(setup);
-  return setup.media.density * std::numbers::pi * d * d * d / 6.0;
+  return util::sphere_mass(setup.media.density, mean_ball_diameter(setup));
 }
 
 std::vector<std::size_t> balls_per_class(const MillSetup& setup) {
@@ -70,7 +70,7 @@ std::vector<std::size_t> balls_per_class(const MillSetup& setup) {
       setup.fill * mill_free_cross_section_area(setup.shell) * setup.shell.length * setup.packing;
   std::vector<std::size_t> counts;
   for (const BallSizeClass& size : ball_size_classes(setup)) {
-    const double ball_volume = std::numbers::pi * std::pow(size.diameter, 3) / 6.0;
+    const double ball_volume = util::sphere_volume_of_diameter(size.diameter);
     counts.push_back(
         static_cast<std::size_t>(std::llround(size.mass_fraction * solid_volume / ball_volume)));
   }

@@ -2,10 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <stdexcept>
 
 #include <fmt/format.h>
+
+#include "util/sphere.hpp"
 
 namespace millflow::dem {
 namespace {
@@ -81,7 +82,7 @@ std::vector<Vec3> mill_lattice_sites(const MillShell& mill, double theta, double
 }
 
 std::size_t balls_for_fill(const MillShell& mill, double fill, double diameter, double packing) {
-  const double ball_volume = std::numbers::pi * diameter * diameter * diameter / 6.0;
+  const double ball_volume = util::sphere_volume_of_diameter(diameter);
   const double charge_volume = fill * mill_free_cross_section_area(mill) * mill.length;
   return static_cast<std::size_t>(std::llround(charge_volume * packing / ball_volume));
 }

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -12,6 +11,7 @@
 
 #include "dem/shear_cell_geometry.hpp"
 #include "dem/stationarity.hpp"
+#include "util/sphere.hpp"
 
 namespace millflow::dem {
 using namespace shear_cell_detail;
@@ -33,7 +33,7 @@ void ShearCell::sample_profile(Profile& profile) const {
     profile.wyy += m[p] * y * y;
     profile.wv += m[p] * v[p].x();
     profile.wyv += m[p] * y * v[p].x();
-    const double volume = 4.0 / 3.0 * std::numbers::pi * r[p] * r[p] * r[p];
+    const double volume = util::sphere_volume_of_radius(r[p]);
     (materials[p] == powder_ ? profile.powder_volume : profile.media_volume) += volume;
   }
   profile.slab_volume += wall_area() * (hi - lo);

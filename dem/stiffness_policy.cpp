@@ -3,14 +3,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <numbers>
+
+#include "util/sphere.hpp"
 
 namespace millflow::dem {
 namespace {
-
-double sphere_mass(double density, double diameter) {
-  return density * std::numbers::pi / 6.0 * diameter * diameter * diameter;
-}
 
 struct PairSlot {
   ContactType type;
@@ -27,8 +24,8 @@ constexpr std::array<PairSlot, 3> kPairs{{
 PairStiffness derive(const ShearCellSetup& s, const PairSlot& slot) {
   const double d_m = s.media_diameter, d_p = s.powder_diameter_ratio * s.media_diameter;
   const double d_a = slot.a_is_powder ? d_p : d_m, d_b = slot.b_is_powder ? d_p : d_m;
-  const double m_a = sphere_mass(slot.a_is_powder ? s.powder.density : s.media.density, d_a);
-  const double m_b = sphere_mass(slot.b_is_powder ? s.powder.density : s.media.density, d_b);
+  const double m_a = util::sphere_mass(slot.a_is_powder ? s.powder.density : s.media.density, d_a);
+  const double m_b = util::sphere_mass(slot.b_is_powder ? s.powder.density : s.media.density, d_b);
   PairStiffness out;
   out.pair = contact_type_name(slot.type);
   out.smaller_diameter = std::min(d_a, d_b);

@@ -27,12 +27,6 @@ double reported_angle(double degrees) {
 
 }  // namespace
 
-nlohmann::json histogram_json(const dem::LogHistogram& h) {
-  std::vector<double> counts(h.bin_count());
-  for (std::size_t k = 0; k < counts.size(); ++k) counts[k] = h.count(k);
-  return {{"counts", counts}, {"underflow", h.underflow()}, {"overflow", h.overflow()}};
-}
-
 bool PowerMeter::add_step(double power) {
   sum_ += power;
   ++steps_;
@@ -175,27 +169,26 @@ void CollisionStats::add(std::span<const dem::CollisionEvent> events) {
   }
 }
 
-nlohmann::json CollisionStats::to_json(double duration, const dem::System& system) const {
-  nlohmann::json collisions = nlohmann::json::object(), spectra = nlohmann::json::object();
-  if (!categories_.empty()) {
-    const dem::LogHistogram& grid = categories_.front().impact;
-    std::vector<double> edges;
-    for (std::size_t k = 0; k < grid.bin_count(); ++k) edges.push_back(grid.bin_lower(k));
-    edges.push_back(grid.bin_upper(grid.bin_count() - 1));
-    spectra["bin_edges_j"] = edges;
-  }
+std::vector<double> CollisionStats::bin_edges() const {
+  return categories_.empty() ? std::vector<double>{}
+                             : method::bin_edges(categories_.front().impact);
+}
+
+std::map<std::string, MacroCollisions> CollisionStats::collisions(double duration,
+                                                                  const dem::System& system) const {
+  std::map<std::string, MacroCollisions> out;
   for (const Category& c : categories_) {
     const double n = static_cast<double>(c.count);
-    collisions[c.tracked.label] = {{"category", system.category_name(c.tracked.category)},
-                                   {"count", c.count},
-                                   {"rate_per_s", n / duration},
-                                   {"mean_impact_energy_j", c.count ? c.impact_sum / n : 0.0},
-                                   {"mean_dissipated_j", c.count ? c.dissipated_sum / n : 0.0},
-                                   {"dissipated_power_w", c.dissipated_sum / duration}};
-    spectra[c.tracked.label] = {{"impact_energy", histogram_json(c.impact)},
-                                {"dissipated_energy", histogram_json(c.dissipated)}};
+    out[c.tracked.label] = {.category = system.category_name(c.tracked.category),
+                            .count = c.count,
+                            .rate_per_s = n / duration,
+                            .mean_impact_energy_j = c.count ? c.impact_sum / n : 0.0,
+                            .mean_dissipated_j = c.count ? c.dissipated_sum / n : 0.0,
+                            .dissipated_power_w = c.dissipated_sum / duration,
+                            .impact_energy = energy_histogram(c.impact),
+                            .dissipated_energy = energy_histogram(c.dissipated)};
   }
-  return {{"collisions", collisions}, {"spectra", spectra}};
+  return out;
 }
 
 void CollisionStats::write(dem::BinaryWriter& out) const {
@@ -290,19 +283,19 @@ void FrameMeans::add_frame(const dem::FlowFrame& frame) {
   ++frames_;
 }
 
-nlohmann::json FrameMeans::to_json(double omega) const {
+MacroFrameMeans FrameMeans::means(double omega) const {
   const double n = frames_ > 0 ? static_cast<double>(frames_) : 1.0;
   const double total = (liner_ + lifters_ + end_walls_) / n;
-  return {{"frames", frames_},
-          {"kinetic_energy_j",
-           {{"translational", translational_ / n}, {"rotational", rotational_ / n}}},
-          {"centre_of_mass_m", {{"x", com_x_ / n}, {"y", com_y_ / n}}},
-          {"drive_torque_n_m",
-           {{"liner", liner_ / n},
-            {"lifters", lifters_ / n},
-            {"end_walls", end_walls_ / n},
-            {"total", total}}},
-          {"drive_power_w", total * omega}};
+  return {.frames = frames_,
+          .kinetic_translational_j = translational_ / n,
+          .kinetic_rotational_j = rotational_ / n,
+          .centre_of_mass_x_m = com_x_ / n,
+          .centre_of_mass_y_m = com_y_ / n,
+          .liner_torque_n_m = liner_ / n,
+          .lifter_torque_n_m = lifters_ / n,
+          .end_wall_torque_n_m = end_walls_ / n,
+          .drive_torque_n_m = total,
+          .drive_power_w = total * omega};
 }
 
 }  // namespace millflow::method

@@ -2,9 +2,10 @@
 // What a `macro` run measures over its measurement window, as accumulators that a checkpoint
 // saves and restores bit for bit (write/read), so an interrupted run reports the same numbers.
 #include <cstdint>
-#include <nlohmann/json.hpp>
+#include <map>
 #include <optional>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "dem/binary_io.hpp"
@@ -12,6 +13,7 @@
 #include "dem/spectrum.hpp"
 #include "dem/system.hpp"
 #include "dem/wall_geometry.hpp"
+#include "method/macro_result.hpp"
 
 namespace millflow::method {
 
@@ -91,8 +93,11 @@ class CollisionStats {
   explicit CollisionStats(std::vector<Tracked> tracked);
 
   void add(std::span<const dem::CollisionEvent> events);
-  // Counts, rates per second over `duration`, mean energies, dissipated power and spectra.
-  nlohmann::json to_json(double duration, const dem::System& system) const;
+  // By label: counts, rates per second over `duration`, mean energies, dissipated power and
+  // spectra; the spectra's shared bin edges (none without a tracked category).
+  std::map<std::string, MacroCollisions> collisions(double duration,
+                                                    const dem::System& system) const;
+  std::vector<double> bin_edges() const;
 
   void write(dem::BinaryWriter& out) const;
   void read(dem::BinaryReader& in);
@@ -122,9 +127,8 @@ class FrameMeans {
 
   // Throws std::invalid_argument for a frame whose balls are not the masses' balls.
   void add_frame(const dem::FlowFrame& frame);
-  // {kinetic_energy_j {translational, rotational}, centre_of_mass_m {x, y}, drive_torque_n_m
-  // {liner, lifters, end_walls, total}, frames}; the power omega x total torque beside it.
-  nlohmann::json to_json(double omega) const;
+  // The means over the frames added, and the power omega x total torque.
+  MacroFrameMeans means(double omega) const;
 
  private:
   dem::MillShell shell_;
@@ -139,8 +143,5 @@ class FrameMeans {
 // next flow frame after it).
 void write_events(dem::BinaryWriter& out, std::span<const dem::CollisionEvent> events);
 std::vector<dem::CollisionEvent> read_events(dem::BinaryReader& in);
-
-// A histogram's bin counts, underflow and overflow (the bin edges are shared and written once).
-nlohmann::json histogram_json(const dem::LogHistogram& h);
 
 }  // namespace millflow::method

@@ -71,25 +71,19 @@ dem::System fresh_system(const MacroSettings& settings) {
 
 // The collision energy spectra of the result as a table: a row per bin, a column per
 // category and energy (collisions in the bin over the measurement).
-void write_spectra_csv(const json& spectra, const fs::path& path) {
+void write_spectra_csv(const MacroResult& result, const fs::path& path) {
   std::ofstream out(path, std::ios::trunc);
-  const auto& edges = spectra.at("bin_edges_j");
-  std::vector<std::string> columns;
+  const std::vector<double>& edges = result.spectrum_bin_edges_j;
   out << "energy_low_j,energy_high_j";
-  for (const auto& [label, histograms] : spectra.items()) {
-    if (label == "bin_edges_j") continue;
-    for (const char* energy : {"impact_energy", "dissipated_energy"}) {
-      out << ',' << label << '_' << energy << "_count";
-      columns.push_back(label + "/" + energy);
-    }
-  }
+  for (const auto& [label, collisions] : result.collisions)
+    out << ',' << label << "_impact_energy_count," << label << "_dissipated_energy_count";
   out << '\n';
   for (std::size_t bin = 0; bin + 1 < edges.size(); ++bin) {
-    out << fmt::format("{},{}", edges[bin].get<double>(), edges[bin + 1].get<double>());
-    for (const auto& column : columns) {
-      const auto slash = column.find('/');
-      out << ','
-          << spectra.at(column.substr(0, slash)).at(column.substr(slash + 1)).at("counts")[bin];
+    out << fmt::format("{},{}", edges[bin], edges[bin + 1]);
+    // A count as the result's JSON writes it (a double keeps its ".0").
+    for (const auto& [label, c] : result.collisions) {
+      out << ',' << json(c.impact_energy.counts[bin]) << ','
+          << json(c.dissipated_energy.counts[bin]);
     }
     out << '\n';
   }
@@ -203,7 +197,7 @@ MacroOutcome MacroRun::finish() {
   auto add = [&](const std::string& name) { outcome.artifacts.push_back(name); };
   write_power_csv(dir_ / "power.csv");
   add("power.csv");
-  write_spectra_csv(outcome.result.at("spectra"), dir_ / "collision_spectra.csv");
+  write_spectra_csv(outcome.result, dir_ / "collision_spectra.csv");
   add("collision_spectra.csv");
   for (std::uint64_t k = 0; k < segments_; ++k) add(segment_name(k));
   std::vector<dem::PvdEntry> particles, outlines;
@@ -219,12 +213,11 @@ MacroOutcome MacroRun::finish() {
   add("vtk/mill.pvd");
   remove_checkpoints_except(std::nullopt);
   fs::remove(dir_ / "state.bin");
-  const json& power = outcome.result["power"];
+  const MacroPower& power = outcome.result.power;
   log(fmt::format(
       "macro: power {:.4g} kW ({:.4g} kW/m, {:.4g} kW/t), torque arm {:.4g} kW; {} frames in {} "
       "segments",
-      power["mean_kw"].get<double>(), power["kw_per_m"].get<double>(),
-      power["kw_per_t_balls"].get<double>(), power["torque_arm_kw"].get<double>(), frames_,
+      power.mean_kw, power.kw_per_m, power.kw_per_t_balls, power.torque_arm_kw, frames_,
       segments_));
   return outcome;
 }
@@ -342,14 +335,12 @@ void MacroRun::log_setup() const {
       "macro: D = {} m, L = {} m ({}), {} lifters; {} balls, mass {:.4g} kg, mean diameter {} m",
       2 * mill.shell.radius, mill.shell.length, mill.shell.end_walls ? "end walls" : "periodic",
       mill.shell.lifter_count, system_.size(), ball_mass(), dem::mean_ball_diameter(mill)));
-  const json contacts = contacts_json();
-  for (const auto& [label, contact] : contacts.items()) {
+  for (const auto& [label, contact] : contacts()) {
     log(fmt::format(
         "macro: {} ({}): k_n = {:.4g} N/m, k_t = {:.4g} N/m, t_c = {:.4g} s for m_eff = {:.4g} "
         "kg",
-        label, contact["pair"].get<std::string>(), contact["normal_stiffness_n_m"].get<double>(),
-        contact["tangential_stiffness_n_m"].get<double>(),
-        contact["collision_time_s"].get<double>(), contact["reference_mass_kg"].get<double>()));
+        label, contact.pair, contact.normal_stiffness_n_m, contact.tangential_stiffness_n_m,
+        contact.collision_time_s, contact.reference_mass_kg));
   }
   log(fmt::format(
       "macro: t_c(min) = {:.4g} s, dt = {:.4g} s; critical speed {:.4g} rad/s, omega = {:.4g} "
@@ -365,112 +356,107 @@ double MacroRun::ball_mass() const {
   return mass;
 }
 
-json MacroRun::contacts_json() const {
+std::map<std::string, MacroContact> MacroRun::contacts() const {
   const double m = dem::reference_ball_mass(settings_.mill);
-  json contacts = json::object();
+  std::map<std::string, MacroContact> contacts;
   auto describe = [&](const char* label, dem::MaterialId other, double m_eff) {
     const dem::PairParams& p = system_.materials().pair(kMedia, other);
     contacts[label] = {
-        {"pair", system_.materials().pair_name(kMedia, other)},
-        {"normal_stiffness_n_m", p.normal_stiffness},
-        {"tangential_stiffness_n_m", p.tangential_stiffness},
-        {"restitution", system_.materials().interaction(kMedia, other).restitution},
-        {"friction", p.friction},
-        {"reference_mass_kg", m_eff},
-        {"collision_time_s", dem::collision_duration(p.normal_stiffness, m_eff, p.damping_ratio)}};
+        .pair = system_.materials().pair_name(kMedia, other),
+        .normal_stiffness_n_m = p.normal_stiffness,
+        .tangential_stiffness_n_m = p.tangential_stiffness,
+        .restitution = system_.materials().interaction(kMedia, other).restitution,
+        .friction = p.friction,
+        .reference_mass_kg = m_eff,
+        .collision_time_s = dem::collision_duration(p.normal_stiffness, m_eff, p.damping_ratio)};
   };
   describe("ball_ball", kMedia, dem::effective_mass(m, m));
   describe("ball_liner", system_.wall(kShellWall).material, m);
   return contacts;
 }
 
-json MacroRun::power_json(double duration) const {
+MacroPower MacroRun::power(double duration) const {
   const double mass_t = ball_mass() / 1000.0, length = settings_.mill.shell.length;
   const double mean = power_.mean(), torque_arm = power_.torque_arm_mean();
   return {
-      {"mean_w", mean},
-      {"std_w", power_.standard_deviation()},
-      {"mean_kw", mean / 1000.0},
-      {"std_kw", power_.standard_deviation() / 1000.0},
-      {"kw_per_m", mean / 1000.0 / length},
-      {"kw_per_t_balls", mean / 1000.0 / mass_t},
-      {"torque_arm_kw", torque_arm / 1000.0},
-      {"torque_arm_relative_difference", mean != 0.0 ? (torque_arm - mean) / mean : 0.0},
-      {"dissipation_kw", (system_.energy().dissipated - dissipated_at_start_) / duration / 1000.0},
-      {"block_s", schedule_.block_steps * schedule_.dt}};
+      .mean_w = mean,
+      .std_w = power_.standard_deviation(),
+      .mean_kw = mean / 1000.0,
+      .std_kw = power_.standard_deviation() / 1000.0,
+      .kw_per_m = mean / 1000.0 / length,
+      .kw_per_t_balls = mean / 1000.0 / mass_t,
+      .torque_arm_kw = torque_arm / 1000.0,
+      .torque_arm_relative_difference = mean != 0.0 ? (torque_arm - mean) / mean : 0.0,
+      .dissipation_kw = (system_.energy().dissipated - dissipated_at_start_) / duration / 1000.0,
+      .block_s = schedule_.block_steps * schedule_.dt};
 }
 
-json MacroRun::correlations_json(double kw_per_t) const {
+MacroCorrelations MacroRun::correlations(double kw_per_t) const {
   const auto& mill = settings_.mill;
   const double bond = bond_kw_per_tonne(2 * mill.shell.radius, mill.fill, mill.speed_fraction);
   const double hogg =
       hogg_fuerstenau_kw_per_tonne(2 * mill.shell.radius, mill.fill, mill.speed_fraction);
-  return {{"bond_kw_per_t", bond},
-          {"hogg_fuerstenau_kw_per_t", hogg},
-          {"hogg_fuerstenau_repose_deg", 35.0},
-          {"ratio_to_bond", kw_per_t / bond},
-          {"ratio_to_hogg_fuerstenau", kw_per_t / hogg}};
+  return {.bond_kw_per_t = bond,
+          .hogg_fuerstenau_kw_per_t = hogg,
+          .hogg_fuerstenau_repose_deg = 35.0,
+          .ratio_to_bond = kw_per_t / bond,
+          .ratio_to_hogg_fuerstenau = kw_per_t / hogg};
 }
 
-json MacroRun::charge_json() const {
+MacroCharge MacroRun::charge() const {
   const auto angles = charge_.angles();
-  return {{"toe_angle_deg", angles ? json(angles->toe_deg) : json(nullptr)},
-          {"shoulder_angle_deg", angles ? json(angles->shoulder_deg) : json(nullptr)},
-          {"convention",
-           "degrees counter-clockwise from 3 o'clock seen from +z (mill turning "
-           "counter-clockwise, gravity -y), in "
-           "[-90, 270); the arc of liner/lifter contact points holding >= 10% of the fullest "
-           "3-degree bin"},
-          {"contact_angle_bin_deg", 360.0 / ChargeShape::kBins},
-          {"contact_angle_counts", charge_.counts()}};
+  return {.toe_angle_deg = angles ? std::optional(angles->toe_deg) : std::nullopt,
+          .shoulder_angle_deg = angles ? std::optional(angles->shoulder_deg) : std::nullopt,
+          .contact_angle_bin_deg = 360.0 / ChargeShape::kBins,
+          .contact_angle_counts = {charge_.counts().begin(), charge_.counts().end()}};
 }
 
 // The frame means (method/macro_measure.hpp) from the flow segments written so far.
-json MacroRun::frame_means_json() const {
+MacroFrameMeans MacroRun::frame_means() const {
   FrameMeans means(settings_.mill.shell, system_.masses(), 0.5 * smallest_diameter(settings_.mill));
   for (std::uint64_t k = 0; k < segments_; ++k) {
     for (const dem::FlowFrame& frame : dem::read_flow_segment(dir_ / segment_name(k)))
       means.add_frame(frame);
   }
-  return means.to_json(schedule_.omega);
+  return means.means(schedule_.omega);
 }
 
-json MacroRun::result() const {
+MacroResult MacroRun::result() const {
   const auto& mill = settings_.mill;
   const double duration = system_.time() - measure_start_s_;
-  json categories = json::array();
+  std::vector<std::string> categories;
   for (std::uint32_t c = 0; c < system_.category_count(); ++c)
     categories.push_back(system_.category_name(c));
-  json result = {
-      {"n_balls", system_.size()},
-      {"ball_mass_kg", ball_mass()},
-      {"media_diameter_m", dem::mean_ball_diameter(mill)},
-      {"dt_s", schedule_.dt},
-      {"collision_time_s", system_.min_collision_duration()},
-      {"critical_speed_rad_s", schedule_.omega_c},
-      {"angular_velocity_rad_s", schedule_.omega},
-      {"speed_fraction", mill.speed_fraction},
-      {"fill", mill.fill},
-      {"gravity_m_s2", mill.gravity},
-      {"mill",
-       {{"radius_m", mill.shell.radius},
-        {"length_m", mill.shell.length},
-        {"axial_ends", mill.shell.end_walls ? "walls" : "periodic"},
-        {"lifter_count", mill.shell.lifter_count}}},
-      {"contacts", contacts_json()},
-      {"measure_start_s", measure_start_s_},
-      {"measure_end_s", system_.time()},
-      {"measure_revolutions", schedule_.revolutions(schedule_.measure_end - schedule_.warm_end)},
-      {"sample_interval_s", schedule_.sample_steps * schedule_.dt},
-      {"frame_count", frames_},
-      {"segment_count", segments_},
-      {"categories", categories},
-      {"power", power_json(duration)},
-      {"charge", charge_json()},
-  };
-  result["correlations"] = correlations_json(result["power"]["kw_per_t_balls"].get<double>());
-  result["frame_means"] = frame_means_json();
-  result.update(collisions_.to_json(duration, system_));
+  MacroResult result{
+      .n_balls = system_.size(),
+      .ball_mass_kg = ball_mass(),
+      .media_diameter_m = dem::mean_ball_diameter(mill),
+      .dt_s = schedule_.dt,
+      .collision_time_s = system_.min_collision_duration(),
+      .critical_speed_rad_s = schedule_.omega_c,
+      .angular_velocity_rad_s = schedule_.omega,
+      .speed_fraction = mill.speed_fraction,
+      .fill = mill.fill,
+      .gravity_m_s2 = mill.gravity,
+      .mill = {.radius_m = mill.shell.radius,
+               .length_m = mill.shell.length,
+               .axial_ends = mill.shell.end_walls ? "walls" : "periodic",
+               .lifter_count = mill.shell.lifter_count},
+      .contacts = contacts(),
+      .measure_start_s = measure_start_s_,
+      .measure_end_s = system_.time(),
+      .measure_revolutions = schedule_.revolutions(schedule_.measure_end - schedule_.warm_end),
+      .sample_interval_s = schedule_.sample_steps * schedule_.dt,
+      .frame_count = frames_,
+      .segment_count = segments_,
+      .categories = categories,
+      .power = power(duration),
+      .correlations = {},
+      .charge = charge(),
+      .frame_means = frame_means(),
+      .spectrum_bin_edges_j = collisions_.bin_edges(),
+      .collisions = collisions_.collisions(duration, system_)};
+  result.correlations = correlations(result.power.kw_per_t_balls);
   return result;
 }
 

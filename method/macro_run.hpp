@@ -10,25 +10,7 @@
 // cadences are whole step counts fixed at the start, so that a run continued from a checkpoint
 // gives the same bits as one that never stopped.
 //
-// Result JSON (SI units unless the key says otherwise):
-//   n_balls, ball_mass_kg (total), media_diameter_m (mass-weighted mean), dt_s,
-//   collision_time_s (shortest, sets dt), critical_speed_rad_s, angular_velocity_rad_s,
-//   speed_fraction, fill, gravity_m_s2 (along -y), mill {radius_m, length_m, axial_ends,
-//   lifter_count}, contacts {ball_ball, ball_liner: k_n, k_t, e, mu, reference mass, t_c},
-//   measure_start_s, measure_end_s, measure_revolutions, sample_interval_s, frame_count,
-//   segment_count, categories (dem::System category names by index, as in the flow frames),
-//   power {mean_w, std_w (of the block means), mean_kw, std_kw, kw_per_m, kw_per_t_balls,
-//          torque_arm_kw (M g x_com omega), torque_arm_relative_difference, dissipation_kw,
-//          block_s},
-//   correlations {bond_kw_per_t, hogg_fuerstenau_kw_per_t, ratio_to_bond,
-//   ratio_to_hogg_fuerstenau}, charge {toe_angle_deg, shoulder_angle_deg (null when undefined),
-//   convention,
-//           contact_angle_bin_deg, contact_angle_counts} (see method/macro_measure.hpp),
-//   collisions {ball_ball, ball_liner: count, rate_per_s, mean energies, dissipated_power_w},
-//   spectra {bin_edges_j, ball_ball, ball_liner: impact_energy and dissipated_energy histograms},
-//   frame_means {frames, kinetic_energy_j {translational, rotational}, centre_of_mass_m {x, y},
-//   drive_torque_n_m {liner, lifters, end_walls, total}, drive_power_w} (means over the flow
-//   frames, method/macro_measure.hpp FrameMeans).
+// Result: method::MacroResult (method/macro_result.hpp says what it holds and its JSON).
 // Artifacts: power.csv (time_s, power_w, torque_arm_power_w), collision_spectra.csv (per
 // energy bin: energy_low_j, energy_high_j and <category>_<impact|dissipated>_energy_count, the
 // spectra of the result as a table), flow/segment_NNNN.mfs (flow
@@ -42,6 +24,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -52,6 +35,7 @@
 #include "dem/mill_setup.hpp"
 #include "dem/system.hpp"
 #include "method/macro_measure.hpp"
+#include "method/macro_result.hpp"
 
 namespace millflow::method {
 
@@ -67,10 +51,10 @@ struct MacroSettings {
   double checkpoint_interval_s = 60.0;  // wall-clock s between the task's checkpoints
 };
 
-// What a finished run leaves: the result JSON (above) and its artifacts' names, relative to the
-// run's directory.
+// What a finished run leaves: the result and its artifacts' names, relative to the run's
+// directory.
 struct MacroOutcome {
-  nlohmann::json result;
+  MacroResult result;
   std::vector<std::string> artifacts;
 };
 
@@ -125,12 +109,12 @@ class MacroRun {
   void log_setup() const;
   void log(const std::string& message) const;
   double ball_mass() const;
-  nlohmann::json contacts_json() const;
-  nlohmann::json power_json(double duration) const;
-  nlohmann::json correlations_json(double kw_per_t) const;
-  nlohmann::json charge_json() const;
-  nlohmann::json frame_means_json() const;
-  nlohmann::json result() const;
+  std::map<std::string, MacroContact> contacts() const;
+  MacroPower power(double duration) const;
+  MacroCorrelations correlations(double kw_per_t) const;
+  MacroCharge charge() const;
+  MacroFrameMeans frame_means() const;
+  MacroResult result() const;
   void write_power_csv(const std::filesystem::path& path) const;
 
   MacroSettings settings_;

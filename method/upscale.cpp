@@ -14,6 +14,34 @@ double sum_from(const std::vector<double>& rates, std::size_t first) {
 
 }  // namespace
 
+CellFigures cell_figures(const CellResult& cell) {
+  constexpr auto media_media = static_cast<std::size_t>(dem::ContactType::MediaMedia);
+  constexpr auto wall_media = static_cast<std::size_t>(dem::ContactType::WallMedia);
+  const CellCollisions& media = cell.media_collisions;
+  const std::optional<CellStandardErrors>& se = cell.standard_errors;
+  return {.input = cell.power_density_w_m3,
+          .powder = cell.powder_dissipation_w_m3,
+          .collisions = cell.dissipation_w_m3[media_media] + cell.dissipation_w_m3[wall_media],
+          .collision_rate = media.rate_per_m3_s,
+          .input_se = se ? std::optional(se->power_density_w_m3) : std::nullopt,
+          .powder_se = se ? std::optional(se->powder_dissipation_w_m3) : std::nullopt,
+          .collisions_se = se ? std::optional(se->dissipation_w_m3[media_media] +
+                                              se->dissipation_w_m3[wall_media])
+                              : std::nullopt,
+          .collision_rate_se = media.count > 0.0
+                                   ? std::optional(media.rate_per_m3_s / std::sqrt(media.count))
+                                   : std::nullopt,
+          .media_solid_fraction = cell.media_solid_fraction};
+}
+
+CellSpectra cell_spectra(const CellResult& cell) {
+  return {.bin_edges_j = cell.spectrum_bin_edges_j,
+          .media_counts = cell.media_spectrum.counts,
+          .powder_counts = cell.powder_spectrum.counts,
+          .volume_m3 = cell.volume_m3,
+          .duration_s = cell.duration_s};
+}
+
 double site_weight(const Site& site, const CellFigures& cell, WeightBasis basis) {
   if (basis == WeightBasis::volume) return site.weight_m3;
   return site.solid_volume_m3 / cell.media_solid_fraction;

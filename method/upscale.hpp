@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "method/cell_result.hpp"
 #include "method/sites.hpp"
 
 namespace millflow::method {
@@ -26,6 +27,11 @@ struct CellSpectra {
   std::vector<double> bin_edges_j, media_counts, powder_counts;
   double volume_m3 = 0.0, duration_s = 0.0;
 };
+
+// The figures and the spectra of a cell that ran (a media collision rate's standard error is
+// rate / sqrt(count), a Poisson count's; tasks/upscale.hpp).
+CellFigures cell_figures(const CellResult& cell);
+CellSpectra cell_spectra(const CellResult& cell);
 
 // What a cell at `site` counts for (tasks/upscale.hpp, Weights).
 double site_weight(const Site& site, const CellFigures& cell, WeightBasis basis);

@@ -1,5 +1,7 @@
 #include "report/report_inputs.hpp"
 #include "method/fields_file.hpp"
+#include "method/macro_result.hpp"
+#include "util/json_fields.hpp"
 
 #include <fmt/format.h>
 
@@ -13,63 +15,14 @@ namespace {
 
 using nlohmann::json;
 
-// Typed reads from one task's JSON by JSON pointer, with errors that name the task and field.
-class FieldReader {
- public:
-  FieldReader(std::string owner, const json& document)
-      : owner_(std::move(owner)), document_(document) {}
+using FieldReader = util::JsonFields;
 
-  const json& at(const std::string& pointer) const {
-    const json::json_pointer where(pointer);
-    if (!document_.contains(where)) refuse(pointer, "is missing");
-    return document_.at(where);
-  }
-  double number(const std::string& pointer) const {
-    const json& value = at(pointer);
-    if (!value.is_number()) refuse(pointer, "is " + value.dump() + ", not a number");
-    return value.get<double>();
-  }
-  std::optional<double> number_or_null(const std::string& pointer) const {
-    if (at(pointer).is_null()) return std::nullopt;
-    return number(pointer);
-  }
-  std::size_t count(const std::string& pointer) const {
-    const json& value = at(pointer);
-    if (!value.is_number_integer() || value.get<long long>() < 0)
-      refuse(pointer, "is " + value.dump() + ", not a count");
-    return value.get<std::size_t>();
-  }
-  std::string text(const std::string& pointer) const {
-    const json& value = at(pointer);
-    if (!value.is_string()) refuse(pointer, "is " + value.dump() + ", not a string");
-    return value.get<std::string>();
-  }
-  std::optional<std::string> text_or_null(const std::string& pointer) const {
-    if (at(pointer).is_null()) return std::nullopt;
-    return text(pointer);
-  }
-  std::size_t array_size(const std::string& pointer) const {
-    const json& value = at(pointer);
-    if (!value.is_array()) refuse(pointer, "is not an array");
-    return value.size();
-  }
-  std::vector<double> numbers(const std::string& pointer) const {
-    std::vector<double> values;
-    for (std::size_t i = 0; i < array_size(pointer); ++i)
-      values.push_back(number(fmt::format("{}/{}", pointer, i)));
-    return values;
-  }
-  [[noreturn]] void refuse(const std::string& pointer, const std::string& problem) const {
-    throw std::invalid_argument(
-        fmt::format("{}: field {} {}; the report reads the upscale result contract, so re-run "
-                    "that task with a matching version",
-                    owner_, pointer, problem));
-  }
-
- private:
-  std::string owner_;
-  const json& document_;
-};
+// Typed reads from an upscale result, with errors that name the task and field.
+FieldReader upscale_fields(const std::string& task_key, const json& result) {
+  return FieldReader(fmt::format("upscale task {}", task_key), result,
+                     "the report reads the upscale result contract, so re-run that task with a "
+                     "matching version");
+}
 
 RegionResult read_region(const FieldReader& in, const std::string& at) {
   return {.region = in.text(at + "/region"),
@@ -113,16 +66,15 @@ void read_spectra(const FieldReader& in, UpscalePoint& point) {
     in.refuse("/spectra/media_rate_per_s", fmt::format("does not hold {} bins", bins));
 }
 
-method::FlowMap read_flow_map(const engine::TaskInput& average) {
-  const std::string owner = fmt::format("average task {}", average.key);
-  const auto artifact = average.artifacts.find("fields.json");
-  if (artifact == average.artifacts.end()) {
+method::FlowMap read_flow_map(const std::string& average_key,
+                              const std::optional<std::filesystem::path>& fields) {
+  const std::string owner = fmt::format("average task {}", average_key);
+  if (!fields) {
     throw std::invalid_argument(owner + ": has no fields.json artifact; re-run the average task");
   }
-  std::ifstream file(artifact->second);
+  std::ifstream file(*fields);
   if (!file)
-    throw std::invalid_argument(
-        fmt::format("{}: cannot read {}", owner, artifact->second.string()));
+    throw std::invalid_argument(fmt::format("{}: cannot read {}", owner, fields->string()));
   try {
     return method::flow_map_from_document(json::parse(file));
   } catch (const std::exception& error) {
@@ -133,7 +85,7 @@ method::FlowMap read_flow_map(const engine::TaskInput& average) {
 }  // namespace
 
 UpscalePoint read_upscale(const std::string& task_key, const json& result) {
-  const FieldReader in(fmt::format("upscale task {}", task_key), result);
+  const FieldReader in = upscale_fields(task_key, result);
   UpscalePoint point{.task_key = task_key,
                      .average_task = in.text("/average_task"),
                      .fill = in.number("/fill"),
@@ -158,25 +110,24 @@ UpscalePoint read_upscale(const std::string& task_key, const json& result) {
 }
 
 MacroRun read_macro(const std::string& task_key, const json& result) {
-  const FieldReader in(fmt::format("macro task {}", task_key), result);
+  const std::string owner = fmt::format("macro task {}", task_key);
+  const method::MacroResult macro = method::read_macro_result(result, owner);
   MacroRun run{.task_key = task_key,
-               .fill = in.number("/fill"),
-               .speed_fraction = in.number("/speed_fraction"),
-               .toe_angle_deg = in.number_or_null("/charge/toe_angle_deg"),
-               .shoulder_angle_deg = in.number_or_null("/charge/shoulder_angle_deg"),
-               .bin_edges_j = in.numbers("/spectra/bin_edges_j")};
-  if (run.bin_edges_j.size() < 2) in.refuse("/spectra/bin_edges_j", "holds fewer than 2 edges");
-  const double duration = in.number("/measure_end_s") - in.number("/measure_start_s");
-  if (!(duration > 0.0)) in.refuse("/measure_end_s", "is not after /measure_start_s");
-  if (!in.at("/spectra").is_object()) in.refuse("/spectra", "is not an object");
-  for (const auto& [contact, histograms] : in.at("/spectra").items()) {
-    if (contact == "bin_edges_j") continue;
-    for (const char* energy : {"impact", "dissipated"}) {
-      const std::string at = fmt::format("/spectra/{}/{}_energy/counts", contact, energy);
+               .fill = macro.fill,
+               .speed_fraction = macro.speed_fraction,
+               .toe_angle_deg = macro.charge.toe_angle_deg,
+               .shoulder_angle_deg = macro.charge.shoulder_angle_deg,
+               .bin_edges_j = macro.spectrum_bin_edges_j};
+  if (macro.collisions.empty()) FieldReader(owner, result).refuse("/collisions", "is empty");
+  const double duration = macro.measure_end_s - macro.measure_start_s;
+  if (!(duration > 0.0))
+    FieldReader(owner, result).refuse("/measure_end_s", "is not after /measure_start_s");
+  for (const auto& [contact, collisions] : macro.collisions) {
+    for (const auto& [energy, histogram] :
+         {std::pair{"impact", &collisions.impact_energy},
+          std::pair{"dissipated", &collisions.dissipated_energy}}) {
       MacroSpectrum spectrum{.label = fmt::format("{} {}", contact, energy),
-                             .rate_per_s = in.numbers(at)};
-      if (spectrum.rate_per_s.size() + 1 != run.bin_edges_j.size())
-        in.refuse(at, fmt::format("does not hold {} bins", run.bin_edges_j.size() - 1));
+                             .rate_per_s = histogram->counts};
       for (double& count : spectrum.rate_per_s) count /= duration;
       run.spectra.push_back(std::move(spectrum));
     }
@@ -184,28 +135,26 @@ MacroRun read_macro(const std::string& task_key, const json& result) {
   return run;
 }
 
-ReportInputs read_report_inputs(const std::vector<engine::TaskInput>& inputs) {
+ReportInputs read_report_inputs(const ReportSources& sources) {
   ReportInputs report;
-  std::map<std::string, const engine::TaskInput*> averages;
-  for (const engine::TaskInput& input : inputs) {
-    if (input.kind == "upscale") report.points.push_back(read_upscale(input.key, input.result));
-    if (input.kind == "average") averages[input.key] = &input;
-    if (input.kind == "macro") report.macro_runs.push_back(read_macro(input.key, input.result));
-  }
+  for (const TaskResult& upscale : sources.upscales)
+    report.points.push_back(read_upscale(upscale.key, upscale.result));
+  for (const TaskResult& macro : sources.macros)
+    report.macro_runs.push_back(read_macro(macro.key, macro.result));
   if (report.points.empty()) {
     throw std::invalid_argument(
         "the report has no upscale input: plan it below the campaign's upscale tasks");
   }
   for (const UpscalePoint& point : report.points) {
     if (report.flow_maps.count(point.average_task) > 0) continue;
-    const auto average = averages.find(point.average_task);
-    if (average == averages.end()) {
+    const auto average = sources.average_fields.find(point.average_task);
+    if (average == sources.average_fields.end()) {
       throw std::invalid_argument(
           fmt::format("upscale task {}: field /average_task names {}, which is not an average "
                       "input of the report; plan the report below that average task",
                       point.task_key, point.average_task));
     }
-    report.flow_maps.emplace(point.average_task, read_flow_map(*average->second));
+    report.flow_maps.emplace(point.average_task, read_flow_map(average->first, average->second));
   }
   std::sort(report.points.begin(), report.points.end(),
             [](const UpscalePoint& a, const UpscalePoint& b) {

@@ -1,22 +1,36 @@
 #pragma once
-// The inputs of the `report` task, read from its upstream tasks by kind: every "upscale" task's
+// The inputs of the `report` task (tasks/report.cpp gathers them from its upstream tasks by
+// kind into ReportSources): every "upscale" task's
 // result (tasks/upscale.hpp says what it holds), the
 // fields.json artifact of every "average" task an upscale names, and every "macro" task's charge
-// shape and collision spectra (method/macro_run.hpp). Points are sorted by fill, speed
+// shape and collision spectra (method/macro_result.hpp). Points are sorted by fill, speed
 // fraction, powder load (then task key), so the report is the same whatever the input order.
 //
 // A missing or ill-typed value throws std::invalid_argument naming the task kind and key, the
 // JSON pointer of the field and what was expected.
+#include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "engine/task.hpp"
 #include "method/sites.hpp"
 
 namespace millflow::report {
+
+// One upstream task's result.
+struct TaskResult {
+  std::string key{};
+  nlohmann::json result{};
+};
+
+// What the report reads, by the kind of task it comes from.
+struct ReportSources {
+  std::vector<TaskResult> upscales{}, sites{}, macros{};
+  // By average task key: its fields.json artifact, none when the task has none.
+  std::map<std::string, std::optional<std::filesystem::path>> average_fields{};
+};
 
 struct RegionResult {
   std::string region{};
@@ -91,6 +105,6 @@ struct ReportInputs {
 
 // Throws std::invalid_argument when there is no upscale input, an upscale names an average task
 // that is not an input, or an average input has no readable fields.json.
-ReportInputs read_report_inputs(const std::vector<engine::TaskInput>& inputs);
+ReportInputs read_report_inputs(const ReportSources& sources);
 
 }  // namespace millflow::report

@@ -117,17 +117,19 @@ std::string left_out_rows(const json& upscale) {
 
 }  // namespace
 
-RegionSection region_section(const std::vector<engine::TaskInput>& inputs,
+RegionSection region_section(const ReportSources& sources,
                              const std::map<std::string, method::FlowMap>& flow_maps) {
   // Sites tasks by fill and speed, and the sensitivity of each of their upscales by load.
-  std::map<std::pair<double, double>, const engine::TaskInput*> sites_tasks;
+  std::map<std::pair<double, double>, const TaskResult*> sites_tasks;
   std::map<std::string, std::map<double, json>> sensitivity;
   std::map<std::string, std::map<double, const json*>> upscales;  // by sites task and load
-  for (const auto& input : inputs) {
+  for (const TaskResult& input : sources.sites) {
     const json& r = input.result;
-    if (input.kind == "sites")
-      sites_tasks[{r.at("fill").get<double>(), r.at("speed_fraction").get<double>()}] = &input;
-    if (input.kind == "upscale" && r.contains("sites_task")) {
+    sites_tasks[{r.at("fill").get<double>(), r.at("speed_fraction").get<double>()}] = &input;
+  }
+  for (const TaskResult& input : sources.upscales) {
+    const json& r = input.result;
+    if (r.contains("sites_task")) {
       const std::string sites = r.at("sites_task").get<std::string>();
       const double load = r.at("powder_load").get<double>();
       sensitivity[sites][load] = r.at("sensitivity");

@@ -12,8 +12,8 @@
 #include <utility>
 #include <vector>
 
-#include "engine/task.hpp"
 #include "method/sites.hpp"
+#include "report/report_inputs.hpp"
 
 namespace millflow::report {
 
@@ -26,7 +26,7 @@ struct RegionSection {
 // the upscale inputs that name them (sites_task) and the flow maps by average task key; nothing
 // without sites inputs. Throws std::invalid_argument naming a sites task whose average task has
 // no flow map.
-RegionSection region_section(const std::vector<engine::TaskInput>& inputs,
+RegionSection region_section(const ReportSources& sources,
                              const std::map<std::string, method::FlowMap>& flow_maps);
 
 }  // namespace millflow::report

@@ -332,6 +332,34 @@ std::string error_bar(double x, double y_low, double y_high, const char* colour)
   return out;
 }
 
+// A chart being drawn: its axes over the data's ranges, its width (the legend's) and its SVG so
+// far.
+struct ChartCanvas {
+  AxisMap x, y;
+  double width;
+  std::string svg;
+};
+
+// The canvas with the frame, axes and title drawn.
+ChartCanvas open_chart(const std::string& title, const Axis& x_axis, const Axis& y_axis,
+                       const Range& x_range, const Range& y_range,
+                       const std::vector<LegendEntry>& entries) {
+  using F = ChartFrame;
+  ChartCanvas canvas{.x = AxisMap(x_axis.scale, x_range, F::kLeft, F::kRight),
+                     .y = AxisMap(y_axis.scale, y_range, F::kBottom, F::kTop),
+                     .width = chart_width(entries),
+                     .svg = {}};
+  canvas.svg = svg_open(canvas.width, F::kHeight) + axes(title, x_axis, y_axis, canvas.x, canvas.y);
+  return canvas;
+}
+
+// The figure: the canvas with its legend, closed.
+Figure close_chart(const ChartCanvas& canvas, const std::vector<LegendEntry>& entries,
+                   std::size_t legend_limit) {
+  return {canvas.width, ChartFrame::kHeight,
+          canvas.svg + legend(entries, legend_limit) + "</svg>\n"};
+}
+
 }  // namespace
 
 Figure line_chart(const LineChart& chart) {
@@ -363,10 +391,9 @@ Figure line_chart(const LineChart& chart) {
   }
   if (x_range.empty()) return {F::kWidth, F::kHeight, no_data_chart(chart.title)};
 
-  const AxisMap x(chart.x.scale, x_range, F::kLeft, F::kRight),
-      y(chart.y.scale, y_range, F::kBottom, F::kTop);
-  const double width = chart_width(entries);
-  std::string out = svg_open(width, F::kHeight) + axes(chart.title, chart.x, chart.y, x, y);
+  ChartCanvas canvas = open_chart(chart.title, chart.x, chart.y, x_range, y_range, entries);
+  const AxisMap &x = canvas.x, &y = canvas.y;
+  std::string& out = canvas.svg;
   for (std::size_t s = 0; s < chart.series.size(); ++s) {
     const Series& series = chart.series[s];
     PathBuilder path;
@@ -391,8 +418,7 @@ Figure line_chart(const LineChart& chart) {
       out += path_element(path.d(), entries[s].colour, series.dashed);
     out += markers;
   }
-  out += legend(entries, chart.legend_limit);
-  return {width, F::kHeight, out + "</svg>\n"};
+  return close_chart(canvas, entries, chart.legend_limit);
 }
 
 Figure histogram_chart(const HistogramChart& chart) {
@@ -418,10 +444,9 @@ Figure histogram_chart(const HistogramChart& chart) {
   }
   if (x_range.empty()) return {F::kWidth, F::kHeight, no_data_chart(chart.title)};
 
-  const AxisMap x(chart.x.scale, x_range, F::kLeft, F::kRight),
-      y(chart.y.scale, y_range, F::kBottom, F::kTop);
-  const double width = chart_width(entries);
-  std::string out = svg_open(width, F::kHeight) + axes(chart.title, chart.x, chart.y, x, y);
+  ChartCanvas canvas = open_chart(chart.title, chart.x, chart.y, x_range, y_range, entries);
+  const AxisMap &x = canvas.x, &y = canvas.y;
+  std::string& out = canvas.svg;
   for (std::size_t s = 0; s < chart.series.size(); ++s) {
     const Histogram& h = chart.series[s];
     if (!entries[s].has_data) continue;
@@ -436,8 +461,7 @@ Figure histogram_chart(const HistogramChart& chart) {
     }
     out += path_element(path.d(), entries[s].colour, h.dashed);
   }
-  out += legend(entries, chart.legend_limit);
-  return {width, F::kHeight, out + "</svg>\n"};
+  return close_chart(canvas, entries, chart.legend_limit);
 }
 
 namespace {

@@ -41,7 +41,7 @@ std::vector<double> axis_ticks(Scale scale, double lo, double hi);
 
 // Text boxes. Every label is laid out with this estimate of its extent (sans-serif: a
 // character at most 0.64 em wide, e.g. DejaVu Sans digits; 0.75 em above the baseline, 0.22 em
-// below), so labels neither leave the canvas nor cover each other (tests/tasks/check_svg_text.py
+// below), so labels neither leave the canvas nor cover each other (tests/report/check_svg_text.py
 // checks the written SVG with the same estimate and renders it with rsvg-convert).
 inline constexpr double kCharWidthEm = 0.64, kAscentEm = 0.75, kDescentEm = 0.22;
 double text_width(std::string_view content, double font_size);

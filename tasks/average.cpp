@@ -13,6 +13,7 @@
 #include "method/fields_file.hpp"
 #include "method/vtk_image.hpp"
 #include "tasks/kinds.hpp"
+#include "tasks/macro.hpp"
 #include "util/durable_file.hpp"
 #include "util/sphere.hpp"
 
@@ -35,27 +36,27 @@ std::vector<std::filesystem::path> flow_segments(const engine::TaskInput& macro)
 }
 
 // The balls' density from their total mass and their volume in the first frame.
-double media_density(const json& macro, const std::filesystem::path& first_segment) {
+double media_density(const method::MacroResult& macro, const std::filesystem::path& first_segment) {
   const auto frames = dem::read_flow_segment(first_segment);
   if (frames.empty()) throw std::invalid_argument("the first flow segment holds no frames");
   double volume = 0.0;
   for (float r : frames.front().radius) volume += util::sphere_volume_of_radius(r);
-  return macro.at("ball_mass_kg").get<double>() / volume;
+  return macro.ball_mass_kg / volume;
 }
 
-method::CoarseGrainSettings settings_for(const json& params, const json& macro, double density) {
+method::CoarseGrainSettings settings_for(const json& params, const method::MacroResult& macro,
+                                         double density) {
   const json& average = params.at("average");
-  const double diameter = macro.at("media_diameter_m").get<double>();
+  const double diameter = macro.media_diameter_m;
   method::CoarseGrainSettings s;
   s.grid = method::CrossSectionGrid{.nx = average.at("grid_cells").at(0).get<int>(),
                                     .ny = average.at("grid_cells").at(1).get<int>(),
-                                    .half_width = macro.at("mill").at("radius_m").get<double>()};
-  s.slice_length = macro.at("mill").at("length_m").get<double>();
+                                    .half_width = macro.mill.radius_m};
+  s.slice_length = macro.mill.length_m;
   s.kernel_width = average.at("kernel_width_diameters").get<double>() * diameter;
   s.media_density = density;
-  s.event_window =
-      macro.at("frame_count").get<double>() * macro.at("sample_interval_s").get<double>();
-  s.categories = macro.at("categories").get<std::vector<std::string>>();
+  s.event_window = static_cast<double>(macro.frame_count) * macro.sample_interval_s;
+  s.categories = macro.categories;
   return s;
 }
 
@@ -99,8 +100,9 @@ void write_json(const std::filesystem::path& file, const json& document) {
 engine::TaskOutcome run_average(engine::TaskContext& context) {
   const engine::TaskInput& macro = context.inputs.at(0);
   const auto segments = flow_segments(macro);
+  const method::MacroResult macro_result = macro_result_of(macro);
   const method::CoarseGrainSettings settings =
-      settings_for(context.params, macro.result, media_density(macro.result, segments.front()));
+      settings_for(context.params, macro_result, media_density(macro_result, segments.front()));
 
   std::atomic<std::size_t> loaded{0};
   const auto load = [&](std::size_t index) {
@@ -113,8 +115,8 @@ engine::TaskOutcome run_average(engine::TaskContext& context) {
   const method::CoarseFields fields = method::coarse_grain(settings, segments.size(), load);
 
   const json mill = {{"mill_radius_m", settings.grid.half_width},
-                     {"media_diameter_m", macro.result.at("media_diameter_m")},
-                     {"angular_velocity_rad_s", macro.result.at("angular_velocity_rad_s")},
+                     {"media_diameter_m", macro_result.media_diameter_m},
+                     {"angular_velocity_rad_s", macro_result.angular_velocity_rad_s},
                      {"kernel_width_m", settings.kernel_width}};
   std::filesystem::create_directories(
       context.work_dir);  // the engine leaves its creation to the task

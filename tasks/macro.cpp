@@ -79,10 +79,14 @@ engine::TaskOutcome run_macro(engine::TaskContext& context) {
         static_cast<double>(steps * run.system().size()) / seconds, context.threads));
   }
   method::MacroOutcome finished = run.finish();
-  engine::TaskOutcome outcome = engine::TaskOutcome::with_result(std::move(finished.result));
+  engine::TaskOutcome outcome = engine::TaskOutcome::with_result(finished.result);
   for (const std::string& name : finished.artifacts)
     outcome.artifacts.push_back({name, context.work_dir / name});
   return outcome;
+}
+
+method::MacroResult macro_result_of(const engine::TaskInput& macro) {
+  return method::read_macro_result(macro.result, fmt::format("macro task {}", macro.key));
 }
 
 engine::ViewDefinition macro_lineage_view() {

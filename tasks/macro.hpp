@@ -9,6 +9,7 @@
 // (method::MacroRun::save); the next attempt continues from there, or starts again when the
 // checkpoint cannot be used.
 #include "engine/campaign.hpp"
+#include "method/macro_result.hpp"
 
 namespace millflow::tasks {
 
@@ -16,6 +17,9 @@ namespace millflow::tasks {
 inline constexpr const char* kMacroVersion = "3";
 
 engine::TaskOutcome run_macro(engine::TaskContext& context);
+
+// A macro task input's result, read and checked (errors name "macro task <key>").
+method::MacroResult macro_result_of(const engine::TaskInput& macro);
 
 // macro_results: one row per (campaign, macro task).
 // View macro_lineage: each task with the macro run of its sweep point (macro_key, fill,

@@ -28,8 +28,8 @@
 // time, the run is saved to cell.ckpt in the work directory (the format is beside
 // dem::ShearCellRun), and the next attempt continues from it with the same bits. A checkpoint that
 // cannot be read (truncated, altered, of another cell) is logged and removed, and the cell starts
-// again from scratch. The file goes when the cell is done. Result JSON: see measurements_json, plus
-// site (the sites task's entry), slot, powder_load, media_count, powder_count, wall_ball_count.
+// again from scratch. The file goes when the cell is done. Result: method::CellResult
+// (method/cell_result.hpp), its JSON keys and their meaning.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -43,7 +43,7 @@
 namespace millflow::tasks {
 
 // Bump whenever the results of the same parameters change (tests/tasks/golden/shear_cell.json).
-inline constexpr const char* kShearCellVersion = "6";
+inline constexpr const char* kShearCellVersion = "7";
 inline constexpr int kWarmupWindows = 4;
 inline constexpr std::uint64_t kStepsBetweenPolls = 100;
 
@@ -67,29 +67,8 @@ dem::ShearCellSetup shear_cell_setup(const nlohmann::json& params, const nlohman
 // them. Returns what was derived for the result's "stiffness" and the log.
 std::vector<dem::PairStiffness> apply_stiffness_policy(const nlohmann::json& params,
                                                        dem::ShearCellSetup& setup);
-nlohmann::json stiffness_json(const std::vector<dem::PairStiffness>& pairs);
 std::string stiffness_log(const std::vector<dem::PairStiffness>& pairs,
                           const dem::ShearCellSetup& setup);
-
-// The measurements in SI units: strain, duration_s, steps, *_shear_rate_per_s (target, bulk,
-// nominal), wall_speed_m_s, wall_slip_m_s, gap_m, volume_m3, shear_stress_pa, normal_stress_pa,
-// friction (tau / p_yy), friction_mean_pressure (tau / p), stresses {xx, yy, zz, xy, xz, yz,
-// mean_pressure_pa, p_yy_pa} (compression positive), inertial_number (imposed rate in LE),
-// inertial_number_measured_rate, media/powder/total solid_fraction, power_density_w_m3,
-// dissipation_w_m3 {by contact type, total}, powder_dissipation_w_m3 (every type involving
-// powder), collisions {by contact type, media, powder: count, rate_per_m3_s}, spectra
-// {bin_edges_j, media, powder: dissipated energy histograms}, energy {work_in_j,
-// kinetic_change_j, elastic_change_j, dissipated_j, stress_control_work_j (in work_in_j),
-// balance_error}, steady_state {shear_stress_first_half_pa, shear_stress_second_half_pa,
-// deviation, steady (the halves agree)}, steady (stationary and the halves agree),
-// stationary_strain (null when the warm-up never passed the test), converged, standard_errors
-// {friction, friction_mean_pressure, shear_stress_pa, normal_stress_pa, power_density_w_m3,
-// powder_dissipation_w_m3, dissipation_w_m3 {by contact type, total}, blocks, batch_blocks},
-// overlap {by contact type that touched: mean_fraction, p95_fraction, max_fraction,
-// contact_samples}, overlap_{mean,p95,max}_fraction (the type with the largest p95; 0 without
-// contacts), overlap_ok. docs/shear_cells.md gives the rules. The measured window's wall time and
-// particle-steps per second go to the task's log only.
-nlohmann::json measurements_json(const dem::ShearCellMeasurements& m);
 
 // The warm-up and measurement of a shear_cell task's parameters.
 dem::ShearCellProtocol shear_cell_protocol(const nlohmann::json& params);

@@ -10,6 +10,7 @@
 #include "method/fields_file.hpp"
 #include "method/vtk_image.hpp"
 #include "tasks/kinds.hpp"
+#include "tasks/macro.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -84,14 +85,6 @@ json rule_set_json(const std::string& name, const method::RegionRules& rules,
   return {{"name", name}, {"rules", json(rules)}, {"regions", regions}};
 }
 
-method::ChargeAngles charge_angles(const json& macro_result) {
-  const json& charge = macro_result.at("charge");
-  auto angle = [&](const char* key) {
-    return charge.at(key).is_number() ? std::optional(charge.at(key).get<double>()) : std::nullopt;
-  };
-  return {.toe_deg = angle("toe_angle_deg"), .shoulder_deg = angle("shoulder_angle_deg")};
-}
-
 const engine::TaskInput& input_of_kind(const engine::TaskContext& context,
                                        const std::string& kind) {
   for (const auto& input : context.inputs) {
@@ -111,7 +104,9 @@ engine::TaskOutcome run_sites(engine::TaskContext& context) {
   std::ifstream file(input_of_kind(context, "average").artifacts.at("fields.json"));
   const json fields = json::parse(file);
   const method::FlowMap map = method::flow_map_from_document(fields);
-  const method::ChargeAngles angles = charge_angles(input_of_kind(context, "macro").result);
+  const method::MacroResult macro = macro_result_of(input_of_kind(context, "macro"));
+  const method::ChargeAngles angles{.toe_deg = macro.charge.toe_angle_deg,
+                                    .shoulder_deg = macro.charge.shoulder_angle_deg};
   const json& params = context.params.at("sites");
   const method::RegionRules rules = region_rules_from_json(params.at("rules"));
   const method::WeightBasis weight_by = params.at("weight_by").get<std::string>() == "volume"
@@ -133,9 +128,8 @@ engine::TaskOutcome run_sites(engine::TaskContext& context) {
   method::write_vtk_image(vti, map.grid, arrays);
 
   json result = selection_json(selection, rules);
-  const json& macro = input_of_kind(context, "macro").result;
-  result["fill"] = macro.at("fill");
-  result["speed_fraction"] = macro.at("speed_fraction");
+  result["fill"] = macro.fill;
+  result["speed_fraction"] = macro.speed_fraction;
   result["average_task"] = input_of_kind(context, "average").key;
   result["region_index"] = method::region_names();
   json rule_sets = json::array({rule_set_json("default", rules, selection)});

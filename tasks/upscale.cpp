@@ -11,6 +11,7 @@
 #include "method/sites.hpp"
 #include "method/upscale.hpp"
 #include "tasks/kinds.hpp"
+#include "tasks/macro.hpp"
 
 namespace millflow::tasks {
 namespace {
@@ -32,90 +33,49 @@ const engine::TaskInput& only_input(const engine::TaskContext& context, const st
 }
 
 // Why a finished cell does not count by default (empty when it does): tasks/upscale.hpp.
-std::string left_out_reason(const json& cell) {
-  const bool steady = cell.contains("steady") ? cell.at("steady").get<bool>()
-                                              : cell.at("steady_state").at("steady").get<bool>();
-  const bool converged = cell.contains("converged") ? cell.at("converged").get<bool>() : steady;
-  if (!steady) return "not steady";
-  if (!converged) return "not converged";
+std::string left_out_reason(const method::CellResult& cell) {
+  if (!cell.steady) return "not steady";
+  if (!cell.converged) return "not converged";
   return {};
 }
 
 // The finished (not skipped) cells that count, at load U and at load 0, by site id, and the
 // cells left out or counted against their flags.
 struct UsableCells {
-  std::map<std::string, const json*> loaded, baseline;
+  std::map<std::string, method::CellResult> loaded, baseline;
   json flagged = json::array();
 };
 
 UsableCells usable_cells(const engine::TaskContext& context, double load, bool include_unsteady) {
   UsableCells cells;
   for (const auto& input : context.inputs) {
-    if (input.kind != "shear_cell" || input.result.contains("skipped")) continue;
-    const double cell_load = input.result.at("powder_load").get<double>();
+    if (input.kind != "shear_cell") continue;
+    const auto cell = input.result.get<method::CellResult>();
+    if (!cell.skipped.empty()) continue;
+    const double cell_load = cell.powder_load.get<double>();
     if (cell_load != load && cell_load != 0.0) continue;
-    const std::string id = input.result.at("site").at("site_id").get<std::string>();
-    if (const std::string reason = left_out_reason(input.result); !reason.empty()) {
+    const std::string id = cell.site.get<method::Site>().site_id;
+    if (const std::string reason = left_out_reason(cell); !reason.empty()) {
       cells.flagged.push_back({{"site_id", id},
                                {"powder_load", cell_load},
                                {"reason", reason},
                                {"counted", include_unsteady}});
       if (!include_unsteady) continue;
     }
-    if (cell_load == load) cells.loaded[id] = &input.result;
-    if (cell_load == 0.0) cells.baseline[id] = &input.result;
+    if (cell_load == load) cells.loaded[id] = cell;
+    if (cell_load == 0.0) cells.baseline[id] = cell;
   }
   return cells;
 }
 
-const json* cell_of(const std::map<std::string, const json*>& cells, const std::string& site_id) {
+const method::CellResult* cell_of(const std::map<std::string, method::CellResult>& cells,
+                                  const std::string& site_id) {
   const auto found = cells.find(site_id);
-  return found == cells.end() ? nullptr : found->second;
+  return found == cells.end() ? nullptr : &found->second;
 }
 
 json ratio_or_null(double numerator, double denominator) {
   return denominator > 0.0 ? json(numerator / denominator) : json(nullptr);
-}
-
-// The cell's standard error at `path` under "standard_errors", when it reports one.
-std::optional<double> standard_error(const json& cell, std::initializer_list<const char*> path) {
-  if (!cell.contains("standard_errors")) return std::nullopt;
-  const json* node = &cell.at("standard_errors");
-  for (const char* key : path) {
-    if (!node->is_object() || !node->contains(key)) return std::nullopt;
-    node = &node->at(key);
-  }
-  return node->is_number() ? std::optional(node->get<double>()) : std::nullopt;
-}
-
-// The figures the upscaling sums (method/upscale.hpp) from a shear cell's result.
-method::CellFigures figures_of(const json& cell) {
-  const json& d = cell.at("dissipation_w_m3");
-  const json& media = cell.at("collisions").at("media");
-  const double count = media.at("count").get<double>(),
-               rate = media.at("rate_per_m3_s").get<double>();
-  const auto media_media = standard_error(cell, {"dissipation_w_m3", "media-media"});
-  const auto wall_media = standard_error(cell, {"dissipation_w_m3", "wall-media"});
-  return {.input = cell.at("power_density_w_m3").get<double>(),
-          .powder = cell.at("powder_dissipation_w_m3").get<double>(),
-          .collisions = d.at("media-media").get<double>() + d.at("wall-media").get<double>(),
-          .collision_rate = rate,
-          .input_se = standard_error(cell, {"power_density_w_m3"}),
-          .powder_se = standard_error(cell, {"powder_dissipation_w_m3"}),
-          .collisions_se =
-              media_media && wall_media ? std::optional(*media_media + *wall_media) : std::nullopt,
-          .collision_rate_se = count > 0.0 ? std::optional(rate / std::sqrt(count)) : std::nullopt,
-          .media_solid_fraction = cell.at("media_solid_fraction").get<double>()};
-}
-
-// A shear cell's collision spectra (method/upscale.hpp) from its result.
-method::CellSpectra spectra_of(const json& cell) {
-  const json& spectra = cell.at("spectra");
-  return {.bin_edges_j = spectra.at("bin_edges_j").get<std::vector<double>>(),
-          .media_counts = spectra.at("media").at("counts").get<std::vector<double>>(),
-          .powder_counts = spectra.at("powder").at("counts").get<std::vector<double>>(),
-          .volume_m3 = cell.at("volume_m3").get<double>(),
-          .duration_s = cell.at("duration_s").get<double>()};
 }
 
 json optional_json(const std::optional<double>& value) {
@@ -223,11 +183,9 @@ json shift_json(const std::optional<method::SpectrumShift>& shift) {
 }
 
 // Powder mass over media mass in a loaded cell.
-double powder_mass_ratio(const json& cell, const json& params) {
-  return params.at("powder_density_kg_m3").get<double>() *
-         cell.at("powder_solid_fraction").get<double>() /
-         (params.at("media_density_kg_m3").get<double>() *
-          cell.at("media_solid_fraction").get<double>());
+double powder_mass_ratio(const method::CellResult& cell, const json& params) {
+  return params.at("powder_density_kg_m3").get<double>() * cell.powder_solid_fraction /
+         (params.at("media_density_kg_m3").get<double>() * cell.media_solid_fraction);
 }
 
 // Each rule set's powder power per region with the macro-anchored method (tasks/upscale.hpp).
@@ -255,23 +213,24 @@ json sensitivity(const json& rule_sets, const std::map<std::string, method::Powe
   return result;
 }
 
-json site_row(const json& site, const json* loaded, const json* baseline) {
-  const double macro_tau = site.at("shear_stress_pa").get<double>();
-  const json cell_tau = baseline ? baseline->at("shear_stress_pa") : json(nullptr);
+json site_row(const method::Site& site, const method::CellResult* loaded,
+              const method::CellResult* baseline) {
+  const double macro_tau = site.shear_stress;
+  const json cell_tau = baseline ? json(baseline->shear_stress_pa) : json(nullptr);
   return {
-      {"site_id", site.at("site_id")},
-      {"region", site.at("region")},
-      {"x_m", site.at("position_m").at(0)},
-      {"y_m", site.at("position_m").at(1)},
-      {"weight_m3", site.at("weight_m3")},
-      {"shear_rate_per_s", site.at("shear_rate_per_s")},
-      {"normal_stress_pa", site.at("normal_stress_pa")},
+      {"site_id", site.site_id},
+      {"region", site.region},
+      {"x_m", site.x},
+      {"y_m", site.y},
+      {"weight_m3", site.weight_m3},
+      {"shear_rate_per_s", site.shear_rate},
+      {"normal_stress_pa", site.normal_stress},
       {"macro_shear_stress_pa", macro_tau},
       {"cell_shear_stress_pa", cell_tau},
       {"coupling_ratio",
        baseline ? ratio_or_null(cell_tau.get<double>(), macro_tau) : json(nullptr)},
-      {"power_density_w_m3", loaded ? loaded->at("power_density_w_m3") : json(nullptr)},
-      {"powder_dissipation_w_m3", loaded ? loaded->at("powder_dissipation_w_m3") : json(nullptr)},
+      {"power_density_w_m3", loaded ? json(loaded->power_density_w_m3) : json(nullptr)},
+      {"powder_dissipation_w_m3", loaded ? json(loaded->powder_dissipation_w_m3) : json(nullptr)},
       {"skipped", loaded ? json(nullptr) : json("no shear cell ran at this site")}};
 }
 
@@ -296,12 +255,12 @@ json coupling_summary(const json& sites) {
           {"within_tolerance", within}};
 }
 
-json mill_json(const json& macro) {
-  return {{"diameter_m", 2.0 * macro.at("mill").at("radius_m").get<double>()},
-          {"slice_length_m", macro.at("mill").at("length_m")},
-          {"ball_mass_kg", macro.at("ball_mass_kg")},
-          {"power_draw_w", macro.at("power").at("mean_w")},
-          {"specific_power_kw_per_t", macro.at("power").at("kw_per_t_balls")}};
+json mill_json(const method::MacroResult& macro) {
+  return {{"diameter_m", 2.0 * macro.mill.radius_m},
+          {"slice_length_m", macro.mill.length_m},
+          {"ball_mass_kg", macro.ball_mass_kg},
+          {"power_draw_w", macro.power.mean_w},
+          {"specific_power_kw_per_t", macro.power.kw_per_t_balls}};
 }
 
 }  // namespace
@@ -309,7 +268,7 @@ json mill_json(const json& macro) {
 engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   const json& params = context.params;
   const double load = params.at("powder_load").get<double>();
-  const json& macro = only_input(context, "macro").result;
+  const method::MacroResult macro = macro_result_of(only_input(context, "macro"));
   const json& sites_result = only_input(context, "sites").result;
   const method::WeightBasis basis = sites_result.at("weight_by").get<std::string>() == "volume"
                                         ? method::WeightBasis::volume
@@ -321,21 +280,21 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   std::map<std::string, method::SpectrumSum> region_spectra;
   double powder_mass = 0.0, solid_volume = 0.0;
   json site_rows = json::array();
-  for (const json& site : sites_result.at("sites")) {
-    const std::string id = site.at("site_id").get<std::string>();
-    const json* cell = cell_of(cells.loaded, id);
-    const json* reference = cell_of(cells.baseline, id);
-    site_rows.push_back(site_row(site, cell, reference));
+  for (const json& entry : sites_result.at("sites")) {
+    const auto typed = entry.get<method::Site>();
+    const method::CellResult* cell = cell_of(cells.loaded, typed.site_id);
+    const method::CellResult* reference = cell_of(cells.baseline, typed.site_id);
+    site_rows.push_back(site_row(typed, cell, reference));
     if (!cell) continue;
-    const method::Site typed = site.get<method::Site>();
-    const method::CellFigures loaded = figures_of(*cell);
+    const method::CellFigures loaded = method::cell_figures(*cell);
     const std::optional<method::CellFigures> baseline =
-        reference ? std::optional(figures_of(*reference)) : std::nullopt;
+        reference ? std::optional(method::cell_figures(*reference)) : std::nullopt;
     by_region[typed.region].add(typed, basis, loaded, baseline ? &*baseline : nullptr);
     method::SpectrumSum& spectra = region_spectra[typed.region];
-    spectra.add(method::site_weight(typed, loaded, basis), spectra_of(*cell));
+    spectra.add(method::site_weight(typed, loaded, basis), method::cell_spectra(*cell));
     if (baseline)
-      spectra.add_baseline(method::site_weight(typed, *baseline, basis), spectra_of(*reference));
+      spectra.add_baseline(method::site_weight(typed, *baseline, basis),
+                           method::cell_spectra(*reference));
     powder_mass += typed.solid_volume_m3 * powder_mass_ratio(*cell, params);
     solid_volume += typed.solid_volume_m3;
   }
@@ -364,10 +323,10 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   method::PowerSums all;
   for (const auto& [name, sums] : by_region) all.merge(sums);
   const double mass_ratio = solid_volume > 0.0 ? powder_mass / solid_volume : 0.0;
-  const double power_draw = macro.at("power").at("mean_w").get<double>();
+  const double power_draw = macro.power.mean_w;
   result.update(json{
-      {"fill", macro.at("fill")},
-      {"speed_fraction", macro.at("speed_fraction")},
+      {"fill", macro.fill},
+      {"speed_fraction", macro.speed_fraction},
       {"powder_load", load},
       {"average_task", only_input(context, "average").key},
       {"sites_task", only_input(context, "sites").key},

@@ -1,7 +1,7 @@
 #pragma once
 // Flow-sample frames of a slowly turning mill for the analysis tests (tests/dem/scenes.hpp's 0.2 m
 // slice, J = 0.4, 20% of critical speed) and for bench/bench_slow_mill_flow.cpp (bigger mills), and
-// a macro-like result describing them.
+// a macro result describing them.
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -10,6 +10,7 @@
 
 #include "dem/flow_sample.hpp"
 #include "dem/mill_setup.hpp"
+#include "method/macro_result.hpp"
 
 namespace millflow::tasks::testing {
 
@@ -51,23 +52,27 @@ inline nlohmann::json run_and_write_mill_frames(const dem::MillSetup& setup, dou
   std::vector<std::string> categories;
   for (std::uint32_t k = 0; k < system.category_count(); ++k)
     categories.push_back(system.category_name(k));
-  return {{"mill",
-           {{"radius_m", setup.shell.radius},
-            {"length_m", setup.shell.length},
-            {"axial_ends", "periodic"},
-            {"lifter_count", setup.shell.lifter_count}}},
-          {"gravity_m_s2", setup.gravity},
-          {"angular_velocity_rad_s", omega},
-          {"measure_start_s", start},
-          {"measure_end_s", system.time()},
-          {"sample_interval_s", steps * system.time_step()},
-          {"frame_count", segments.size() * static_cast<std::size_t>(frames_per_segment)},
-          {"segment_count", segments.size()},
-          {"categories", categories},
-          {"n_balls", system.size()},
-          {"ball_mass_kg", mass},
-          {"media_diameter_m", setup.ball_diameter},
-          {"dt_s", system.time_step()}};
+  // What the analysis tasks read; the measurements they do not read are left at zero.
+  method::MacroResult r;
+  r.n_balls = system.size();
+  r.ball_mass_kg = mass;
+  r.media_diameter_m = setup.ball_diameter;
+  r.dt_s = system.time_step();
+  r.angular_velocity_rad_s = omega;
+  r.speed_fraction = setup.speed_fraction;
+  r.fill = setup.fill;
+  r.gravity_m_s2 = setup.gravity;
+  r.mill = {.radius_m = setup.shell.radius,
+            .length_m = setup.shell.length,
+            .axial_ends = "periodic",
+            .lifter_count = setup.shell.lifter_count};
+  r.measure_start_s = start;
+  r.measure_end_s = system.time();
+  r.sample_interval_s = static_cast<double>(steps) * system.time_step();
+  r.frame_count = segments.size() * static_cast<std::size_t>(frames_per_segment);
+  r.segment_count = segments.size();
+  r.categories = categories;
+  return r;
 }
 
 // The analysis tests' sample. Built once per build directory (cached under

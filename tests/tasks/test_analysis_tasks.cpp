@@ -71,16 +71,15 @@ const json kSitesParams = {
       {"alternatives", {{{"name", "strict"}, {"rules", {{"en_masse_max_slip", 0.3}}}}}}}}};
 
 // The macro run's result with the toe and shoulder its liner contacts show in `segments`.
-engine::TaskInput macro_with_charge(const std::vector<fs::path>& segments, json result) {
+engine::TaskInput macro_with_charge(const std::vector<fs::path>& segments, const json& sample) {
   method::ChargeShape shape;
   for (const auto& segment : segments) {
     for (const auto& frame : dem::read_flow_segment(segment)) shape.add_frame(frame, 0);
   }
   const auto angles = shape.angles();
-  result["charge"] = {{"toe_angle_deg", angles ? json(angles->toe_deg) : json(nullptr)},
-                      {"shoulder_angle_deg", angles ? json(angles->shoulder_deg) : json(nullptr)}};
-  result["fill"] = 0.4;  // tests/dem/scenes.hpp's slowly turning mill
-  result["speed_fraction"] = 0.2;
+  auto result = sample.get<method::MacroResult>();
+  result.charge.toe_angle_deg = angles ? std::optional(angles->toe_deg) : std::nullopt;
+  result.charge.shoulder_angle_deg = angles ? std::optional(angles->shoulder_deg) : std::nullopt;
   return {.key = "macro", .kind = "macro", .result = result, .artifacts = {}};
 }
 
@@ -215,14 +214,18 @@ std::vector<fs::path> synthetic_segments(const fs::path& dir) {
   return files;
 }
 
-const json kSyntheticMacro = {
-    {"mill", {{"radius_m", 0.1}, {"length_m", 0.04}}},
-    {"angular_velocity_rad_s", 4.0},
-    {"sample_interval_s", 0.01},
-    {"frame_count", 4},
-    {"categories", {"steel-steel", "steel-wall:shell"}},
-    {"ball_mass_kg", 150 * 7800.0 * 4.0 / 3.0 * std::numbers::pi * 1.25e-7},
-    {"media_diameter_m", 0.01}};
+const method::MacroResult kSyntheticMacro = [] {
+  method::MacroResult r;
+  r.ball_mass_kg = 150 * 7800.0 * 4.0 / 3.0 * std::numbers::pi * 1.25e-7;
+  r.media_diameter_m = 0.01;
+  r.angular_velocity_rad_s = 4.0;
+  r.mill.radius_m = 0.1;
+  r.mill.length_m = 0.04;
+  r.sample_interval_s = 0.01;
+  r.frame_count = 4;
+  r.categories = {"steel-steel", "steel-wall:shell"};
+  return r;
+}();
 
 TEST(AnalysisTasks, AverageGolden) {
   Scratch scratch;
@@ -249,10 +252,11 @@ TEST(AnalysisTasks, SitesGolden) {
   const auto average = run(run_average, kAverageParams,
                            {macro_input(synthetic_segments(scratch.path), kSyntheticMacro)},
                            scratch.path / "average");
-  json macro = kSyntheticMacro;
-  macro["charge"] = {{"toe_angle_deg", 200.0}, {"shoulder_angle_deg", -20.0}};
-  macro["fill"] = 0.3;
-  macro["speed_fraction"] = 0.7;
+  method::MacroResult macro = kSyntheticMacro;
+  macro.charge.toe_angle_deg = 200.0;
+  macro.charge.shoulder_angle_deg = -20.0;
+  macro.fill = 0.3;
+  macro.speed_fraction = 0.7;
   const auto sites = run(run_sites, kSitesParams,
                          {as_input("average", average),
                           {.key = "macro", .kind = "macro", .result = macro, .artifacts = {}}},

@@ -88,10 +88,16 @@ TEST(Upscale, NoPowderMeansNoPowderPowerAndNoCushioning) {
   EXPECT_DOUBLE_EQ(r.at("cushioning_energy_factor"), 1.0);
 }
 
-// The input whose key `upscale_inputs.hpp` gives a cell.
-json& cell_result(std::vector<engine::TaskInput>& inputs, const std::string& site, double load) {
+// Changes the cell `upscale_inputs.hpp` gives a site at a load.
+template <class Edit>
+void edit_cell(std::vector<engine::TaskInput>& inputs, const std::string& site, double load,
+               Edit edit) {
   for (auto& input : inputs) {
-    if (input.key == site + "@" + std::to_string(load)) return input.result;
+    if (input.key != site + "@" + std::to_string(load)) continue;
+    auto cell = input.result.get<method::CellResult>();
+    edit(cell);
+    input.result = cell;
+    return;
   }
   throw std::logic_error("no cell " + site);
 }
@@ -152,8 +158,8 @@ TEST(Upscale, SensitivityGivesEachRuleSetsDominantRegionAndToeShare) {
 
 TEST(Upscale, UnsteadyAndUnconvergedCellsAreLeftOutAndListed) {
   auto inputs = point_inputs();
-  cell_result(inputs, "bulk-0", 1.0)["steady_state"]["steady"] = false;
-  cell_result(inputs, "toe-0", 0.0)["converged"] = false;
+  edit_cell(inputs, "bulk-0", 1.0, [](method::CellResult& cell) { cell.steady = false; });
+  edit_cell(inputs, "toe-0", 0.0, [](method::CellResult& cell) { cell.converged = false; });
   const json r = upscale(inputs, 1.0);
   ASSERT_EQ(r.at("left_out_cells").size(), 2u);
   EXPECT_EQ(r.at("left_out_cells").at(0).at("reason"), "not steady");
@@ -175,10 +181,12 @@ TEST(Upscale, StandardErrorsOfTheCellsPropagate) {
                                                        {"bulk-0", 1.0, 5.0, 4.0},
                                                        {"toe-0", 0.0, 0.0, 9.0},
                                                        {"bulk-0", 0.0, 0.0, 7.0}}) {
-    cell_result(inputs, site, load)["standard_errors"] = {
-        {"powder_dissipation_w_m3", powder},
-        {"power_density_w_m3", 20.0},
-        {"dissipation_w_m3", {{"media-media", collisions}, {"wall-media", 1.0}}}};
+    edit_cell(inputs, site, load, [&](method::CellResult& cell) {
+      method::CellStandardErrors se{.power_density_w_m3 = 20.0, .powder_dissipation_w_m3 = powder};
+      se.dissipation_w_m3[static_cast<std::size_t>(dem::ContactType::MediaMedia)] = collisions;
+      se.dissipation_w_m3[static_cast<std::size_t>(dem::ContactType::WallMedia)] = 1.0;
+      cell.standard_errors = se;
+    });
   }
   const json r = upscale(inputs, 1.0);
   EXPECT_DOUBLE_EQ(r.at("powder_power_w_se"), std::hypot(0.002 * 10.0, 0.003 * 5.0));
@@ -207,8 +215,12 @@ TEST(Upscale, SolidVolumeWeightsCountPowerPerVolumeOfMedia) {
 
 TEST(Upscale, MediaSpectrumShiftIsMeasuredAboveTheMediaOnlyMedian) {
   auto inputs = point_inputs();
-  cell_result(inputs, "toe-0", 0.0)["spectra"]["media"]["counts"] = {2, 20};
-  cell_result(inputs, "bulk-0", 0.0)["spectra"]["media"]["counts"] = {0, 0};
+  edit_cell(inputs, "toe-0", 0.0, [](method::CellResult& cell) {
+    cell.media_spectrum.counts = {2, 20};
+  });
+  edit_cell(inputs, "bulk-0", 0.0, [](method::CellResult& cell) {
+    cell.media_spectrum.counts = {0, 0};
+  });
   const json shift = upscale(inputs, 1.0).at("media_spectrum_shift");
   // Without powder most media collisions lie in the upper bin (20 of 22); with powder 2 of 16
   // (toe 10, 0 and bulk 2, 2 at 10 and 15 per count).

@@ -2,12 +2,15 @@
 // One hand-made sweep point for the upscale and report tests: a macro run, its sites (toe-0,
 // bulk-0, and bulk-1 whose cells were skipped) weighted by volume, the macro dissipation of its
 // regions under two rule sets, and shear cells at loads 0 and 1 with round values (media solid
-// fraction 0.5, powder 0.2 at load 1; without standard errors, as cells before they had them).
+// fraction 0.5, powder 0.2 at load 1; without standard errors, as cells before they had them;
+// the quantities the upscaling does not read left at zero).
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "engine/task.hpp"
+#include "method/cell_result.hpp"
+#include "method/macro_result.hpp"
 #include "method/sites.hpp"
 #include "tasks/upscale.hpp"
 
@@ -35,25 +38,27 @@ struct CellValues {
 };
 
 inline engine::TaskInput cell(const std::string& site_id, double load, const CellValues& v) {
-  json result = {
-      {"site", {{"site_id", site_id}}},
-      {"powder_load", load},
-      {"power_density_w_m3", v.power_density},
-      {"powder_dissipation_w_m3", v.powder_dissipation},
-      {"dissipation_w_m3", {{"media-media", v.media_media}, {"wall-media", v.wall_media}}},
-      {"collisions",
-       {{"media",
-         {{"count", v.media_collision_count}, {"rate_per_m3_s", v.media_collision_rate}}}}},
-      {"media_solid_fraction", 0.5},
-      {"powder_solid_fraction", load > 0.0 ? 0.2 : 0.0},
-      {"steady_state", {{"steady", true}}},
-      {"shear_stress_pa", v.shear_stress},
-      {"volume_m3", 1e-4},
-      {"duration_s", 2.0},
-      {"spectra",
-       {{"bin_edges_j", {1e-6, 1e-5, 1e-4}},
-        {"media", {{"counts", v.media_counts}}},
-        {"powder", {{"counts", v.powder_counts}}}}}};
+  constexpr auto media_media = static_cast<std::size_t>(dem::ContactType::MediaMedia);
+  constexpr auto wall_media = static_cast<std::size_t>(dem::ContactType::WallMedia);
+  method::CellResult result{.site = method::Site{.site_id = site_id, .region = "any"},
+                            .slot = {{"region", "any"}, {"index", 0}},
+                            .powder_load = load,
+                            .duration_s = 2.0,
+                            .volume_m3 = 1e-4,
+                            .shear_stress_pa = v.shear_stress,
+                            .media_solid_fraction = 0.5,
+                            .powder_solid_fraction = load > 0.0 ? 0.2 : 0.0,
+                            .power_density_w_m3 = v.power_density,
+                            .powder_dissipation_w_m3 = v.powder_dissipation,
+                            .media_collisions = {.count = v.media_collision_count,
+                                                 .rate_per_m3_s = v.media_collision_rate},
+                            .spectrum_bin_edges_j = {1e-6, 1e-5, 1e-4},
+                            .media_spectrum = {.counts = v.media_counts},
+                            .powder_spectrum = {.counts = v.powder_counts},
+                            .steady = true,
+                            .converged = true};
+  result.dissipation_w_m3[media_media] = v.media_media;
+  result.dissipation_w_m3[wall_media] = v.wall_media;
   return {.key = site_id + "@" + std::to_string(load),
           .kind = "shear_cell",
           .result = result,
@@ -63,23 +68,24 @@ inline engine::TaskInput cell(const std::string& site_id, double load, const Cel
 inline engine::TaskInput skipped_cell(const std::string& site_id, double load) {
   return {.key = site_id + "-skipped@" + std::to_string(load),
           .kind = "shear_cell",
-          .result = {{"skipped", "no site"}, {"powder_load", load}},
+          .result = method::CellResult{.slot = {{"region", "any"}, {"index", 0}},
+                                       .powder_load = load,
+                                       .skipped = "no site"},
           .artifacts = {}};
 }
 
 inline std::vector<engine::TaskInput> point_inputs(double fill = 0.3, double speed = 0.75,
                                                    double power_scale = 1.0) {
+  method::MacroResult macro;
+  macro.fill = fill;
+  macro.speed_fraction = speed;
+  macro.ball_mass_kg = 100.0;
+  macro.mill.radius_m = 0.5;
+  macro.mill.length_m = 0.1;
+  macro.power.mean_w = 1000.0 * power_scale;
+  macro.power.kw_per_t_balls = 10.0 * power_scale;
   std::vector<engine::TaskInput> inputs;
-  inputs.push_back(
-      {.key = "macro-key",
-       .kind = "macro",
-       .result = {{"fill", fill},
-                  {"speed_fraction", speed},
-                  {"ball_mass_kg", 100.0},
-                  {"mill", {{"radius_m", 0.5}, {"length_m", 0.1}}},
-                  {"power",
-                   {{"mean_w", 1000.0 * power_scale}, {"kw_per_t_balls", 10.0 * power_scale}}}},
-       .artifacts = {}});
+  inputs.push_back({.key = "macro-key", .kind = "macro", .result = macro, .artifacts = {}});
   inputs.push_back(
       {.key = "average-key", .kind = "average", .result = json::object(), .artifacts = {}});
   const json regions = {{{"name", "toe"}, {"dissipation_w", 2.0}},

@@ -19,6 +19,7 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "method/macro_result.hpp"
 #include "report/report_inputs.hpp"
 #include "tests/common/scratch_dir.hpp"
 #include "tests/tasks/upscale_inputs.hpp"
@@ -45,21 +46,24 @@ std::string macro_key(double fill, double speed) {
 // fastest run of the fuller charge has no shoulder (undefined).
 json macro_result(double fill, double speed) {
   const bool shoulder = !(fill == 0.3 && speed == 0.75);
-  auto histograms = [&](double scale) {
-    return json{{"impact_energy", {{"counts", {400.0 * scale, 200.0 * scale, 20.0 * scale}}}},
-                {"dissipated_energy", {{"counts", {300.0 * scale, 60.0 * scale, 2.0 * scale}}}}};
+  auto collisions = [&](const char* category, double scale) {
+    method::MacroCollisions c;
+    c.category = category;
+    c.impact_energy.counts = {400.0 * scale, 200.0 * scale, 20.0 * scale};
+    c.dissipated_energy.counts = {300.0 * scale, 60.0 * scale, 2.0 * scale};
+    return c;
   };
-  return {{"fill", fill},
-          {"speed_fraction", speed},
-          {"measure_start_s", 1.5},
-          {"measure_end_s", 3.5},
-          {"charge",
-           {{"toe_angle_deg", 200.0 + 40.0 * speed},
-            {"shoulder_angle_deg", shoulder ? json(20.0 + 50.0 * fill) : json(nullptr)}}},
-          {"spectra",
-           {{"bin_edges_j", {1e-6, 1e-4, 1e-2, 1.0}},
-            {"ball_ball", histograms(fill)},
-            {"ball_liner", histograms(speed)}}}};
+  method::MacroResult r;
+  r.fill = fill;
+  r.speed_fraction = speed;
+  r.measure_start_s = 1.5;
+  r.measure_end_s = 3.5;
+  r.charge.toe_angle_deg = 200.0 + 40.0 * speed;
+  if (shoulder) r.charge.shoulder_angle_deg = 20.0 + 50.0 * fill;
+  r.spectrum_bin_edges_j = {1e-6, 1e-4, 1e-2, 1.0};
+  r.collisions = {{"ball_ball", collisions("steel-steel", fill)},
+                  {"ball_liner", collisions("steel-wall:shell", speed)}};
+  return r;
 }
 
 // A toe and a bulk region; the bulk's cushioning is unknown (null) without powder, and the bulk
@@ -438,11 +442,11 @@ TEST_F(Report, MacroFieldErrorsNameTheMacroTask) {
 }
 
 // Every figure renders (rsvg-convert) and no label leaves the canvas or covers another one,
-// from the SVG's own text boxes (tests/tasks/check_svg_text.py).
+// from the SVG's own text boxes (tests/report/check_svg_text.py).
 TEST_F(Report, FiguresRenderWithEveryLabelInsideTheCanvasAndApart) {
   run(inputs_, "work");
   const std::string command = std::string("/usr/bin/python3 ") + MILLFLOW_SOURCE_DIR +
-                              "/tests/tasks/check_svg_text.py " + (dir_.path() / "work").string();
+                              "/tests/report/check_svg_text.py " + (dir_.path() / "work").string();
   const int status = std::system(command.c_str());
   ASSERT_TRUE(WIFEXITED(status)) << command;
   if (WEXITSTATUS(status) == 77) GTEST_SKIP() << "rsvg-convert is not installed (librsvg2-bin)";

@@ -7,9 +7,9 @@
 #include <cmath>
 #include <numbers>
 
-#include "tasks/sites.hpp"
+#include "method/sites.hpp"
 
-namespace millflow::tasks {
+namespace millflow::method {
 namespace {
 
 constexpr double kR = 0.1, kD = 0.01, kSurface0 = -0.02, kLayer = 0.015, kFlight = 0.02;
@@ -273,4 +273,4 @@ TEST(Sites, RefusesUnknownRegionsAndZeroSites) {
 }
 
 }  // namespace
-}  // namespace millflow::tasks
+}  // namespace millflow::method

@@ -81,7 +81,7 @@ TEST(ReportRegions, MapsTheRegionsWithTheChargeOutlineToeAndShoulder) {
       {"average-key", method::flow_map_from_document(fields_document())}};
   const std::vector<engine::TaskInput> inputs = {
       {.key = "sites-key", .kind = "sites", .result = sites_result(), .artifacts = {}}};
-  const report::RegionSection section = report::region_section(inputs, maps);
+  const report::RegionSection section = report::region_section(report_sources(inputs), maps);
   ASSERT_EQ(section.files.size(), 1u);
   EXPECT_EQ(section.files[0].first, "regions_0.3_0.75.svg");
   const std::string& svg = section.files[0].second;
@@ -113,15 +113,14 @@ TEST(ReportRegions, NoSitesInputsMeansNoSection) {
 TEST(ReportRegions, ListsTheCellsLeftOut) {
   auto point = testing::point_inputs(0.3, 0.75);
   for (auto& input : point) {
-    if (input.key == "bulk-0@" + std::to_string(1.0))
-      input.result["steady_state"]["steady"] = false;
+    if (input.key == "bulk-0@" + std::to_string(1.0)) input.result["steady"] = false;
   }
   const std::map<std::string, method::FlowMap> maps = {
       {"average-key", method::flow_map_from_document(fields_document())}};
   const std::vector<engine::TaskInput> inputs = {
       {"sites-key", "sites", sites_result(), {}},
       {"upscale-1", "upscale", testing::upscale(point, 1.0), {}}};
-  const std::string markdown = report::region_section(inputs, maps).markdown;
+  const std::string markdown = report::region_section(report_sources(inputs), maps).markdown;
   EXPECT_NE(markdown.find("| 0.3 | 0.75 | 1 | bulk-0 | 1 | not steady | no |"), std::string::npos)
       << markdown;
 }
