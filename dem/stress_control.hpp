@@ -7,7 +7,11 @@
 //  - RoughWallServo: at the end of each control interval the top wall's group is set moving
 //    along y at M (F - F_target) from the interval's mean load F, M = H / (K p A tau), clamped at
 //    v_max. (Not every step on the instantaneous load: with ~25 stiff wall contacts
-//    M N k_n dt ~ 4 > 2 at the campaign's stiffness, and the wall chattered at +-v_max.)
+//    M N k_n dt ~ 4 > 2 at the campaign's stiffness, and the wall chattered at +-v_max.) The
+//    modulus is that of the bed at its own pressure: p = min(p_target, the stresses' running
+//    mean over tau), so a bed carrying less than its target (a loose one after compaction) is
+//    closed faster, in proportion (it used to close at H / (K tau) at most, and a loose bed took
+//    two of a cell's three warm-up strains to carry its target).
 //  - LeesEdwardsBarostat: the box and the particles are stretched affinely along y by a PI law
 //    (documented at the class).
 // Both close the loose fill at v_max until the bed carries half the target (set_closing); the
@@ -52,8 +56,10 @@ class StressControl {
   bool after_step(System& system);
   // While set, the boundary closes at the speed limit (compaction).
   void set_closing(bool closing);
-  // The mean stress the last interval answered, Pa.
+  // The mean stress the last interval answered, Pa, and the answered stresses' running mean
+  // over tau (the last one included).
   double last_interval_stress() const { return last_stress_; }
+  double smoothed_stress() const { return smoothed_stress_; }
   // Energy the control put in besides the walls' work (the barostat's stretches), J.
   virtual double work() const { return 0.0; }
 

@@ -4,35 +4,46 @@
 #include <cmath>
 #include <cstdint>
 
-namespace millflow::dem {
+#include "dem/stationarity.hpp"
 
-double WallSpeedController::update(double measured_rate, double wall_speed, double gap) {
-  rate_sum_ = kForgetting * rate_sum_ + measured_rate;
-  nominal_sum_ = kForgetting * nominal_sum_ + wall_speed / gap;
-  const double fraction = bulk_fraction();
-  // A bed that does not follow the walls at all (f <= 0) asks for the largest step up.
-  const double wanted = fraction > 0.0 ? target_rate_ * gap / fraction : kMaxStep * wall_speed;
-  ++windows_;
-  settled_ = windows_ >= kSettleWindows && std::abs(wanted / wall_speed - 1.0) <= kSettleTolerance;
-  const double step = std::clamp(std::pow(wanted / wall_speed, kGain), 1.0 / kMaxStep, kMaxStep);
-  return wall_speed * step;
+namespace millflow::dem {
+namespace {
+
+bool drifts(const SeriesFit& fit) {
+  return std::abs(fit.drift) > WallSpeedController::kZ * fit.drift_error +
+                                   WallSpeedController::kDriftAllowance * std::abs(fit.mean);
 }
 
-double WallSpeedController::bulk_fraction() const {
-  return nominal_sum_ > 0.0 ? rate_sum_ / nominal_sum_ : 0.0;
+}  // namespace
+
+double WallSpeedController::update(double measured_rate, double wall_speed, double gap) {
+  fractions_.push_back(measured_rate * gap / wall_speed);
+  while (fractions_.size() > kSteadyWindows && drifts(fit_series(fractions_)))
+    fractions_.erase(fractions_.begin());
+  if (fractions_.size() < kSteadyWindows) return wall_speed;
+  const SeriesFit fit = fit_series(fractions_);
+  if (drifts(fit)) return wall_speed;
+  bulk_fraction_ = fit.mean;
+  // A bed that does not follow the walls at all (f <= 0) asks for the largest step up.
+  const double change =
+      bulk_fraction_ > 0.0 ? target_rate_ * gap / bulk_fraction_ / wall_speed : kMaxStep;
+  // A change the estimate cannot resolve from its own scatter is not asked for.
+  const double resolved = bulk_fraction_ > 0.0 ? kZ * fit.mean_error / bulk_fraction_ : 0.0;
+  settled_ = std::abs(change - 1.0) <= std::max(kSettleTolerance, resolved);
+  if (settled_) return wall_speed;
+  fractions_.clear();
+  return wall_speed * std::clamp(change, 1.0 / kMaxStep, kMaxStep);
 }
 
 void WallSpeedController::write(BinaryWriter& out) const {
-  out.put(rate_sum_);
-  out.put(nominal_sum_);
-  out.put<std::int32_t>(windows_);
+  out.put_span<double>(fractions_);
+  out.put(bulk_fraction_);
   out.put<std::uint8_t>(settled_);
 }
 
 void WallSpeedController::read(BinaryReader& in) {
-  rate_sum_ = in.get<double>();
-  nominal_sum_ = in.get<double>();
-  windows_ = in.get<std::int32_t>();
+  fractions_ = in.get_vector<double>();
+  bulk_fraction_ = in.get<double>();
   settled_ = in.get<std::uint8_t>() != 0;
 }
 
