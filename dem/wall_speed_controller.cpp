@@ -27,10 +27,10 @@ double WallSpeedController::update(double measured_rate, double wall_speed, doub
   // A bed that does not follow the walls at all (f <= 0) asks for the largest step up.
   const double change =
       bulk_fraction_ > 0.0 ? target_rate_ * gap / bulk_fraction_ / wall_speed : kMaxStep;
-  // A change the estimate cannot resolve from its own scatter is not asked for.
-  const double resolved = bulk_fraction_ > 0.0 ? kZ * fit.mean_error / bulk_fraction_ : 0.0;
-  settled_ = std::abs(change - 1.0) <= std::max(kSettleTolerance, resolved);
-  if (settled_) return wall_speed;
+  settled_ = std::abs(change - 1.0) <= kSettleTolerance;
+  // A change within the estimate's own standard error waits for more windows.
+  const double error = bulk_fraction_ > 0.0 ? fit.mean_error / bulk_fraction_ : 0.0;
+  if (std::abs(change - 1.0) <= std::max(kSettleTolerance, error)) return wall_speed;
   fractions_.clear();
   return wall_speed * std::clamp(change, 1.0 / kMaxStep, kMaxStep);
 }

@@ -15,10 +15,9 @@
 //    dem/stationarity.hpp), the oldest is dropped (it belongs to the transient) and nothing is
 //    done;
 //  - once at least kSteadyWindows windows show no drift, f = their mean (standard error se_f)
-//    asks for U* = g_target H / f. If U* is within max(kSettleTolerance, z se_f / f) of U (a
-//    change the estimate cannot resolve from its scatter) the controller has settled and keeps
-//    U, its windows adding to the estimate; otherwise the speed steps to U* (clamped to a factor
-//    kMaxStep) and the windows start anew.
+//    asks for U* = g_target H / f. Within kSettleTolerance of U the controller has settled;
+//    within the estimate's own standard error se_f / f it waits for more windows; further off
+//    the speed steps to U* (clamped to a factor kMaxStep) and the windows start anew.
 #include <vector>
 
 #include "dem/binary_io.hpp"

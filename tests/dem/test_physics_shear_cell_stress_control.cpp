@@ -39,10 +39,10 @@ ShearCellMeasurements run_at_stiffness(ShearCellSetup::Boundary boundary, double
 
 // The walls hold the normal stress within 5% from k_n / (p d) = 1e2 to 1e5, and drive the bulk
 // rate (the middle half of the gap) to the site's. Measured over seeds 1, 2, 3 at 1e2, 1e4 and
-// 1e5: normal stress 980-1019 Pa in all nine; bulk rate 3.82, 3.48, 4.55 (1e2), 3.15, 5.32,
-// 3.80 (1e4), 3.63, 4.48, 4.29 (1e5) against 3.58 1/s. The bulk rate of this 6-ball cell wanders
-// over several strains (docs/shear_cells.md, "Not yet done"), so only seed 1's is asserted, at
-// 15%.
+// 1e5: normal stress 989-1023 Pa in all nine; bulk rate 3.29, 4.74, 3.21 (1e2), 3.42, 3.15,
+// 4.35 (1e4), 3.63, 2.55, 3.07 (1e5) against 3.58 1/s, none stationary (the wall-speed
+// controller had not settled within 5%). The bulk rate of this 6-ball cell wanders over several
+// strains (docs/shear_cells.md, "Not yet done"), so only seed 1's is asserted, at 15%.
 void expect_walls_hold_their_targets(double kappa) {
   const ShearCellMeasurements m = run_at_stiffness(ShearCellSetup::Boundary::RoughWalls, kappa);
   EXPECT_NEAR(m.normal_stress, 1000.0, 50.0);
