@@ -1,7 +1,7 @@
 // The shear cell's stationarity test (dem/stationarity.hpp) and wall-speed controller
 // (dem/wall_speed_controller.hpp) on synthetic series: a stationary noisy cell passes, a drifting
-// or compacting one fails, and the controller settles on the wall speed a noisy or lagging bed
-// asks for.
+// or compacting one fails, the controller settles on the wall speed a noisy or lagging bed asks
+// for, and compaction ends on a state, not on one loaded interval.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,6 +10,7 @@
 
 #include "dem/rng.hpp"
 #include "dem/stationarity.hpp"
+#include "dem/stress_control.hpp"
 #include "dem/wall_speed_controller.hpp"
 
 namespace millflow::dem {
@@ -89,6 +90,32 @@ TEST(ShearCellStationarity, TheBulkRateCountsOnlyWithATarget) {
   for (WindowMeans& m : w) m.bulk_shear_rate *= 1.5;
   EXPECT_FALSE(test_stationarity(w, kTargetStress, kTargetRate).bulk_shear_rate);
   EXPECT_TRUE(test_stationarity(w, kTargetStress, 0.0).bulk_shear_rate);
+}
+
+TEST(CompactionEnd, ALoneSpikeDoesNotEndCompaction) {
+  // One ball hitting the wall: one interval carries ten times the target, the next nothing.
+  CompactionEnd end(kTargetStress);
+  end.answer(0.0);
+  end.answer(10.0 * kTargetStress);
+  EXPECT_FALSE(end.compacted());
+  EXPECT_FALSE(end.closing());  // the control answers a loaded interval by its own law
+  end.answer(0.0);
+  EXPECT_FALSE(end.compacted());
+  EXPECT_TRUE(end.closing());  // and closes at the speed limit again once it is empty
+  // Spikes every other interval never compact it.
+  for (int interval = 0; interval < 20; ++interval) {
+    end.answer(interval % 2 == 0 ? 10.0 * kTargetStress : 0.1 * kTargetStress);
+    EXPECT_FALSE(end.compacted()) << "interval " << interval;
+  }
+}
+
+TEST(CompactionEnd, ABedCarryingHalfItsTargetIntervalAfterIntervalHasCompacted) {
+  CompactionEnd end(kTargetStress);
+  for (int interval = 1; interval <= kCompactedIntervals; ++interval) {
+    EXPECT_FALSE(end.compacted()) << "interval " << interval;
+    end.answer((kClosingStressFraction + 0.01 * interval) * kTargetStress);
+  }
+  EXPECT_TRUE(end.compacted());
 }
 
 TEST(WallSpeedController, SettlesOnTheSpeedANoisyBedAsksFor) {
