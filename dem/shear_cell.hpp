@@ -36,8 +36,9 @@
 // (y, v_x) of all free particles (mass-weighted) whose centres lie in the middle half of the gap,
 // over all samples of a window. warm_up() adjusts the wall speed between windows by the
 // wall-speed controller (dem/wall_speed_controller.hpp), which steps only on a steady estimate
-// of the bulk fraction (bulk over nominal rate), so the bulk approaches the target rate. The strain
-// of run_strain() and measure() is target rate x time.
+// of the bulk fraction (bulk over nominal rate) and learns how the bulk rate answers the wall
+// speed from its steady points (secant, regula falsi), so the bulk approaches the target rate. The
+// strain of run_strain() and measure() is target rate x time.
 #include <array>
 #include <cstdint>
 #include <filesystem>
@@ -424,7 +425,9 @@ struct ShearCellProtocol {
 //         time; the barostat then its stretches' work and its integral term, the servo nothing
 //         more); the wall-speed controller (WallSpeedController::write: the bulk
 //         fractions of the windows at the current speed (uint64 count, doubles), the last
-//         steady estimate (double), settled (uint8));
+//         steady estimate (double), settled (uint8), its steady points that stepped: the last,
+//         the latest below the target and the latest above it, each speed, bulk fraction and
+//         its standard error (3 doubles, speed 0 for none));
 //         compacted (uint8)
 //   run: phase (uint8: 0 compacting, 1 warm-up, 2 measuring), warm-up window index
 //        (int32); the window in progress (uint64 steps, half, every, done; profile: 8 doubles;

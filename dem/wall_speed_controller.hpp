@@ -15,9 +15,18 @@
 //    dem/stationarity.hpp), the oldest is dropped (it belongs to the transient) and nothing is
 //    done;
 //  - once at least kSteadyWindows windows show no drift, f = their mean (standard error se_f)
-//    asks for U* = g_target H / f. Within kSettleTolerance of U the controller has settled;
-//    within the estimate's own standard error se_f / f it waits for more windows; further off
-//    the speed steps to U* (clamped to a factor kMaxStep) and the windows start anew.
+//    gives the steady bulk rate g = f U / H at this speed. Within kSettleTolerance of the target
+//    the controller has settled; within the estimate's own standard error se_f / f it waits for
+//    more windows; further off the speed steps (clamped to a factor kMaxStep) and the windows
+//    start anew.
+// The step learns how the rate answers the speed, since the bulk rate is NOT in proportion to
+// it (measured in the 8 x 10 x 8 cell: the walls went from 16.5 to 8.75 m/s and the steady bulk
+// rate stayed at 10-13 1/s, so the proportional law stepped far too far): with steady points on
+// both sides of the target (the latest of each, the lower speed below), regula falsi between
+// them; with two steady points on one side, the secant through them, if the rate grew with the
+// speed by more than kZ standard errors (its step at most kMaxExtrapolation times the
+// proportional one); otherwise (the first step, or a rate that fell as the speed rose) the
+// proportional guess U* = g_target H / f.
 #include <vector>
 
 #include "dem/binary_io.hpp"
@@ -31,6 +40,7 @@ class WallSpeedController {
   static constexpr double kZ = 2.5;
   static constexpr double kMaxStep = 2.0;
   static constexpr double kSettleTolerance = 0.05;
+  static constexpr double kMaxExtrapolation = 2.0;
 
   explicit WallSpeedController(double target_rate) : target_rate_(target_rate) {}
 
@@ -45,15 +55,28 @@ class WallSpeedController {
   int windows() const { return static_cast<int>(fractions_.size()); }
 
   // Checkpoint state: the current windows' bulk fractions (a span of doubles), the last steady
-  // estimate (double), settled (uint8).
+  // estimate (double), settled (uint8), then the steady points that stepped (the last, the
+  // latest below the target, the latest above it; each: speed, bulk fraction and its standard
+  // error, three doubles, speed 0 for none).
   void write(BinaryWriter& out) const;
   void read(BinaryReader& in);
 
  private:
+  // A steady estimate that made the speed step: its speed (m/s, 0 for none), bulk fraction and
+  // the fraction's standard error.
+  struct SteadyPoint {
+    double speed = 0.0, fraction = 0.0, fraction_error = 0.0;
+    bool known() const { return speed > 0.0; }
+  };
+  // The speed that the steady point `now` (already filed below or above) asks for, unclamped;
+  // `previous` is the steady point before it.
+  double next_speed(const SteadyPoint& now, const SteadyPoint& previous, double gap);
+
   double target_rate_;
   std::vector<double> fractions_;  // f_i of the windows at the current speed, oldest first
   double bulk_fraction_ = 0.0;
   bool settled_ = false;
+  SteadyPoint last_, below_, above_;
 };
 
 }  // namespace millflow::dem

@@ -162,13 +162,51 @@ TEST(WallSpeedController, SettlesOnABedThatLags) {
       speed = controller.update(rate, speed, kGap);
       highest = std::max(highest, speed);
     }
-    // Measured over these seeds: the last speed within 7% of the wanted one, the highest up to
-    // 30% above it (a step on a still-lagging estimate that the next steady one corrects).
+    // The highest speed up to 71% above the wanted one: the secant through two steady points of
+    // a bed that still lags sees it less sensitive than it is and extrapolates too far (the price
+    // of learning the sensitivity; regula falsi brings it back). Not 2x: the step limits hold.
     EXPECT_NEAR(speed / wanted, 1.0, 0.1) << "seed " << seed;
-    EXPECT_LE(highest, 1.35 * wanted) << "seed " << seed;
+    EXPECT_LE(highest, 1.8 * wanted) << "seed " << seed;
     settled += controller.settled();
   }
   EXPECT_GE(settled, 15);
+}
+
+// A bed whose steady bulk rate at wall speed U is target x `shape`(U / U0), each window's rate
+// scattering by 5%, from the speed `start` x U0: over 40 windows, how many of 20 seeds end
+// settled with the true rate at their last speed within `tolerance` of the target.
+template <typename Shape>
+int seeds_settled_on_target(Shape shape, double start, double tolerance) {
+  constexpr double kGap = 0.06, kWanted = 0.3;  // U0, m/s
+  int good = 0;
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    Rng rng(seed);
+    WallSpeedController controller(kTargetRate);
+    double speed = start * kWanted;
+    for (int window = 0; window < 40; ++window) {
+      const double rate = kTargetRate * shape(speed / kWanted) * (1.0 + 0.05 * noise(rng));
+      speed = controller.update(rate, speed, kGap);
+    }
+    const bool on_target = std::abs(shape(speed / kWanted) - 1.0) <= tolerance;
+    good += controller.settled() && on_target;
+    EXPECT_TRUE(on_target) << "seed " << seed << ": speed " << speed / kWanted << " U0";
+  }
+  return good;
+}
+
+TEST(WallSpeedController, SettlesOnABedWhoseRateHardlyAnswersTheSpeed) {
+  // As the 8 x 10 x 8 cell measured: 0.9 + 0.1 U / U0, so from 1.9 U0 the bulk runs 9% fast and
+  // the proportional law needs a dozen steps (1.9, 1.74, 1.62, ... U0); the secant through two
+  // steady points finds U0.
+  const int settled = seeds_settled_on_target([](double u) { return 0.9 + 0.1 * u; }, 1.9, 0.05);
+  EXPECT_GE(settled, 18);
+}
+
+TEST(WallSpeedController, SettlesOnABedWhoseRateGrowsFasterThanTheSpeed) {
+  // Rate ~ U^2: the proportional law jumps between U0 / u and u U0 for ever (from 0.6 U0: 1.2,
+  // 0.83, 1.2, ...); regula falsi between the two sides settles.
+  const int settled = seeds_settled_on_target([](double u) { return u * u; }, 0.6, 0.05);
+  EXPECT_GE(settled, 18);
 }
 
 TEST(WallSpeedController, WaitsWhileTheBulkFractionDrifts) {
