@@ -43,8 +43,8 @@ ShearCellMeasurements run_at_stiffness(ShearCellSetup::Boundary boundary, double
 // 4.35 (1e4), 3.63, 2.55, 3.07 (1e5) against 3.58 1/s, none stationary (the wall-speed
 // controller had not settled within 5%). With compaction ending on a state and the controller
 // that learns the rate's sensitivity, seed 1: 3.69 (1e2, stationary), 3.86 (1e4, not), 3.16
-// (1e5, stationary) 1/s; seeds 2 and 3 not re-measured. The bulk rate of this 6-ball cell wanders over several
-// strains (docs/shear_cells.md, "Not yet done"), so only seed 1's is asserted, at 15%.
+// (1e5, stationary) 1/s; seeds 2 and 3 not re-measured. The bulk rate of this 6-ball cell wanders
+// over several strains (docs/shear_cells.md, "Not yet done"), so only seed 1's is asserted, at 15%.
 void expect_walls_hold_their_targets(double kappa) {
   const ShearCellMeasurements m = run_at_stiffness(ShearCellSetup::Boundary::RoughWalls, kappa);
   EXPECT_NEAR(m.normal_stress, 1000.0, 50.0);
