@@ -582,8 +582,11 @@ int main(int argc, char** argv) {
   app.add_option("--lammps_inertial_number", o.lammps_inertial_number, "table 6's I");
   app.add_option("--lammps_strain", o.lammps_strain, "table 6's fixed-volume strain");
   app.add_option("--lammps_sample_every", o.lammps_sample_every, "table 6's sample interval");
+  bool debug_log = false;
+  app.add_flag("--debug_log", debug_log,
+               "the cells' debug log on stderr (compaction, warm-up windows, wall speed)");
   CLI11_PARSE(app, argc, argv);
-  spdlog::set_level(spdlog::level::warn);
+  spdlog::set_level(debug_log ? spdlog::level::debug : spdlog::level::warn);
   const std::set<int> tables(o.tables.begin(), o.tables.end());
   fmt::print(
       "bench_cell_physics: cell {} x {} x {} d, {} thread(s), strains warm-up {:g} (max "

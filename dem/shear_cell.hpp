@@ -35,9 +35,10 @@
 // Shear rate. Rough walls slip, so the bulk shear rate is measured: a least-squares line through
 // (y, v_x) of all free particles (mass-weighted) whose centres lie in the middle half of the gap,
 // over all samples of a window. warm_up() adjusts the wall speed between windows by the
-// wall-speed controller (dem/wall_speed_controller.hpp), which steps on a filtered estimate of
-// the bulk fraction (bulk over nominal rate), so the bulk approaches the target rate. The strain
-// of run_strain() and measure() is target rate x time.
+// wall-speed controller (dem/wall_speed_controller.hpp), which steps only on a steady estimate
+// of the bulk fraction (bulk over nominal rate) and learns how the bulk rate answers the wall
+// speed from its steady points (secant, regula falsi), so the bulk approaches the target rate. The
+// strain of run_strain() and measure() is target rate x time.
 #include <array>
 #include <cstdint>
 #include <filesystem>
@@ -409,9 +410,10 @@ struct ShearCellProtocol {
 // few hundred collision times). advance() in chunks of any size gives the same bits too.
 //
 // Checkpoint file: the checksummed container of dem/binary_io.hpp, magic "MFSHRCKP", payload
-// version kShearCellCheckpointVersion. Payload (version 3; version 2 held only the previous
-// warm-up window's means, no wall-speed controller, and the barostat's state for both
-// boundaries), in order:
+// version kShearCellCheckpointVersion. Payload (version 4; version 3 held the earlier filtered
+// wall-speed controller's two sums, window count and settled flag, and a rough-wall window's
+// stress sums over its profile samples only; version 2 only the previous warm-up window's
+// means, no wall-speed controller, and the barostat's state for both boundaries), in order:
 //   identity: string, the setup (overlap bound included) and protocol (warm-up cap, convergence
 //             target and cap included) encoded field by field (resume() refuses a file whose
 //             identity differs from the cell it is asked to continue)
@@ -421,11 +423,16 @@ struct ShearCellProtocol {
 //         control (StressControl::write: stress sum and sample count since the last control
 //         interval, the stress that interval answered and its running mean over the relaxation
 //         time; the barostat then its stretches' work and its integral term, the servo nothing
-//         more); the wall-speed controller (WallSpeedController::write: two doubles, int32, uint8);
+//         more); the wall-speed controller (WallSpeedController::write: the bulk
+//         fractions of the windows at the current speed (uint64 count, doubles), the last
+//         steady estimate (double), settled (uint8), its steady points that stepped: the last,
+//         the latest below the target and the latest above it, each speed, bulk fraction and
+//         its standard error (3 doubles, speed 0 for none));
 //         compacted (uint8)
 //   run: phase (uint8: 0 compacting, 1 warm-up, 2 measuring), warm-up window index
 //        (int32); the window in progress (uint64 steps, half, every, done; profile: 8 doubles;
-//        shear stress sum, normal stress sum, sample count); the finished windows' means (uint64
+//        shear stress sum, normal stress sum (with walls summed every step of the second half,
+//        else at the samples), sample count); the finished windows' means (uint64
 //        count; each: shear stress, normal stress, solid fraction, bulk shear rate), the
 //        stationary strain (double) and stationary (uint8); the measurement (uint64 steps cap,
 //        minimum steps, block steps, every, stress-sample interval, done; work, shear work and
@@ -440,7 +447,7 @@ struct ShearCellProtocol {
 //        dissipated-energy histogram (dem/spectrum.hpp), wall seconds measured so far,
 //        converged (uint8))
 // Collision events finished before a save are tallied into the measurement first.
-inline constexpr std::uint32_t kShearCellCheckpointVersion = 3;
+inline constexpr std::uint32_t kShearCellCheckpointVersion = 4;
 
 class ShearCellRun {
  public:

@@ -53,17 +53,22 @@ void ShearCell::compact() {
   compacted_ = true;
   // The linear law would close the loose fill far too slowly (it moves a boundary that touches
   // nothing only by the small strain that carries the target per relaxation time), so the
-  // boundary closes at the speed limit until the bed carries half the target over a control
-  // interval (an LE box closes again whenever it loses contact: dem/stress_control.hpp).
+  // boundary closes at the speed limit while the bed carries less than half the target over a
+  // control interval, and compaction ends on a state: several intervals in a row carrying it
+  // (CompactionEnd; an LE box closes again whenever it loses contact: dem/stress_control.hpp).
   const StressControlSettings& control = control_->settings();
   const double limit = 4.0 * placement_gap(setup_) / control.max_speed;
+  CompactionEnd end(setup_.normal_stress);
   control_->set_closing(true);
-  while (system_.time() < limit) {
+  while (system_.time() < limit && !end.compacted()) {
     step_controlled(control.interval_steps);
-    if (control_->last_interval_stress() >= kClosingStressFraction * setup_.normal_stress) break;
+    const bool was_closing = end.closing();
+    end.answer(control_->last_interval_stress());
+    if (end.closing() != was_closing) control_->set_closing(end.closing());
   }
   control_->set_closing(false);
-  spdlog::debug("shear cell: compacted in {:.4g} s to a gap of {:.4g} m", system_.time(), gap());
+  spdlog::debug("shear cell: compacted in {:.4g} s to a gap of {:.4g} m{}", system_.time(), gap(),
+                end.compacted() ? "" : " (time limit: the bed never carried half its target)");
 }
 
 void ShearCell::step_controlled(std::size_t steps) {

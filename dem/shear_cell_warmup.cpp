@@ -77,12 +77,25 @@ void ShearCell::advance_window(WarmUpWindow& window, std::uint64_t max_steps) {
             : std::min(window.steps,
                        window.done + window.every - (window.done - window.half) % window.every);
     const std::uint64_t until = std::min(end, next_sample);
-    advance(until - window.done);
-    window.done = until;
+    if (walls() && window.done >= window.half) {
+      // The wall loads are free: summed every step of the second half. (Sampled every `every`
+      // steps they were read in step with the servo's interval, and its wall load then read
+      // 20-70% above the true mean.)
+      for (; window.done < until; ++window.done) {
+        advance(1);
+        window.shear_sum += shear_stress_now();
+        window.normal_sum += normal_stress_now();
+      }
+    } else {
+      advance(until - window.done);
+      window.done = until;
+    }
     if (window.done > window.half && (window.done == next_sample)) {
       sample_profile(window.profile);
-      window.shear_sum += shear_stress_now();
-      window.normal_sum += normal_stress_now();
+      if (!walls()) {
+        window.shear_sum += shear_stress_now();
+        window.normal_sum += normal_stress_now();
+      }
       window.samples += 1.0;
     }
   }
@@ -91,9 +104,11 @@ void ShearCell::advance_window(WarmUpWindow& window, std::uint64_t max_steps) {
 WindowMeans ShearCell::finish_window(const WarmUpWindow& window, int index,
                                      const WindowMeans* previous) {
   const double measured = bulk_shear_rate(window.profile);
+  const double stress_samples =
+      walls() ? static_cast<double>(window.steps - window.half) : window.samples;
   const WindowMeans summary{
-      .shear_stress = window.shear_sum / window.samples,
-      .normal_stress = window.normal_sum / window.samples,
+      .shear_stress = window.shear_sum / stress_samples,
+      .normal_stress = window.normal_sum / stress_samples,
       .solid_fraction =
           (window.profile.media_volume + window.profile.powder_volume) / window.profile.slab_volume,
       .bulk_shear_rate = measured};
@@ -113,9 +128,9 @@ WindowMeans ShearCell::finish_window(const WarmUpWindow& window, int index,
     return summary;
   const double speed = speed_controller_.update(measured, wall_speed_, gap());
   spdlog::debug(
-      "shear cell: warm-up window {}: bulk fraction {:.4g} (filtered), wall speed {:.4g} -> {:.4g} "
-      "m/s{}",
-      index, speed_controller_.bulk_fraction(), wall_speed_, speed,
+      "shear cell: warm-up window {}: bulk fraction {:.4g} (last steady estimate; {} windows at "
+      "this speed), wall speed {:.4g} -> {:.4g} m/s{}",
+      index, speed_controller_.bulk_fraction(), speed_controller_.windows(), wall_speed_, speed,
       speed_controller_.settled() ? ", settled" : "");
   set_wall_speed(speed);
   return summary;

@@ -7,12 +7,13 @@
 namespace millflow::dem {
 namespace {
 
-struct SeriesFit {
-  double mean = 0.0, mean_error = 0.0;    // mean and its standard error (scatter / sqrt(n))
-  double drift = 0.0, drift_error = 0.0;  // slope x (n - 1) and its standard error
-};
+bool on_target(const SeriesFit& f, double target, double tolerance, double z) {
+  return std::abs(f.mean - target) <= std::max(tolerance * std::abs(target), z * f.mean_error);
+}
 
-SeriesFit fit(const std::vector<double>& x) {
+}  // namespace
+
+SeriesFit fit_series(std::span<const double> x) {
   const auto n = static_cast<double>(x.size());
   SeriesFit out;
   for (double v : x) out.mean += v / n;
@@ -32,12 +33,6 @@ SeriesFit fit(const std::vector<double>& x) {
   return out;
 }
 
-bool on_target(const SeriesFit& f, double target, double tolerance, double z) {
-  return std::abs(f.mean - target) <= std::max(tolerance * std::abs(target), z * f.mean_error);
-}
-
-}  // namespace
-
 StationarityVerdict test_stationarity(std::span<const WindowMeans> windows,
                                       double target_normal_stress, double target_shear_rate,
                                       const StationarityCriterion& c) {
@@ -46,7 +41,7 @@ StationarityVerdict test_stationarity(std::span<const WindowMeans> windows,
   const auto series = [&](double WindowMeans::*field) {
     std::vector<double> x;
     for (const WindowMeans& w : windows) x.push_back(w.*field);
-    return fit(x);
+    return fit_series(x);
   };
   const SeriesFit shear = series(&WindowMeans::shear_stress);
   const SeriesFit solid = series(&WindowMeans::solid_fraction);

@@ -40,6 +40,15 @@ struct StationarityVerdict {
   }
 };
 
+// The least-squares line x_k = a + b k through a series k = 0..n-1 (n >= 3): its mean m and
+// se_m, its drift b (n - 1) and the drift's standard error s_b (n - 1). Also the wall-speed
+// controller's test of a steady bulk fraction (dem/wall_speed_controller.hpp).
+struct SeriesFit {
+  double mean = 0.0, mean_error = 0.0;    // mean and its standard error (scatter / sqrt(n))
+  double drift = 0.0, drift_error = 0.0;  // slope x (n - 1) and its standard error
+};
+SeriesFit fit_series(std::span<const double> x);
+
 // The test above over `windows` (oldest first, at least 3; fewer fail); target_shear_rate <= 0
 // skips the rate (Lees-Edwards imposes it).
 StationarityVerdict test_stationarity(std::span<const WindowMeans> windows,

@@ -83,8 +83,12 @@ double RoughWallServo::normal_stress(const System& system) const {
 bool RoughWallServo::answer(System& system, double stress, bool closing) {
   const StressControlSettings& s = settings();
   // The interval's mean load F = stress A against F_t: v = M (F - F_t) along +y (a wall carrying
-  // too much moves up).
-  const double speed = closing ? -s.max_speed : s.mobility * (stress - s.target_stress) * area_;
+  // too much moves up), M at the bed's modulus at its own pressure (at most the target's).
+  const double bed_pressure = std::min(smoothed_stress(), s.target_stress);
+  const double speed =
+      closing || bed_pressure <= 0.0
+          ? -s.max_speed
+          : s.mobility * (s.target_stress / bed_pressure) * (stress - s.target_stress) * area_;
   system.group(top_).velocity.y() = std::clamp(speed, -s.max_speed, s.max_speed);
   return false;
 }

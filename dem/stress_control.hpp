@@ -7,11 +7,16 @@
 //  - RoughWallServo: at the end of each control interval the top wall's group is set moving
 //    along y at M (F - F_target) from the interval's mean load F, M = H / (K p A tau), clamped at
 //    v_max. (Not every step on the instantaneous load: with ~25 stiff wall contacts
-//    M N k_n dt ~ 4 > 2 at the campaign's stiffness, and the wall chattered at +-v_max.)
+//    M N k_n dt ~ 4 > 2 at the campaign's stiffness, and the wall chattered at +-v_max.) The
+//    modulus is that of the bed at its own pressure: p = min(p_target, the stresses' running
+//    mean over tau), so a bed carrying less than its target (a loose one after compaction) is
+//    closed faster, in proportion (it used to close at H / (K tau) at most, and a loose bed took
+//    two of a cell's three warm-up strains to carry its target).
 //  - LeesEdwardsBarostat: the box and the particles are stretched affinely along y by a PI law
 //    (documented at the class).
-// Both close the loose fill at v_max until the bed carries half the target (set_closing); the
-// barostat also closes again whenever its stress averaged over tau falls below half the target.
+// Both close the loose fill at v_max until the bed carries half the target (set_closing), and
+// compaction ends on a state, not a sample (CompactionEnd); the barostat also closes again
+// whenever its stress averaged over tau falls below half the target.
 #include <cstdint>
 #include <memory>
 
@@ -26,6 +31,30 @@ namespace millflow::dem {
 inline constexpr double kFlowingBedModulus = 10.0;
 // Below this fraction of the target normal stress the boundary closes at its speed limit.
 inline constexpr double kClosingStressFraction = 0.5;
+
+// Compaction ends once the bed has carried kClosingStressFraction of the target over this many
+// consecutive control intervals. (It ended on the first such interval, and one ball hitting the
+// wall, or the barostat's first collision, ended it on a bed that carried nothing the next
+// interval.)
+inline constexpr int kCompactedIntervals = 3;
+
+// The compaction rule, fed each control interval's mean stress: the boundary closes at its speed
+// limit while the last interval carried less than kClosingStressFraction of the target, answers
+// by its own law while it carried more, and the bed has compacted once kCompactedIntervals
+// intervals in a row carried it (a lone loaded interval followed by an empty one starts again).
+class CompactionEnd {
+ public:
+  explicit CompactionEnd(double target_stress) : target_stress_(target_stress) {}
+  void answer(double interval_stress) {
+    loaded_ = interval_stress >= kClosingStressFraction * target_stress_ ? loaded_ + 1 : 0;
+  }
+  bool closing() const { return loaded_ == 0; }
+  bool compacted() const { return loaded_ >= kCompactedIntervals; }
+
+ private:
+  double target_stress_;
+  int loaded_ = 0;  // consecutive intervals that carried the closing fraction
+};
 
 struct StressControlSettings {
   double target_stress = 0.0;        // Pa, compression positive
@@ -52,8 +81,10 @@ class StressControl {
   bool after_step(System& system);
   // While set, the boundary closes at the speed limit (compaction).
   void set_closing(bool closing);
-  // The mean stress the last interval answered, Pa.
+  // The mean stress the last interval answered, Pa, and the answered stresses' running mean
+  // over tau (the last one included).
   double last_interval_stress() const { return last_stress_; }
+  double smoothed_stress() const { return smoothed_stress_; }
   // Energy the control put in besides the walls' work (the barostat's stretches), J.
   virtual double work() const { return 0.0; }
 

@@ -1,6 +1,6 @@
 // The stress control of both boundaries at realistic stiffness: the rough walls' servo and the
 // Lees-Edwards barostat hold the target normal stress within 5% at k_n / (p d) = 1e4 (the walls
-// also at 1e2 and 1e5: 984 and 985 Pa against 1000, docs/shear_cells.md).
+// also at 1e2 and 1e5, with their bulk rate and slip; docs/shear_cells.md).
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
 
@@ -13,11 +13,13 @@
 namespace millflow::dem {
 namespace {
 
-ShearCellMeasurements run_at_stiffness(ShearCellSetup::Boundary boundary, double kappa) {
+ShearCellMeasurements run_at_stiffness(ShearCellSetup::Boundary boundary, double kappa,
+                                       std::uint64_t seed = 1) {
   spdlog::set_level(std::getenv("MF_DEBUG") ? spdlog::level::debug : spdlog::level::warn);
   ShearCellSetup setup = testing::small_shear_cell(0.1);
   setup.boundary = boundary;
   setup.size_diameters = Vec3(6, 6, 6);
+  setup.seed = seed;
   setup.media_media.normal_stiffness = kappa * setup.normal_stress * setup.media_diameter;
   ShearCellRun run(setup, {.warmup_strain = 2.0,
                            .warmup_windows = 4,
@@ -35,16 +37,29 @@ ShearCellMeasurements run_at_stiffness(ShearCellSetup::Boundary boundary, double
   return m;
 }
 
-TEST(ShearCellStressControl, WallServoHoldsTheNormalStressAtRealisticStiffness) {
-  const ShearCellMeasurements m = run_at_stiffness(ShearCellSetup::Boundary::RoughWalls, 1e4);
+// The walls hold the normal stress within 5% from k_n / (p d) = 1e2 to 1e5, and drive the bulk
+// rate (the middle half of the gap) to the site's. Measured over seeds 1, 2, 3 at 1e2, 1e4 and
+// 1e5: normal stress 989-1023 Pa in all nine; bulk rate 3.29, 4.74, 3.21 (1e2), 3.42, 3.15,
+// 4.35 (1e4), 3.63, 2.55, 3.07 (1e5) against 3.58 1/s, none stationary (the wall-speed
+// controller had not settled within 5%). With compaction ending on a state and the controller
+// that learns the rate's sensitivity, seed 1: 3.69 (1e2, stationary), 3.86 (1e4, not), 3.16
+// (1e5, stationary) 1/s; seeds 2 and 3 not re-measured. The bulk rate of this 6-ball cell wanders
+// over several strains (docs/shear_cells.md, "Not yet done"), so only seed 1's is asserted, at 15%.
+void expect_walls_hold_their_targets(double kappa) {
+  const ShearCellMeasurements m = run_at_stiffness(ShearCellSetup::Boundary::RoughWalls, kappa);
   EXPECT_NEAR(m.normal_stress, 1000.0, 50.0);
-  // Not asserted: stationarity and the bulk rate. With the filtered wall-speed controller
-  // (dem/wall_speed_controller.hpp) the measured bulk rate of seeds 1, 2, 3 of this cell was 3%
-  // low, 0.4% high and 12% low (normal stress 970, 995, 990 Pa; seeds 2 and 3 stationary at
-  // strain 5.5): one window's bulk rate still scatters by 20-30% here, so 10% does not hold for
-  // every seed (docs/shear_cells.md, "Not yet done").
+  EXPECT_NEAR(m.bulk_shear_rate / m.target_shear_rate, 1.0, 0.15);
   EXPECT_GT(m.wall_slip, 0.0) << "rough walls slip";
   EXPECT_NEAR(m.wall_slip, 0.5 * (m.wall_speed - m.bulk_shear_rate * m.gap), 1e-12);
+}
+
+TEST(ShearCellStressControl, WallServoHoldsTheNormalStressAtRealisticStiffness) {
+  expect_walls_hold_their_targets(1e4);
+}
+
+TEST(ShearCellStressControl, WallServoHoldsTheNormalStressOfSoftAndStiffBalls) {
+  expect_walls_hold_their_targets(1e2);
+  expect_walls_hold_their_targets(1e5);
 }
 
 TEST(ShearCellStressControl, BarostatHoldsTheNormalStressAtRealisticStiffness) {
