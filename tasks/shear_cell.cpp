@@ -58,14 +58,15 @@ json spectra_json(const dem::ShearCellMeasurements& m) {
 std::string stiffness_log(const std::vector<dem::PairStiffness>& pairs,
                           const dem::ShearCellSetup& setup) {
   std::string text = fmt::format(
-      "shear cell stiffness at sigma_n {:.4g} Pa, shear rate {:.4g} 1/s (mean overlap <= {:.3g} "
-      "of d_small):",
-      setup.normal_stress, setup.shear_rate, setup.overlap_bound.mean_fraction);
+      "shear cell stiffness at sigma_n {:.4g} Pa, shear rate {:.4g} 1/s (mean overlap <= {:.3g}, "
+      "p95 <= {:.3g} of d_small):",
+      setup.normal_stress, setup.shear_rate, setup.overlap_bound.mean_fraction,
+      setup.overlap_bound.p95_fraction);
   for (const dem::PairStiffness& p : pairs) {
     text += fmt::format(
-        " {}: k_n {:.4g} N/m (given {:.4g}, static bound {:.4g}, impact bound {:.4g}), kappa "
-        "{:.4g};",
-        p.pair, p.chosen, p.given, p.static_bound, p.impact_bound, p.kappa);
+        " {}: k_n {:.4g} N/m ({} governs; given {:.4g}, static bound {:.4g}, impact bound {:.4g}), "
+        "kappa {:.4g};",
+        p.pair, p.chosen, p.governing, p.given, p.static_bound, p.impact_bound, p.kappa);
   }
   return text;
 }
@@ -123,7 +124,8 @@ json stiffness_json(const std::vector<dem::PairStiffness>& pairs) {
                    {"kappa", p.kappa},
                    {"given_n_m", p.given},
                    {"static_bound_n_m", p.static_bound},
-                   {"impact_bound_n_m", p.impact_bound}};
+                   {"impact_bound_n_m", p.impact_bound},
+                   {"governing", p.governing}};
   }
   return out;
 }
