@@ -154,7 +154,10 @@ double shear_rate_for(const Options& o, double inertial_number) {
 dem::ShearCellSetup setup_for(const Options& o, const Cell& c, const json& campaign) {
   const json site{{"shear_rate_per_s", c.shear_rate}, {"normal_stress_pa", o.normal_stress}};
   dem::ShearCellSetup setup = tasks::shear_cell_setup(campaign, site, "bench_cell_physics");
-  tasks::apply_stiffness_policy(campaign, setup);
+  for (const dem::PairStiffness& p : tasks::apply_stiffness_policy(campaign, setup))
+    fmt::print(
+        "    stiffness {:<14} k_n {:.4g} N/m ({}: given {:.4g}, static {:.4g}, impact {:.4g})\n",
+        p.pair, p.chosen, p.governing, p.given, p.static_bound, p.impact_bound);
   for (dem::InteractionSpec* pair : {&setup.media_media, &setup.media_powder, &setup.powder_powder})
     pair->normal_stiffness *= c.stiffness_factor;
   return setup;
@@ -189,12 +192,14 @@ CellResult run_cell(const Options& o, const Cell& c) {
   const auto& m = result.m;
   fmt::print(
       "  cell {} load {:g}, {:.4g} 1/s, stiffness x{:g} (media k_n/(p d) {:.3g}): {} particles, "
-      "{} steps, {:.1f} CPU s; I {:.3g}, p_yy {:.4g} Pa, p {:.4g} Pa, solid fraction {:.4f}, "
+      "{} steps of {:.4g} s, {:.1f} CPU s; I {:.3g}, p_yy {:.4g} Pa, p {:.4g} Pa, solid fraction "
+      "{:.4f}, "
       "stationary strain {}, measured strain {:.2f}, steady {}, converged {}, overlap ok {}, "
       "energy balance {:.2g}\n",
       c.walls ? "walls" : "LE", c.powder_load, c.shear_rate, c.stiffness_factor, result.media_kappa,
-      result.particles, run.cell().system().step_count(), result.cpu_seconds, m.inertial_number,
-      m.normal_stress, m.mean_pressure, m.media_solid_fraction + m.powder_solid_fraction,
+      result.particles, run.cell().system().step_count(), run.cell().system().time_step(),
+      result.cpu_seconds, m.inertial_number, m.normal_stress, m.mean_pressure,
+      m.media_solid_fraction + m.powder_solid_fraction,
       m.stationary ? fmt::format("{:.2f}", m.stationary_strain) : std::string("none"), m.strain,
       m.steady, m.converged, m.overlap_ok, m.energy_balance_error);
   if (c.walls) {

@@ -26,15 +26,27 @@ PairStiffness derive(const ShearCellSetup& s, const PairSlot& slot) {
   const double d_a = slot.a_is_powder ? d_p : d_m, d_b = slot.b_is_powder ? d_p : d_m;
   const double m_a = util::sphere_mass(slot.a_is_powder ? s.powder.density : s.media.density, d_a);
   const double m_b = util::sphere_mass(slot.b_is_powder ? s.powder.density : s.media.density, d_b);
+  const double media_mass = util::sphere_mass(s.media.density, d_m);
   PairStiffness out;
   out.pair = contact_type_name(slot.type);
   out.smaller_diameter = std::min(d_a, d_b);
   out.given = (s.*slot.spec).normal_stiffness;
-  const double allowed = s.overlap_bound.mean_fraction * out.smaller_diameter;
-  out.static_bound = kOverlapSafety * s.normal_stress * d_m * d_m / allowed;
-  const double speed = s.shear_rate * d_m;
-  out.impact_bound = effective_mass(m_a, m_b) * (speed / allowed) * (speed / allowed);
+  out.static_bound = kOverlapSafety * s.normal_stress * d_m * d_m /
+                     (s.overlap_bound.mean_fraction * out.smaller_diameter);
+  // Impact: the balls' pair mass drives every contact on a ball-ball line (a grain between two
+  // balls: two contacts in series); powder-powder contacts stop their own pair's mass.
+  const bool between_balls = !(slot.a_is_powder && slot.b_is_powder);
+  const double driving_mass =
+      between_balls ? effective_mass(media_mass, media_mass) : effective_mass(m_a, m_b);
+  const double contacts_in_series = slot.a_is_powder != slot.b_is_powder ? 2.0 : 1.0;
+  const double speed = kImpactSpeedFactor * s.shear_rate * d_m;
+  const double allowed_tail = s.overlap_bound.p95_fraction * out.smaller_diameter;
+  out.impact_bound =
+      driving_mass * (speed / allowed_tail) * (speed / allowed_tail) / contacts_in_series;
   out.chosen = std::max({out.given, out.static_bound, out.impact_bound});
+  out.governing = out.chosen == out.given          ? "given"
+                  : out.chosen == out.static_bound ? "static"
+                                                   : "impact";
   out.kappa = out.chosen / (s.normal_stress * out.smaller_diameter);
   return out;
 }
@@ -55,6 +67,7 @@ std::vector<PairStiffness> describe_stiffness(const ShearCellSetup& setup) {
   for (const PairSlot& slot : kPairs) {
     described.push_back(derive(setup, slot));
     described.back().chosen = described.back().given;
+    described.back().governing = "given";
     described.back().kappa =
         described.back().given / (setup.normal_stress * described.back().smaller_diameter);
   }

@@ -85,6 +85,8 @@ json stiffness_json(const std::vector<dem::PairStiffness>& pairs) {
                    {"given_n_m", p.given},
                    {"static_bound_n_m", p.static_bound},
                    {"impact_bound_n_m", p.impact_bound}};
+    // Cells of kind version 6 and older did not say which bound governs.
+    if (!p.governing.empty()) out[p.pair]["governing"] = p.governing;
   }
   return out;
 }
@@ -97,7 +99,8 @@ std::vector<dem::PairStiffness> stiffness_from(const json& in) {
                      .static_bound = k.at("static_bound_n_m").get<double>(),
                      .impact_bound = k.at("impact_bound_n_m").get<double>(),
                      .chosen = k.at("k_n_n_m").get<double>(),
-                     .kappa = k.at("kappa").get<double>()});
+                     .kappa = k.at("kappa").get<double>(),
+                     .governing = k.value("governing", std::string())});
   }
   return pairs;
 }

@@ -35,14 +35,15 @@ dem::ShearCellSetup::Boundary boundary(const std::string& name) {
 std::string stiffness_log(const std::vector<dem::PairStiffness>& pairs,
                           const dem::ShearCellSetup& setup) {
   std::string text = fmt::format(
-      "shear cell stiffness at sigma_n {:.4g} Pa, shear rate {:.4g} 1/s (mean overlap <= {:.3g} "
-      "of d_small):",
-      setup.normal_stress, setup.shear_rate, setup.overlap_bound.mean_fraction);
+      "shear cell stiffness at sigma_n {:.4g} Pa, shear rate {:.4g} 1/s (mean overlap <= {:.3g}, "
+      "p95 <= {:.3g} of d_small):",
+      setup.normal_stress, setup.shear_rate, setup.overlap_bound.mean_fraction,
+      setup.overlap_bound.p95_fraction);
   for (const dem::PairStiffness& p : pairs) {
     text += fmt::format(
-        " {}: k_n {:.4g} N/m (given {:.4g}, static bound {:.4g}, impact bound {:.4g}), kappa "
-        "{:.4g};",
-        p.pair, p.chosen, p.given, p.static_bound, p.impact_bound, p.kappa);
+        " {}: k_n {:.4g} N/m ({} governs; given {:.4g}, static bound {:.4g}, impact bound {:.4g}), "
+        "kappa {:.4g};",
+        p.pair, p.chosen, p.governing, p.given, p.static_bound, p.impact_bound, p.kappa);
   }
   return text;
 }

@@ -20,7 +20,7 @@
 //   seed             tasks::macro_seed(dem.seed, task key);
 //   stiffness        /shear_cell/stiffness (apply_stiffness_policy below), logged and stored in
 //                    the result as stiffness {by pair: k_n_n_m, kappa, given_n_m,
-//                    static_bound_n_m, impact_bound_n_m}.
+//                    static_bound_n_m, impact_bound_n_m, governing}.
 // Run: a dem::ShearCellRun of shear_cell_protocol (warm-up in windows of warmup_strain /
 // kWarmupWindows until stationary or max_warmup_strain, then measure_strain measured and on to
 // convergence up to convergence/max_strain). The stop token is polled every kStepsBetweenPolls

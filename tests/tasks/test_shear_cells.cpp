@@ -291,6 +291,7 @@ TEST(ShearCell, PowderInTheCellDissipates) {
               std::max({k.at("given_n_m").get<double>(), k.at("static_bound_n_m").get<double>(),
                         k.at("impact_bound_n_m").get<double>()}))
         << pair;
+    EXPECT_NE(k.at("governing").get<std::string>(), "given") << pair;
   }
   EXPECT_GT(r.at("stiffness").at("powder-powder").at("k_n_n_m").get<double>(),
             r.at("stiffness").at("powder-powder").at("given_n_m").get<double>());
