@@ -347,8 +347,10 @@ class CheckpointAccess {
     for (std::uint64_t k = 0; k < touching; ++k) {
       const auto i = in.get<std::uint32_t>();
       const auto j = in.get<std::uint32_t>();
+      if (i >= n || j >= n) throw CorruptData("checkpoint: a touching pair names no particle");
       pairs.push_back({i, j});
       histories.push_back(get_history(in));
+      histories.back().normal_damping = s.pair_normal_damping(i, j);
       forces.push_back(version >= 2 ? get_vec3(in) : Vec3::Zero());
     }
     if (!s.walls_.empty()) {

@@ -651,38 +651,48 @@ void System::compute_pair_forces(double dt) {
       });
 }
 
+double System::pair_effective_mass(ParticleId i, ParticleId j) const {
+  const bool free_i = is_free(i), free_j = is_free(j);
+  return free_i && free_j ? effective_mass(mass_[i], mass_[j]) : (free_i ? mass_[i] : mass_[j]);
+}
+
+double System::pair_normal_damping(ParticleId i, ParticleId j) const {
+  const PairParams& params = materials_.pair(material_[i], material_[j]);
+  return normal_damping_coefficient(params.normal_stiffness, pair_effective_mass(i, j),
+                                    params.damping_ratio);
+}
+
 void System::compute_pair_contact(const PeriodicImages& images, const TouchingPair& touching,
                                   double dt) {
   const std::size_t k = touching.k;
   const auto [i, j] = neighbors_.pairs()[k];
-  const bool free_i = is_free(i), free_j = is_free(j);
   const Vec3& d = touching.separation;
   const double reach = radius_[i] + radius_[j];
   const double distance = std::sqrt(touching.distance_sq);
-  const Vec3 normal = -d / distance;  // from j towards i
+  const Vec3 normal = d * (-1.0 / distance);  // from j towards i
   const double overlap = reach - distance;
-  const Vec3 arm_i = -(radius_[i] - 0.5 * overlap) * normal;
-  const Vec3 arm_j = (radius_[j] - 0.5 * overlap) * normal;
+  const double lever_i = radius_[i] - 0.5 * overlap, lever_j = radius_[j] - 0.5 * overlap;
+  const Vec3 arm_i = -lever_i * normal;
+  const Vec3 arm_j = lever_j * normal;
   const Vec3 contact_velocity_i =
       predicted_velocity_[i] + predicted_angular_velocity_[i].cross(arm_i);
   const Vec3 contact_velocity_j = predicted_velocity_[j] +
                                   images.image_velocity(touching.gradient_images) +
                                   predicted_angular_velocity_[j].cross(arm_j);
-  const double m_eff =
-      free_i && free_j ? effective_mass(mass_[i], mass_[j]) : (free_i ? mass_[i] : mass_[j]);
   const ContactGeometry geometry{normal, overlap, contact_velocity_i - contact_velocity_j};
   ContactHistory& history = pair_history_[k];
-  const ContactResponse response = linear_spring_dashpot(
-      materials_.pair(material_[i], material_[j]), m_eff, geometry, history.spring, dt);
-
   if (!history.touching) {
     history.touching = true;
     pair_touching_[k] = 1;
     history.start_time = time_;
+    history.normal_damping = pair_normal_damping(i, j);
     const double v_n = geometry.relative_velocity.dot(normal);
     history.impact_speed = std::max(-v_n, 0.0);
-    history.impact_energy = 0.5 * m_eff * v_n * v_n;
+    history.impact_energy = 0.5 * pair_effective_mass(i, j) * v_n * v_n;
   }
+  const ContactResponse response =
+      linear_spring_dashpot_damped(materials_.pair(material_[i], material_[j]),
+                                   history.normal_damping, geometry, history.spring, dt);
   history.spring = response.spring;
   history.elastic_energy = response.elastic_energy;
   history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
@@ -694,8 +704,10 @@ void System::compute_pair_contact(const PeriodicImages& images, const TouchingPa
   std::atomic_ref<std::uint8_t>(particle_in_contact_[j]).store(1, std::memory_order_relaxed);
   pair_force_[k] = response.force_on_a;
   pair_branch_[k] = d;
-  pair_torque_a_[k] = arm_i.cross(response.force_on_a);
-  pair_torque_b_[k] = arm_j.cross(-response.force_on_a);
+  // arm_i x F and arm_j x (-F) are both multiples of F x n.
+  const Vec3 turning = response.force_on_a.cross(normal);
+  pair_torque_a_[k] = lever_i * turning;
+  pair_torque_b_[k] = lever_j * turning;
 }
 
 void System::compute_particle_forces(double dt) {

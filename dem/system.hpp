@@ -107,6 +107,9 @@ struct ContactHistory {
   double elastic_energy = 0.0;
   Dissipation dissipated;
   Vec3 point = Vec3::Zero();  // contact point at the last step in force
+  // C_n of the normal dashpot (normal_damping_coefficient of the pair's effective mass), set at
+  // first touch. Derived: checkpoints do not hold it, loading works it out again.
+  double normal_damping = 0.0;
   bool touching = false;
 };
 
@@ -267,6 +270,10 @@ class System {
   };
   // The contact law of a candidate pair that touches.
   void compute_pair_contact(const PeriodicImages& images, const TouchingPair& touching, double dt);
+  // m_eff of a pair of particles (a kinematic one counts as infinitely heavy) and C_n of their
+  // contact.
+  double pair_effective_mass(ParticleId i, ParticleId j) const;
+  double pair_normal_damping(ParticleId i, ParticleId j) const;
   void compute_particle_forces(double dt);
   void reduce_loads(double dt);
   void collect_finished_contacts();
