@@ -247,10 +247,6 @@ class CheckpointAccess {
       const KinematicGroup& group = s.groups_[g];
       out.put_string(group.name);
       put(out, group.velocity);
-      out.put<std::int32_t>(group.servo_axis);
-      out.put(group.servo_target_force);
-      out.put(group.servo_mobility);
-      out.put(group.servo_max_speed);
       put(out, s.group_loads_[g]);
     }
     out.put<std::uint64_t>(s.walls_.size());
@@ -327,10 +323,10 @@ class CheckpointAccess {
       KinematicGroup group;
       group.name = in.get_string();
       group.velocity = get_vec3(in);
-      group.servo_axis = in.get<std::int32_t>();
-      group.servo_target_force = in.get<double>();
-      group.servo_mobility = in.get<double>();
-      group.servo_max_speed = in.get<double>();
+      if (version < 4) {  // the groups' servo, gone: axis, target, mobility, max speed
+        in.get<std::int32_t>();
+        for (int field = 0; field < 3; ++field) in.get<double>();
+      }
       s.groups_.push_back(group);
       s.group_loads_.push_back(get_load(in));
     }

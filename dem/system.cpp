@@ -126,19 +126,6 @@ ParticleId System::add_particle(const ParticleSpec& spec) {
 GroupId System::add_group(const KinematicGroup& group) {
   if (!finite(group.velocity))
     throw std::invalid_argument(fmt::format("group '{}': velocity is not finite", group.name));
-  if (group.servo_axis < 0 || group.servo_axis > 2) {
-    throw std::invalid_argument(
-        fmt::format("group '{}': servo axis = {} must be 0, 1 or 2", group.name, group.servo_axis));
-  }
-  if (!(group.servo_mobility >= 0.0)) {
-    throw std::invalid_argument(fmt::format("group '{}': servo mobility = {} must be >= 0",
-                                            group.name, group.servo_mobility));
-  }
-  if (group.servo_mobility > 0.0 && !(group.servo_max_speed > 0.0)) {
-    throw std::invalid_argument(fmt::format(
-        "group '{}': servo max speed = {} m/s must be > 0 for a stress-controlled group",
-        group.name, group.servo_max_speed));
-  }
   groups_.push_back(group);
   group_loads_.emplace_back();
   return static_cast<GroupId>(groups_.size());
@@ -356,7 +343,7 @@ void System::step(std::size_t count) {
     // The closing half kick uses only this step's forces and masses: the next step's first pass
     // applies it, sparing a pass over the particles, except after the last step of the call.
     if (n + 1 == count) kick(0.5 * dt_);
-    apply_servos();
+    for (std::size_t w = 0; w < walls_.size(); ++w) control_wall(walls_[w], wall_loads_[w]);
     ++step_count_;
   }
 }
@@ -931,19 +918,6 @@ void System::collect_finished_contacts() {
     }
     finished_wall_mask_[p] = 0;
   });
-}
-
-void System::apply_servos() {
-  for (std::size_t w = 0; w < walls_.size(); ++w) control_wall(walls_[w], wall_loads_[w]);
-  for (std::size_t g = 0; g < groups_.size(); ++g) {
-    KinematicGroup& group = groups_[g];
-    if (group.servo_mobility <= 0.0) continue;
-    // The group pushes the free particles with minus the force they exert on it.
-    const double pushing = -group_loads_[g].force[group.servo_axis];
-    group.velocity[group.servo_axis] =
-        std::clamp(group.servo_mobility * (group.servo_target_force - pushing),
-                   -group.servo_max_speed, group.servo_max_speed);
-  }
 }
 
 std::size_t System::active_contact_count() const {

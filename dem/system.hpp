@@ -35,17 +35,10 @@ struct ParticleSpec {
 };
 
 // Particles of a kinematic group move rigidly with the group's velocity and do not rotate (the
-// balls glued to a shear cell's rough wall). With `servo_mobility` > 0 the velocity component
-// along `servo_axis` is set every step so the force the group exerts on the free particles along
-// +servo_axis approaches `servo_target_force`:
-//   v_axis = clamp(servo_mobility * (servo_target_force - measured force), +-servo_max_speed)
+// balls glued to a shear cell's rough wall). Whoever owns the group sets its velocity.
 struct KinematicGroup {
   std::string name;
   Vec3 velocity = Vec3::Zero();
-  int servo_axis = 1;
-  double servo_target_force = 0.0;
-  double servo_mobility = 0.0;   // m/(N s)
-  double servo_max_speed = 0.0;  // m/s, > 0 when servo_mobility > 0
 };
 
 // Energy dissipated in contacts, J.
@@ -277,7 +270,6 @@ class System {
   void compute_particle_forces(double dt);
   void reduce_loads(double dt);
   void collect_finished_contacts();
-  void apply_servos();
 
   MaterialTable materials_;
   Domain domain_;
