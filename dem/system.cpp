@@ -271,7 +271,22 @@ void System::set_neighbor_skin(double skin) {
     throw std::invalid_argument(fmt::format("neighbour skin = {} m must be > 0", skin));
   }
   skin_ = skin;
-  prepared_ = false;
+  if (!prepared_) return;
+  // A running system keeps its state: only the neighbour list is built again, with the new skin,
+  // the pairs in force keeping their histories and forces (which the skin does not change).
+  std::vector<NeighborPair> touching_pairs;
+  std::vector<ContactHistory> touching_history;
+  std::vector<Vec3> touching_force;
+  const auto& pairs = neighbors_.pairs();
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    if (!pair_touching_[k]) continue;
+    touching_pairs.push_back(pairs[k]);
+    touching_history.push_back(pair_history_[k]);
+    touching_force.push_back(pair_force_[k]);
+  }
+  neighbors_ = NeighborSearch(NeighborSearchOptions{.skin = skin_});
+  rebuild_neighbors(touching_pairs, std::move(touching_history));
+  restore_pair_forces(touching_pairs, touching_force);
 }
 
 void System::deform_affinely(int axis, double factor) {

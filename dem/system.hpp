@@ -134,8 +134,11 @@ class System {
   void set_time_step(double dt);
   double time_step() const { return dt_; }
 
-  // Neighbour-list skin, m (default: 0.3 x smallest diameter, set on the first step).
+  // Neighbour-list skin, m (default: 0.3 x smallest diameter, set on the first step). A system
+  // already stepping rebuilds its list and keeps its state. The forces' bits do not depend on the
+  // skin (they are summed over the touching pairs in (i, j) order); reorder_particles' cells do.
   void set_neighbor_skin(double skin);
+  double neighbor_skin() const { return skin_; }
 
   // Throws if two particles overlap by more than `tolerance` x the smaller radius, naming them.
   void check_overlaps(double tolerance) const;

@@ -50,7 +50,10 @@ nlohmann::json shear_cells_params(const nlohmann::json& point) {
       {"materials", materials},
       {"interactions", interactions_among(point.at("interactions"), names)},
       {"media", point.at("media")},
-      {"dem", {{"seed", point.at("dem").at("seed")}}}};  // the cells' time step is /shear_cell's
+      // The cells' time step is /shear_cell's; the seed and the skin are the campaign's.
+      {"dem",
+       {{"seed", point.at("dem").at("seed")},
+        {"neighbor_skin_fraction", point.at("dem").at("neighbor_skin_fraction")}}}};
 }
 
 nlohmann::json average_params(const nlohmann::json& point) {
