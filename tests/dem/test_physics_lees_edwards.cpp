@@ -219,12 +219,12 @@ TEST(LeesEdwards, ChangingTheSkinOfARunningSystemKeepsItsBits) {
   };
   const System wide = run(0.5), narrow = run(0.05);
   EXPECT_LT(narrow.candidate_pairs().size(), wide.candidate_pairs().size());
-  EXPECT_EQ(std::memcmp(wide.positions().data(), narrow.positions().data(),
-                        wide.size() * sizeof(Vec3)),
-            0);
-  EXPECT_EQ(std::memcmp(wide.velocities().data(), narrow.velocities().data(),
-                        wide.size() * sizeof(Vec3)),
-            0);
+  EXPECT_EQ(
+      std::memcmp(wide.positions().data(), narrow.positions().data(), wide.size() * sizeof(Vec3)),
+      0);
+  EXPECT_EQ(
+      std::memcmp(wide.velocities().data(), narrow.velocities().data(), wide.size() * sizeof(Vec3)),
+      0);
 }
 
 }  // namespace
