@@ -131,7 +131,8 @@ TEST(ShearCellsPlan, EverySlotAndLoadHasACellBelowSharedSitesAndEveryPointAnUpsc
       EXPECT_EQ(task.params.at("interactions").size(), 3u);
       EXPECT_TRUE(task.params.at("slot").contains("region"));
       EXPECT_FALSE(task.params.contains("macro"));  // a macro setting must not re-key the cells
-      EXPECT_EQ(task.params.at("dem"), json({{"seed", 1}}));  // nor the macro runs' time step
+      // nor the macro runs' time step (the seed and the neighbour skin are shared)
+      EXPECT_EQ(task.params.at("dem"), json({{"seed", 1}, {"neighbor_skin_fraction", 0.3}}));
     }
     if (task.kind == "report") {
       // Every upscale, and each fill and speed's macro, average and sites once (its charge shape,
