@@ -27,6 +27,8 @@
 //   --cells_lammps_dir=D      write each scene's state and parameters for LAMMPS into D
 //                             (bench/run_cell_comparison.sh)
 //   --cells_cache=DIR         where the prepared states are kept (default: none)
+//   --cells_skin_fraction=F   time with a neighbour skin of F x the smallest diameter (default:
+//                             the prepared state's)
 #include <sys/resource.h>
 #include <tbb/task_arena.h>
 
@@ -62,6 +64,7 @@ struct Options {
   double shear_rate = 2.0;     // 1/s
   double normal_stress = 1e5;  // Pa
   std::optional<double> warmup_strain;
+  std::optional<double> skin_fraction;
   std::optional<std::filesystem::path> cache;
   std::optional<std::filesystem::path> lammps_dir;
 };
@@ -223,6 +226,12 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   spdlog::set_level(spdlog::level::warn);
   dem::ShearCellRun run = prepared(c);  // every benchmark times its own copy
   if (g_options.lammps_dir) export_for_lammps(c, run);
+  if (g_options.skin_fraction) {
+    dem::System& system = run.cell().system();
+    const auto radii = system.radii();
+    system.set_neighbor_skin(*g_options.skin_fraction * 2.0 *
+                             *std::min_element(radii.begin(), radii.end()));
+  }
   const std::size_t steps = g_options.steps.value_or(c.default_steps);
   const std::size_t particles = run.cell().system().size();
   tbb::task_arena arena(threads);
@@ -278,6 +287,8 @@ int main(int argc, char** argv) {
     g_options.warmup_strain = std::stod(*v);
   if (auto v = take_flag(argc, argv, "cells_cache")) g_options.cache = *v;
   if (auto v = take_flag(argc, argv, "cells_lammps_dir")) g_options.lammps_dir = *v;
+  if (auto v = take_flag(argc, argv, "cells_skin_fraction"))
+    g_options.skin_fraction = std::stod(*v);
   for (const CellCase& c : cases()) {
     for (const int threads : {1, 2}) {
       benchmark::RegisterBenchmark(

@@ -247,10 +247,6 @@ class CheckpointAccess {
       const KinematicGroup& group = s.groups_[g];
       out.put_string(group.name);
       put(out, group.velocity);
-      out.put<std::int32_t>(group.servo_axis);
-      out.put(group.servo_target_force);
-      out.put(group.servo_mobility);
-      out.put(group.servo_max_speed);
       put(out, s.group_loads_[g]);
     }
     out.put<std::uint64_t>(s.walls_.size());
@@ -327,10 +323,10 @@ class CheckpointAccess {
       KinematicGroup group;
       group.name = in.get_string();
       group.velocity = get_vec3(in);
-      group.servo_axis = in.get<std::int32_t>();
-      group.servo_target_force = in.get<double>();
-      group.servo_mobility = in.get<double>();
-      group.servo_max_speed = in.get<double>();
+      if (version < 4) {  // the groups' servo, gone: axis, target, mobility, max speed
+        in.get<std::int32_t>();
+        for (int field = 0; field < 3; ++field) in.get<double>();
+      }
       s.groups_.push_back(group);
       s.group_loads_.push_back(get_load(in));
     }
@@ -347,8 +343,10 @@ class CheckpointAccess {
     for (std::uint64_t k = 0; k < touching; ++k) {
       const auto i = in.get<std::uint32_t>();
       const auto j = in.get<std::uint32_t>();
+      if (i >= n || j >= n) throw CorruptData("checkpoint: a touching pair names no particle");
       pairs.push_back({i, j});
       histories.push_back(get_history(in));
+      histories.back().normal_damping = s.pair_normal_damping(i, j);
       forces.push_back(version >= 2 ? get_vec3(in) : Vec3::Zero());
     }
     if (!s.walls_.empty()) {

@@ -3,7 +3,7 @@
 // the same bits as a run that never stopped.
 //
 // File: the checksummed container of dem/binary_io.hpp with magic "MFDEMCKP", payload version
-// kCheckpointVersion. Payload (version 3), in order, every Vec3 as three doubles:
+// kCheckpointVersion. Payload (version 4), in order, every Vec3 as three doubles:
 //   materials: count; per material: name, density; per pair a <= b: defined flag (uint8) and, if
 //              defined, restitution, friction, normal stiffness, tangential stiffness ratio,
 //              tangential damping ratio
@@ -14,9 +14,9 @@
 //   random generator state (4 x uint64)
 //   particles: count; then per particle position, velocity, angular velocity, force, torque,
 //              radius, mass, inverse mass, inverse inertia, material (uint32), group (uint32)
-//   groups: count; per group name, velocity, servo axis (int32), servo target, servo mobility,
-//   servo max speed,
-//           load (force, torque, power, work)
+//   groups: count; per group name, velocity, load (force, torque, power, work) (versions 1-3
+//           held a servo axis (int32), target, mobility and max speed after the velocity: read
+//           and dropped, the groups' servo is gone)
 //   walls: count; per wall name, material (uint32), shape tag (uint8: 0 plane, 1 mill), then
 //          plane: origin, normal, velocity, servo target, servo mobility, servo max speed; or mill:
 //          radius, length, lifter count (int32), lifter height, base width, face angle, end walls
@@ -42,7 +42,7 @@
 
 namespace millflow::dem {
 
-inline constexpr std::uint32_t kCheckpointVersion = 3;
+inline constexpr std::uint32_t kCheckpointVersion = 4;
 
 // The payload above, for files that keep a system beside state of their own (the shear cell's
 // checkpoint, dem/shear_cell.hpp); `version` is the payload's (kCheckpointVersion when written by

@@ -131,6 +131,9 @@ void validate(const ShearCellSetup& s) {
           fmt::format("overlap bound: mean {} and p95 {} of the smaller diameter must satisfy 0 < "
                       "mean <= 0.1 and mean <= p95 <= 0.5 (0.01 and 0.03 are usual)",
                       s.overlap_bound.mean_fraction, s.overlap_bound.p95_fraction));
+  require(s.neighbor_skin_fraction > 0.0 && s.neighbor_skin_fraction <= 2.0,
+          fmt::format("neighbour skin fraction = {} must be in (0, 2] (0.3 is usual)",
+                      s.neighbor_skin_fraction));
   require(!(s.gravity && s.boundary == ShearCellSetup::Boundary::LeesEdwards),
           "gravity needs walls: a Lees-Edwards cell is periodic along the gradient axis; turn "
           "gravity off");
@@ -186,6 +189,9 @@ ShearCell::ShearCell(const ShearCellSetup& setup)
     place_powder(system_.domain().lo.y(), system_.domain().hi.y());
   }
   system_.set_time_step_from_collisions(setup_.steps_per_collision);
+  const auto radii = system_.radii();
+  system_.set_neighbor_skin(setup_.neighbor_skin_fraction * 2.0 *
+                            *std::min_element(radii.begin(), radii.end()));
   system_.set_reorder_interval(kReorderEverySteps);
   set_wall_speed(walls() ? setup_.shear_rate * nominal_gap(setup_) / kInitialBulkFraction
                          : setup_.shear_rate * system_.domain().length().y());

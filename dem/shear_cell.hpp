@@ -82,6 +82,10 @@ struct ShearCellSetup {
   double media_solid_fraction = 0.55;  // sets the number of media balls
   int steps_per_collision = 20;        // dt = shortest contact duration / this
   OverlapBound overlap_bound;
+  // Neighbour-list skin / smallest particle diameter (the campaign's /dem/neighbor_skin_fraction).
+  // Costs only: a resumed cell keeps its checkpoint's skin, and it is no part of the run's
+  // identity.
+  double neighbor_skin_fraction = 0.3;
 };
 
 // Checks a setup; throws std::invalid_argument naming the bad value and how to fix it.

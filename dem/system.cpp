@@ -126,19 +126,6 @@ ParticleId System::add_particle(const ParticleSpec& spec) {
 GroupId System::add_group(const KinematicGroup& group) {
   if (!finite(group.velocity))
     throw std::invalid_argument(fmt::format("group '{}': velocity is not finite", group.name));
-  if (group.servo_axis < 0 || group.servo_axis > 2) {
-    throw std::invalid_argument(
-        fmt::format("group '{}': servo axis = {} must be 0, 1 or 2", group.name, group.servo_axis));
-  }
-  if (!(group.servo_mobility >= 0.0)) {
-    throw std::invalid_argument(fmt::format("group '{}': servo mobility = {} must be >= 0",
-                                            group.name, group.servo_mobility));
-  }
-  if (group.servo_mobility > 0.0 && !(group.servo_max_speed > 0.0)) {
-    throw std::invalid_argument(fmt::format(
-        "group '{}': servo max speed = {} m/s must be > 0 for a stress-controlled group",
-        group.name, group.servo_max_speed));
-  }
   groups_.push_back(group);
   group_loads_.emplace_back();
   return static_cast<GroupId>(groups_.size());
@@ -284,7 +271,22 @@ void System::set_neighbor_skin(double skin) {
     throw std::invalid_argument(fmt::format("neighbour skin = {} m must be > 0", skin));
   }
   skin_ = skin;
-  prepared_ = false;
+  if (!prepared_) return;
+  // A running system keeps its state: only the neighbour list is built again, with the new skin,
+  // the pairs in force keeping their histories and forces (which the skin does not change).
+  std::vector<NeighborPair> touching_pairs;
+  std::vector<ContactHistory> touching_history;
+  std::vector<Vec3> touching_force;
+  const auto& pairs = neighbors_.pairs();
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    if (!pair_touching_[k]) continue;
+    touching_pairs.push_back(pairs[k]);
+    touching_history.push_back(pair_history_[k]);
+    touching_force.push_back(pair_force_[k]);
+  }
+  neighbors_ = NeighborSearch(NeighborSearchOptions{.skin = skin_});
+  rebuild_neighbors(touching_pairs, std::move(touching_history));
+  restore_pair_forces(touching_pairs, touching_force);
 }
 
 void System::deform_affinely(int axis, double factor) {
@@ -356,7 +358,7 @@ void System::step(std::size_t count) {
     // The closing half kick uses only this step's forces and masses: the next step's first pass
     // applies it, sparing a pass over the particles, except after the last step of the call.
     if (n + 1 == count) kick(0.5 * dt_);
-    apply_servos();
+    for (std::size_t w = 0; w < walls_.size(); ++w) control_wall(walls_[w], wall_loads_[w]);
     ++step_count_;
   }
 }
@@ -651,38 +653,48 @@ void System::compute_pair_forces(double dt) {
       });
 }
 
+double System::pair_effective_mass(ParticleId i, ParticleId j) const {
+  const bool free_i = is_free(i), free_j = is_free(j);
+  return free_i && free_j ? effective_mass(mass_[i], mass_[j]) : (free_i ? mass_[i] : mass_[j]);
+}
+
+double System::pair_normal_damping(ParticleId i, ParticleId j) const {
+  const PairParams& params = materials_.pair(material_[i], material_[j]);
+  return normal_damping_coefficient(params.normal_stiffness, pair_effective_mass(i, j),
+                                    params.damping_ratio);
+}
+
 void System::compute_pair_contact(const PeriodicImages& images, const TouchingPair& touching,
                                   double dt) {
   const std::size_t k = touching.k;
   const auto [i, j] = neighbors_.pairs()[k];
-  const bool free_i = is_free(i), free_j = is_free(j);
   const Vec3& d = touching.separation;
   const double reach = radius_[i] + radius_[j];
   const double distance = std::sqrt(touching.distance_sq);
-  const Vec3 normal = -d / distance;  // from j towards i
+  const Vec3 normal = d * (-1.0 / distance);  // from j towards i
   const double overlap = reach - distance;
-  const Vec3 arm_i = -(radius_[i] - 0.5 * overlap) * normal;
-  const Vec3 arm_j = (radius_[j] - 0.5 * overlap) * normal;
+  const double lever_i = radius_[i] - 0.5 * overlap, lever_j = radius_[j] - 0.5 * overlap;
+  const Vec3 arm_i = -lever_i * normal;
+  const Vec3 arm_j = lever_j * normal;
   const Vec3 contact_velocity_i =
       predicted_velocity_[i] + predicted_angular_velocity_[i].cross(arm_i);
   const Vec3 contact_velocity_j = predicted_velocity_[j] +
                                   images.image_velocity(touching.gradient_images) +
                                   predicted_angular_velocity_[j].cross(arm_j);
-  const double m_eff =
-      free_i && free_j ? effective_mass(mass_[i], mass_[j]) : (free_i ? mass_[i] : mass_[j]);
   const ContactGeometry geometry{normal, overlap, contact_velocity_i - contact_velocity_j};
   ContactHistory& history = pair_history_[k];
-  const ContactResponse response = linear_spring_dashpot(
-      materials_.pair(material_[i], material_[j]), m_eff, geometry, history.spring, dt);
-
   if (!history.touching) {
     history.touching = true;
     pair_touching_[k] = 1;
     history.start_time = time_;
+    history.normal_damping = pair_normal_damping(i, j);
     const double v_n = geometry.relative_velocity.dot(normal);
     history.impact_speed = std::max(-v_n, 0.0);
-    history.impact_energy = 0.5 * m_eff * v_n * v_n;
+    history.impact_energy = 0.5 * pair_effective_mass(i, j) * v_n * v_n;
   }
+  const ContactResponse response =
+      linear_spring_dashpot_damped(materials_.pair(material_[i], material_[j]),
+                                   history.normal_damping, geometry, history.spring, dt);
   history.spring = response.spring;
   history.elastic_energy = response.elastic_energy;
   history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
@@ -694,8 +706,10 @@ void System::compute_pair_contact(const PeriodicImages& images, const TouchingPa
   std::atomic_ref<std::uint8_t>(particle_in_contact_[j]).store(1, std::memory_order_relaxed);
   pair_force_[k] = response.force_on_a;
   pair_branch_[k] = d;
-  pair_torque_a_[k] = arm_i.cross(response.force_on_a);
-  pair_torque_b_[k] = arm_j.cross(-response.force_on_a);
+  // arm_i x F and arm_j x (-F) are both multiples of F x n.
+  const Vec3 turning = response.force_on_a.cross(normal);
+  pair_torque_a_[k] = lever_i * turning;
+  pair_torque_b_[k] = lever_j * turning;
 }
 
 void System::compute_particle_forces(double dt) {
@@ -919,19 +933,6 @@ void System::collect_finished_contacts() {
     }
     finished_wall_mask_[p] = 0;
   });
-}
-
-void System::apply_servos() {
-  for (std::size_t w = 0; w < walls_.size(); ++w) control_wall(walls_[w], wall_loads_[w]);
-  for (std::size_t g = 0; g < groups_.size(); ++g) {
-    KinematicGroup& group = groups_[g];
-    if (group.servo_mobility <= 0.0) continue;
-    // The group pushes the free particles with minus the force they exert on it.
-    const double pushing = -group_loads_[g].force[group.servo_axis];
-    group.velocity[group.servo_axis] =
-        std::clamp(group.servo_mobility * (group.servo_target_force - pushing),
-                   -group.servo_max_speed, group.servo_max_speed);
-  }
 }
 
 std::size_t System::active_contact_count() const {

@@ -35,17 +35,10 @@ struct ParticleSpec {
 };
 
 // Particles of a kinematic group move rigidly with the group's velocity and do not rotate (the
-// balls glued to a shear cell's rough wall). With `servo_mobility` > 0 the velocity component
-// along `servo_axis` is set every step so the force the group exerts on the free particles along
-// +servo_axis approaches `servo_target_force`:
-//   v_axis = clamp(servo_mobility * (servo_target_force - measured force), +-servo_max_speed)
+// balls glued to a shear cell's rough wall). Whoever owns the group sets its velocity.
 struct KinematicGroup {
   std::string name;
   Vec3 velocity = Vec3::Zero();
-  int servo_axis = 1;
-  double servo_target_force = 0.0;
-  double servo_mobility = 0.0;   // m/(N s)
-  double servo_max_speed = 0.0;  // m/s, > 0 when servo_mobility > 0
 };
 
 // Energy dissipated in contacts, J.
@@ -107,6 +100,9 @@ struct ContactHistory {
   double elastic_energy = 0.0;
   Dissipation dissipated;
   Vec3 point = Vec3::Zero();  // contact point at the last step in force
+  // C_n of the normal dashpot (normal_damping_coefficient of the pair's effective mass), set at
+  // first touch. Derived: checkpoints do not hold it, loading works it out again.
+  double normal_damping = 0.0;
   bool touching = false;
 };
 
@@ -138,8 +134,11 @@ class System {
   void set_time_step(double dt);
   double time_step() const { return dt_; }
 
-  // Neighbour-list skin, m (default: 0.3 x smallest diameter, set on the first step).
+  // Neighbour-list skin, m (default: 0.3 x smallest diameter, set on the first step). A system
+  // already stepping rebuilds its list and keeps its state. The forces' bits do not depend on the
+  // skin (they are summed over the touching pairs in (i, j) order); reorder_particles' cells do.
   void set_neighbor_skin(double skin);
+  double neighbor_skin() const { return skin_; }
 
   // Throws if two particles overlap by more than `tolerance` x the smaller radius, naming them.
   void check_overlaps(double tolerance) const;
@@ -267,10 +266,13 @@ class System {
   };
   // The contact law of a candidate pair that touches.
   void compute_pair_contact(const PeriodicImages& images, const TouchingPair& touching, double dt);
+  // m_eff of a pair of particles (a kinematic one counts as infinitely heavy) and C_n of their
+  // contact.
+  double pair_effective_mass(ParticleId i, ParticleId j) const;
+  double pair_normal_damping(ParticleId i, ParticleId j) const;
   void compute_particle_forces(double dt);
   void reduce_loads(double dt);
   void collect_finished_contacts();
-  void apply_servos();
 
   MaterialTable materials_;
   Domain domain_;

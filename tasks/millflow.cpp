@@ -45,12 +45,15 @@ nlohmann::json shear_cells_params(const nlohmann::json& point) {
       point.at("shear_cell").at("powder").at("material").get<std::string>()};
   nlohmann::json materials = nlohmann::json::object();
   for (const auto& name : names) materials[name] = point.at("materials").at(name);
+  // The cells' time step is /shear_cell's; the seed and the skin are the campaign's.
+  const nlohmann::json& dem = point.at("dem");
   return {
       {"shear_cell", point.at("shear_cell")},
       {"materials", materials},
       {"interactions", interactions_among(point.at("interactions"), names)},
       {"media", point.at("media")},
-      {"dem", {{"seed", point.at("dem").at("seed")}}}};  // the cells' time step is /shear_cell's
+      {"dem",
+       {{"seed", dem.at("seed")}, {"neighbor_skin_fraction", dem.at("neighbor_skin_fraction")}}}};
 }
 
 nlohmann::json average_params(const nlohmann::json& point) {

@@ -80,6 +80,7 @@ dem::ShearCellSetup shear_cell_setup(const json& params, const json& site,
   setup.gravity = cell.at("gravity").get<bool>();
   setup.servo_gain = at(cell, "/stress_control/gain").get<double>();
   setup.seed = macro_seed(at(params, "/dem/seed").get<std::uint64_t>(), task_key);
+  setup.neighbor_skin_fraction = at(params, "/dem/neighbor_skin_fraction").get<double>();
   setup.steps_per_collision = cell.at("steps_per_collision").get<int>();
   setup.overlap_bound = {
       .mean_fraction = at(cell, "/stiffness/mean_overlap_fraction").get<double>(),

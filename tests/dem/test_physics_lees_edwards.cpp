@@ -2,6 +2,7 @@
 // contacts across the sheared boundary see the image's velocity; the affine stretch of a barostat.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 
 #include "dem/checkpoint.hpp"
@@ -205,6 +206,25 @@ TEST(LeesEdwards, ReorderedRunsHaveTheSameBitsAtAnyThreadCountAndAcrossACheckpoi
     EXPECT_EQ(std::memcmp(straight.data(), other.data(), straight.size() * sizeof(Vec3)), 0)
         << threads << " threads, checkpoint after " << pause << " steps";
   }
+}
+
+TEST(LeesEdwards, ChangingTheSkinOfARunningSystemKeepsItsBits) {
+  const auto run = [](double skin_fraction) {
+    System system = dense_sheared_box();
+    system.step(50);  // contacts with loaded tangential springs
+    const auto radii = system.radii();
+    system.set_neighbor_skin(skin_fraction * 2.0 * *std::min_element(radii.begin(), radii.end()));
+    system.step(150);
+    return system;
+  };
+  const System wide = run(0.5), narrow = run(0.05);
+  EXPECT_LT(narrow.candidate_pairs().size(), wide.candidate_pairs().size());
+  EXPECT_EQ(
+      std::memcmp(wide.positions().data(), narrow.positions().data(), wide.size() * sizeof(Vec3)),
+      0);
+  EXPECT_EQ(
+      std::memcmp(wide.velocities().data(), narrow.velocities().data(), wide.size() * sizeof(Vec3)),
+      0);
 }
 
 }  // namespace

@@ -3,10 +3,10 @@
 // cells run through the task function.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
-#include <algorithm>
 
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iterator>
@@ -32,7 +32,7 @@ json tiny_cell_params(double powder_load) {
       {"materials": ["steel", "steel"], "restitution": 0.5, "friction": 0.5, "stiffness": {"collision_time": 0.001}},
       {"materials": ["steel", "clinker"], "restitution": 0.4, "friction": 0.5, "stiffness": {"collision_time": 0.0008}},
       {"materials": ["clinker", "clinker"], "restitution": 0.3, "friction": 0.5, "stiffness": {"collision_time": 0.0006}}],
-    "dem": {"seed": 3},
+    "dem": {"seed": 3, "neighbor_skin_fraction": 0.3},
     "media": {"material": "steel", "diameter": 0.01},
     "shear_cell": {"boundary": "walls", "size_diameters": [4, 4, 4], "gravity": false,
                    "warmup_strain": 0.5, "max_warmup_strain": 0.5, "measure_strain": 1.0,
@@ -131,7 +131,8 @@ TEST(ShearCellsPlan, EverySlotAndLoadHasACellBelowSharedSitesAndEveryPointAnUpsc
       EXPECT_EQ(task.params.at("interactions").size(), 3u);
       EXPECT_TRUE(task.params.at("slot").contains("region"));
       EXPECT_FALSE(task.params.contains("macro"));  // a macro setting must not re-key the cells
-      EXPECT_EQ(task.params.at("dem"), json({{"seed", 1}}));  // nor the macro runs' time step
+      // nor the macro runs' time step (the seed and the neighbour skin are shared)
+      EXPECT_EQ(task.params.at("dem"), json({{"seed", 1}, {"neighbor_skin_fraction", 0.3}}));
     }
     if (task.kind == "report") {
       // Every upscale, and each fill and speed's macro, average and sites once (its charge shape,
@@ -220,6 +221,15 @@ TEST(ShearCellSetup, CollisionTimesHoldForEachPairsReferenceParticles) {
   json finer = tiny_cell_params(0.3);
   finer["shear_cell"]["steps_per_collision"] = 80;
   EXPECT_EQ(shear_cell_setup(finer, tiny_site(), "key").steps_per_collision, 80);
+  // The campaign's neighbour skin reaches the cell's system.
+  json wider = tiny_cell_params(0.3);
+  wider["dem"]["neighbor_skin_fraction"] = 0.5;
+  const dem::ShearCellSetup wide_setup = shear_cell_setup(wider, tiny_site(), "key");
+  EXPECT_DOUBLE_EQ(wide_setup.neighbor_skin_fraction, 0.5);
+  const dem::ShearCell cell(wide_setup);
+  const auto radii = cell.system().radii();
+  EXPECT_DOUBLE_EQ(cell.system().neighbor_skin(),
+                   0.5 * 2.0 * *std::min_element(radii.begin(), radii.end()));
 }
 
 TEST(ShearCell, TinyMediaCellGivesFiniteStressesAndNoPowderDissipation) {
