@@ -72,7 +72,8 @@ TEST(CellResult, JsonReadsBackToTheSameBytes) {
                   .static_bound = 2e5,
                   .impact_bound = 3e5,
                   .chosen = 3e5,
-                  .kappa = 1.5e4}};
+                  .kappa = 1.5e4,
+                  .governing = "impact"}};
   const json written = r;
   EXPECT_EQ(written.at("powder_load").dump(), "0");
   EXPECT_DOUBLE_EQ(written.at("overlap_p95_fraction").get<double>(), 0.018);
