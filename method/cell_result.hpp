@@ -7,7 +7,8 @@
 // Result JSON (versioned by the kind's kShearCellVersion, tasks/shear_cell.hpp), SI units. A cell
 // that did not run: {skipped: reason, slot, powder_load}. A cell that ran: site (the sites task's
 // entry), slot, powder_load, media_count, powder_count, wall_ball_count, stiffness {by pair:
-// k_n_n_m, kappa, given_n_m, static_bound_n_m, impact_bound_n_m, governing (from kind version 7)}, strain, duration_s, steps,
+// k_n_n_m, kappa, given_n_m, static_bound_n_m, impact_bound_n_m, governing (from kind version
+// 7)}, strain, duration_s, steps,
 // *_shear_rate_per_s (target, bulk, nominal), wall_speed_m_s, wall_slip_m_s, gap_m, volume_m3,
 // shear_stress_pa, normal_stress_pa, friction (tau / p_yy), friction_mean_pressure (tau / p),
 // stresses {xx, yy, zz, xy, xz, yz, mean_pressure_pa, p_yy_pa} (compression positive),
