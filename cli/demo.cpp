@@ -1,12 +1,12 @@
 #include "cli/demo.hpp"
 
-#include <cmath>
 #include <numbers>
 
 #include <fmt/format.h>
 #include <tbb/task_arena.h>
 
 #include "dem/mill_setup.hpp"
+#include "util/sphere.hpp"
 
 namespace millflow::cli {
 namespace {
@@ -30,7 +30,7 @@ dem::MillSetup demo_mill(const DemoOptions& options) {
       .lifter = dem::LifterProfile{.height = 0.05, .base_width = 0.08, .face_angle_deg = 15.0},
       .end_walls = false};
   setup.ball_diameter = 0.04;
-  const double ball_mass = 7800.0 * std::numbers::pi * std::pow(0.04, 3) / 6.0;
+  const double ball_mass = util::sphere_mass(7800.0, 0.04);
   const double zeta = dem::damping_ratio_for_restitution(0.3);
   setup.ball_ball = {
       .restitution = 0.3,

@@ -124,7 +124,7 @@ struct ValueAndError {
 // point lacks it).
 svg::Figure region_panels(const std::vector<UpscalePoint>& points, const std::vector<Slice>& slices,
                           const std::string& title, const std::string& y_label,
-                          const std::function<ValueAndError(const RegionResult&)>& value) {
+                          const std::function<ValueAndError(const method::UpscaleRegion&)>& value) {
   std::vector<svg::Figure> panels;
   for (const Slice& slice : slices) {
     svg::LineChart chart{.title = slice_label(slice), .x = {"powder load U (-)"}, .y = {y_label}};
@@ -132,8 +132,9 @@ svg::Figure region_panels(const std::vector<UpscalePoint>& points, const std::ve
       svg::Series series{.name = region, .colour = region_colour(region)};
       bool present = false;
       for (const UpscalePoint* point : slice.points) {
-        const auto found = std::find_if(point->regions.begin(), point->regions.end(),
-                                        [&](const RegionResult& r) { return r.region == region; });
+        const auto found =
+            std::find_if(point->regions.begin(), point->regions.end(),
+                         [&](const method::UpscaleRegion& r) { return r.region == region; });
         present = present || found != point->regions.end();
         const ValueAndError v =
             found == point->regions.end() ? ValueAndError{kNaN, kNaN} : value(*found);
@@ -217,7 +218,7 @@ svg::Figure macro_spectra_figure(const std::vector<MacroRun>& runs) {
 
 svg::Figure maps_figure(const Slice& slice, const method::FlowMap& map) {
   std::vector<svg::MapMarker> sites;
-  for (const SiteResult& site : slice.first().sites)
+  for (const method::UpscaleSite& site : slice.first().sites)
     sites.push_back({site.x_m, site.y_m, site.site_id});
   // Cells outside the charge (the sites task's rule) hold averages of a few balls in flight.
   std::vector<bool> outside_charge;
@@ -250,7 +251,7 @@ svg::Figure coupling_figure(const std::vector<Slice>& slices) {
   for (const std::string& region : method::region_names()) {
     svg::Series series{.name = region, .colour = region_colour(region), .line = false};
     for (const Slice& slice : slices) {
-      for (const SiteResult& site : slice.first().sites) {
+      for (const method::UpscaleSite& site : slice.first().sites) {
         if (site.region != region) continue;
         series.x.push_back(site.macro_shear_stress_pa);
         series.y.push_back(site.cell_shear_stress_pa.value_or(kNaN));
@@ -327,13 +328,14 @@ std::string upscaled_csv(const std::vector<UpscalePoint>& points) {
        "power_draw_with_powder_w", "dominant_region", "upscale_task"},
       points, [](const UpscalePoint& p) {
         std::vector<std::vector<std::string>> rows;
-        for (const RegionResult& r : p.regions) {
-          rows.push_back({r.region, fmt::format("{}", r.sites), number(r.volume_m3),
-                          number(r.powder_power_w), number(r.powder_power_share),
-                          number(r.powder_power_share_se), number(r.media_power_w),
-                          number(r.media_collision_power_w),
-                          number(r.media_collision_power_no_powder_w), number(r.cushioning),
-                          number(r.cushioning_se), number(p.power_draw_w),
+        for (const method::UpscaleRegion& r : p.regions) {
+          const method::UpscaleFigures& f = r.figures;
+          rows.push_back({r.region, fmt::format("{}", f.sites), number(f.volume_m3),
+                          number(f.powder_power_w), number(f.powder_power_share),
+                          number(f.powder_power_share_se), number(f.media_power_w),
+                          number(f.media_collision_power_w),
+                          number(f.media_collision_power_no_powder_w), number(f.cushioning),
+                          number(f.cushioning_se), number(p.power_draw_w),
                           number(p.power_draw_with_powder_w), p.dominant_region.value_or("")});
         }
         return rows;
@@ -348,7 +350,7 @@ std::string sites_csv(const std::vector<UpscalePoint>& points) {
        "upscale_task"},
       points, [](const UpscalePoint& p) {
         std::vector<std::vector<std::string>> rows;
-        for (const SiteResult& s : p.sites) {
+        for (const method::UpscaleSite& s : p.sites) {
           rows.push_back({s.site_id, s.region, number(s.x_m), number(s.y_m), number(s.weight_m3),
                           number(s.shear_rate_per_s), number(s.normal_stress_pa),
                           number(s.macro_shear_stress_pa), number(s.cell_shear_stress_pa),
@@ -402,7 +404,7 @@ std::string coupling_table(const std::vector<Slice>& slices) {
       "| fill J | speed phi | sites compared | within tolerance | median cell/macro | tolerance |\n"
       "|---|---|---|---|---|---|\n";
   for (const Slice& slice : slices) {
-    const Coupling& c = slice.first().coupling;
+    const method::UpscaleCoupling& c = slice.first().coupling;
     out += fmt::format("| {} | {} | {} | {} | {} | {} |\n", g(slice.fill), g(slice.speed_fraction),
                        c.sites, c.within_tolerance, c.median_ratio ? md(*c.median_ratio) : "n/a",
                        md(c.tolerance));
@@ -532,18 +534,18 @@ ReportFiles write_report(const std::filesystem::path& dir, const std::string& ca
   out.write("powder_power_shares.svg",
             region_panels(points, slices, "Share of the powder power by region",
                           "share of the powder power (-)",
-                          [](const RegionResult& r) {
-                            return ValueAndError{r.powder_power_share.value_or(kNaN),
-                                                 r.powder_power_share_se.value_or(kNaN)};
+                          [](const method::UpscaleRegion& r) {
+                            return ValueAndError{r.figures.powder_power_share.value_or(kNaN),
+                                                 r.figures.powder_power_share_se.value_or(kNaN)};
                           })
                 .svg);
   out.write("cushioning.svg",
-            region_panels(
-                points, slices, "Cushioning of media collisions by the powder",
-                "media collision power with / without powder (-)",
-                [](const RegionResult& r) {
-                  return ValueAndError{r.cushioning.value_or(kNaN), r.cushioning_se.value_or(kNaN)};
-                })
+            region_panels(points, slices, "Cushioning of media collisions by the powder",
+                          "media collision power with / without powder (-)",
+                          [](const method::UpscaleRegion& r) {
+                            return ValueAndError{r.figures.cushioning.value_or(kNaN),
+                                                 r.figures.cushioning_se.value_or(kNaN)};
+                          })
                 .svg);
   out.write("powder_spectra.svg", spectra_figure(points, slices).svg);
   const bool with_macro_runs = !inputs.macro_runs.empty();

@@ -1,6 +1,7 @@
 #include "report/report_inputs.hpp"
 #include "method/fields_file.hpp"
 #include "method/macro_result.hpp"
+#include "method/upscale_result.hpp"
 #include "util/json_fields.hpp"
 
 #include <fmt/format.h>
@@ -9,6 +10,7 @@
 #include <fstream>
 #include <stdexcept>
 #include <tuple>
+#include <utility>
 
 namespace millflow::report {
 namespace {
@@ -17,54 +19,8 @@ using nlohmann::json;
 
 using FieldReader = util::JsonFields;
 
-// Typed reads from an upscale result, with errors that name the task and field.
-FieldReader upscale_fields(const std::string& task_key, const json& result) {
-  return FieldReader(fmt::format("upscale task {}", task_key), result,
-                     "the report reads the upscale result contract, so re-run that task with a "
-                     "matching version");
-}
-
-RegionResult read_region(const FieldReader& in, const std::string& at) {
-  return {.region = in.text(at + "/region"),
-          .sites = in.count(at + "/sites"),
-          .volume_m3 = in.number(at + "/volume_m3"),
-          .powder_power_w = in.number(at + "/powder_power_w"),
-          .powder_power_share = in.number_or_null(at + "/powder_power_share"),
-          .media_power_w = in.number(at + "/media_power_w"),
-          .media_collision_power_w = in.number(at + "/media_collision_power_w"),
-          .media_collision_power_no_powder_w = in.number(at + "/media_collision_power_no_powder_w"),
-          .cushioning = in.number_or_null(at + "/cushioning"),
-          .powder_power_share_se = in.number_or_null(at + "/powder_power_share_se"),
-          .cushioning_se = in.number_or_null(at + "/cushioning_se")};
-}
-
-SiteResult read_site(const FieldReader& in, const std::string& at) {
-  return {.site_id = in.text(at + "/site_id"),
-          .region = in.text(at + "/region"),
-          .x_m = in.number(at + "/x_m"),
-          .y_m = in.number(at + "/y_m"),
-          .weight_m3 = in.number(at + "/weight_m3"),
-          .shear_rate_per_s = in.number(at + "/shear_rate_per_s"),
-          .normal_stress_pa = in.number(at + "/normal_stress_pa"),
-          .macro_shear_stress_pa = in.number(at + "/macro_shear_stress_pa"),
-          .cell_shear_stress_pa = in.number_or_null(at + "/cell_shear_stress_pa"),
-          .coupling_ratio = in.number_or_null(at + "/coupling_ratio"),
-          .power_density_w_m3 = in.number_or_null(at + "/power_density_w_m3"),
-          .powder_dissipation_w_m3 = in.number_or_null(at + "/powder_dissipation_w_m3"),
-          .skipped = in.text_or_null(at + "/skipped")};
-}
-
-void read_spectra(const FieldReader& in, UpscalePoint& point) {
-  point.bin_edges_j = in.numbers("/spectra/bin_edges_j");
-  point.powder_rate_per_s = in.numbers("/spectra/powder_rate_per_s");
-  point.media_rate_per_s = in.numbers("/spectra/media_rate_per_s");
-  if (point.bin_edges_j.size() < 2) in.refuse("/spectra/bin_edges_j", "holds fewer than 2 edges");
-  const std::size_t bins = point.bin_edges_j.size() - 1;
-  if (point.powder_rate_per_s.size() != bins)
-    in.refuse("/spectra/powder_rate_per_s", fmt::format("does not hold {} bins", bins));
-  if (point.media_rate_per_s.size() != bins)
-    in.refuse("/spectra/media_rate_per_s", fmt::format("does not hold {} bins", bins));
-}
+constexpr const char* kUpscaleFix =
+    "the report reads the upscale result contract, so re-run that task with a matching version";
 
 method::FlowMap read_flow_map(const std::string& average_key,
                               const std::optional<std::filesystem::path>& fields) {
@@ -85,28 +41,28 @@ method::FlowMap read_flow_map(const std::string& average_key,
 }  // namespace
 
 UpscalePoint read_upscale(const std::string& task_key, const json& result) {
-  const FieldReader in = upscale_fields(task_key, result);
-  UpscalePoint point{.task_key = task_key,
-                     .average_task = in.text("/average_task"),
-                     .fill = in.number("/fill"),
-                     .speed_fraction = in.number("/speed_fraction"),
-                     .powder_load = in.number("/powder_load"),
-                     .power_draw_w = in.number("/mill/power_draw_w"),
-                     .specific_power_kw_per_t = in.number("/mill/specific_power_kw_per_t"),
-                     .power_draw_with_powder_w = in.number_or_null("/power_draw_with_powder_w"),
-                     .powder_power_w = in.number("/powder_power_w"),
-                     .media_power_w = in.number("/media_power_w"),
-                     .dominant_region = in.text_or_null("/dominant_region"),
-                     .coupling = {.sites = in.count("/coupling/sites"),
-                                  .median_ratio = in.number_or_null("/coupling/median_ratio"),
-                                  .tolerance = in.number("/coupling/tolerance"),
-                                  .within_tolerance = in.count("/coupling/within_tolerance")}};
-  for (std::size_t r = 0; r < in.array_size("/regions"); ++r)
-    point.regions.push_back(read_region(in, fmt::format("/regions/{}", r)));
-  for (std::size_t s = 0; s < in.array_size("/sites"); ++s)
-    point.sites.push_back(read_site(in, fmt::format("/sites/{}", s)));
-  read_spectra(in, point);
-  return point;
+  const std::string owner = fmt::format("upscale task {}", task_key);
+  method::UpscaleResult upscale = method::read_upscale_result(result, owner, kUpscaleFix);
+  if (upscale.spectra.bin_edges_j.size() < 2)
+    FieldReader(owner, result, kUpscaleFix)
+        .refuse("/spectra/bin_edges_j", "holds fewer than 2 edges");
+  return {.task_key = task_key,
+          .average_task = upscale.average_task,
+          .fill = upscale.fill,
+          .speed_fraction = upscale.speed_fraction,
+          .powder_load = upscale.powder_load,
+          .power_draw_w = upscale.mill.power_draw_w,
+          .specific_power_kw_per_t = upscale.mill.specific_power_kw_per_t,
+          .power_draw_with_powder_w = upscale.power_draw_with_powder_w,
+          .powder_power_w = upscale.cells.totals.powder_power_w,
+          .media_power_w = upscale.cells.totals.media_power_w,
+          .regions = std::move(upscale.cells.regions),
+          .dominant_region = std::move(upscale.cells.dominant_region),
+          .bin_edges_j = std::move(upscale.spectra.bin_edges_j),
+          .powder_rate_per_s = std::move(upscale.spectra.powder_rate_per_s),
+          .media_rate_per_s = std::move(upscale.spectra.media_rate_per_s),
+          .sites = std::move(upscale.sites),
+          .coupling = upscale.coupling};
 }
 
 MacroRun read_macro(const std::string& task_key, const json& result) {

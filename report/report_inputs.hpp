@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "method/sites.hpp"
+#include "method/upscale_result.hpp"
 
 namespace millflow::report {
 
@@ -32,36 +33,6 @@ struct ReportSources {
   std::map<std::string, std::optional<std::filesystem::path>> average_fields{};
 };
 
-struct RegionResult {
-  std::string region{};
-  std::size_t sites = 0;
-  double volume_m3 = 0.0;
-  double powder_power_w = 0.0;
-  std::optional<double> powder_power_share;  // none without powder power
-  double media_power_w = 0.0;
-  double media_collision_power_w = 0.0;
-  double media_collision_power_no_powder_w = 0.0;
-  std::optional<double> cushioning;
-  // Standard errors; none where a cell lacks the one it needs.
-  std::optional<double> powder_power_share_se, cushioning_se;
-};
-
-struct SiteResult {
-  std::string site_id{}, region{};
-  double x_m = 0.0, y_m = 0.0, weight_m3 = 0.0;
-  double shear_rate_per_s = 0.0, normal_stress_pa = 0.0, macro_shear_stress_pa = 0.0;
-  std::optional<double> cell_shear_stress_pa, coupling_ratio, power_density_w_m3,
-      powder_dissipation_w_m3;
-  std::optional<std::string> skipped{};  // the reason the cell was skipped
-};
-
-struct Coupling {
-  std::size_t sites = 0;
-  std::optional<double> median_ratio;
-  double tolerance = 0.0;
-  std::size_t within_tolerance = 0;
-};
-
 struct UpscalePoint {
   std::string task_key{}, average_task{};
   double fill = 0.0, speed_fraction = 0.0, powder_load = 0.0;
@@ -69,14 +40,14 @@ struct UpscalePoint {
   // None when every media-only cell of the point was left out of the upscaling (no reference).
   std::optional<double> power_draw_with_powder_w;
   double powder_power_w = 0.0, media_power_w = 0.0;
-  std::vector<RegionResult> regions{};
+  std::vector<method::UpscaleRegion> regions{};  // the cells method's
   std::optional<std::string> dominant_region{};  // none without powder power
   std::vector<double> bin_edges_j{}, powder_rate_per_s{}, media_rate_per_s{};
-  std::vector<SiteResult> sites{};
-  Coupling coupling;
+  std::vector<method::UpscaleSite> sites{};
+  method::UpscaleCoupling coupling;
 };
 
-// One upscale task's result.
+// One upscale task's result (method::read_upscale_result, and at least one spectrum bin).
 UpscalePoint read_upscale(const std::string& task_key, const nlohmann::json& result);
 
 // One collision spectrum of a macro run: collisions per second in the slice per energy bin (the

@@ -5,11 +5,13 @@
 #include <map>
 #include <optional>
 #include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
 #include "method/sites.hpp"
 #include "method/upscale.hpp"
+#include "method/upscale_result.hpp"
 #include "tasks/kinds.hpp"
 #include "tasks/macro.hpp"
 
@@ -43,7 +45,7 @@ std::string left_out_reason(const method::CellResult& cell) {
 // cells left out or counted against their flags.
 struct UsableCells {
   std::map<std::string, method::CellResult> loaded, baseline;
-  json flagged = json::array();
+  std::vector<method::LeftOutCell> flagged;
 };
 
 UsableCells usable_cells(const engine::TaskContext& context, double load, bool include_unsteady) {
@@ -56,10 +58,8 @@ UsableCells usable_cells(const engine::TaskContext& context, double load, bool i
     if (cell_load != load && cell_load != 0.0) continue;
     const std::string id = cell.site.get<method::Site>().site_id;
     if (const std::string reason = left_out_reason(cell); !reason.empty()) {
-      cells.flagged.push_back({{"site_id", id},
-                               {"powder_load", cell_load},
-                               {"reason", reason},
-                               {"counted", include_unsteady}});
+      cells.flagged.push_back(
+          {.site_id = id, .powder_load = cell_load, .reason = reason, .counted = include_unsteady});
       if (!include_unsteady) continue;
     }
     if (cell_load == load) cells.loaded[id] = cell;
@@ -74,16 +74,12 @@ const method::CellResult* cell_of(const std::map<std::string, method::CellResult
   return found == cells.end() ? nullptr : &found->second;
 }
 
-json ratio_or_null(double numerator, double denominator) {
-  return denominator > 0.0 ? json(numerator / denominator) : json(nullptr);
-}
-
-json optional_json(const std::optional<double>& value) {
-  return value ? json(*value) : json(nullptr);
+std::optional<double> ratio_if(double numerator, double denominator) {
+  return denominator > 0.0 ? std::optional(numerator / denominator) : std::nullopt;
 }
 
 // The figures of one region (or of all) under one method.
-json method_json(const method::PowerSums& r, const method::Sum& total_powder) {
+method::UpscaleFigures figures_of(const method::PowerSums& r, const method::Sum& total_powder) {
   const method::Ratio share = method::ratio(r.powder, total_powder);
   const method::Ratio cushioning = method::ratio(r.collisions, r.collisions_no_powder);
   const method::Ratio rate_factor = method::ratio(r.rate, r.rate_no_powder);
@@ -96,22 +92,22 @@ json method_json(const method::PowerSums& r, const method::Sum& total_powder) {
                                       *rate_factor.standard_error / *rate_factor.value);
     }
   }
-  return {{"sites", r.sites},
-          {"volume_m3", r.volume},
-          {"solid_volume_m3", r.solid_volume},
-          {"powder_power_w", r.powder.value},
-          {"powder_power_w_se", optional_json(r.powder.standard_error())},
-          {"powder_power_share", optional_json(share.value)},
-          {"powder_power_share_se", optional_json(share.standard_error)},
-          {"media_power_w", r.input.value - r.powder.value},
-          {"media_collision_power_w", r.collisions.value},
-          {"media_collision_power_no_powder_w", r.collisions_no_powder.value},
-          {"cushioning", optional_json(cushioning.value)},
-          {"cushioning_se", optional_json(cushioning.standard_error)},
-          {"cushioning_rate_factor", optional_json(rate_factor.value)},
-          {"cushioning_rate_factor_se", optional_json(rate_factor.standard_error)},
-          {"cushioning_energy_factor", optional_json(energy_factor)},
-          {"cushioning_energy_factor_se", optional_json(energy_factor_se)}};
+  return {.sites = static_cast<std::size_t>(r.sites),
+          .volume_m3 = r.volume,
+          .solid_volume_m3 = r.solid_volume,
+          .powder_power_w = r.powder.value,
+          .powder_power_w_se = r.powder.standard_error(),
+          .powder_power_share = share.value,
+          .powder_power_share_se = share.standard_error,
+          .media_power_w = r.input.value - r.powder.value,
+          .media_collision_power_w = r.collisions.value,
+          .media_collision_power_no_powder_w = r.collisions_no_powder.value,
+          .cushioning = cushioning.value,
+          .cushioning_se = cushioning.standard_error,
+          .cushioning_rate_factor = rate_factor.value,
+          .cushioning_rate_factor_se = rate_factor.standard_error,
+          .cushioning_energy_factor = energy_factor,
+          .cushioning_energy_factor_se = energy_factor_se};
 }
 
 // The macro run's dissipation per region, from a sites result's regions (or a rule set's).
@@ -122,9 +118,9 @@ std::map<std::string, double> macro_dissipation(const json& regions) {
   return by_region;
 }
 
-// The region with the most powder power, or null when none has any.
-json dominant_of(const std::map<std::string, double>& powder) {
-  json dominant = nullptr;
+// The region with the most powder power, or none when none has any.
+std::optional<std::string> dominant_of(const std::map<std::string, double>& powder) {
+  std::optional<std::string> dominant;
   double most = 0.0;
   for (const std::string& name : method::region_names()) {
     const auto found = powder.find(name);
@@ -138,48 +134,38 @@ json dominant_of(const std::map<std::string, double>& powder) {
 
 // The regions of one method in region_names() order, with the totals, from its per-region sums.
 // `cells` (the unscaled sums) give each region's cell_to_macro_power_ratio under both methods.
-json method_result(const std::string& method,
-                   const std::map<std::string, method::PowerSums>& regions,
-                   const std::map<std::string, double>& macro,
-                   const std::map<std::string, method::PowerSums>& cells) {
+method::UpscaleMethod method_result(const std::string& method,
+                                    const std::map<std::string, method::PowerSums>& regions,
+                                    const std::map<std::string, double>& macro,
+                                    const std::map<std::string, method::PowerSums>& cells) {
   method::PowerSums all;
   for (const auto& [name, sums] : regions) all.merge(sums);
-  json rows = json::array();
+  method::UpscaleMethod result{.method = method, .totals = figures_of(all, all.powder)};
   std::map<std::string, double> powder;
   for (const std::string& name : method::region_names()) {
     const auto found = regions.find(name);
     if (found == regions.end()) continue;
-    json row = method_json(found->second, all.powder);
     const double dissipation = macro.count(name) ? macro.at(name) : 0.0;
-    row["region"] = name;
-    row["method"] = method;
-    row["macro_dissipation_w"] = dissipation;
     const method::PowerSums& own = cells.at(name);
-    row["cell_to_macro_power_ratio"] = own.paired_sites > 0
-                                           ? ratio_or_null(own.input_no_powder.value, dissipation)
-                                           : json(nullptr);
-    rows.push_back(std::move(row));
+    result.regions.push_back(
+        {.region = name,
+         .method = method,
+         .figures = figures_of(found->second, all.powder),
+         .macro_dissipation_w = dissipation,
+         .cell_to_macro_power_ratio = own.paired_sites > 0
+                                          ? ratio_if(own.input_no_powder.value, dissipation)
+                                          : std::nullopt});
     powder[name] = found->second.powder.value;
   }
-  json result = method_json(all, all.powder);
-  result["method"] = method;
-  result["regions"] = std::move(rows);
-  result["dominant_region"] = dominant_of(powder);
+  result.dominant_region = dominant_of(powder);
   return result;
 }
 
-json spectra_json(const method::SpectrumSum& sum) {
-  return {{"bin_edges_j", sum.bin_edges_j()},
-          {"powder_rate_per_s", sum.powder()},
-          {"media_rate_per_s", sum.media()},
-          {"media_rate_no_powder_per_s", sum.media_no_powder()}};
-}
-
-json shift_json(const std::optional<method::SpectrumShift>& shift) {
-  if (!shift) return nullptr;
-  return {{"threshold_j", shift->threshold_j},
-          {"fraction_above", optional_json(shift->fraction_above)},
-          {"fraction_above_no_powder", shift->fraction_above_no_powder}};
+method::UpscaleSpectra spectra_of(const method::SpectrumSum& sum) {
+  return {.bin_edges_j = sum.bin_edges_j(),
+          .powder_rate_per_s = sum.powder(),
+          .media_rate_per_s = sum.media(),
+          .media_rate_no_powder_per_s = sum.media_no_powder()};
 }
 
 // Powder mass over media mass in a loaded cell.
@@ -189,78 +175,82 @@ double powder_mass_ratio(const method::CellResult& cell, const json& params) {
 }
 
 // Each rule set's powder power per region with the macro-anchored method (tasks/upscale.hpp).
-json sensitivity(const json& rule_sets, const std::map<std::string, method::PowerSums>& cells) {
-  json result = json::array();
+std::vector<method::UpscaleSensitivity> sensitivity(
+    const json& rule_sets, const std::map<std::string, method::PowerSums>& cells) {
+  std::vector<method::UpscaleSensitivity> result;
   for (const json& set : rule_sets) {
     std::map<std::string, double> powder;
     double total = 0.0;
-    json rows = json::array();
+    method::UpscaleSensitivity& row = result.emplace_back(
+        method::UpscaleSensitivity{.rule_set = set.at("name").get<std::string>()});
     for (const auto& [name, dissipation] : macro_dissipation(set.at("regions"))) {
       const auto found = cells.find(name);
       if (found == cells.end() || found->second.input.value <= 0.0) continue;
       powder[name] = dissipation * found->second.powder.value / found->second.input.value;
       total += powder[name];
-      rows.push_back({{"region", name},
-                      {"macro_dissipation_w", dissipation},
-                      {"powder_power_w", powder[name]}});
+      row.regions.push_back(
+          {.region = name, .macro_dissipation_w = dissipation, .powder_power_w = powder[name]});
     }
-    result.push_back({{"rule_set", set.at("name")},
-                      {"regions", rows},
-                      {"dominant_region", dominant_of(powder)},
-                      {"toe_powder_power_share",
-                       powder.count("toe") ? ratio_or_null(powder["toe"], total) : json(nullptr)}});
+    row.dominant_region = dominant_of(powder);
+    if (powder.count("toe")) row.toe_powder_power_share = ratio_if(powder["toe"], total);
   }
   return result;
 }
 
-json site_row(const method::Site& site, const method::CellResult* loaded,
-              const method::CellResult* baseline) {
-  const double macro_tau = site.shear_stress;
-  const json cell_tau = baseline ? json(baseline->shear_stress_pa) : json(nullptr);
-  return {
-      {"site_id", site.site_id},
-      {"region", site.region},
-      {"x_m", site.x},
-      {"y_m", site.y},
-      {"weight_m3", site.weight_m3},
-      {"shear_rate_per_s", site.shear_rate},
-      {"normal_stress_pa", site.normal_stress},
-      {"macro_shear_stress_pa", macro_tau},
-      {"cell_shear_stress_pa", cell_tau},
-      {"coupling_ratio",
-       baseline ? ratio_or_null(cell_tau.get<double>(), macro_tau) : json(nullptr)},
-      {"power_density_w_m3", loaded ? json(loaded->power_density_w_m3) : json(nullptr)},
-      {"powder_dissipation_w_m3", loaded ? json(loaded->powder_dissipation_w_m3) : json(nullptr)},
-      {"skipped", loaded ? json(nullptr) : json("no shear cell ran at this site")}};
+method::UpscaleSite site_row(const method::Site& site, const method::CellResult* loaded,
+                             const method::CellResult* baseline) {
+  method::UpscaleSite row{.site_id = site.site_id,
+                          .region = site.region,
+                          .x_m = site.x,
+                          .y_m = site.y,
+                          .weight_m3 = site.weight_m3,
+                          .shear_rate_per_s = site.shear_rate,
+                          .normal_stress_pa = site.normal_stress,
+                          .macro_shear_stress_pa = site.shear_stress};
+  if (baseline) {
+    row.cell_shear_stress_pa = baseline->shear_stress_pa;
+    row.coupling_ratio = ratio_if(baseline->shear_stress_pa, site.shear_stress);
+  }
+  if (loaded) {
+    row.power_density_w_m3 = loaded->power_density_w_m3;
+    row.powder_dissipation_w_m3 = loaded->powder_dissipation_w_m3;
+  } else {
+    row.skipped = "no shear cell ran at this site";
+  }
+  return row;
 }
 
-json coupling_summary(const json& sites) {
+method::UpscaleCoupling coupling_summary(const std::vector<method::UpscaleSite>& sites) {
   std::vector<double> ratios;
-  for (const json& site : sites) {
-    if (site.at("coupling_ratio").is_number())
-      ratios.push_back(site.at("coupling_ratio").get<double>());
+  for (const method::UpscaleSite& site : sites) {
+    if (site.coupling_ratio) ratios.push_back(*site.coupling_ratio);
   }
-  const auto within = std::count_if(ratios.begin(), ratios.end(), [](double r) {
-    return std::abs(r - 1.0) <= kCouplingTolerance;
-  });
-  json median = nullptr;
+  method::UpscaleCoupling coupling{.sites = ratios.size(),
+                                   .tolerance = kCouplingTolerance,
+                                   .within_tolerance = static_cast<std::size_t>(
+                                       std::count_if(ratios.begin(), ratios.end(), [](double r) {
+                                         return std::abs(r - 1.0) <= kCouplingTolerance;
+                                       }))};
   if (!ratios.empty()) {
     std::sort(ratios.begin(), ratios.end());
     const std::size_t n = ratios.size();
-    median = n % 2 ? ratios[n / 2] : 0.5 * (ratios[n / 2 - 1] + ratios[n / 2]);
+    coupling.median_ratio = n % 2 ? ratios[n / 2] : 0.5 * (ratios[n / 2 - 1] + ratios[n / 2]);
   }
-  return {{"sites", ratios.size()},
-          {"median_ratio", median},
-          {"tolerance", kCouplingTolerance},
-          {"within_tolerance", within}};
+  return coupling;
 }
 
-json mill_json(const method::MacroResult& macro) {
-  return {{"diameter_m", 2.0 * macro.mill.radius_m},
-          {"slice_length_m", macro.mill.length_m},
-          {"ball_mass_kg", macro.ball_mass_kg},
-          {"power_draw_w", macro.power.mean_w},
-          {"specific_power_kw_per_t", macro.power.kw_per_t_balls}};
+method::UpscaleMill mill_of(const method::MacroResult& macro) {
+  return {.diameter_m = 2.0 * macro.mill.radius_m,
+          .slice_length_m = macro.mill.length_m,
+          .ball_mass_kg = macro.ball_mass_kg,
+          .power_draw_w = macro.power.mean_w,
+          .specific_power_kw_per_t = macro.power.kw_per_t_balls};
+}
+
+// A figure for the log line: its value, or null.
+template <typename T>
+std::string shown(const std::optional<T>& value) {
+  return value ? json(*value).dump() : "null";
 }
 
 }  // namespace
@@ -273,13 +263,13 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   const method::WeightBasis basis = sites_result.at("weight_by").get<std::string>() == "volume"
                                         ? method::WeightBasis::volume
                                         : method::WeightBasis::solid_volume;
-  const UsableCells cells =
+  UsableCells cells =
       usable_cells(context, load, params.at("upscale").at("include_unsteady").get<bool>());
 
   std::map<std::string, method::PowerSums> by_region;
   std::map<std::string, method::SpectrumSum> region_spectra;
   double powder_mass = 0.0, solid_volume = 0.0;
-  json site_rows = json::array();
+  std::vector<method::UpscaleSite> site_rows;
   for (const json& entry : sites_result.at("sites")) {
     const auto typed = entry.get<method::Site>();
     const method::CellResult* cell = cell_of(cells.loaded, typed.site_id);
@@ -313,46 +303,46 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   }
   double regions_dissipation = 0.0;
   for (const auto& [name, dissipation] : macro_by_region) regions_dissipation += dissipation;
-  json macro_anchored = method_result("macro_anchored", anchored, macro_by_region, by_region);
-  macro_anchored["macro_dissipation_w"] = covered;
-  macro_anchored["uncovered_macro_dissipation_w"] = regions_dissipation - covered;
-  macro_anchored["spectra"] = spectra_json(anchored_spectra);
-  macro_anchored["media_spectrum_shift"] = shift_json(anchored_spectra.media_shift());
 
-  json result = method_result("cells", by_region, macro_by_region, by_region);
   method::PowerSums all;
   for (const auto& [name, sums] : by_region) all.merge(sums);
   const double mass_ratio = solid_volume > 0.0 ? powder_mass / solid_volume : 0.0;
   const double power_draw = macro.power.mean_w;
-  result.update(json{
-      {"fill", macro.fill},
-      {"speed_fraction", macro.speed_fraction},
-      {"powder_load", load},
-      {"average_task", only_input(context, "average").key},
-      {"sites_task", only_input(context, "sites").key},
-      {"mill", mill_json(macro)},
-      {"powder_to_media_mass_ratio", mass_ratio},
-      {"power_draw_with_powder_w", all.input_no_powder.value > 0.0
-                                       ? json(power_draw * (1.0 + mass_ratio) *
-                                              all.input_paired.value / all.input_no_powder.value)
-                                       : json(nullptr)},
-      {"macro_anchored", macro_anchored},
-      {"sensitivity", sensitivity(sites_result.at("rule_sets"), by_region)},
-      {"spectra", spectra_json(spectra)},
-      {"media_spectrum_shift", shift_json(spectra.media_shift())},
-      {"left_out_cells", cells.flagged},
-      {"sites", site_rows},
-  });
-  result["coupling"] = coupling_summary(site_rows);
+  const std::size_t left_out = cells.flagged.size();
+  method::UpscaleResult result{
+      .cells = method_result("cells", by_region, macro_by_region, by_region),
+      .fill = macro.fill,
+      .speed_fraction = macro.speed_fraction,
+      .powder_load = load,
+      .average_task = only_input(context, "average").key,
+      .sites_task = only_input(context, "sites").key,
+      .mill = mill_of(macro),
+      .powder_to_media_mass_ratio = mass_ratio,
+      .power_draw_with_powder_w =
+          all.input_no_powder.value > 0.0
+              ? std::optional(power_draw * (1.0 + mass_ratio) * all.input_paired.value /
+                              all.input_no_powder.value)
+              : std::nullopt,
+      .macro_anchored = {.figures =
+                             method_result("macro_anchored", anchored, macro_by_region, by_region),
+                         .macro_dissipation_w = covered,
+                         .uncovered_macro_dissipation_w = regions_dissipation - covered,
+                         .spectra = spectra_of(anchored_spectra),
+                         .media_spectrum_shift = anchored_spectra.media_shift()},
+      .sensitivity = sensitivity(sites_result.at("rule_sets"), by_region),
+      .spectra = spectra_of(spectra),
+      .media_spectrum_shift = spectra.media_shift(),
+      .left_out_cells = std::move(cells.flagged),
+      .coupling = coupling_summary(site_rows)};
+  result.sites = std::move(site_rows);
   context.log(fmt::format(
       "upscale U = {}: powder {:.4g} W ({} dominates; macro-anchored {:.4g} W, {}), cushioning {}, "
       "{} cells left out, {} of {} sites couple within {:.0f}%",
-      load, all.powder.value, result["dominant_region"].dump(),
-      macro_anchored["powder_power_w"].get<double>(), macro_anchored["dominant_region"].dump(),
-      result["cushioning"].dump(), cells.flagged.size(),
-      result["coupling"]["within_tolerance"].dump(), result["coupling"]["sites"].dump(),
-      100 * kCouplingTolerance));
-  return engine::TaskOutcome::with_result(std::move(result));
+      load, all.powder.value, shown(result.cells.dominant_region),
+      result.macro_anchored.figures.totals.powder_power_w,
+      shown(result.macro_anchored.figures.dominant_region), shown(result.cells.totals.cushioning),
+      left_out, result.coupling.within_tolerance, result.coupling.sites, 100 * kCouplingTolerance));
+  return engine::TaskOutcome::with_result(result);
 }
 
 engine::ViewDefinition upscaled_results_view() {

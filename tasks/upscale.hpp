@@ -73,12 +73,12 @@
 // powder power with the macro-anchored method, D_r(rule set) x the powder fraction of the default
 // regions' cells, with the dominant region and the toe's share (regions without cells: none).
 //
-// Result: fill, speed_fraction, powder_load, average_task, sites_task, mill {diameter_m,
-// slice_length_m, ball_mass_kg, power_draw_w, specific_power_kw_per_t}, the cells method's totals
-// and regions (above), powder_to_media_mass_ratio, power_draw_with_powder_w, macro_anchored,
-// sensitivity, spectra, media_spectrum_shift, left_out_cells, sites (per site: position, weight,
-// macro state, cell results, coupling ratio), coupling {sites, median_ratio, tolerance,
-// within_tolerance}.
+// Result (method/upscale_result.hpp, the one spelling of its keys): fill, speed_fraction,
+// powder_load, average_task, sites_task, mill {diameter_m, slice_length_m, ball_mass_kg,
+// power_draw_w, specific_power_kw_per_t}, the cells method's totals and regions (above),
+// powder_to_media_mass_ratio, power_draw_with_powder_w, macro_anchored, sensitivity, spectra,
+// media_spectrum_shift, left_out_cells, sites (per site: position, weight, macro state, cell
+// results, coupling ratio), coupling {sites, median_ratio, tolerance, within_tolerance}.
 //
 // Coupling check: per site, the media-only cell's shear stress over the macro flow's shear stress
 // on the shear plane at the site (method/coarse_grain.hpp); within tolerance when |ratio - 1| <=

@@ -15,11 +15,13 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <tuple>
 
 #include "method/macro_result.hpp"
+#include "method/upscale_result.hpp"
 #include "report/report_inputs.hpp"
 #include "tests/common/scratch_dir.hpp"
 #include "tests/tasks/upscale_inputs.hpp"
@@ -66,76 +68,74 @@ json macro_result(double fill, double speed) {
   return r;
 }
 
-// A toe and a bulk region; the bulk's cushioning is unknown (null) without powder, and the bulk
-// site's cell was skipped, so its cell values are null.
+// A toe and a bulk region; the bulk's cushioning is unknown (none) without powder, and the bulk
+// site's cell was skipped, so its cell values are none.
 json upscale_result(double fill, double speed, double load) {
+  using Optional = std::optional<double>;
   const double draw = 2000.0 * fill + 1000.0 * speed, powder = 100.0 * load;
-  auto region = [&](const char* name, double share, json cushioning, json cushioning_se) {
-    return json{{"region", name},
-                {"sites", 1},
-                {"volume_m3", 0.001 * share},
-                {"powder_power_w", share * powder},
-                {"powder_power_share", load > 0 ? json(share) : json(nullptr)},
-                {"powder_power_share_se", load > 0 ? json(0.1 * share) : json(nullptr)},
-                {"media_power_w", 300.0 * share},
-                {"media_collision_power_w", 60.0 * share * (1.0 - 0.2 * load)},
-                {"media_collision_power_no_powder_w", 60.0 * share},
-                {"cushioning", cushioning},
-                {"cushioning_se", cushioning_se}};
+  auto region = [&](const char* name, double share, Optional cushioning, Optional cushioning_se) {
+    return method::UpscaleRegion{
+        .region = name,
+        .method = "cells",
+        .figures = {.sites = 1,
+                    .volume_m3 = 0.001 * share,
+                    .powder_power_w = share * powder,
+                    .powder_power_share = load > 0 ? Optional(share) : std::nullopt,
+                    .powder_power_share_se = load > 0 ? Optional(0.1 * share) : std::nullopt,
+                    .media_power_w = 300.0 * share,
+                    .media_collision_power_w = 60.0 * share * (1.0 - 0.2 * load),
+                    .media_collision_power_no_powder_w = 60.0 * share,
+                    .cushioning = cushioning,
+                    .cushioning_se = cushioning_se}};
   };
-  const json toe_site = {{"site_id", "toe-0"},
-                         {"region", "toe"},
-                         {"x_m", 0.1},
-                         {"y_m", -0.3},
-                         {"weight_m3", 0.0006},
-                         {"shear_rate_per_s", 12.0 * speed},
-                         {"normal_stress_pa", 4000.0 * fill},
-                         {"macro_shear_stress_pa", 1500.0 * fill},
-                         {"cell_shear_stress_pa", 1400.0 * fill},
-                         {"coupling_ratio", 1400.0 / 1500.0},
-                         {"power_density_w_m3", 9000.0},
-                         {"powder_dissipation_w_m3", 800.0 * load},
-                         {"skipped", nullptr}};
-  const json bulk_site = {{"site_id", "bulk-0"},
-                          {"region", "bulk"},
-                          {"x_m", -0.1},
-                          {"y_m", -0.1},
-                          {"weight_m3", 0.0004},
-                          {"shear_rate_per_s", 2.0},
-                          {"normal_stress_pa", 3000.0},
-                          {"macro_shear_stress_pa", 900.0},
-                          {"cell_shear_stress_pa", nullptr},
-                          {"coupling_ratio", nullptr},
-                          {"power_density_w_m3", nullptr},
-                          {"powder_dissipation_w_m3", nullptr},
-                          {"skipped", "no steady state"}};
-  return {{"fill", fill},
-          {"speed_fraction", speed},
-          {"powder_load", load},
-          {"average_task", average_key(fill, speed)},
-          {"mill",
-           {{"diameter_m", 1.0},
-            {"slice_length_m", 0.15},
-            {"ball_mass_kg", 123.0},
-            {"power_draw_w", draw},
-            {"specific_power_kw_per_t", draw / 123.0}}},
-          {"power_draw_with_powder_w", draw * (1.0 + 0.1 * load)},
-          {"powder_power_w", powder},
-          {"media_power_w", 300.0},
-          {"regions",
-           {region("toe", 0.6, 1.0 - 0.2 * load, load > 0 ? json(0.05) : json(nullptr)),
-            region("bulk", 0.4, load > 0 ? json(0.9) : json(nullptr), nullptr)}},
-          {"dominant_region", load > 0 ? json("toe") : json(nullptr)},  // none without powder
-          {"spectra",
-           {{"bin_edges_j", {1e-9, 1e-8, 1e-7, 1e-6}},
-            {"powder_rate_per_s", {10.0 * load, 20.0 * load, 5.0 * load}},
-            {"media_rate_per_s", {100.0, 50.0 * speed, 10.0 * fill}}}},
-          {"sites", {toe_site, bulk_site}},
-          {"coupling",
-           {{"sites", 1},
-            {"median_ratio", 1400.0 / 1500.0},
-            {"tolerance", 0.5},
-            {"within_tolerance", 1}}}};
+  const method::UpscaleSite toe_site{.site_id = "toe-0",
+                                     .region = "toe",
+                                     .x_m = 0.1,
+                                     .y_m = -0.3,
+                                     .weight_m3 = 0.0006,
+                                     .shear_rate_per_s = 12.0 * speed,
+                                     .normal_stress_pa = 4000.0 * fill,
+                                     .macro_shear_stress_pa = 1500.0 * fill,
+                                     .cell_shear_stress_pa = 1400.0 * fill,
+                                     .coupling_ratio = 1400.0 / 1500.0,
+                                     .power_density_w_m3 = 9000.0,
+                                     .powder_dissipation_w_m3 = 800.0 * load};
+  const method::UpscaleSite bulk_site{.site_id = "bulk-0",
+                                      .region = "bulk",
+                                      .x_m = -0.1,
+                                      .y_m = -0.1,
+                                      .weight_m3 = 0.0004,
+                                      .shear_rate_per_s = 2.0,
+                                      .normal_stress_pa = 3000.0,
+                                      .macro_shear_stress_pa = 900.0,
+                                      .skipped = "no steady state"};
+  method::UpscaleResult r;
+  r.cells = {
+      .method = "cells",
+      .totals = {.sites = 2, .powder_power_w = powder, .media_power_w = 300.0},
+      .regions = {region("toe", 0.6, 1.0 - 0.2 * load, load > 0 ? Optional(0.05) : std::nullopt),
+                  region("bulk", 0.4, load > 0 ? Optional(0.9) : std::nullopt, std::nullopt)},
+      .dominant_region =  // none without powder
+      load > 0 ? std::optional<std::string>("toe") : std::nullopt};
+  r.fill = fill;
+  r.speed_fraction = speed;
+  r.powder_load = load;
+  r.average_task = average_key(fill, speed);
+  r.sites_task = "sites-key";
+  r.mill = {.diameter_m = 1.0,
+            .slice_length_m = 0.15,
+            .ball_mass_kg = 123.0,
+            .power_draw_w = draw,
+            .specific_power_kw_per_t = draw / 123.0};
+  r.power_draw_with_powder_w = draw * (1.0 + 0.1 * load);
+  r.spectra = {.bin_edges_j = {1e-9, 1e-8, 1e-7, 1e-6},
+               .powder_rate_per_s = {10.0 * load, 20.0 * load, 5.0 * load},
+               .media_rate_per_s = {100.0, 50.0 * speed, 10.0 * fill},
+               .media_rate_no_powder_per_s = {100.0, 50.0, 10.0}};
+  r.sites = {toe_site, bulk_site};
+  r.coupling = {
+      .sites = 1, .median_ratio = 1400.0 / 1500.0, .tolerance = 0.5, .within_tolerance = 1};
+  return r;
 }
 
 // A 4 x 4 grid over a mill of radius 0.5 m with made-up fields.
