@@ -6,6 +6,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "method/upscale_result.hpp"
 #include "report/svg_plot.hpp"
 
 namespace millflow::report {
@@ -15,6 +16,10 @@ using nlohmann::json;
 
 std::string number(const json& value) {
   return value.is_number() ? fmt::format("{:.4g}", value.get<double>()) : "n/a";
+}
+
+std::string number(const std::optional<double>& value) {
+  return value ? fmt::format("{:.4g}", *value) : "n/a";
 }
 
 method::ChargeAngles angles_of(const json& sites) {
@@ -69,17 +74,15 @@ std::string regions_table(const json& sites) {
 }
 
 // Rule set | powder load | dominant region | toe share of the powder power, loads above 0.
-std::string sensitivity_table(const std::map<double, json>& by_load) {
+std::string sensitivity_table(const std::map<double, method::UpscaleResult>& by_load) {
   std::string out =
       "| rule set | powder load U | dominant region | toe share of the powder power |\n"
       "|---|---|---|---|\n";
-  for (const auto& [load, sets] : by_load) {
+  for (const auto& [load, upscale] : by_load) {
     if (load == 0.0) continue;
-    for (const json& set : sets) {
-      const json& dominant = set.at("dominant_region");
-      out += fmt::format("| {} | {:g} | {} | {} |\n", set.at("rule_set").get<std::string>(), load,
-                         dominant.is_string() ? dominant.get<std::string>() : "none",
-                         number(set.at("toe_powder_power_share")));
+    for (const method::UpscaleSensitivity& set : upscale.sensitivity) {
+      out += fmt::format("| {} | {:g} | {} | {} |\n", set.rule_set, load,
+                         set.dominant_region.value_or("none"), number(set.toe_powder_power_share));
     }
   }
   return out;
@@ -87,30 +90,27 @@ std::string sensitivity_table(const std::map<double, json>& by_load) {
 
 // Per region with cells: the powder power share by both methods and the media-only cells' power
 // over the macro dissipation (tasks/upscale.hpp).
-std::string methods_table(const json& upscale) {
+std::string methods_table(const method::UpscaleResult& upscale) {
   std::string out =
       "| region | powder power share, cells | powder power share, macro-anchored | cell power / "
       "macro dissipation |\n|---|---|---|---|\n";
-  const json& anchored = upscale.at("macro_anchored").at("regions");
-  for (std::size_t r = 0; r < upscale.at("regions").size(); ++r) {
-    const json& cells = upscale.at("regions").at(r);
-    out += fmt::format("| {} | {} | {} | {} |\n", cells.at("region").get<std::string>(),
-                       number(cells.at("powder_power_share")),
-                       number(anchored.at(r).at("powder_power_share")),
-                       number(cells.at("cell_to_macro_power_ratio")));
+  const std::vector<method::UpscaleRegion>& anchored = upscale.macro_anchored.figures.regions;
+  for (std::size_t r = 0; r < upscale.cells.regions.size(); ++r) {
+    const method::UpscaleRegion& cells = upscale.cells.regions[r];
+    out += fmt::format(
+        "| {} | {} | {} | {} |\n", cells.region, number(cells.figures.powder_power_share),
+        number(anchored.at(r).figures.powder_power_share), number(cells.cell_to_macro_power_ratio));
   }
   return out;
 }
 
 // The cells an upscale left out (or counted against their flags), one row each.
-std::string left_out_rows(const json& upscale) {
+std::string left_out_rows(const method::UpscaleResult& upscale) {
   std::string out;
-  for (const json& cell : upscale.at("left_out_cells")) {
-    out += fmt::format(
-        "| {:g} | {:g} | {:g} | {} | {:g} | {} | {} |\n", upscale.at("fill").get<double>(),
-        upscale.at("speed_fraction").get<double>(), upscale.at("powder_load").get<double>(),
-        cell.at("site_id").get<std::string>(), cell.at("powder_load").get<double>(),
-        cell.at("reason").get<std::string>(), cell.at("counted").get<bool>() ? "yes" : "no");
+  for (const method::LeftOutCell& cell : upscale.left_out_cells) {
+    out += fmt::format("| {:g} | {:g} | {:g} | {} | {:g} | {} | {} |\n", upscale.fill,
+                       upscale.speed_fraction, upscale.powder_load, cell.site_id, cell.powder_load,
+                       cell.reason, cell.counted ? "yes" : "no");
   }
   return out;
 }
@@ -121,20 +121,15 @@ RegionSection region_section(const ReportSources& sources,
                              const std::map<std::string, method::FlowMap>& flow_maps) {
   // Sites tasks by fill and speed, and the sensitivity of each of their upscales by load.
   std::map<std::pair<double, double>, const TaskResult*> sites_tasks;
-  std::map<std::string, std::map<double, json>> sensitivity;
-  std::map<std::string, std::map<double, const json*>> upscales;  // by sites task and load
+  std::map<std::string, std::map<double, method::UpscaleResult>> upscales;  // by sites task, load
+  for (const TaskResult& input : sources.upscales) {
+    method::UpscaleResult r =
+        method::read_upscale_result(input.result, fmt::format("upscale task {}", input.key));
+    upscales[r.sites_task][r.powder_load] = std::move(r);
+  }
   for (const TaskResult& input : sources.sites) {
     const json& r = input.result;
     sites_tasks[{r.at("fill").get<double>(), r.at("speed_fraction").get<double>()}] = &input;
-  }
-  for (const TaskResult& input : sources.upscales) {
-    const json& r = input.result;
-    if (r.contains("sites_task")) {
-      const std::string sites = r.at("sites_task").get<std::string>();
-      const double load = r.at("powder_load").get<double>();
-      sensitivity[sites][load] = r.at("sensitivity");
-      upscales[sites][load] = &r;
-    }
   }
   RegionSection section;
   if (sites_tasks.empty()) return section;
@@ -164,19 +159,19 @@ RegionSection region_section(const ReportSources& sources,
     section.markdown +=
         fmt::format("### J = {:g}, phi = {:g}\n\n![flow regions]({})\n\n", fill, speed, file) +
         regions_table(sites) + "\n";
-    if (const auto found = sensitivity.find(input->key); found != sensitivity.end())
+    if (const auto found = upscales.find(input->key); found != upscales.end())
       section.markdown += sensitivity_table(found->second) + "\n";
     if (const auto found = upscales.find(input->key); found != upscales.end()) {
       for (const auto& [load, upscale] : found->second) {
         if (load == 0.0) continue;
         section.markdown +=
-            fmt::format("Both upscalings at U = {:g}:\n\n", load) + methods_table(*upscale) + "\n";
+            fmt::format("Both upscalings at U = {:g}:\n\n", load) + methods_table(upscale) + "\n";
       }
     }
   }
   std::string left_out;
   for (const auto& [sites, by_load] : upscales) {
-    for (const auto& [load, upscale] : by_load) left_out += left_out_rows(*upscale);
+    for (const auto& [load, upscale] : by_load) left_out += left_out_rows(upscale);
   }
   section.markdown +=
       "## Cells left out of the upscaling\n\n"
