@@ -60,6 +60,7 @@
 #include "bench/lammps_export.hpp"
 #include "dem/shear_cell.hpp"
 #include "dem/stiffness_policy.hpp"
+#include "method/sites.hpp"
 #include "tasks/campaign.hpp"
 #include "tasks/shear_cell.hpp"
 
@@ -152,7 +153,7 @@ double shear_rate_for(const Options& o, double inertial_number) {
 }
 
 dem::ShearCellSetup setup_for(const Options& o, const Cell& c, const json& campaign) {
-  const json site{{"shear_rate_per_s", c.shear_rate}, {"normal_stress_pa", o.normal_stress}};
+  const json site = method::CellDrive{.shear_rate = c.shear_rate, .normal_stress = o.normal_stress};
   dem::ShearCellSetup setup = tasks::shear_cell_setup(campaign, site, "bench_cell_physics");
   for (const dem::PairStiffness& p : tasks::apply_stiffness_policy(campaign, setup))
     fmt::print(

@@ -48,6 +48,7 @@
 
 #include "bench/lammps_export.hpp"
 #include "dem/shear_cell.hpp"
+#include "method/sites.hpp"
 #include "tasks/campaign.hpp"
 #include "tasks/shear_cell.hpp"
 
@@ -107,8 +108,8 @@ dem::ShearCellSetup setup_of(const CellCase& c) {
     }
   }
   campaign = tasks::validate_campaign(campaign);
-  const json site{{"shear_rate_per_s", g_options.shear_rate},
-                  {"normal_stress_pa", g_options.normal_stress}};
+  const json site = method::CellDrive{.shear_rate = g_options.shear_rate,
+                                      .normal_stress = g_options.normal_stress};
   dem::ShearCellSetup setup = tasks::shear_cell_setup(campaign, site, "bench_cells/" + c.name);
   if (c.media_only_small_balls) setup.media_solid_fraction = 0.58;
   return setup;

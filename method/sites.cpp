@@ -229,6 +229,33 @@ const std::vector<std::string>& region_names() {
   return names;
 }
 
+namespace {
+constexpr const char* kShearRateKey = "shear_rate_per_s";
+constexpr const char* kNormalStressKey = "normal_stress_pa";
+}  // namespace
+
+nlohmann::json cell_drive_json(nlohmann::json shear_rate, nlohmann::json normal_stress) {
+  return {{kShearRateKey, std::move(shear_rate)}, {kNormalStressKey, std::move(normal_stress)}};
+}
+
+void to_json(nlohmann::json& out, const CellDrive& drive) {
+  out = cell_drive_json(drive.shear_rate, drive.normal_stress);
+}
+
+void from_json(const nlohmann::json& in, CellDrive& drive) {
+  drive.shear_rate = in.at(kShearRateKey).get<double>();
+  drive.normal_stress = in.at(kNormalStressKey).get<double>();
+}
+
+std::string unusable_reason(const CellDrive& drive) {
+  for (const auto& [key, value] : {std::pair{kShearRateKey, drive.shear_rate},
+                                   std::pair{kNormalStressKey, drive.normal_stress}}) {
+    if (!(value > 0.0 && std::isfinite(value)))
+      return fmt::format("{} = {} is not positive", key, value);
+  }
+  return {};
+}
+
 void to_json(nlohmann::json& out, const Site& s) {
   out = {{"site_id", s.site_id},
          {"region", s.region},
@@ -236,14 +263,14 @@ void to_json(nlohmann::json& out, const Site& s) {
          {"weight_m3", s.weight_m3},
          {"solid_volume_m3", s.solid_volume_m3},
          {"dissipation_share", s.dissipation_share},
-         {"shear_rate_per_s", s.shear_rate},
-         {"normal_stress_pa", s.normal_stress},
          {"shear_stress_pa", s.shear_stress},
          {"pressure_pa", s.pressure},
          {"solid_fraction", s.solid_fraction},
          {"granular_temperature_m2_s2", s.granular_temperature},
          {"collision_frequency_per_m3_s", s.collision_frequency},
          {"dissipation_w_m3", s.dissipation}};
+  out.update(
+      nlohmann::json(CellDrive{.shear_rate = s.shear_rate, .normal_stress = s.normal_stress}));
 }
 
 void from_json(const nlohmann::json& in, Site& s) {
@@ -254,8 +281,9 @@ void from_json(const nlohmann::json& in, Site& s) {
   s.weight_m3 = in.at("weight_m3").get<double>();
   s.solid_volume_m3 = in.at("solid_volume_m3").get<double>();
   s.dissipation_share = in.at("dissipation_share").get<double>();
-  s.shear_rate = in.at("shear_rate_per_s").get<double>();
-  s.normal_stress = in.at("normal_stress_pa").get<double>();
+  const auto drive = in.get<CellDrive>();
+  s.shear_rate = drive.shear_rate;
+  s.normal_stress = drive.normal_stress;
   s.shear_stress = in.at("shear_stress_pa").get<double>();
   s.pressure = in.at("pressure_pa").get<double>();
   s.solid_fraction = in.at("solid_fraction").get<double>();

@@ -84,6 +84,25 @@ struct FlowMap {
   std::vector<double> velocity_x, velocity_y;  // m/s, the mean velocity
 };
 
+// What drives a shear cell (dem::ShearCellSetup): the shear rate (1/s) and the normal stress (Pa)
+// at a site. A site's JSON holds them, and so does every shear cell's result (its `site`);
+// to_json, from_json and cell_drive_json are the one spelling of their keys, shear_rate_per_s and
+// normal_stress_pa.
+struct CellDrive {
+  double shear_rate = 0.0, normal_stress = 0.0;
+};
+
+void to_json(nlohmann::json& out, const CellDrive& drive);
+void from_json(const nlohmann::json& in, CellDrive& drive);
+
+// The drive's JSON from numbers as given: a `millflow cell` spec's 20000 stays an integer in the
+// cell's result (tasks/cell_spec.cpp), where to_json would write 20000.0.
+nlohmann::json cell_drive_json(nlohmann::json shear_rate, nlohmann::json normal_stress);
+
+// Why a drive cannot drive a shear cell ("shear_rate_per_s = 0 is not positive": the first of
+// its values that is not finite and positive, by its key), empty when it can.
+std::string unusable_reason(const CellDrive& drive);
+
 struct Site {
   std::string site_id;  // "<region>-<k>", k from the lowest shear rate up
   std::string region;
@@ -97,9 +116,9 @@ struct Site {
 };
 
 // A site as the sites task's result lists it (the one spelling of its keys): site_id, region,
-// position_m [x, y], weight_m3, solid_volume_m3, dissipation_share, shear_rate_per_s,
-// normal_stress_pa, shear_stress_pa, pressure_pa, solid_fraction, granular_temperature_m2_s2,
-// collision_frequency_per_m3_s, dissipation_w_m3.
+// position_m [x, y], weight_m3, solid_volume_m3, dissipation_share, the CellDrive keys
+// (shear_rate_per_s, normal_stress_pa), shear_stress_pa, pressure_pa, solid_fraction,
+// granular_temperature_m2_s2, collision_frequency_per_m3_s, dissipation_w_m3.
 void to_json(nlohmann::json& out, const Site& site);
 void from_json(const nlohmann::json& in, Site& site);
 

@@ -35,7 +35,7 @@ struct Slice {
   const UpscalePoint& first() const { return *points.front(); }
   const UpscalePoint* at_load(double load) const {
     for (const UpscalePoint* point : points) {
-      if (point->powder_load == load) return point;
+      if (point->upscale.powder_load == load) return point;
     }
     return nullptr;
   }
@@ -44,9 +44,10 @@ struct Slice {
 std::vector<Slice> slices_of(const std::vector<UpscalePoint>& points) {
   std::vector<Slice> slices;
   for (const UpscalePoint& point : points) {
-    if (slices.empty() || slices.back().fill != point.fill ||
-        slices.back().speed_fraction != point.speed_fraction) {
-      slices.push_back({point.fill, point.speed_fraction, {}});
+    const method::UpscaleResult& u = point.upscale;
+    if (slices.empty() || slices.back().fill != u.fill ||
+        slices.back().speed_fraction != u.speed_fraction) {
+      slices.push_back({u.fill, u.speed_fraction, {}});
     }
     slices.back().points.push_back(&point);
   }
@@ -64,15 +65,15 @@ std::string maps_file(const Slice& slice) {
 }
 
 std::vector<double> distinct(const std::vector<UpscalePoint>& points,
-                             double UpscalePoint::*member) {
+                             double method::UpscaleResult::*member) {
   std::set<double> values;
-  for (const UpscalePoint& point : points) values.insert(point.*member);
+  for (const UpscalePoint& point : points) values.insert(point.upscale.*member);
   return {values.begin(), values.end()};
 }
 
 // Panels in rows of fills and columns of speeds.
 int speed_columns(const std::vector<UpscalePoint>& points) {
-  return static_cast<int>(distinct(points, &UpscalePoint::speed_fraction).size());
+  return static_cast<int>(distinct(points, &method::UpscaleResult::speed_fraction).size());
 }
 
 // ---- figures ----
@@ -83,7 +84,7 @@ svg::Figure power_draw_figure(const std::vector<UpscalePoint>& points,
                        .x = {"speed fraction of critical (-)"},
                        .y = {"power draw of the slice (W)"}};
   // One colour per fill (macro solid, with powder dashed), so the fills tell apart.
-  const auto fills = distinct(points, &UpscalePoint::fill);
+  const auto fills = distinct(points, &method::UpscaleResult::fill);
   for (std::size_t f = 0; f < fills.size(); ++f) {
     const double fill = fills[f];
     const int colour = static_cast<int>(f);
@@ -92,15 +93,16 @@ svg::Figure power_draw_figure(const std::vector<UpscalePoint>& points,
     for (const Slice& slice : slices) {
       if (slice.fill != fill) continue;
       macro.x.push_back(slice.speed_fraction);
-      macro.y.push_back(slice.first().power_draw_w);
+      macro.y.push_back(slice.first().upscale.mill.power_draw_w);
       for (const UpscalePoint* point : slice.points) {
-        if (point->powder_load <= 0.0) continue;
-        svg::Series& series = with_powder[point->powder_load];
-        series.name = fmt::format("J = {:g}, U = {:g} with powder", fill, point->powder_load);
+        if (point->upscale.powder_load <= 0.0) continue;
+        svg::Series& series = with_powder[point->upscale.powder_load];
+        series.name =
+            fmt::format("J = {:g}, U = {:g} with powder", fill, point->upscale.powder_load);
         series.colour = colour;
         series.dashed = true;
         series.x.push_back(slice.speed_fraction);
-        series.y.push_back(point->power_draw_with_powder_w.value_or(kNaN));
+        series.y.push_back(point->upscale.power_draw_with_powder_w.value_or(kNaN));
       }
     }
     chart.series.push_back(std::move(macro));
@@ -133,12 +135,12 @@ svg::Figure region_panels(const std::vector<UpscalePoint>& points, const std::ve
       bool present = false;
       for (const UpscalePoint* point : slice.points) {
         const auto found =
-            std::find_if(point->regions.begin(), point->regions.end(),
+            std::find_if(point->upscale.cells.regions.begin(), point->upscale.cells.regions.end(),
                          [&](const method::UpscaleRegion& r) { return r.region == region; });
-        present = present || found != point->regions.end();
+        present = present || found != point->upscale.cells.regions.end();
         const ValueAndError v =
-            found == point->regions.end() ? ValueAndError{kNaN, kNaN} : value(*found);
-        series.x.push_back(point->powder_load);
+            found == point->upscale.cells.regions.end() ? ValueAndError{kNaN, kNaN} : value(*found);
+        series.x.push_back(point->upscale.powder_load);
         series.y.push_back(v.value);
         series.y_error.push_back(v.error);
       }
@@ -158,9 +160,9 @@ svg::Figure spectra_figure(const std::vector<UpscalePoint>& points,
         .x = {"dissipated energy per collision (J)", svg::Scale::log},
         .y = {"powder collisions per bin in the slice (1/s)", svg::Scale::log}};
     for (const UpscalePoint* point : slice.points) {
-      chart.series.push_back({.name = fmt::format("U = {:g}", point->powder_load),
-                              .edges = point->bin_edges_j,
-                              .values = point->powder_rate_per_s});
+      chart.series.push_back({.name = fmt::format("U = {:g}", point->upscale.powder_load),
+                              .edges = point->upscale.spectra.bin_edges_j,
+                              .values = point->upscale.spectra.powder_rate_per_s});
     }
     panels.push_back(svg::histogram_chart(chart));
   }
@@ -218,7 +220,7 @@ svg::Figure macro_spectra_figure(const std::vector<MacroRun>& runs) {
 
 svg::Figure maps_figure(const Slice& slice, const method::FlowMap& map) {
   std::vector<svg::MapMarker> sites;
-  for (const method::UpscaleSite& site : slice.first().sites)
+  for (const method::UpscaleSite& site : slice.first().upscale.sites)
     sites.push_back({site.x_m, site.y_m, site.site_id});
   // Cells outside the charge (the sites task's rule) hold averages of a few balls in flight.
   std::vector<bool> outside_charge;
@@ -251,7 +253,7 @@ svg::Figure coupling_figure(const std::vector<Slice>& slices) {
   for (const std::string& region : method::region_names()) {
     svg::Series series{.name = region, .colour = region_colour(region), .line = false};
     for (const Slice& slice : slices) {
-      for (const method::UpscaleSite& site : slice.first().sites) {
+      for (const method::UpscaleSite& site : slice.first().upscale.sites) {
         if (site.region != region) continue;
         series.x.push_back(site.macro_shear_stress_pa);
         series.y.push_back(site.cell_shear_stress_pa.value_or(kNaN));
@@ -302,7 +304,7 @@ std::string csv_row(const std::vector<std::string>& cells) {
 }
 
 std::vector<std::string> point_cells(const UpscalePoint& p) {
-  return {number(p.fill), number(p.speed_fraction), number(p.powder_load)};
+  return {number(p.upscale.fill), number(p.upscale.speed_fraction), number(p.upscale.powder_load)};
 }
 
 template <class Rows>
@@ -328,15 +330,16 @@ std::string upscaled_csv(const std::vector<UpscalePoint>& points) {
        "power_draw_with_powder_w", "dominant_region", "upscale_task"},
       points, [](const UpscalePoint& p) {
         std::vector<std::vector<std::string>> rows;
-        for (const method::UpscaleRegion& r : p.regions) {
+        for (const method::UpscaleRegion& r : p.upscale.cells.regions) {
           const method::UpscaleFigures& f = r.figures;
           rows.push_back({r.region, fmt::format("{}", f.sites), number(f.volume_m3),
                           number(f.powder_power_w), number(f.powder_power_share),
                           number(f.powder_power_share_se), number(f.media_power_w),
                           number(f.media_collision_power_w),
                           number(f.media_collision_power_no_powder_w), number(f.cushioning),
-                          number(f.cushioning_se), number(p.power_draw_w),
-                          number(p.power_draw_with_powder_w), p.dominant_region.value_or("")});
+                          number(f.cushioning_se), number(p.upscale.mill.power_draw_w),
+                          number(p.upscale.power_draw_with_powder_w),
+                          p.upscale.cells.dominant_region.value_or("")});
         }
         return rows;
       });
@@ -350,7 +353,7 @@ std::string sites_csv(const std::vector<UpscalePoint>& points) {
        "upscale_task"},
       points, [](const UpscalePoint& p) {
         std::vector<std::vector<std::string>> rows;
-        for (const method::UpscaleSite& s : p.sites) {
+        for (const method::UpscaleSite& s : p.upscale.sites) {
           rows.push_back({s.site_id, s.region, number(s.x_m), number(s.y_m), number(s.weight_m3),
                           number(s.shear_rate_per_s), number(s.normal_stress_pa),
                           number(s.macro_shear_stress_pa), number(s.cell_shear_stress_pa),
@@ -366,10 +369,11 @@ std::string spectra_csv(const std::vector<UpscalePoint>& points) {
                     "powder_rate_per_s", "media_rate_per_s", "upscale_task"},
                    points, [](const UpscalePoint& p) {
                      std::vector<std::vector<std::string>> rows;
-                     for (std::size_t b = 0; b < p.powder_rate_per_s.size(); ++b) {
-                       rows.push_back({fmt::format("{}", b), number(p.bin_edges_j[b]),
-                                       number(p.bin_edges_j[b + 1]), number(p.powder_rate_per_s[b]),
-                                       number(p.media_rate_per_s[b])});
+                     const method::UpscaleSpectra& s = p.upscale.spectra;
+                     for (std::size_t b = 0; b < s.powder_rate_per_s.size(); ++b) {
+                       rows.push_back({fmt::format("{}", b), number(s.bin_edges_j[b]),
+                                       number(s.bin_edges_j[b + 1]), number(s.powder_rate_per_s[b]),
+                                       number(s.media_rate_per_s[b])});
                      }
                      return rows;
                    });
@@ -390,11 +394,12 @@ std::string points_table(const std::vector<UpscalePoint>& points) {
       "| fill J | speed phi | powder load U | power draw (W) | with powder (W) | powder power (W) "
       "| media power (W) | "
       "dominant region |\n|---|---|---|---|---|---|---|---|\n";
-  for (const UpscalePoint& p : points) {
-    out +=
-        fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", g(p.fill), g(p.speed_fraction),
-                    g(p.powder_load), md(p.power_draw_w), md(p.power_draw_with_powder_w),
-                    md(p.powder_power_w), md(p.media_power_w), p.dominant_region.value_or("-"));
+  for (const UpscalePoint& point : points) {
+    const method::UpscaleResult& p = point.upscale;
+    out += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", g(p.fill),
+                       g(p.speed_fraction), g(p.powder_load), md(p.mill.power_draw_w),
+                       md(p.power_draw_with_powder_w), md(p.cells.totals.powder_power_w),
+                       md(p.cells.totals.media_power_w), p.cells.dominant_region.value_or("-"));
   }
   return out;
 }
@@ -404,7 +409,7 @@ std::string coupling_table(const std::vector<Slice>& slices) {
       "| fill J | speed phi | sites compared | within tolerance | median cell/macro | tolerance |\n"
       "|---|---|---|---|---|---|\n";
   for (const Slice& slice : slices) {
-    const method::UpscaleCoupling& c = slice.first().coupling;
+    const method::UpscaleCoupling& c = slice.first().upscale.coupling;
     out += fmt::format("| {} | {} | {} | {} | {} | {} |\n", g(slice.fill), g(slice.speed_fraction),
                        c.sites, c.within_tolerance, c.median_ratio ? md(*c.median_ratio) : "n/a",
                        md(c.tolerance));
@@ -417,9 +422,9 @@ std::string index_page(const std::string& campaign, const std::vector<UpscalePoi
   std::string out = fmt::format("# Campaign report: {}\n\n", campaign);
   out += fmt::format(
       "{} upscaled points: fills J = {}; speed fractions phi = {}; powder loads U = {}.\n\n",
-      points.size(), fmt::join(distinct(points, &UpscalePoint::fill), ", "),
-      fmt::join(distinct(points, &UpscalePoint::speed_fraction), ", "),
-      fmt::join(distinct(points, &UpscalePoint::powder_load), ", "));
+      points.size(), fmt::join(distinct(points, &method::UpscaleResult::fill), ", "),
+      fmt::join(distinct(points, &method::UpscaleResult::speed_fraction), ", "),
+      fmt::join(distinct(points, &method::UpscaleResult::powder_load), ", "));
   out +=
       "## Power draw\n\n![power draw vs speed](power_draw.svg)\n\n"
       "Power draw of the mill slice vs the speed as a fraction of the critical speed, one solid "
@@ -485,16 +490,18 @@ std::string index_page(const std::string& campaign, const std::vector<UpscalePoi
 json result_of(const std::string& campaign, const std::vector<UpscalePoint>& points,
                const std::vector<Slice>& slices, const std::vector<std::string>& files) {
   json dominant = json::array();
-  for (const UpscalePoint& p : points) {
-    dominant.push_back({{"fill", p.fill},
-                        {"speed_fraction", p.speed_fraction},
-                        {"powder_load", p.powder_load},
-                        {"region", p.dominant_region ? json(*p.dominant_region) : json(nullptr)}});
+  for (const UpscalePoint& point : points) {
+    const method::UpscaleResult& p = point.upscale;
+    dominant.push_back(
+        {{"fill", p.fill},
+         {"speed_fraction", p.speed_fraction},
+         {"powder_load", p.powder_load},
+         {"region", p.cells.dominant_region ? json(*p.cells.dominant_region) : json(nullptr)}});
   }
   std::size_t sites = 0, within = 0;
   for (const Slice& slice : slices) {
-    sites += slice.first().coupling.sites;
-    within += slice.first().coupling.within_tolerance;
+    sites += slice.first().upscale.coupling.sites;
+    within += slice.first().upscale.coupling.within_tolerance;
   }
   return {{"campaign", campaign},
           {"files", files},
@@ -555,7 +562,7 @@ ReportFiles write_report(const std::filesystem::path& dir, const std::string& ca
   }
   for (const Slice& slice : slices)
     out.write(maps_file(slice),
-              maps_figure(slice, inputs.flow_maps.at(slice.first().average_task)).svg);
+              maps_figure(slice, inputs.flow_maps.at(slice.first().upscale.average_task)).svg);
   for (const auto& [name, svg] : regions.files) out.write(name, svg);
   out.write("coupling.svg", coupling_figure(slices).svg);
   out.write("upscaled.csv", upscaled_csv(points));

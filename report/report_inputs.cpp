@@ -19,6 +19,8 @@ using nlohmann::json;
 
 using FieldReader = util::JsonFields;
 
+constexpr const char* kSitesFix =
+    "the report reads the sites result contract, so re-run that task with a matching version";
 constexpr const char* kUpscaleFix =
     "the report reads the upscale result contract, so re-run that task with a matching version";
 
@@ -46,23 +48,13 @@ UpscalePoint read_upscale(const std::string& task_key, const json& result) {
   if (upscale.spectra.bin_edges_j.size() < 2)
     FieldReader(owner, result, kUpscaleFix)
         .refuse("/spectra/bin_edges_j", "holds fewer than 2 edges");
+  return {.task_key = task_key, .upscale = std::move(upscale)};
+}
+
+SitesPoint read_sites(const std::string& task_key, const json& result) {
   return {.task_key = task_key,
-          .average_task = upscale.average_task,
-          .fill = upscale.fill,
-          .speed_fraction = upscale.speed_fraction,
-          .powder_load = upscale.powder_load,
-          .power_draw_w = upscale.mill.power_draw_w,
-          .specific_power_kw_per_t = upscale.mill.specific_power_kw_per_t,
-          .power_draw_with_powder_w = upscale.power_draw_with_powder_w,
-          .powder_power_w = upscale.cells.totals.powder_power_w,
-          .media_power_w = upscale.cells.totals.media_power_w,
-          .regions = std::move(upscale.cells.regions),
-          .dominant_region = std::move(upscale.cells.dominant_region),
-          .bin_edges_j = std::move(upscale.spectra.bin_edges_j),
-          .powder_rate_per_s = std::move(upscale.spectra.powder_rate_per_s),
-          .media_rate_per_s = std::move(upscale.spectra.media_rate_per_s),
-          .sites = std::move(upscale.sites),
-          .coupling = upscale.coupling};
+          .sites =
+              method::read_sites_result(result, fmt::format("sites task {}", task_key), kSitesFix)};
 }
 
 MacroRun read_macro(const std::string& task_key, const json& result) {
@@ -95,6 +87,8 @@ ReportInputs read_report_inputs(const ReportSources& sources) {
   ReportInputs report;
   for (const TaskResult& upscale : sources.upscales)
     report.points.push_back(read_upscale(upscale.key, upscale.result));
+  for (const TaskResult& sites : sources.sites)
+    report.sites.push_back(read_sites(sites.key, sites.result));
   for (const TaskResult& macro : sources.macros)
     report.macro_runs.push_back(read_macro(macro.key, macro.result));
   if (report.points.empty()) {
@@ -102,20 +96,22 @@ ReportInputs read_report_inputs(const ReportSources& sources) {
         "the report has no upscale input: plan it below the campaign's upscale tasks");
   }
   for (const UpscalePoint& point : report.points) {
-    if (report.flow_maps.count(point.average_task) > 0) continue;
-    const auto average = sources.average_fields.find(point.average_task);
+    const std::string& average_task = point.upscale.average_task;
+    if (report.flow_maps.count(average_task) > 0) continue;
+    const auto average = sources.average_fields.find(average_task);
     if (average == sources.average_fields.end()) {
       throw std::invalid_argument(
           fmt::format("upscale task {}: field /average_task names {}, which is not an average "
                       "input of the report; plan the report below that average task",
-                      point.task_key, point.average_task));
+                      point.task_key, average_task));
     }
-    report.flow_maps.emplace(point.average_task, read_flow_map(average->first, average->second));
+    report.flow_maps.emplace(average_task, read_flow_map(average->first, average->second));
   }
   std::sort(report.points.begin(), report.points.end(),
             [](const UpscalePoint& a, const UpscalePoint& b) {
-              return std::tie(a.fill, a.speed_fraction, a.powder_load, a.task_key) <
-                     std::tie(b.fill, b.speed_fraction, b.powder_load, b.task_key);
+              return std::tie(a.upscale.fill, a.upscale.speed_fraction, a.upscale.powder_load,
+                              a.task_key) < std::tie(b.upscale.fill, b.upscale.speed_fraction,
+                                                     b.upscale.powder_load, b.task_key);
             });
   std::sort(report.macro_runs.begin(), report.macro_runs.end(),
             [](const MacroRun& a, const MacroRun& b) {

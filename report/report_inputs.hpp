@@ -1,10 +1,10 @@
 #pragma once
 // The inputs of the `report` task (tasks/report.cpp gathers them from its upstream tasks by
-// kind into ReportSources): every "upscale" task's
-// result (tasks/upscale.hpp says what it holds), the
-// fields.json artifact of every "average" task an upscale names, and every "macro" task's charge
-// shape and collision spectra (method/macro_result.hpp). Points are sorted by fill, speed
-// fraction, powder load (then task key), so the report is the same whatever the input order.
+// kind into ReportSources): every "upscale" task's result (method/upscale_result.hpp), every
+// "sites" task's result (method/sites_result.hpp), the fields.json artifact of every "average" task
+// an upscale names, and every "macro" task's charge shape and collision spectra
+// (method/macro_result.hpp). Points are sorted by fill, speed fraction, powder load (then task
+// key), so the report is the same whatever the input order.
 //
 // A missing or ill-typed value throws std::invalid_argument naming the task kind and key, the
 // JSON pointer of the field and what was expected.
@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "method/sites.hpp"
+#include "method/sites_result.hpp"
 #include "method/upscale_result.hpp"
 
 namespace millflow::report {
@@ -33,22 +34,20 @@ struct ReportSources {
   std::map<std::string, std::optional<std::filesystem::path>> average_fields{};
 };
 
+// One upscale task's result, read once (method::read_upscale_result, and at least one spectrum
+// bin).
 struct UpscalePoint {
-  std::string task_key{}, average_task{};
-  double fill = 0.0, speed_fraction = 0.0, powder_load = 0.0;
-  double power_draw_w = 0.0, specific_power_kw_per_t = 0.0;
-  // None when every media-only cell of the point was left out of the upscaling (no reference).
-  std::optional<double> power_draw_with_powder_w;
-  double powder_power_w = 0.0, media_power_w = 0.0;
-  std::vector<method::UpscaleRegion> regions{};  // the cells method's
-  std::optional<std::string> dominant_region{};  // none without powder power
-  std::vector<double> bin_edges_j{}, powder_rate_per_s{}, media_rate_per_s{};
-  std::vector<method::UpscaleSite> sites{};
-  method::UpscaleCoupling coupling;
+  std::string task_key{};
+  method::UpscaleResult upscale{};
 };
-
-// One upscale task's result (method::read_upscale_result, and at least one spectrum bin).
 UpscalePoint read_upscale(const std::string& task_key, const nlohmann::json& result);
+
+// One sites task's result, read once (method::read_sites_result).
+struct SitesPoint {
+  std::string task_key{};
+  method::SitesResult sites{};
+};
+SitesPoint read_sites(const std::string& task_key, const nlohmann::json& result);
 
 // One collision spectrum of a macro run: collisions per second in the slice per energy bin (the
 // run's histogram counts over its measuring time).
@@ -70,6 +69,7 @@ MacroRun read_macro(const std::string& task_key, const nlohmann::json& result);
 
 struct ReportInputs {
   std::vector<UpscalePoint> points{};                // sorted (see above)
+  std::vector<SitesPoint> sites{};                   // in the order of the sources
   std::map<std::string, method::FlowMap> flow_maps;  // by average task key
   std::vector<MacroRun> macro_runs{};                // by fill, speed fraction (then task key)
 };

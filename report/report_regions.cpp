@@ -6,33 +6,25 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "method/sites_result.hpp"
 #include "method/upscale_result.hpp"
 #include "report/svg_plot.hpp"
 
 namespace millflow::report {
 namespace {
 
-using nlohmann::json;
-
-std::string number(const json& value) {
-  return value.is_number() ? fmt::format("{:.4g}", value.get<double>()) : "n/a";
+std::string number(double value) {
+  return fmt::format("{:.4g}", value);
 }
 
 std::string number(const std::optional<double>& value) {
   return value ? fmt::format("{:.4g}", *value) : "n/a";
 }
 
-method::ChargeAngles angles_of(const json& sites) {
-  auto angle = [&](const char* key) {
-    return sites.at(key).is_number() ? std::optional(sites.at(key).get<double>()) : std::nullopt;
-  };
-  return {.toe_deg = angle("toe_angle_deg"), .shoulder_deg = angle("shoulder_angle_deg")};
-}
-
-svg::Figure region_map(const std::string& title, const method::FlowMap& map, const json& sites) {
-  const method::ChargeAngles angles = angles_of(sites);
-  const method::Classification regions =
-      method::classify_regions(map, sites.at("rules").get<method::RegionRules>(), angles);
+svg::Figure region_map(const std::string& title, const method::FlowMap& map,
+                       const method::SitesResult& sites) {
+  const method::ChargeAngles angles = sites.angles();
+  const method::Classification regions = method::classify_regions(map, sites.rules, angles);
   svg::CategoryMap figure{.title = title,
                           .grid = map.grid,
                           .category = regions.region_of_cell,
@@ -52,35 +44,33 @@ svg::Figure region_map(const std::string& title, const method::FlowMap& map, con
 }
 
 // Region | volume | solid volume | share of the macro dissipation under each rule set.
-std::string regions_table(const json& sites) {
-  const json& rule_sets = sites.at("rule_sets");
+std::string regions_table(const method::SitesResult& sites) {
   std::string out = "| region | volume (m^3) | solid volume (m^3) |";
   std::string rule = "|---|---|---|";
-  for (const json& set : rule_sets) {
-    out += fmt::format(" share of the macro dissipation, {} rules |",
-                       set.at("name").get<std::string>());
+  for (const method::RuleSet& set : sites.rule_sets) {
+    out += fmt::format(" share of the macro dissipation, {} rules |", set.name);
     rule += "---|";
   }
   out += "\n" + rule + "\n";
-  for (std::size_t r = 0; r < sites.at("regions").size(); ++r) {
-    const json& region = sites.at("regions").at(r);
-    out += fmt::format("| {} | {} | {} |", region.at("name").get<std::string>(),
-                       number(region.at("volume_m3")), number(region.at("solid_volume_m3")));
-    for (const json& set : rule_sets)
-      out += fmt::format(" {} |", number(set.at("regions").at(r).at("dissipation_share")));
+  for (std::size_t r = 0; r < sites.regions.size(); ++r) {
+    const method::RegionSummary& region = sites.regions[r];
+    out += fmt::format("| {} | {} | {} |", region.name, number(region.volume_m3),
+                       number(region.solid_volume_m3));
+    for (const method::RuleSet& set : sites.rule_sets)
+      out += fmt::format(" {} |", number(set.regions.at(r).dissipation_share));
     out += "\n";
   }
   return out;
 }
 
 // Rule set | powder load | dominant region | toe share of the powder power, loads above 0.
-std::string sensitivity_table(const std::map<double, method::UpscaleResult>& by_load) {
+std::string sensitivity_table(const std::map<double, const method::UpscaleResult*>& by_load) {
   std::string out =
       "| rule set | powder load U | dominant region | toe share of the powder power |\n"
       "|---|---|---|---|\n";
   for (const auto& [load, upscale] : by_load) {
     if (load == 0.0) continue;
-    for (const method::UpscaleSensitivity& set : upscale.sensitivity) {
+    for (const method::UpscaleSensitivity& set : upscale->sensitivity) {
       out += fmt::format("| {} | {:g} | {} | {} |\n", set.rule_set, load,
                          set.dominant_region.value_or("none"), number(set.toe_powder_power_share));
     }
@@ -117,20 +107,15 @@ std::string left_out_rows(const method::UpscaleResult& upscale) {
 
 }  // namespace
 
-RegionSection region_section(const ReportSources& sources,
-                             const std::map<std::string, method::FlowMap>& flow_maps) {
+RegionSection region_section(const ReportInputs& inputs) {
   // Sites tasks by fill and speed, and the sensitivity of each of their upscales by load.
-  std::map<std::pair<double, double>, const TaskResult*> sites_tasks;
-  std::map<std::string, std::map<double, method::UpscaleResult>> upscales;  // by sites task, load
-  for (const TaskResult& input : sources.upscales) {
-    method::UpscaleResult r =
-        method::read_upscale_result(input.result, fmt::format("upscale task {}", input.key));
-    upscales[r.sites_task][r.powder_load] = std::move(r);
-  }
-  for (const TaskResult& input : sources.sites) {
-    const json& r = input.result;
-    sites_tasks[{r.at("fill").get<double>(), r.at("speed_fraction").get<double>()}] = &input;
-  }
+  std::map<std::pair<double, double>, const SitesPoint*> sites_tasks;
+  // By sites task, then load.
+  std::map<std::string, std::map<double, const method::UpscaleResult*>> upscales;
+  for (const UpscalePoint& point : inputs.points)
+    upscales[point.upscale.sites_task][point.upscale.powder_load] = &point.upscale;
+  for (const SitesPoint& input : inputs.sites)
+    sites_tasks[{input.sites.fill, input.sites.speed_fraction}] = &input;
   RegionSection section;
   if (sites_tasks.empty()) return section;
   section.markdown =
@@ -144,14 +129,14 @@ RegionSection region_section(const ReportSources& sources,
       "split as its cells split theirs).\n\n";
   for (const auto& [point, input] : sites_tasks) {
     const auto& [fill, speed] = point;
-    const json& sites = input->result;
-    const std::string average = sites.at("average_task").get<std::string>();
-    const auto map = flow_maps.find(average);
-    if (map == flow_maps.end()) {
+    const method::SitesResult& sites = input->sites;
+    const std::string& average = sites.average_task;
+    const auto map = inputs.flow_maps.find(average);
+    if (map == inputs.flow_maps.end()) {
       throw std::invalid_argument(fmt::format(
           "sites task {} names average task {}, which is not an input of the report: re-plan "
           "the campaign",
-          input->key, average));
+          input->task_key, average));
     }
     const std::string file = fmt::format("regions_{:g}_{:g}.svg", fill, speed);
     const std::string title = fmt::format("Flow regions, J = {:g}, phi = {:g}", fill, speed);
@@ -159,19 +144,19 @@ RegionSection region_section(const ReportSources& sources,
     section.markdown +=
         fmt::format("### J = {:g}, phi = {:g}\n\n![flow regions]({})\n\n", fill, speed, file) +
         regions_table(sites) + "\n";
-    if (const auto found = upscales.find(input->key); found != upscales.end())
+    if (const auto found = upscales.find(input->task_key); found != upscales.end())
       section.markdown += sensitivity_table(found->second) + "\n";
-    if (const auto found = upscales.find(input->key); found != upscales.end()) {
+    if (const auto found = upscales.find(input->task_key); found != upscales.end()) {
       for (const auto& [load, upscale] : found->second) {
         if (load == 0.0) continue;
         section.markdown +=
-            fmt::format("Both upscalings at U = {:g}:\n\n", load) + methods_table(upscale) + "\n";
+            fmt::format("Both upscalings at U = {:g}:\n\n", load) + methods_table(*upscale) + "\n";
       }
     }
   }
   std::string left_out;
   for (const auto& [sites, by_load] : upscales) {
-    for (const auto& [load, upscale] : by_load) left_out += left_out_rows(upscale);
+    for (const auto& [load, upscale] : by_load) left_out += left_out_rows(*upscale);
   }
   section.markdown +=
       "## Cells left out of the upscaling\n\n"

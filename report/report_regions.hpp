@@ -22,11 +22,10 @@ struct RegionSection {
   std::string markdown;                                    // for index.md
 };
 
-// From the sites inputs (with their fill, speed_fraction and average_task), the sensitivity of
-// the upscale inputs that name them (sites_task) and the flow maps by average task key; nothing
-// without sites inputs. Throws std::invalid_argument naming a sites task whose average task has
-// no flow map.
-RegionSection region_section(const ReportSources& sources,
-                             const std::map<std::string, method::FlowMap>& flow_maps);
+// From the sites results (with their fill, speed_fraction and average_task), the sensitivity of
+// the upscale results that name them (sites_task) and the flow maps by average task key, each
+// read once by read_report_inputs; nothing without sites results. Throws std::invalid_argument
+// naming a sites task whose average task has no flow map.
+RegionSection region_section(const ReportInputs& inputs);
 
 }  // namespace millflow::report

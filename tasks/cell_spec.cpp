@@ -5,6 +5,7 @@
 #include "engine/files.hpp"
 #include "engine/json_text.hpp"
 #include "engine/validation.hpp"
+#include "method/sites.hpp"
 #include "tasks/campaign.hpp"
 #include "tasks/campaign_checks.hpp"
 #include "tasks/shear_cell.hpp"
@@ -46,11 +47,12 @@ engine::FieldTable make_cell_spec_table() {
 // A sites task's result holding the spec's one site, the slot that names it.
 const json kSlot = {{"region", "cell"}, {"index", 0}};
 
+// The drive's numbers as the spec gives them (cell_drive_json, not a typed method::CellDrive,
+// so that an integer stays an integer in `millflow cell`'s output).
 json spec_site(const json& spec) {
-  return {{"site_id", slot_site_id(kSlot)},
-          {"region", "cell"},
-          {"shear_rate_per_s", spec.at("shear_rate")},
-          {"normal_stress_pa", spec.at("normal_stress")}};
+  json site = method::cell_drive_json(spec.at("shear_rate"), spec.at("normal_stress"));
+  site.update({{"site_id", slot_site_id(kSlot)}, {"region", "cell"}});
+  return site;
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 
 #include "dem/material.hpp"
 #include "dem/mill_setup.hpp"
+#include "method/sites.hpp"
 #include "tasks/macro_setup.hpp"
 #include "tasks/shear_cell.hpp"
 #include "util/sphere.hpp"
@@ -147,9 +148,9 @@ json typical_site(const json& macro_params, const std::string& region) {
   const double omega = mill.speed_fraction *
                        dem::critical_speed(diameter, dem::mean_ball_diameter(mill), mill.gravity);
   const RegionScale& scale = region_scale(region);
-  return {{"shear_rate_per_s", scale.shear_rate_per_omega * omega},
-          {"normal_stress_pa", scale.normal_stress_per_rho_g_d_j * mill.media.density *
-                                   mill.gravity * diameter * mill.fill}};
+  return method::CellDrive{.shear_rate = scale.shear_rate_per_omega * omega,
+                           .normal_stress = scale.normal_stress_per_rho_g_d_j * mill.media.density *
+                                            mill.gravity * diameter * mill.fill};
 }
 
 ShearCellSize shear_cell_size(const json& cell_params, const json& site) {

@@ -26,7 +26,7 @@ engine::TaskOutcome run_report(engine::TaskContext& context) {
   const std::string campaign = context.params.at("campaign").get<std::string>();
   const report::ReportSources sources = report_sources(context.inputs);
   const report::ReportInputs inputs = report::read_report_inputs(sources);
-  const report::RegionSection regions = report::region_section(sources, inputs.flow_maps);
+  const report::RegionSection regions = report::region_section(inputs);
   const report::ReportFiles files =
       report::write_report(context.work_dir, campaign, inputs, regions);
   engine::TaskOutcome outcome = engine::TaskOutcome::with_result(files.result);

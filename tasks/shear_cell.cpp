@@ -10,6 +10,7 @@
 #include "dem/vtk.hpp"
 #include "engine/validation.hpp"
 #include "method/cell_result.hpp"
+#include "method/sites.hpp"
 #include "tasks/checkpoint_cadence.hpp"
 #include "tasks/macro_setup.hpp"
 #include "util/sphere.hpp"
@@ -75,8 +76,9 @@ dem::ShearCellSetup shear_cell_setup(const json& params, const json& site,
   setup.size_diameters =
       dem::Vec3(size.at(0).get<double>(), size.at(1).get<double>(), size.at(2).get<double>());
   setup.boundary = boundary(cell.at("boundary").get<std::string>());
-  setup.shear_rate = site.at("shear_rate_per_s").get<double>();
-  setup.normal_stress = site.at("normal_stress_pa").get<double>();
+  const auto drive = site.get<method::CellDrive>();
+  setup.shear_rate = drive.shear_rate;
+  setup.normal_stress = drive.normal_stress;
   setup.gravity = cell.at("gravity").get<bool>();
   setup.servo_gain = at(cell, "/stress_control/gain").get<double>();
   setup.seed = macro_seed(at(params, "/dem/seed").get<std::uint64_t>(), task_key);

@@ -1,7 +1,6 @@
-#include <cmath>
-
 #include <fmt/format.h>
 
+#include "method/sites.hpp"
 #include "tasks/kinds.hpp"
 #include "tasks/shear_cell.hpp"
 
@@ -9,16 +8,6 @@ namespace millflow::tasks {
 namespace {
 
 using nlohmann::json;
-
-// Why a site cannot drive a shear cell, or nothing when it can.
-std::string unusable_reason(const json& site) {
-  for (const char* key : {"shear_rate_per_s", "normal_stress_pa"}) {
-    const double value = site.at(key).get<double>();
-    if (!(value > 0.0 && std::isfinite(value)))
-      return fmt::format("{} = {} is not positive", key, value);
-  }
-  return {};
-}
 
 }  // namespace
 
@@ -30,7 +19,7 @@ SlotSite find_slot_site(const json& sites_result, const json& slot) {
   const std::string id = slot_site_id(slot);
   for (const json& site : sites_result.at("sites")) {
     if (site.at("site_id") != id) continue;
-    return {site, unusable_reason(site)};
+    return {site, method::unusable_reason(site.get<method::CellDrive>())};
   }
   return {json(), fmt::format("the sites task chose no site {} (region {} has fewer cells or none)",
                               id, slot.at("region").get<std::string>())};

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "method/fields_file.hpp"
+#include "method/sites_result.hpp"
 #include "method/vtk_image.hpp"
 #include "tasks/kinds.hpp"
 #include "tasks/macro.hpp"
@@ -16,74 +17,6 @@ namespace millflow::tasks {
 namespace {
 
 using nlohmann::json;
-
-json optional_json(const std::optional<double>& value) {
-  return value ? json(*value) : json(nullptr);
-}
-
-json regions_json(const std::vector<method::RegionSummary>& regions) {
-  json rows = json::array();
-  for (const method::RegionSummary& r : regions) {
-    rows.push_back({{"name", r.name},
-                    {"cells", r.cells},
-                    {"volume_m3", r.volume_m3},
-                    {"solid_volume_m3", r.solid_volume_m3},
-                    {"dissipation_w", r.dissipation_w},
-                    {"dissipation_share", r.dissipation_share},
-                    {"mean_shear_rate_per_s", r.mean_shear_rate},
-                    {"sites", r.sites}});
-  }
-  return rows;
-}
-
-json toe_json(const std::optional<method::Toe>& toe, const std::optional<double>& angle) {
-  if (!toe) return nullptr;
-  return {{"angle_deg", optional_json(angle)},
-          {"position_m", {toe->x, toe->y}},
-          {"radius_m", toe->radius_m},
-          {"impact_cells", toe->impact_cells},
-          {"impact_angle_deg", optional_json(toe->impact_angle_deg)}};
-}
-
-json selection_json(const method::SiteSelection& selection, const method::RegionRules& rules) {
-  json empty = json::array(), sites = json::array();
-  for (const method::RegionSummary& r : selection.regions) {
-    if (r.cells == 0) empty.push_back(r.name);
-  }
-  double weights = 0.0, solid = 0.0;
-  for (const method::Site& s : selection.sites) {
-    sites.push_back(s);
-    weights += s.weight_m3;
-    solid += s.solid_volume_m3;
-  }
-  return {{"rules", json(rules)},
-          {"weight_by",
-           selection.weight_by == method::WeightBasis::solid_volume ? "solid_volume" : "volume"},
-          {"regions", regions_json(selection.regions)},
-          {"empty_regions", empty},
-          {"charge_volume_m3", selection.charge_volume_m3},
-          {"charge_solid_volume_m3", selection.charge_solid_volume_m3},
-          {"sites_volume_m3", weights},
-          {"sites_solid_volume_m3", solid},
-          {"total_dissipation_w", selection.total_dissipation_w},
-          {"toe_angle_deg", optional_json(selection.toe_angle_deg)},
-          {"shoulder_angle_deg", optional_json(selection.shoulder_angle_deg)},
-          {"toe", toe_json(selection.toe, selection.toe_angle_deg)},
-          {"sites", sites}};
-}
-
-json rule_set_json(const std::string& name, const method::RegionRules& rules,
-                   const method::Classification& classification) {
-  json regions = json::array();
-  for (const method::RegionSummary& r : classification.regions) {
-    regions.push_back({{"name", r.name},
-                       {"volume_m3", r.volume_m3},
-                       {"solid_volume_m3", r.solid_volume_m3},
-                       {"dissipation_w", r.dissipation_w},
-                       {"dissipation_share", r.dissipation_share}});
-  }
-  return {{"name", name}, {"rules", json(rules)}, {"regions", regions}};
-}
 
 const engine::TaskInput& input_of_kind(const engine::TaskContext& context,
                                        const std::string& kind) {
@@ -127,20 +60,19 @@ engine::TaskOutcome run_sites(engine::TaskContext& context) {
   const auto vti = context.work_dir / "regions.vti";
   method::write_vtk_image(vti, map.grid, arrays);
 
-  json result = selection_json(selection, rules);
-  result["fill"] = macro.fill;
-  result["speed_fraction"] = macro.speed_fraction;
-  result["average_task"] = input_of_kind(context, "average").key;
-  result["region_index"] = method::region_names();
-  json rule_sets = json::array({rule_set_json("default", rules, selection)});
+  method::SitesResult result = method::sites_result_of(selection, rules);
+  result.fill = macro.fill;
+  result.speed_fraction = macro.speed_fraction;
+  result.average_task = input_of_kind(context, "average").key;
+  result.rule_sets.push_back(method::rule_set_of("default", rules, selection));
   for (const json& alternative : params.at("alternatives")) {
     const method::RegionRules alternative_rules =
         region_rules_from_json(params.at("rules"), alternative.value("rules", json::object()));
-    rule_sets.push_back(rule_set_json(alternative.at("name").get<std::string>(), alternative_rules,
-                                      method::classify_regions(map, alternative_rules, angles)));
+    result.rule_sets.push_back(
+        method::rule_set_of(alternative.at("name").get<std::string>(), alternative_rules,
+                            method::classify_regions(map, alternative_rules, angles)));
   }
-  result["rule_sets"] = std::move(rule_sets);
-  engine::TaskOutcome outcome = engine::TaskOutcome::with_result(std::move(result));
+  engine::TaskOutcome outcome = engine::TaskOutcome::with_result(result);
   outcome.artifacts = {{"regions.vti", vti}};
   context.log(fmt::format("{} sites over a charge of {:.4g} m^3 ({:.4g} m^3 solid)",
                           selection.sites.size(), selection.charge_volume_m3,

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "method/sites.hpp"
+#include "method/sites_result.hpp"
 #include "method/upscale.hpp"
 #include "method/upscale_result.hpp"
 #include "tasks/kinds.hpp"
@@ -111,10 +112,10 @@ method::UpscaleFigures figures_of(const method::PowerSums& r, const method::Sum&
 }
 
 // The macro run's dissipation per region, from a sites result's regions (or a rule set's).
-std::map<std::string, double> macro_dissipation(const json& regions) {
+template <typename Region>
+std::map<std::string, double> macro_dissipation(const std::vector<Region>& regions) {
   std::map<std::string, double> by_region;
-  for (const json& r : regions)
-    by_region[r.at("name").get<std::string>()] = r.at("dissipation_w").get<double>();
+  for (const Region& r : regions) by_region[r.name] = r.dissipation_w;
   return by_region;
 }
 
@@ -176,14 +177,15 @@ double powder_mass_ratio(const method::CellResult& cell, const json& params) {
 
 // Each rule set's powder power per region with the macro-anchored method (tasks/upscale.hpp).
 std::vector<method::UpscaleSensitivity> sensitivity(
-    const json& rule_sets, const std::map<std::string, method::PowerSums>& cells) {
+    const std::vector<method::RuleSet>& rule_sets,
+    const std::map<std::string, method::PowerSums>& cells) {
   std::vector<method::UpscaleSensitivity> result;
-  for (const json& set : rule_sets) {
+  for (const method::RuleSet& set : rule_sets) {
     std::map<std::string, double> powder;
     double total = 0.0;
-    method::UpscaleSensitivity& row = result.emplace_back(
-        method::UpscaleSensitivity{.rule_set = set.at("name").get<std::string>()});
-    for (const auto& [name, dissipation] : macro_dissipation(set.at("regions"))) {
+    method::UpscaleSensitivity& row =
+        result.emplace_back(method::UpscaleSensitivity{.rule_set = set.name});
+    for (const auto& [name, dissipation] : macro_dissipation(set.regions)) {
       const auto found = cells.find(name);
       if (found == cells.end() || found->second.input.value <= 0.0) continue;
       powder[name] = dissipation * found->second.powder.value / found->second.input.value;
@@ -259,10 +261,10 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   const json& params = context.params;
   const double load = params.at("powder_load").get<double>();
   const method::MacroResult macro = macro_result_of(only_input(context, "macro"));
-  const json& sites_result = only_input(context, "sites").result;
-  const method::WeightBasis basis = sites_result.at("weight_by").get<std::string>() == "volume"
-                                        ? method::WeightBasis::volume
-                                        : method::WeightBasis::solid_volume;
+  const engine::TaskInput& sites_input = only_input(context, "sites");
+  const method::SitesResult sites_result =
+      method::read_sites_result(sites_input.result, fmt::format("sites task {}", sites_input.key));
+  const method::WeightBasis basis = sites_result.weight_by;
   UsableCells cells =
       usable_cells(context, load, params.at("upscale").at("include_unsteady").get<bool>());
 
@@ -270,8 +272,7 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   std::map<std::string, method::SpectrumSum> region_spectra;
   double powder_mass = 0.0, solid_volume = 0.0;
   std::vector<method::UpscaleSite> site_rows;
-  for (const json& entry : sites_result.at("sites")) {
-    const auto typed = entry.get<method::Site>();
+  for (const method::Site& typed : sites_result.sites) {
     const method::CellResult* cell = cell_of(cells.loaded, typed.site_id);
     const method::CellResult* reference = cell_of(cells.baseline, typed.site_id);
     site_rows.push_back(site_row(typed, cell, reference));
@@ -289,7 +290,7 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
     solid_volume += typed.solid_volume_m3;
   }
 
-  const auto macro_by_region = macro_dissipation(sites_result.at("regions"));
+  const auto macro_by_region = macro_dissipation(sites_result.regions);
   std::map<std::string, method::PowerSums> anchored;
   method::SpectrumSum spectra, anchored_spectra;
   double covered = 0.0;
@@ -315,7 +316,7 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
       .speed_fraction = macro.speed_fraction,
       .powder_load = load,
       .average_task = only_input(context, "average").key,
-      .sites_task = only_input(context, "sites").key,
+      .sites_task = sites_input.key,
       .mill = mill_of(macro),
       .powder_to_media_mass_ratio = mass_ratio,
       .power_draw_with_powder_w =
@@ -329,7 +330,7 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
                          .uncovered_macro_dissipation_w = regions_dissipation - covered,
                          .spectra = spectra_of(anchored_spectra),
                          .media_spectrum_shift = anchored_spectra.media_shift()},
-      .sensitivity = sensitivity(sites_result.at("rule_sets"), by_region),
+      .sensitivity = sensitivity(sites_result.rule_sets, by_region),
       .spectra = spectra_of(spectra),
       .media_spectrum_shift = spectra.media_shift(),
       .left_out_cells = std::move(cells.flagged),

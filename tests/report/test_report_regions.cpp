@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "method/fields_file.hpp"
+#include "method/sites_result.hpp"
 #include "report/report_regions.hpp"
 #include "tasks/report.hpp"
 #include "tests/common/scratch_dir.hpp"
@@ -50,24 +51,36 @@ json fields_document() {
 
 // What a sites task of these fields reports, as far as the report reads it.
 json sites_result() {
-  json regions = json::array(), narrow = json::array();
+  method::SitesResult result{.toe_angle_deg = 210.0,
+                             .shoulder_angle_deg = -30.0,
+                             .fill = 0.3,
+                             .speed_fraction = 0.75,
+                             .average_task = "average-key",
+                             .region_index = method::region_names()};
+  method::RuleSet defaults{.name = "default"}, narrow{.name = "narrow"};
   for (const std::string& name : method::region_names()) {
-    regions.push_back({{"name", name},
-                       {"volume_m3", 0.01},
-                       {"solid_volume_m3", 0.006},
-                       {"dissipation_share", name == "toe" ? 0.3 : 0.1}});
-    narrow.push_back({{"name", name}, {"dissipation_share", name == "toe" ? 0.2 : 0.16}});
+    result.regions.push_back({.name = name,
+                              .volume_m3 = 0.01,
+                              .solid_volume_m3 = 0.006,
+                              .dissipation_share = name == "toe" ? 0.3 : 0.1});
+    defaults.regions.push_back({.name = name,
+                                .volume_m3 = 0.01,
+                                .solid_volume_m3 = 0.006,
+                                .dissipation_share = name == "toe" ? 0.3 : 0.1});
+    narrow.regions.push_back({.name = name, .dissipation_share = name == "toe" ? 0.2 : 0.16});
   }
-  return {
-      {"fill", 0.3},
-      {"speed_fraction", 0.75},
-      {"average_task", "average-key"},
-      {"rules", json(method::RegionRules{})},
-      {"toe_angle_deg", 210.0},
-      {"shoulder_angle_deg", -30.0},
-      {"regions", regions},
-      {"rule_sets",
-       {{{"name", "default"}, {"regions", regions}}, {{"name", "narrow"}, {"regions", narrow}}}}};
+  result.rule_sets = {defaults, narrow};
+  return result;
+}
+
+// The report's inputs from the sites result above and `upscales` (task key, result).
+report::ReportInputs region_inputs(const std::vector<std::pair<std::string, json>>& upscales = {}) {
+  report::ReportInputs inputs{
+      .sites = {report::read_sites("sites-key", sites_result())},
+      .flow_maps = {{"average-key", method::flow_map_from_document(fields_document())}}};
+  for (const auto& [key, result] : upscales)
+    inputs.points.push_back(report::read_upscale(key, result));
+  return inputs;
 }
 
 std::size_t count_of(const std::string& text, const std::string& what) {
@@ -77,11 +90,9 @@ std::size_t count_of(const std::string& text, const std::string& what) {
 }
 
 TEST(ReportRegions, MapsTheRegionsWithTheChargeOutlineToeAndShoulder) {
-  const std::map<std::string, method::FlowMap> maps = {
-      {"average-key", method::flow_map_from_document(fields_document())}};
-  const std::vector<engine::TaskInput> inputs = {
-      {.key = "sites-key", .kind = "sites", .result = sites_result(), .artifacts = {}}};
-  const report::RegionSection section = report::region_section(report_sources(inputs), maps);
+  const report::ReportInputs inputs = region_inputs();
+  const std::map<std::string, method::FlowMap>& maps = inputs.flow_maps;
+  const report::RegionSection section = report::region_section(inputs);
   ASSERT_EQ(section.files.size(), 1u);
   EXPECT_EQ(section.files[0].first, "regions_0.3_0.75.svg");
   const std::string& svg = section.files[0].second;
@@ -105,7 +116,7 @@ TEST(ReportRegions, MapsTheRegionsWithTheChargeOutlineToeAndShoulder) {
 }
 
 TEST(ReportRegions, NoSitesInputsMeansNoSection) {
-  const report::RegionSection section = report::region_section({}, {});
+  const report::RegionSection section = report::region_section({});
   EXPECT_TRUE(section.files.empty());
   EXPECT_TRUE(section.markdown.empty());
 }
@@ -115,12 +126,8 @@ TEST(ReportRegions, ListsTheCellsLeftOut) {
   for (auto& input : point) {
     if (input.key == "bulk-0@" + std::to_string(1.0)) input.result["steady"] = false;
   }
-  const std::map<std::string, method::FlowMap> maps = {
-      {"average-key", method::flow_map_from_document(fields_document())}};
-  const std::vector<engine::TaskInput> inputs = {
-      {"sites-key", "sites", sites_result(), {}},
-      {"upscale-1", "upscale", testing::upscale(point, 1.0), {}}};
-  const std::string markdown = report::region_section(report_sources(inputs), maps).markdown;
+  const std::string markdown =
+      report::region_section(region_inputs({{"upscale-1", testing::upscale(point, 1.0)}})).markdown;
   EXPECT_NE(markdown.find("| 0.3 | 0.75 | 1 | bulk-0 | 1 | not steady | no |"), std::string::npos)
       << markdown;
 }

@@ -6,20 +6,22 @@
 // the quantities the upscaling does not read left at zero).
 #include <nlohmann/json.hpp>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "engine/task.hpp"
 #include "method/cell_result.hpp"
 #include "method/macro_result.hpp"
 #include "method/sites.hpp"
+#include "method/sites_result.hpp"
 #include "tasks/upscale.hpp"
 
 namespace millflow::tasks::testing {
 
 using nlohmann::json;
 
-inline json site(const std::string& id, const std::string& region, double weight,
-                 double macro_shear_stress) {
+inline method::Site site(const std::string& id, const std::string& region, double weight,
+                         double macro_shear_stress) {
   return method::Site{.site_id = id,
                       .region = region,
                       .x = 0.1,
@@ -88,24 +90,22 @@ inline std::vector<engine::TaskInput> point_inputs(double fill = 0.3, double spe
   inputs.push_back({.key = "macro-key", .kind = "macro", .result = macro, .artifacts = {}});
   inputs.push_back(
       {.key = "average-key", .kind = "average", .result = json::object(), .artifacts = {}});
-  const json regions = {{{"name", "toe"}, {"dissipation_w", 2.0}},
-                        {{"name", "bulk"}, {"dissipation_w", 3.0}},
-                        {{"name", "cascading"}, {"dissipation_w", 1.0}}};
-  const json wide_toe = {{{"name", "toe"}, {"dissipation_w", 4.0}},
-                         {{"name", "bulk"}, {"dissipation_w", 1.0}},
-                         {{"name", "cascading"}, {"dissipation_w", 1.0}}};
-  inputs.push_back(
-      {.key = "sites-key",
-       .kind = "sites",
-       .result = {{"weight_by", "volume"},
-                  {"regions", regions},
-                  {"rule_sets",
-                   {{{"name", "default"}, {"regions", regions}},
-                    {{"name", "wide"}, {"regions", wide_toe}}}},
-                  {"sites",
-                   {site("toe-0", "toe", 0.002, 800.0), site("bulk-0", "bulk", 0.003, 500.0),
-                    site("bulk-1", "bulk", 0.001, 400.0)}}},
-       .artifacts = {}});
+  method::SitesResult sites{
+      .weight_by = method::WeightBasis::volume,
+      .sites = {site("toe-0", "toe", 0.002, 800.0), site("bulk-0", "bulk", 0.003, 500.0),
+                site("bulk-1", "bulk", 0.001, 400.0)},
+      .fill = fill,
+      .speed_fraction = speed,
+      .average_task = "average-key"};
+  method::RuleSet defaults{.name = "default"}, wide_toe{.name = "wide"};
+  for (const auto& [name, dissipation, wide] :
+       {std::tuple{"toe", 2.0, 4.0}, {"bulk", 3.0, 1.0}, {"cascading", 1.0, 1.0}}) {
+    sites.regions.push_back({.name = name, .dissipation_w = dissipation});
+    defaults.regions.push_back({.name = name, .dissipation_w = dissipation});
+    wide_toe.regions.push_back({.name = name, .dissipation_w = wide});
+  }
+  sites.rule_sets = {defaults, wide_toe};
+  inputs.push_back({.key = "sites-key", .kind = "sites", .result = sites, .artifacts = {}});
   inputs.push_back(
       cell("toe-0", 1.0, {1000.0, 400.0, 250.0, 50.0, 950.0, {10, 0}, {5, 5}, 1e6, 1e4}));
   inputs.push_back(
