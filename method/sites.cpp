@@ -232,14 +232,12 @@ const std::vector<std::string>& region_names() {
 namespace {
 constexpr const char* kShearRateKey = "shear_rate_per_s";
 constexpr const char* kNormalStressKey = "normal_stress_pa";
+constexpr const char* kSiteIdKey = "site_id";
+constexpr const char* kRegionKey = "region";
 }  // namespace
 
-nlohmann::json cell_drive_json(nlohmann::json shear_rate, nlohmann::json normal_stress) {
-  return {{kShearRateKey, std::move(shear_rate)}, {kNormalStressKey, std::move(normal_stress)}};
-}
-
 void to_json(nlohmann::json& out, const CellDrive& drive) {
-  out = cell_drive_json(drive.shear_rate, drive.normal_stress);
+  out = {{kShearRateKey, drive.shear_rate}, {kNormalStressKey, drive.normal_stress}};
 }
 
 void from_json(const nlohmann::json& in, CellDrive& drive) {
@@ -257,8 +255,8 @@ std::string unusable_reason(const CellDrive& drive) {
 }
 
 void to_json(nlohmann::json& out, const Site& s) {
-  out = {{"site_id", s.site_id},
-         {"region", s.region},
+  out = {{kSiteIdKey, s.site_id},
+         {kRegionKey, s.region},
          {"position_m", {s.x, s.y}},
          {"weight_m3", s.weight_m3},
          {"solid_volume_m3", s.solid_volume_m3},
@@ -273,9 +271,20 @@ void to_json(nlohmann::json& out, const Site& s) {
       nlohmann::json(CellDrive{.shear_rate = s.shear_rate, .normal_stress = s.normal_stress}));
 }
 
+std::string site_id_of(const nlohmann::json& site) {
+  return site.at(kSiteIdKey).get<std::string>();
+}
+
+nlohmann::json drive_site_json(const std::string& site_id, const std::string& region,
+                               const CellDrive& drive) {
+  nlohmann::json site = drive;
+  site.update({{kSiteIdKey, site_id}, {kRegionKey, region}});
+  return site;
+}
+
 void from_json(const nlohmann::json& in, Site& s) {
-  s.site_id = in.at("site_id").get<std::string>();
-  s.region = in.at("region").get<std::string>();
+  s.site_id = site_id_of(in);
+  s.region = in.at(kRegionKey).get<std::string>();
   s.x = in.at("position_m").at(0).get<double>();
   s.y = in.at("position_m").at(1).get<double>();
   s.weight_m3 = in.at("weight_m3").get<double>();

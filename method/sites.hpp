@@ -86,7 +86,7 @@ struct FlowMap {
 
 // What drives a shear cell (dem::ShearCellSetup): the shear rate (1/s) and the normal stress (Pa)
 // at a site. A site's JSON holds them, and so does every shear cell's result (its `site`);
-// to_json, from_json and cell_drive_json are the one spelling of their keys, shear_rate_per_s and
+// to_json and from_json are the one spelling of their keys, shear_rate_per_s and
 // normal_stress_pa.
 struct CellDrive {
   double shear_rate = 0.0, normal_stress = 0.0;
@@ -94,10 +94,6 @@ struct CellDrive {
 
 void to_json(nlohmann::json& out, const CellDrive& drive);
 void from_json(const nlohmann::json& in, CellDrive& drive);
-
-// The drive's JSON from numbers as given: a `millflow cell` spec's 20000 stays an integer in the
-// cell's result (tasks/cell_spec.cpp), where to_json would write 20000.0.
-nlohmann::json cell_drive_json(nlohmann::json shear_rate, nlohmann::json normal_stress);
 
 // Why a drive cannot drive a shear cell ("shear_rate_per_s = 0 is not positive": the first of
 // its values that is not finite and positive, by its key), empty when it can.
@@ -121,6 +117,13 @@ struct Site {
 // granular_temperature_m2_s2, collision_frequency_per_m3_s, dissipation_w_m3.
 void to_json(nlohmann::json& out, const Site& site);
 void from_json(const nlohmann::json& in, Site& site);
+
+// A site's site_id from its JSON (as a sites result or a cell's result holds it).
+std::string site_id_of(const nlohmann::json& site);
+
+// A site of a `millflow cell` spec: its site_id, region and drive only.
+nlohmann::json drive_site_json(const std::string& site_id, const std::string& region,
+                               const CellDrive& drive);
 
 struct RegionSummary {
   std::string name;

@@ -132,6 +132,17 @@ void to_json(json& out, const SitesResult& r) {
          {"rule_sets", std::move(rule_sets)}};
 }
 
+std::optional<json> find_site_json(const json& sites_result, const std::string& site_id) {
+  for (const json& site : sites_result.at("sites")) {
+    if (site_id_of(site) == site_id) return site;
+  }
+  return std::nullopt;
+}
+
+json sites_json_of(const std::vector<json>& sites) {
+  return {{"sites", sites}};
+}
+
 SitesResult read_sites_result(const json& document, const std::string& owner,
                               const std::string& fix) {
   const util::JsonFields in(owner, document, fix);

@@ -71,6 +71,14 @@ SitesResult sites_result_of(const SiteSelection& selection, const RegionRules& r
 
 void to_json(nlohmann::json& out, const SitesResult& result);
 
+// The JSON of site `site_id` in a sites result's JSON, as stored (a shear cell keeps it in its
+// result as it is), none when there is none. Reads only the sites' site_id, so that the one-site
+// result of a `millflow cell` spec (sites_json_of) is read the same way.
+std::optional<nlohmann::json> find_site_json(const nlohmann::json& sites_result,
+                                             const std::string& site_id);
+// A sites result's JSON holding these sites only.
+nlohmann::json sites_json_of(const std::vector<nlohmann::json>& sites);
+
 // Reads and checks a result: a missing or ill-typed field throws std::invalid_argument
 // "<owner>: field <JSON pointer> <problem>; <fix>" (util/json_fields.hpp), e.g. owner "sites
 // task <key>".

@@ -6,6 +6,7 @@
 #include "engine/json_text.hpp"
 #include "engine/validation.hpp"
 #include "method/sites.hpp"
+#include "method/sites_result.hpp"
 #include "tasks/campaign.hpp"
 #include "tasks/campaign_checks.hpp"
 #include "tasks/shear_cell.hpp"
@@ -47,12 +48,12 @@ engine::FieldTable make_cell_spec_table() {
 // A sites task's result holding the spec's one site, the slot that names it.
 const json kSlot = {{"region", "cell"}, {"index", 0}};
 
-// The drive's numbers as the spec gives them (cell_drive_json, not a typed method::CellDrive,
-// so that an integer stays an integer in `millflow cell`'s output).
+// The spec's numbers are doubles already (the validator writes 20000 as 20000.0), so the typed
+// drive keeps `millflow cell`'s output as it was.
 json spec_site(const json& spec) {
-  json site = method::cell_drive_json(spec.at("shear_rate"), spec.at("normal_stress"));
-  site.update({{"site_id", slot_site_id(kSlot)}, {"region", "cell"}});
-  return site;
+  return method::drive_site_json(slot_site_id(kSlot), "cell",
+                                 {.shear_rate = spec.at("shear_rate").get<double>(),
+                                  .normal_stress = spec.at("normal_stress").get<double>()});
 }
 
 }  // namespace
@@ -85,7 +86,10 @@ json run_cell_spec(const json& spec, const std::filesystem::path& out_dir,
   json params = spec;
   params["slot"] = kSlot;
   const std::vector<engine::TaskInput> inputs = {
-      {.key = "spec", .kind = "sites", .result = {{"sites", {spec_site(spec)}}}, .artifacts = {}}};
+      {.key = "spec",
+       .kind = "sites",
+       .result = method::sites_json_of({spec_site(spec)}),
+       .artifacts = {}}};
   std::stop_source never;
   engine::TaskContext context{.key = "cell",
                               .params = params,

@@ -1,6 +1,7 @@
 #include <fmt/format.h>
 
 #include "method/sites.hpp"
+#include "method/sites_result.hpp"
 #include "tasks/kinds.hpp"
 #include "tasks/shear_cell.hpp"
 
@@ -17,10 +18,8 @@ std::string slot_site_id(const json& slot) {
 
 SlotSite find_slot_site(const json& sites_result, const json& slot) {
   const std::string id = slot_site_id(slot);
-  for (const json& site : sites_result.at("sites")) {
-    if (site.at("site_id") != id) continue;
-    return {site, method::unusable_reason(site.get<method::CellDrive>())};
-  }
+  if (const std::optional<json> site = method::find_site_json(sites_result, id))
+    return {*site, method::unusable_reason(site->get<method::CellDrive>())};
   return {json(), fmt::format("the sites task chose no site {} (region {} has fewer cells or none)",
                               id, slot.at("region").get<std::string>())};
 }

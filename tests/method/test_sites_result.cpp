@@ -113,8 +113,9 @@ TEST(SitesResult, RefusesAFieldByItsPointer) {
 TEST(CellDrive, OneSpellingOfTheKeys) {
   const json drive = CellDrive{.shear_rate = 20.0, .normal_stress = 2000.0};
   EXPECT_EQ(drive.dump(), R"({"normal_stress_pa":2000.0,"shear_rate_per_s":20.0})");
-  EXPECT_EQ(cell_drive_json(20, 2000).dump(), R"({"normal_stress_pa":2000,"shear_rate_per_s":20})")
-      << "numbers as given";
+  EXPECT_EQ(
+      drive_site_json("cell-0", "cell", {.shear_rate = 20.0, .normal_stress = 2000.0}).dump(),
+      R"({"normal_stress_pa":2000.0,"region":"cell","shear_rate_per_s":20.0,"site_id":"cell-0"})");
   const json site =
       Site{.site_id = "toe-0", .region = "toe", .shear_rate = 5.0, .normal_stress = 300.0};
   EXPECT_EQ(site.at("shear_rate_per_s"), 5.0);
