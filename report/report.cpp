@@ -122,6 +122,15 @@ struct ValueAndError {
   double value, error;
 };
 
+// A region's figure and its standard error, two fields of its figures.
+std::function<ValueAndError(const method::UpscaleRegion&)> figure_and_error(
+    std::optional<double> method::UpscaleFigures::*value,
+    std::optional<double> method::UpscaleFigures::*error) {
+  return [value, error](const method::UpscaleRegion& r) {
+    return ValueAndError{(r.figures.*value).value_or(kNaN), (r.figures.*error).value_or(kNaN)};
+  };
+}
+
 // One panel per slice: a quantity of each region vs powder load, with error bars (NaN where a
 // point lacks it).
 svg::Figure region_panels(const std::vector<UpscalePoint>& points, const std::vector<Slice>& slices,
@@ -541,18 +550,14 @@ ReportFiles write_report(const std::filesystem::path& dir, const std::string& ca
   out.write("powder_power_shares.svg",
             region_panels(points, slices, "Share of the powder power by region",
                           "share of the powder power (-)",
-                          [](const method::UpscaleRegion& r) {
-                            return ValueAndError{r.figures.powder_power_share.value_or(kNaN),
-                                                 r.figures.powder_power_share_se.value_or(kNaN)};
-                          })
+                          figure_and_error(&method::UpscaleFigures::powder_power_share,
+                                           &method::UpscaleFigures::powder_power_share_se))
                 .svg);
   out.write("cushioning.svg",
             region_panels(points, slices, "Cushioning of media collisions by the powder",
                           "media collision power with / without powder (-)",
-                          [](const method::UpscaleRegion& r) {
-                            return ValueAndError{r.figures.cushioning.value_or(kNaN),
-                                                 r.figures.cushioning_se.value_or(kNaN)};
-                          })
+                          figure_and_error(&method::UpscaleFigures::cushioning,
+                                           &method::UpscaleFigures::cushioning_se))
                 .svg);
   out.write("powder_spectra.svg", spectra_figure(points, slices).svg);
   const bool with_macro_runs = !inputs.macro_runs.empty();
