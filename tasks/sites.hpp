@@ -19,12 +19,12 @@ method::RegionRules region_rules_from_json(
 // Parameters: {"sites": {"per_region": n, "regions": [...], "weight_by", "rules": {...},
 // "alternatives": [{"name", "rules": {...}}]}}. Inputs, by kind: the average task (its
 // fields.json) and the macro task (its charge's toe and shoulder angles). Artifact: regions.vti
-// (region index per cell, with the fields it used). Result: the macro run's fill and
-// speed_fraction, the average_task's key, the rules, the regions with
-// volumes, solid volumes and dissipation shares, the empty regions, the toe (angle, disc, impact
-// zone) and shoulder angle, the sites, and rule_sets: per rule set (the default first, then each
-// alternative) its name, rules and regions {name, volume_m3, solid_volume_m3, dissipation_w,
-// dissipation_share}.
+// (region index per cell, with the fields it used). Result: method::SitesResult
+// (method/sites_result.hpp, the one spelling of its keys): the macro run's fill and
+// speed_fraction, the average_task's key, the rules, the regions with volumes, solid volumes and
+// dissipation shares, the empty regions, the toe (angle, disc, impact zone) and shoulder angle,
+// the sites, and rule_sets: per rule set (the default first, then each alternative) its name,
+// rules and regions.
 engine::TaskOutcome run_sites(engine::TaskContext& context);
 
 // The SQL view `sites`: one row per (campaign, sites task, site) with the macro run's fill and
