@@ -99,6 +99,8 @@ struct Options {
   double lammps_inertial_number = 0.1;
   double lammps_strain = 10.0;
   int lammps_sample_every = 50;
+  double wall_speed = 0.0;        // table 4 open loop: > 0 holds the walls at this speed, m/s
+  double open_loop_strain = 8.0;  // table 4 open loop: strain after compaction
 };
 
 struct Cell {
@@ -447,6 +449,90 @@ void walls_table(const Options& o) {
              le.m.stress_tensor[1], walls.m.stress_tensor[1], walls.m.normal_stress);
 }
 
+// Table 4 open loop (--wall_speed): the rough-wall cell compacted, then sheared with the walls held
+// at one relative speed U (the servo still holds the normal stress; no wall-speed controller),
+// every 0.5 strain (target rate x time) a line: the bulk rate (least squares over the middle half
+// of the gap, mass-weighted, as the cell's), the wall friction tau / p from the wall loads, the
+// slip of each wall against the bulk profile extended to it, and the solid fraction; at the end
+// the velocity and solid-fraction profile across the gap in 10 slabs over the last half.
+void walls_open_loop(const Options& o) {
+  const Cell c{.shear_rate = o.shear_rate, .walls = true};
+  const json campaign = campaign_for(o, c);
+  const dem::ShearCellSetup setup = setup_for(o, c, campaign);
+  fmt::print("\nTable 4 open loop: rough walls at U = {:g} m/s ({:g} 1/s target, {:g} Pa)\n",
+             o.wall_speed, o.shear_rate, o.normal_stress);
+  const double cpu_start = process_cpu_seconds();
+  dem::ShearCell cell(setup);
+  cell.compact();
+  dem::System& s = cell.system();
+  const dem::GroupId bottom = 1, top = 2;
+  s.group(bottom).velocity.x() = -0.5 * o.wall_speed;
+  s.group(top).velocity.x() = 0.5 * o.wall_speed;
+  const double d = setup.media_diameter, area = cell.wall_area();
+  const auto plane = [&](dem::GroupId g) {
+    double y = 0.0, n = 0.0;
+    for (std::size_t p = 0; p < s.size(); ++p)
+      if (s.particle_groups()[p] == g) y += s.positions()[p].y(), n += 1.0;
+    return y / n;
+  };
+  constexpr int kSlabs = 10;
+  std::array<double, kSlabs> slab_mv{}, slab_m{}, slab_volume{};
+  double slab_samples = 0.0;
+  const int windows = static_cast<int>(std::lround(o.open_loop_strain / 0.5));
+  fmt::print(
+      "  strain  bulk rate  bulk/nominal  tau/p(walls)  p_wall/target  slip bottom, top  solid\n");
+  for (int w = 0; w < windows; ++w) {
+    double sw = 0, swy = 0, swyy = 0, swv = 0, swyv = 0, tau = 0, load = 0, solid = 0, yb = 0,
+           yt = 0;
+    constexpr int kSamples = 20;
+    for (int k = 0; k < kSamples; ++k) {
+      // The wall loads every step (read once per sample they would be read in step with the
+      // servo's interval, and read high).
+      const double step_strain = setup.shear_rate * s.time_step();
+      const auto steps = static_cast<int>(std::ceil(0.5 / kSamples / step_strain));
+      for (int n = 0; n < steps; ++n) {
+        cell.run_strain(0.5 * step_strain);  // one step
+        const auto& fb = s.group_load(bottom).force;
+        const auto& ft = s.group_load(top).force;
+        tau += 0.5 * (fb.x() - ft.x()) / area / (kSamples * steps);
+        load -= 0.5 * (fb.y() - ft.y()) / area / (kSamples * steps);
+      }
+      const double y0 = plane(bottom), y1 = plane(top), h = y1 - y0;
+      yb += y0 / kSamples, yt += y1 / kSamples;
+      double volume = 0.0;
+      for (std::size_t p = 0; p < s.size(); ++p) {
+        if (s.particle_groups()[p] != dem::kFreeParticle) continue;
+        const double y = s.positions()[p].y() - y0, m = s.masses()[p], v = s.velocities()[p].x();
+        const double r = s.radii()[p];
+        if (2 * w >= windows) {
+          const int b = std::clamp(static_cast<int>(y / h * kSlabs), 0, kSlabs - 1);
+          slab_mv[b] += m * v, slab_m[b] += m;
+          slab_volume[b] += 4.0 / 3.0 * std::numbers::pi * r * r * r / (area * h / kSlabs);
+        }
+        if (y < 0.25 * h || y >= 0.75 * h) continue;
+        sw += m, swy += m * y, swyy += m * y * y, swv += m * v, swyv += m * y * v;
+        volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+      }
+      if (2 * w >= windows) slab_samples += 1.0;
+      solid += volume / (area * 0.5 * h) / kSamples;
+    }
+    const double rate = (sw * swyv - swy * swv) / (sw * swyy - swy * swy);
+    const double h = yt - yb, mid_v = (swv - rate * (swy - 0.5 * h * sw)) / sw;
+    const double slip_bottom = (mid_v - 0.5 * rate * h) - (-0.5 * o.wall_speed);
+    const double slip_top = 0.5 * o.wall_speed - (mid_v + 0.5 * rate * h);
+    fmt::print(
+        "  {:5.1f}  {:8.3f}   {:8.3f}      {:8.4f}      {:8.3f}       {:6.3f}, {:6.3f}    {:.4f}\n",
+        0.5 * (w + 1), rate, rate * h / o.wall_speed, tau / load, load / setup.normal_stress,
+        slip_bottom, slip_top, solid);
+    std::fflush(stdout);
+  }
+  fmt::print("  profile over the last half (slab centre / gap, v_x / (U/2), solid fraction):\n");
+  for (int b = 0; b < kSlabs; ++b)
+    fmt::print("    {:.2f}  {:+.3f}  {:.3f}\n", (b + 0.5) / kSlabs,
+               slab_mv[b] / slab_m[b] / (0.5 * o.wall_speed), slab_volume[b] / slab_samples);
+  fmt::print("  {:.1f} CPU s, d {:g} m\n", process_cpu_seconds() - cpu_start, d);
+}
+
 void overlap_table(const Options& o) {
   fmt::print(
       "\nTable 5: overlaps, powder {:g} d at load {:g}, cell {} x {} x {} d, policy default ({:g} "
@@ -588,6 +674,10 @@ int main(int argc, char** argv) {
   app.add_option("--lammps_inertial_number", o.lammps_inertial_number, "table 6's I");
   app.add_option("--lammps_strain", o.lammps_strain, "table 6's fixed-volume strain");
   app.add_option("--lammps_sample_every", o.lammps_sample_every, "table 6's sample interval");
+  app.add_option("--wall_speed", o.wall_speed,
+                 "table 4 open loop: hold the rough walls at this relative speed, m/s (no "
+                 "wall-speed controller, no Lees-Edwards cell)");
+  app.add_option("--open_loop_strain", o.open_loop_strain, "table 4 open loop: strain");
   bool debug_log = false;
   app.add_flag("--debug_log", debug_log,
                "the cells' debug log on stderr (compaction, warm-up windows, wall speed)");
@@ -602,7 +692,7 @@ int main(int argc, char** argv) {
   if (tables.contains(1)) stiffness_table(o);
   if (tables.contains(2)) inertial_number_table(o);
   if (tables.contains(3)) dilute_table(o);
-  if (tables.contains(4)) walls_table(o);
+  if (tables.contains(4)) o.wall_speed > 0.0 ? walls_open_loop(o) : walls_table(o);
   if (tables.contains(5)) overlap_table(o);
   if (tables.contains(6)) lammps_table(o);
   return 0;

@@ -221,8 +221,10 @@ double ShearCell::wall_area() const {
 
 double ShearCell::gap() const {
   if (!walls()) return system_.domain().length().y();
-  // Wall balls come first: the bottom layer, then the top one (both at their layer's height).
-  return system_.positions()[wall_ball_count_ - 1].y() - system_.positions()[0].y();
+  // Between the layers' mean centre planes (the balls' heights are jittered by up to
+  // kWallBallJitter d, so two single balls could be a diameter off).
+  const std::size_t layer = wall_ball_count_ / 2;
+  return wall_layer_plane(system_, layer, layer) - wall_layer_plane(system_, 0, layer);
 }
 
 ContactType ShearCell::contact_type(std::uint32_t category) const {

@@ -17,7 +17,8 @@ namespace millflow::dem {
 using namespace shear_cell_detail;
 
 void ShearCell::sample_profile(Profile& profile) const {
-  const double y0 = walls() ? system_.positions()[0].y() : system_.domain().lo.y();
+  const double y0 =
+      walls() ? wall_layer_plane(system_, 0, wall_ball_count_ / 2) : system_.domain().lo.y();
   const double lo = y0 + 0.25 * gap(), hi = y0 + 0.75 * gap();
   const auto x = system_.positions();
   const auto v = system_.velocities();

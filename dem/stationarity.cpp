@@ -54,9 +54,11 @@ StationarityVerdict test_stationarity(std::span<const WindowMeans> windows,
   });
   verdict.normal_stress = contact && on_target(series(&WindowMeans::normal_stress),
                                                target_normal_stress, c.tolerance, c.z);
+  const SeriesFit rate = series(&WindowMeans::bulk_shear_rate);
   verdict.bulk_shear_rate =
       target_shear_rate <= 0.0 ||
-      on_target(series(&WindowMeans::bulk_shear_rate), target_shear_rate, c.tolerance, c.z);
+      (on_target(rate, target_shear_rate, c.tolerance, c.z) &&
+       std::abs(rate.drift) <= c.z * rate.drift_error + c.rate_floor * std::abs(rate.mean));
   return verdict;
 }
 

@@ -14,10 +14,12 @@
 //    allows, |drift| > z s_drift + kDriftAllowance |mean| (the least-squares test of
 //    dem/stationarity.hpp), the oldest is dropped (it belongs to the transient) and nothing is
 //    done;
-//  - once at least kSteadyWindows windows show no drift, f = their mean (standard error se_f)
-//    gives the steady bulk rate g = f U / H at this speed. Within kSettleTolerance of the target
-//    the controller has settled; within the estimate's own standard error se_f / f it waits for
-//    more windows; further off the speed steps (clamped to a factor kMaxStep) and the windows
+//  - once at least kSteadyWindows windows (4: two strains at the usual 0.5 per window, and two
+//    degrees of freedom for the drift's scatter; with 3 windows and one the drift test let a
+//    bed through that still sped up by 5% a strain) show no drift, f = their mean (standard error
+//    se_f) gives the steady bulk rate g = f U / H at this speed. Within kSettleTolerance of the
+//    target the controller has settled; within the estimate's own standard error se_f / f it waits
+//    for more windows; further off the speed steps (clamped to a factor kMaxStep) and the windows
 //    start anew.
 // The step learns how the rate answers the speed, since the bulk rate is NOT in proportion to
 // it (measured in the 8 x 10 x 8 cell: the walls went from 16.5 to 8.75 m/s and the steady bulk
@@ -35,7 +37,7 @@ namespace millflow::dem {
 
 class WallSpeedController {
  public:
-  static constexpr int kSteadyWindows = 3;
+  static constexpr int kSteadyWindows = 4;
   static constexpr double kDriftAllowance = 0.05;
   static constexpr double kZ = 2.5;
   static constexpr double kMaxStep = 2.0;
