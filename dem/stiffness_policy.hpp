@@ -33,12 +33,6 @@
 // 2.4-3.3% at c = 2 over seeds and e = 0.3-0.5, mu = 0.5-0.75; 2.2% at c = 2.5). The stiffness the
 // campaign gave is a floor: the policy never softens a pair. The dimensionless stiffness reported
 // beside each pair is kappa = k_n / (sigma_n d_s).
-//
-// The default bounds (OverlapBound in dem/shear_cell.hpp: f = 0.25%, q = 1.5%) are set by the
-// rheology, not by the overlaps: at f = 1%, q = 3% (the figures above were measured there) the
-// powder's friction, dissipation share and cushioning still moved by 3-10% between that stiffness
-// and 4x it, and within their standard errors between 4x and 16x (docs/cell_validation.md,
-// table 1 at 6 x 8 x 6), so both bounds were made 4x stiffer.
 #include <string>
 #include <vector>
 
