@@ -386,19 +386,14 @@ std::vector<engine::FieldRule> micro_fields() {
             "normal stress and shear rate is within the bound; \"campaign\" keeps /interactions")
           .defaults("overlap_bound")
           .choices({"overlap_bound", "campaign"}),
-      Field(
-          "/shear_cell/stiffness/mean_overlap_fraction", FieldType::number,
-          "bound on the mean overlap, as a fraction of the smaller diameter of a contact (0.0025: "
-          "the powder's friction, dissipation share and cushioning within their errors of 4x "
-          "stiffer contacts; 0.01 left them 3-10% off)")
-          .defaults(0.0025)
+      Field("/shear_cell/stiffness/mean_overlap_fraction", FieldType::number,
+            "bound on the mean overlap, as a fraction of the smaller diameter of a contact")
+          .defaults(0.01)
           .range(above(0), at_most(0.1)),
-      Field(
-          "/shear_cell/stiffness/p95_overlap_fraction", FieldType::number,
-          "bound on the 95th percentile of the overlap (sizes the impact bound; 0.015 with the "
-          "mean's 0.0025 makes every pair 4x stiffer than 0.01 / 0.03); cells above it are flagged "
-          "overlap_ok = false")
-          .defaults(0.015)
+      Field("/shear_cell/stiffness/p95_overlap_fraction", FieldType::number,
+            "bound on the 95th percentile of the overlap; cells above it are flagged overlap_ok = "
+            "false")
+          .defaults(0.03)
           .range(above(0), at_most(0.5)),
       Field("/shear_cell/steps_per_collision", FieldType::integer,
             "time steps per collision time in the shear cells (dt = t_c / N; "
