@@ -5,9 +5,10 @@
 // dem::ShearCellRun) and prints these tables:
 //
 //   1 stiffness  a media-only cell and a cell with powder (--powder_ratio d at --load) at the
-//                policy's default stiffness and at --stiffer_factor x it: friction (tau / p_yy),
-//                friction_mean_pressure (tau / p), the powder's share of the dissipation and the
-//                cushioning (media-media dissipation with powder / without), each with its
+//                policy's default stiffness and at --stiffer_factor x it (or at each of
+//                --stiffness_factors x it, for the convergence to rigid particles): friction (tau /
+//                p_yy), friction_mean_pressure (tau / p), the powder's share of the dissipation and
+//                the cushioning (media-media dissipation with powder / without), each with its
 //                standard error, and the difference in units of the combined standard error.
 //   2 mu(I)      the media-only cell at inertial numbers --inertial_numbers (the shear rate set
 //                from I at the site's normal stress), against Jop, Forterre & Pouliquen (Nature
@@ -78,12 +79,13 @@ struct Options {
   std::vector<int> tables{1, 2, 3};
   std::vector<double> size{5, 6, 5};
   int threads = 1;
-  double shear_rate = 10.0;     // 1/s, tables 1, 3, 4 and 5
-  double normal_stress = 2e4;   // Pa
-  double powder_ratio = 0.25;   // powder / ball diameter
-  double load = 1.0;            // table 1's powder load
-  double dilute_load = 0.01;    // table 3's
-  double stiffer_factor = 4.0;  // table 1's second stiffness, x the policy's
+  double shear_rate = 10.0;               // 1/s, tables 1, 3, 4 and 5
+  double normal_stress = 2e4;             // Pa
+  double powder_ratio = 0.25;             // powder / ball diameter
+  double load = 1.0;                      // table 1's powder load
+  double dilute_load = 0.01;              // table 3's
+  double stiffer_factor = 4.0;            // table 1's second stiffness, x the policy's
+  std::vector<double> stiffness_factors;  // table 1's stiffnesses, x the policy's (a sequence)
   std::vector<double> inertial_numbers{0.01, 0.03, 0.1, 0.2, 0.3};
   double overlap_ratio = 0.125;  // table 5's powder
   double overlap_load = 0.05;
@@ -258,23 +260,46 @@ void print_row(const std::string& name, Value a, Value b) {
 void stiffness_table(const Options& o) {
   fmt::print("\nTable 1: stiffness sensitivity ({:g} 1/s, {:g} Pa, powder {:g} d at load {:g})\n",
              o.shear_rate, o.normal_stress, o.powder_ratio, o.load);
-  CellResult media[2], powder[2];
-  const double factors[2] = {1.0, o.stiffer_factor};
-  for (int i = 0; i < 2; ++i) {
-    media[i] = run_cell(o, {.shear_rate = o.shear_rate, .stiffness_factor = factors[i]});
-    powder[i] = run_cell(
-        o, {.powder_load = o.load, .shear_rate = o.shear_rate, .stiffness_factor = factors[i]});
+  // The factors, x the policy's default; without --stiffness_factors the default and
+  // --stiffer_factor x it.
+  const std::vector<double> factors = o.stiffness_factors.empty()
+                                          ? std::vector<double>{1.0, o.stiffer_factor}
+                                          : o.stiffness_factors;
+  std::vector<CellResult> media, powder;
+  for (double factor : factors) {
+    media.push_back(run_cell(o, {.shear_rate = o.shear_rate, .stiffness_factor = factor}));
+    powder.push_back(run_cell(
+        o, {.powder_load = o.load, .shear_rate = o.shear_rate, .stiffness_factor = factor}));
   }
-  print_header("policy default", fmt::format("x{:g}", o.stiffer_factor));
-  print_row("friction media-only", friction(media[0]), friction(media[1]));
-  print_row("friction powder", friction(powder[0]), friction(powder[1]));
-  print_row("friction_mean_p media", friction_mean_pressure(media[0]),
-            friction_mean_pressure(media[1]));
-  print_row("friction_mean_p powder", friction_mean_pressure(powder[0]),
-            friction_mean_pressure(powder[1]));
-  print_row("powder dissipation share", powder_share(powder[0]), powder_share(powder[1]));
-  print_row("cushioning", ratio(media_dissipation(powder[0]), media_dissipation(media[0])),
-            ratio(media_dissipation(powder[1]), media_dissipation(media[1])));
+  // Each factor against the one before (the first pair: the policy's default against x4).
+  for (std::size_t i = 1; i < factors.size(); ++i) {
+    fmt::print("\n");
+    print_header(factors[i - 1] == 1.0 ? std::string("policy default")
+                                       : fmt::format("x{:g}", factors[i - 1]),
+                 fmt::format("x{:g}", factors[i]));
+    const std::size_t a = i - 1, b = i;
+    print_row("friction media-only", friction(media[a]), friction(media[b]));
+    print_row("friction powder", friction(powder[a]), friction(powder[b]));
+    print_row("friction_mean_p media", friction_mean_pressure(media[a]),
+              friction_mean_pressure(media[b]));
+    print_row("friction_mean_p powder", friction_mean_pressure(powder[a]),
+              friction_mean_pressure(powder[b]));
+    print_row("powder dissipation share", powder_share(powder[a]), powder_share(powder[b]));
+    print_row("cushioning", ratio(media_dissipation(powder[a]), media_dissipation(media[a])),
+              ratio(media_dissipation(powder[b]), media_dissipation(media[b])));
+  }
+  if (factors.size() < 3) return;
+  // The sequence, for a fit Q(k) = Q_rigid + a k^-beta.
+  fmt::print("\n  {:<8} {:>18} {:>18} {:>18} {:>18} {:>8}\n", "factor", "friction powder",
+             "friction_mean_p", "powder share", "cushioning", "CPU s");
+  for (std::size_t i = 0; i < factors.size(); ++i) {
+    const Value q[4] = {friction(powder[i]), friction_mean_pressure(powder[i]),
+                        powder_share(powder[i]),
+                        ratio(media_dissipation(powder[i]), media_dissipation(media[i]))};
+    fmt::print("  {:<8g}", factors[i]);
+    for (const Value& v : q) fmt::print(" {:>8.4f} +- {:<6.4f}", v.mean, v.error);
+    fmt::print(" {:>8.1f}\n", powder[i].cpu_seconds);
+  }
 }
 
 // The JFP form's rise at inertial number I: (mu_2 - mu_s) / (1 + I_0 / I), per unit mu_2 - mu_s.
@@ -657,6 +682,10 @@ int main(int argc, char** argv) {
   app.add_option("--load", o.load, "powder load of table 1");
   app.add_option("--dilute_load", o.dilute_load, "powder load of table 3");
   app.add_option("--stiffer_factor", o.stiffer_factor, "table 1's stiffer cells, x the policy");
+  app.add_option("--stiffness_factors", o.stiffness_factors,
+                 "table 1 at each of these stiffnesses, x the policy's (in place of the default "
+                 "and --stiffer_factor), each against the one before, and the sequence")
+      ->delimiter(',');
   app.add_option("--inertial_numbers", o.inertial_numbers, "table 2's I")->delimiter(',');
   app.add_option("--overlap_ratio", o.overlap_ratio, "table 5's powder / ball diameter");
   app.add_option("--overlap_load", o.overlap_load, "table 5's powder load");
