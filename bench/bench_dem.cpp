@@ -117,8 +117,11 @@ struct MillCase {
   double slice_length = 0.18;
   int lifter_count = 8;
   LifterProfile lifter{.height = 0.04, .base_width = 0.05, .face_angle_deg = 10.0};
-  double softening = 10.0;           // settle and turn with contacts this many times longer
-  double soft_settle_time = 0.3;     // s, soft contacts
+  double softening = 10.0;        // settle and turn with contacts this many times longer
+  double soft_settle_time = 0.3;  // s, soft contacts
+  // Softenings passed through on the way to the real contacts, 0.05 s each: each switch releases
+  // part of the overlaps' energy instead of all of it at once (empty: straight to the real ones).
+  std::vector<double> intermediate_softening = {};
   double stiff_warm_time = 0.05;     // s at speed with the real contacts, before the two windows
   double stiff_window_time = 0.025;  // s, each of the two windows reported
   std::size_t default_steps = 2000;
@@ -239,10 +242,21 @@ SteadyMill prepare_steady_mill(const MillCase& c) {
     }
   });
 
-  MaterialTable stiff_materials = soft.materials();
-  stiff_materials.set_interaction(0, 0, setup.ball_ball);
-  stiff_materials.set_interaction(0, 1, setup.ball_liner);
-  System system = with_materials(soft, std::move(stiff_materials));
+  const auto with_contacts = [&](const System& from, double contact_duration) {
+    const MillSetup contacts = mill_setup(c, contact_duration);
+    MaterialTable materials = from.materials();
+    materials.set_interaction(0, 0, contacts.ball_ball);
+    materials.set_interaction(0, 1, contacts.ball_liner);
+    return with_materials(from, std::move(materials));
+  };
+  for (const double softening : c.intermediate_softening) {
+    soft = with_contacts(soft, softening * kContactDuration);
+    with_threads(2, [&] {
+      soft.set_time_step_from_collisions(kStepsPerCollision);
+      soft.step(static_cast<std::size_t>(std::ceil(0.05 / soft.time_step())));
+    });
+  }
+  System system = with_contacts(soft, kContactDuration);
   std::array<Window, 2> stiff;
   with_threads(2, [&] {
     system.set_time_step_from_collisions(kStepsPerCollision);
@@ -251,13 +265,17 @@ SteadyMill prepare_steady_mill(const MillCase& c) {
         static_cast<std::size_t>(std::ceil(c.stiff_window_time / system.time_step()));
     for (Window& w : stiff) w = run_window(system, steps, 8);
   });
+  std::string intermediate;
+  for (const double softening : c.intermediate_softening)
+    intermediate += fmt::format(" Then t_c x {} for 0.05 s.", softening);
   std::string how = fmt::format(
       "soft contacts (t_c x {}): {} revolutions, {}; last two half revolutions {:.4g} and "
-      "{:.4g} W, {:.3f} and {:.3f} contacts per particle. Real contacts: {} s of warm-up, then "
+      "{:.4g} W, {:.3f} and {:.3f} contacts per particle.{} Real "
+      "contacts: {} s of warm-up, then "
       "two windows of {} s: {:.4g} and {:.4g} W, {:.3f} and {:.3f} contacts per particle",
       c.softening, revolutions, steady ? "steady" : "NOT steady (the cap)", before.power,
-      last.power, before.contacts, last.contacts, c.stiff_warm_time, c.stiff_window_time,
-      stiff[0].power, stiff[1].power, stiff[0].contacts, stiff[1].contacts);
+      last.power, before.contacts, last.contacts, intermediate, c.stiff_warm_time,
+      c.stiff_window_time, stiff[0].power, stiff[1].power, stiff[0].contacts, stiff[1].contacts);
   return {std::move(system), std::move(how)};
 }
 
@@ -360,7 +378,8 @@ MillCase mill_4m() {
              .lifter = LifterProfile{.height = 0.1, .base_width = 0.15, .face_angle_deg = 10.0},
              .softening = 20.0,
              .soft_settle_time = 0.25,
-             .stiff_warm_time = 0.15,
+             .intermediate_softening = {8.0, 3.0},
+             .stiff_warm_time = 0.1,
              .stiff_window_time = 0.025,
              .default_steps = 200};
   c.slice_length = slice_for(c, 17000.0);
