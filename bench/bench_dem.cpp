@@ -2,15 +2,36 @@
 // threads, for
 //   mill_1m         1 m mill slice, 40 mm steel balls, J = 0.3, 75% of critical speed, 8 lifters
 //   mill_1m_bare    the same without lifters (what LAMMPS can model: a bare rotating cylinder)
-//   mill_4m         4 m mill slice with ~17,000 50 mm balls
+//   mill_1m_5k      the 1 m mill with 8 lifters in a slice of ~5,000 balls (1.2 m)
+//   mill_4m         4 m mill slice with ~17,000 50 mm balls, 16 lifters
 //   shear_ratio5    Lees-Edwards shear cell, 300 media balls of 10 mm + 2 mm powder
 //   shear_ratio10   the same with 1 mm powder
 // Each scene is built once, brought to a flowing state, and every benchmark times a copy of it.
+//
+// The mills are timed from a steady charge (issue 17): the balls settle and the mill turns with
+// soft contacts (a longer dt) until the charge is steady, judged per half revolution: at least
+// one revolution, then until the mean shell power and the mean contacts per particle of the last
+// half revolution are both within 5% of the half before (at most 4 revolutions; the scene's
+// description says how many it took and whether it was steady). Then the real contacts take over
+// by way of intermediate softenings (t_c x 4 and x 2 in the 1 m mills, x 8 and x 3 in the 4 m
+// one, 0.05 s each: straight from x 20 to x 1 the 4 m charge took the soft overlaps' energy at
+// once and 0.2 s later drew a third of its steady power, at a third of its contacts), a warm-up
+// of 0.1 s and two equal windows whose power and contacts per particle are reported. With
+// --dem_cache the state is saved as a DEM checkpoint and read back, so repeated runs time the same
+// state; a fresh preparation is also timed from the state read back (the same bits either way).
+//
+// Counters: pts_per_s_per_core (wall), pts_per_cpu_s (particle-steps per CPU-second of the
+// process, every thread), contacts_per_particle (pair and wall contacts in force at the end),
+// peak_rss_MiB. The summary prints a line per case, "RESULT scene threads ... state HASH", HASH a
+// hash of the final positions and velocities (two builds that keep the bits print the same).
 //
 // Extra flags (before Google Benchmark's own):
 //   --dem_steps=N        time N steps per benchmark instead of each scene's default
 //   --dem_lammps_dir=D   write each scene's warm state and parameters for LAMMPS into D
 //                        (D/<scene>.data, D/<scene>.params; see bench/lammps/)
+//   --dem_cache=DIR      keep the mills' prepared states in DIR (<scene>_steady<V>_warm<T>.ckpt, T
+//                        the real contacts' warm-up, s, and a
+//                        .txt with how each was prepared), and read them from there
 #include <sys/resource.h>
 #include <tbb/task_arena.h>
 
@@ -28,11 +49,13 @@
 #include <memory>
 #include <numbers>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "bench/lammps_export.hpp"
+#include "dem/checkpoint.hpp"
 #include "dem/mill_setup.hpp"
 #include "dem/packing.hpp"
 #include "dem/system.hpp"
@@ -95,16 +118,30 @@ struct MillCase {
   double slice_length = 0.18;
   int lifter_count = 8;
   LifterProfile lifter{.height = 0.04, .base_width = 0.05, .face_angle_deg = 10.0};
-  double softening = 10.0;        // settle and spin up with contacts this many times longer
+  double softening = 10.0;        // settle and turn with contacts this many times longer
   double soft_settle_time = 0.3;  // s, soft contacts
-  double soft_spin_time = 0.5;    // s at speed, soft contacts
-  double stiff_warm_time = 0.05;  // s at speed with the real contacts, before timing
+  // Softenings passed through on the way to the real contacts, 0.05 s each: each switch releases
+  // part of the overlaps' energy instead of all of it at once (empty: straight to the real ones).
+  std::vector<double> intermediate_softening = {};
+  double stiff_warm_time = 0.05;     // s at speed with the real contacts, before the two windows
+  double stiff_window_time = 0.025;  // s, each of the two windows reported
   std::size_t default_steps = 2000;
 };
 
-// Settling and spinning up are done with softer contacts (and a longer dt with them), then the
-// state is carried over to the real contacts and warmed up again briefly: this keeps the set-up
-// of the 17,000-ball mill under a minute.
+// The steady-charge criterion (see the file's comment).
+constexpr double kMinRevolutions = 1.0;
+constexpr double kMaxRevolutions = 4.0;
+constexpr double kSteadyTolerance = 0.05;
+constexpr int kSamplesPerWindow = 32;  // contacts counted this often per half revolution
+// Bump when the preparation changes: a cached state of another recipe is not read.
+constexpr int kSteadyRecipe = 1;
+
+struct Options {
+  std::optional<std::size_t> steps;
+  std::optional<std::filesystem::path> lammps_dir;
+  std::optional<std::filesystem::path> cache;
+};
+Options g_options;
 
 MillSetup mill_setup(const MillCase& c, double contact_duration) {
   MillSetup setup;
@@ -143,34 +180,155 @@ double mill_speed(const MillSetup& setup) {
          critical_speed(2.0 * setup.shell.radius, setup.ball_diameter, setup.gravity);
 }
 
-Scene make_mill(const MillCase& c) {
-  const auto start = Clock::now();
+double contacts_per_particle(const System& system) {
+  return static_cast<double>(system.active_contact_count()) / static_cast<double>(system.size());
+}
+
+// Mean shell power (work the shell does on the charge per second, W) and contacts per particle
+// over `steps` steps, the contacts counted `samples` times.
+struct Window {
+  double power = 0.0;
+  double contacts = 0.0;
+};
+Window run_window(System& system, std::size_t steps, int samples) {
+  const double work = system.wall_load(0).work, time = system.time();
+  double contacts = 0.0;
+  std::size_t done = 0;
+  for (int s = 1; s <= samples; ++s) {
+    const std::size_t until =
+        steps * static_cast<std::size_t>(s) / static_cast<std::size_t>(samples);
+    system.step(until - done);
+    done = until;
+    contacts += contacts_per_particle(system);
+  }
+  return {.power = (system.wall_load(0).work - work) / (system.time() - time),
+          .contacts = contacts / samples};
+}
+
+bool within(double a, double b, double tolerance) {
+  return std::abs(a - b) <= tolerance * std::max(std::abs(a), std::abs(b));
+}
+
+// The prepared state of a mill and how it was reached.
+struct SteadyMill {
+  System system;
+  std::string how;
+};
+
+// Settles the charge and turns the mill with soft contacts until the charge is steady, then
+// carries it over to the real contacts (see the file's comment).
+SteadyMill prepare_steady_mill(const MillCase& c) {
   const MillSetup setup = mill_setup(c, kContactDuration);
   System soft = build_mill(mill_setup(c, c.softening * kContactDuration));
   const double ball_mass = sphere_mass(c.ball_diameter, setup.media.density);
+  const double omega = mill_speed(setup);
+  const double half_turn = std::numbers::pi / omega;  // s
+  double revolutions = 0.0;
+  Window last, before;
+  bool steady = false;
   with_threads(2, [&] {
     soft.set_time_step_from_collisions(kStepsPerCollision);
     const double settle_speed = 0.02;  // m/s
     settle_charge(soft, c.soft_settle_time, 0.5 * ball_mass * settle_speed * settle_speed);
-    set_mill_speed(soft, mill_speed(setup));
-    soft.step(static_cast<std::size_t>(std::ceil(c.soft_spin_time / soft.time_step())));
+    set_mill_speed(soft, omega);
+    const auto window_steps = static_cast<std::size_t>(std::ceil(half_turn / soft.time_step()));
+    while (revolutions < kMaxRevolutions) {
+      before = last;
+      last = run_window(soft, window_steps, kSamplesPerWindow);
+      revolutions += 0.5;
+      steady = revolutions >= kMinRevolutions + 0.5 &&
+               within(last.power, before.power, kSteadyTolerance) &&
+               within(last.contacts, before.contacts, kSteadyTolerance);
+      if (steady) break;
+    }
   });
 
-  MaterialTable stiff_materials = soft.materials();
-  stiff_materials.set_interaction(0, 0, setup.ball_ball);
-  stiff_materials.set_interaction(0, 1, setup.ball_liner);
-  System system = with_materials(soft, std::move(stiff_materials));
+  const auto with_contacts = [&](const System& from, double contact_duration) {
+    const MillSetup contacts = mill_setup(c, contact_duration);
+    MaterialTable materials = from.materials();
+    materials.set_interaction(0, 0, contacts.ball_ball);
+    materials.set_interaction(0, 1, contacts.ball_liner);
+    return with_materials(from, std::move(materials));
+  };
+  for (const double softening : c.intermediate_softening) {
+    soft = with_contacts(soft, softening * kContactDuration);
+    with_threads(2, [&] {
+      soft.set_time_step_from_collisions(kStepsPerCollision);
+      soft.step(static_cast<std::size_t>(std::ceil(0.05 / soft.time_step())));
+    });
+  }
+  System system = with_contacts(soft, kContactDuration);
+  std::array<Window, 2> stiff;
   with_threads(2, [&] {
     system.set_time_step_from_collisions(kStepsPerCollision);
     system.step(static_cast<std::size_t>(std::ceil(c.stiff_warm_time / system.time_step())));
+    const auto steps =
+        static_cast<std::size_t>(std::ceil(c.stiff_window_time / system.time_step()));
+    for (Window& w : stiff) w = run_window(system, steps, 8);
   });
+  std::string intermediate;
+  for (const double softening : c.intermediate_softening)
+    intermediate += fmt::format(" Then t_c x {} for 0.05 s.", softening);
+  std::string how = fmt::format(
+      "soft contacts (t_c x {}): {} revolutions, {}; last two half revolutions {:.4g} and "
+      "{:.4g} W, {:.3f} and {:.3f} contacts per particle.{} Real "
+      "contacts: {} s of warm-up, then "
+      "two windows of {} s: {:.4g} and {:.4g} W, {:.3f} and {:.3f} contacts per particle",
+      c.softening, revolutions, steady ? "steady" : "NOT steady (the cap)", before.power,
+      last.power, before.contacts, last.contacts, intermediate, c.stiff_warm_time,
+      c.stiff_window_time, stiff[0].power, stiff[1].power, stiff[0].contacts, stiff[1].contacts);
+  return {std::move(system), std::move(how)};
+}
 
+// The steady mill, from the cache when it holds one of this recipe. Always the state as a
+// checkpoint gives it back, so that a fresh and a cached run time the same bits.
+SteadyMill steady_mill(const MillCase& c) {
+  if (!g_options.cache) {
+    SteadyMill mill = prepare_steady_mill(c);
+    const std::filesystem::path file =
+        std::filesystem::temp_directory_path() / fmt::format("bench_dem_{}.ckpt", c.name);
+    save_checkpoint(mill.system, file);
+    mill.system = load_checkpoint(file);
+    std::filesystem::remove(file);
+    return mill;
+  }
+  std::filesystem::create_directories(*g_options.cache);
+  const std::filesystem::path file =
+      *g_options.cache /
+      fmt::format("{}_steady{}_warm{}.ckpt", c.name, kSteadyRecipe, c.stiff_warm_time);
+  std::filesystem::path text = file;
+  text.replace_extension(".txt");
+  if (std::filesystem::exists(file) && std::filesystem::exists(text)) {
+    try {
+      System system = load_checkpoint(file);
+      std::ifstream in(text);
+      std::string how((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      return {std::move(system), "(cached) " + how};
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "bench_dem: {}: regenerating ({})\n", c.name, e.what());
+    }
+  }
+  SteadyMill mill = prepare_steady_mill(c);
+  save_checkpoint(mill.system, file);
+  std::ofstream(text) << mill.how;
+  mill.system = load_checkpoint(file);
+  return mill;
+}
+
+Scene make_mill(const MillCase& c) {
+  const auto start = Clock::now();
+  const MillSetup setup = mill_setup(c, kContactDuration);
+  const double ball_mass = sphere_mass(c.ball_diameter, setup.media.density);
+  SteadyMill mill = steady_mill(c);
+  const double contacts = contacts_per_particle(mill.system);
   Scene scene{
       .name = c.name,
       .description = fmt::format(
-          "{} m mill, {:.3f} m slice, {} lifters, {} balls of {} mm, J = 0.3, 75% N_c",
-          c.mill_diameter, c.slice_length, c.lifter_count, system.size(), 1000 * c.ball_diameter),
-      .system = std::move(system),
+          "{} m mill, {:.3f} m slice, {} lifters, {} balls of {} mm, J = 0.3, 75% N_c, steady "
+          "charge ({:.3f} contacts per particle at the start): {}",
+          c.mill_diameter, c.slice_length, c.lifter_count, mill.system.size(),
+          1000 * c.ball_diameter, contacts, mill.how),
+      .system = std::move(mill.system),
       .default_steps = c.default_steps,
       .setup_seconds = 0.0,
       .lammps = {}};
@@ -190,7 +348,30 @@ Scene make_mill(const MillCase& c) {
 }
 
 MillCase mill_1m(std::string name, int lifters) {
-  return MillCase{.name = std::move(name), .lifter_count = lifters, .default_steps = 4000};
+  return MillCase{.name = std::move(name),
+                  .lifter_count = lifters,
+                  .intermediate_softening = {4.0, 2.0},
+                  .stiff_warm_time = 0.1,
+                  .default_steps = 4000};
+}
+
+// The slice length that holds about `balls` balls at J = 0.3.
+double slice_for(const MillCase& c, double balls) {
+  MillShell shell{.radius = 0.5 * c.mill_diameter,
+                  .length = 1.0,
+                  .lifter_count = c.lifter_count,
+                  .lifter = c.lifter,
+                  .end_walls = false};
+  return balls / static_cast<double>(balls_for_fill(shell, 0.3, c.ball_diameter));
+}
+
+// The 1 m mill with lifters in a slice of ~5,000 balls (a steady 20,000-ball charge takes
+// 1.5 G particle-steps to prepare, too long beside other jobs on 2 cores).
+MillCase mill_1m_5k() {
+  MillCase c = mill_1m("mill_1m_5k", 8);
+  c.slice_length = slice_for(c, 5000.0);
+  c.default_steps = 400;
+  return c;
 }
 
 // ~17,000 50 mm balls at J = 0.3: the slice length follows from the free cross-section.
@@ -202,16 +383,11 @@ MillCase mill_4m() {
              .lifter = LifterProfile{.height = 0.1, .base_width = 0.15, .face_angle_deg = 10.0},
              .softening = 20.0,
              .soft_settle_time = 0.25,
-             .soft_spin_time = 0.25,
-             .stiff_warm_time = 0.003,
+             .intermediate_softening = {8.0, 3.0},
+             .stiff_warm_time = 0.1,
+             .stiff_window_time = 0.025,
              .default_steps = 200};
-  MillShell shell{.radius = 2.0,
-                  .length = 1.0,
-                  .lifter_count = c.lifter_count,
-                  .lifter = c.lifter,
-                  .end_walls = false};
-  const double balls_per_metre = static_cast<double>(balls_for_fill(shell, 0.3, c.ball_diameter));
-  c.slice_length = 17000.0 / balls_per_metre;
+  c.slice_length = slice_for(c, 17000.0);
   return c;
 }
 
@@ -394,12 +570,6 @@ Scene make_shear_cell(const std::string& name, int size_ratio, std::size_t warm_
 // ---------------------------------------------------------------------------------------------
 // Benchmarks
 
-struct Options {
-  std::optional<std::size_t> steps;
-  std::optional<std::filesystem::path> lammps_dir;
-};
-Options g_options;
-
 struct Result {
   std::string scene;
   int threads = 0;
@@ -409,6 +579,7 @@ struct Result {
   double cpu_seconds = 0.0;  // user + system of all threads
   double peak_mib = 0.0;
   double contacts_per_particle = 0.0;
+  std::uint64_t state_hash = 0;
   double particle_steps() const { return static_cast<double>(particles * steps); }
   double per_core() const { return particle_steps() / seconds / threads; }
   // Per CPU-second actually consumed: less sensitive to other jobs on a shared machine.
@@ -429,6 +600,19 @@ double process_cpu_seconds() {
     return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
   };
   return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
+// FNV-1a over the bytes of the positions and velocities.
+std::uint64_t state_hash(const System& system) {
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  const auto mix = [&](std::span<const Vec3> values) {
+    const auto* bytes = reinterpret_cast<const unsigned char*>(values.data());
+    for (std::size_t b = 0; b < values.size_bytes(); ++b)
+      hash = (hash ^ bytes[b]) * 0x100000001b3ULL;
+  };
+  mix(system.positions());
+  mix(system.velocities());
+  return hash;
 }
 
 // Scenes are built on first use, so a filtered run builds only what it times.
@@ -480,8 +664,8 @@ void run_scene(benchmark::State& state, const std::string& name, int threads) {
     state.SetIterationTime(elapsed);
   }
   r.peak_mib = peak_rss_mib();
-  r.contacts_per_particle =
-      static_cast<double>(system.active_contact_count()) / static_cast<double>(system.size());
+  r.contacts_per_particle = contacts_per_particle(system);
+  r.state_hash = state_hash(system);
   state.counters["particles"] = static_cast<double>(r.particles);
   state.counters["steps"] = static_cast<double>(r.steps);
   state.counters["pts_per_s_per_core"] = r.per_core();
@@ -513,13 +697,14 @@ void print_summary() {
   fmt::print(
       "\nSUMMARY: fastest repetition per case; pts = particle-timesteps; peak RSS of this process "
       "so far\n");
-  fmt::print("       {:<14} {:>7} {:>9} {:>7} {:>9} {:>14} {:>12} {:>9} {:>10}\n", "scene",
+  fmt::print("       {:<14} {:>7} {:>9} {:>7} {:>9} {:>14} {:>12} {:>9} {:>10} {}\n", "scene",
              "threads", "particles", "steps", "wall s", "pts/s/core", "pts/cpu-s", "peak MiB",
-             "contacts/p");
+             "contacts/p", "state (last repetition)");
   for (const Result& r : best) {
-    fmt::print("RESULT {:<14} {:>7} {:>9} {:>7} {:>9.3f} {:>14.4g} {:>12.4g} {:>9.1f} {:>10.3f}\n",
-               r.scene, r.threads, r.particles, r.steps, r.seconds, r.per_core(),
-               r.per_cpu_second(), r.peak_mib, r.contacts_per_particle);
+    fmt::print(
+        "RESULT {:<14} {:>7} {:>9} {:>7} {:>9.3f} {:>14.4g} {:>12.4g} {:>9.1f} {:>10.3f} {:016x}\n",
+        r.scene, r.threads, r.particles, r.steps, r.seconds, r.per_core(), r.per_cpu_second(),
+        r.peak_mib, r.contacts_per_particle, r.state_hash);
   }
   for (const Result& one : best) {
     const auto two = std::find_if(best.begin(), best.end(), [&](const Result& r) {
@@ -546,6 +731,8 @@ Options take_own_flags(int& argc, char** argv) {
       if (*options.steps == 0) throw std::invalid_argument("--dem_steps must be > 0");
     } else if (arg.starts_with("--dem_lammps_dir=")) {
       options.lammps_dir = arg.substr(17);
+    } else if (arg.starts_with("--dem_cache=")) {
+      options.cache = arg.substr(12);
     } else {
       argv[kept++] = argv[a];
     }
@@ -557,11 +744,12 @@ Options take_own_flags(int& argc, char** argv) {
 void register_scenes() {
   g_scenes.define("mill_1m", [] { return make_mill(mill_1m("mill_1m", 8)); });
   g_scenes.define("mill_1m_bare", [] { return make_mill(mill_1m("mill_1m_bare", 0)); });
+  g_scenes.define("mill_1m_5k", [] { return make_mill(mill_1m_5k()); });
   g_scenes.define("mill_4m", [] { return make_mill(mill_4m()); });
   g_scenes.define("shear_ratio5", [] { return make_shear_cell("shear_ratio5", 5, 1000, 300); });
   g_scenes.define("shear_ratio10", [] { return make_shear_cell("shear_ratio10", 10, 400, 60); });
   for (const std::string name :
-       {"mill_1m", "mill_1m_bare", "mill_4m", "shear_ratio5", "shear_ratio10"}) {
+       {"mill_1m", "mill_1m_bare", "mill_1m_5k", "mill_4m", "shear_ratio5", "shear_ratio10"}) {
     for (const int threads : {1, 2}) {
       benchmark::RegisterBenchmark(
           fmt::format("{}/threads:{}", name, threads).c_str(),

@@ -257,14 +257,14 @@ class CheckpointAccess {
 
     const auto& pairs = s.neighbors_.pairs();
     std::uint64_t touching = 0;
-    for (const auto& h : s.pair_history_) touching += h.touching ? 1 : 0;
+    for (std::size_t k = 0; k < pairs.size(); ++k) touching += s.pair_touching(k) ? 1 : 0;
     out.put(touching);
-    for (std::size_t k = 0; k < s.pair_history_.size(); ++k) {
-      if (!s.pair_history_[k].touching) continue;
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+      if (!s.pair_touching(k)) continue;
       out.put(pairs[k].i);
       out.put(pairs[k].j);
-      put(out, s.pair_history_[k]);
-      put(out, s.pair_force_[k]);
+      put(out, s.pair_history(k));
+      put(out, s.pair_force(k));
     }
     for (std::size_t p = 0; p < s.size(); ++p) {
       const System::WallSlots& current = s.current_wall_slots();

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <mutex>
 #include <numbers>
 #include <stdexcept>
 
@@ -275,18 +276,16 @@ void System::set_neighbor_skin(double skin) {
   // A running system keeps its state: only the neighbour list is built again, with the new skin,
   // the pairs in force keeping their histories and forces (which the skin does not change).
   std::vector<NeighborPair> touching_pairs;
-  std::vector<ContactHistory> touching_history;
-  std::vector<Vec3> touching_force;
+  std::vector<std::uint32_t> touching_slot;
   const auto& pairs = neighbors_.pairs();
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     if (!pair_touching_[k]) continue;
     touching_pairs.push_back(pairs[k]);
-    touching_history.push_back(pair_history_[k]);
-    touching_force.push_back(pair_force_[k]);
+    touching_slot.push_back(pair_slot_[k]);
   }
   neighbors_ = NeighborSearch(NeighborSearchOptions{.skin = skin_});
-  rebuild_neighbors(touching_pairs, std::move(touching_history));
-  restore_pair_forces(touching_pairs, touching_force);
+  rebuild_neighbors(touching_pairs, touching_slot);
+  restore_pair_forces(touching_pairs);
 }
 
 void System::deform_affinely(int axis, double factor) {
@@ -332,7 +331,10 @@ void System::prepare_first_step() {
     skin_ = 0.6 * *std::min_element(radius_.begin(), radius_.end());
   }
   neighbors_ = NeighborSearch(NeighborSearchOptions{.skin = skin_});
-  pair_history_.clear();
+  pair_slot_.clear();
+  contact_history_.clear();
+  contact_force_.clear();
+  free_contact_slots_.clear();
   update_neighbors(neighbors_.needs_rebuild(domain_, position_));
   // Forces at the current time (no spring increment, no dissipation: no time passes).
   compute_pair_forces(0.0);
@@ -446,31 +448,47 @@ bool System::kick_and_drift(bool finish_last_kick) {
 
 void System::update_neighbors(bool rebuild) {
   if (!rebuild) return;
-  std::vector<NeighborPair> old_pairs = neighbors_.pairs();
-  rebuild_neighbors(old_pairs, std::move(pair_history_));
+  const std::vector<NeighborPair> old_pairs = neighbors_.pairs();
+  const std::vector<std::uint32_t> old_slot = std::move(pair_slot_);
+  rebuild_neighbors(old_pairs, old_slot);
 }
 
 void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
                                std::vector<ContactHistory> old_history) {
+  contact_history_ = std::move(old_history);
+  contact_force_.assign(contact_history_.size(), ContactForce{});
+  std::vector<std::uint32_t> slot(contact_history_.size(), kNoContact);
+  for (std::size_t c = 0; c < slot.size(); ++c) {
+    if (contact_history_[c].touching) slot[c] = static_cast<std::uint32_t>(c);
+  }
+  rebuild_neighbors(old_pairs, slot);
+}
+
+void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
+                               std::span<const std::uint32_t> old_slot) {
   neighbors_.build(domain_, position_, radius_);
   const auto& pairs = neighbors_.pairs();
 
-  // Carry contact history over to the new list; both lists are sorted by (i, j).
+  // Carry the contacts over to the new list (both lists are sorted by (i, j)), into a store laid
+  // out in the new pairs' order.
   auto key = [](const NeighborPair& p) { return (std::uint64_t{p.i} << 32) | p.j; };
-  pair_history_.assign(pairs.size(), ContactHistory{});
+  std::vector<ContactHistory> history;
+  std::vector<ContactForce> force;
+  pair_slot_.assign(pairs.size(), kNoContact);
   pair_touching_.assign(pairs.size(), 0);
   std::size_t o = 0;
   for (std::size_t k = 0; k < pairs.size() && o < old_pairs.size(); ++k) {
     while (o < old_pairs.size() && key(old_pairs[o]) < key(pairs[k])) ++o;
-    if (o < old_pairs.size() && key(old_pairs[o]) == key(pairs[k])) {
-      pair_history_[k] = old_history[o];
-      pair_touching_[k] = pair_history_[k].touching;
+    if (o < old_pairs.size() && key(old_pairs[o]) == key(pairs[k]) && old_slot[o] != kNoContact) {
+      pair_slot_[k] = static_cast<std::uint32_t>(history.size());
+      pair_touching_[k] = 1;
+      history.push_back(contact_history_[old_slot[o]]);
+      force.push_back(contact_force_[old_slot[o]]);
     }
   }
-  pair_force_.assign(pairs.size(), Vec3::Zero());
-  pair_branch_.assign(pairs.size(), Vec3::Zero());
-  pair_torque_a_.assign(pairs.size(), Vec3::Zero());
-  pair_torque_b_.assign(pairs.size(), Vec3::Zero());
+  contact_history_ = std::move(history);
+  contact_force_ = std::move(force);
+  free_contact_slots_.clear();
   pair_active_.assign(pairs.size(), 0);
   pair_finished_.assign(pairs.size(), 0);
   particle_in_contact_.assign(size(), 0);
@@ -496,12 +514,26 @@ void System::restore_pair_forces(std::span<const NeighborPair> pairs,
   std::size_t k = 0;
   for (std::size_t c = 0; c < pairs.size(); ++c) {
     while (k < rebuilt.size() && !(rebuilt[k] == pairs[c])) ++k;
-    if (k == rebuilt.size())
+    if (k == rebuilt.size() || pair_slot_[k] == kNoContact)
       throw std::logic_error(fmt::format(
           "a touching pair ({}, {}) is out of reach of its particles", pairs[c].i, pairs[c].j));
-    pair_force_[k] = forces[c];
+    if (!forces.empty()) contact_force_[pair_slot_[k]].force = forces[c];
     pair_active_[k] = 1;
   }
+}
+
+std::uint32_t System::allocate_contact() {
+  std::uint32_t slot;
+  if (!free_contact_slots_.empty()) {
+    slot = free_contact_slots_.back();
+    free_contact_slots_.pop_back();
+    contact_history_[slot] = ContactHistory{};
+  } else {
+    slot = static_cast<std::uint32_t>(contact_history_.size());
+    contact_history_.emplace_back();
+    contact_force_.emplace_back();
+  }
+  return slot;
 }
 
 namespace {
@@ -571,19 +603,18 @@ std::vector<ParticleId> System::reorder_particles() {
   // The pairs in force, renumbered, with their histories and forces, sorted for the rebuild.
   struct Carried {
     NeighborPair pair;
-    ContactHistory history;
-    Vec3 force;
+    std::uint32_t slot;
   };
   std::vector<Carried> carried;
   const auto& pairs = neighbors_.pairs();
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     if (!pair_touching_[k]) continue;
-    Carried c{{new_of[pairs[k].i], new_of[pairs[k].j]}, pair_history_[k], pair_force_[k]};
+    Carried c{{new_of[pairs[k].i], new_of[pairs[k].j]}, pair_slot_[k]};
     if (c.pair.i > c.pair.j) {
       // The spring and the force are those of the first particle against the second.
       std::swap(c.pair.i, c.pair.j);
-      c.history.spring = -c.history.spring;
-      c.force = -c.force;
+      contact_history_[c.slot].spring = -contact_history_[c.slot].spring;
+      contact_force_[c.slot].force = -contact_force_[c.slot].force;
     }
     carried.push_back(c);
   }
@@ -591,15 +622,13 @@ std::vector<ParticleId> System::reorder_particles() {
     return a.pair.i != b.pair.i ? a.pair.i < b.pair.i : a.pair.j < b.pair.j;
   });
   std::vector<NeighborPair> carried_pairs;
-  std::vector<ContactHistory> carried_history;
-  std::vector<Vec3> carried_force;
+  std::vector<std::uint32_t> carried_slot;
   for (const Carried& c : carried) {
     carried_pairs.push_back(c.pair);
-    carried_history.push_back(c.history);
-    carried_force.push_back(c.force);
+    carried_slot.push_back(c.slot);
   }
-  rebuild_neighbors(carried_pairs, std::move(carried_history));
-  restore_pair_forces(carried_pairs, carried_force);
+  rebuild_neighbors(carried_pairs, carried_slot);
+  restore_pair_forces(carried_pairs);
   return old_of;
 }
 
@@ -607,6 +636,9 @@ void System::compute_pair_forces(double dt) {
   const std::span<const NeighborPair> pairs = neighbors_.pairs();
   const bool has_groups = !groups_.empty();
   const std::array<double, 3> no_image_limit = no_image_limits();
+  // Pairs that start touching this step: they get a contact slot after the pass, in pair order.
+  std::vector<TouchingPair> starting;
+  std::mutex starting_mutex;
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, pairs.size(), kPairGrain), [&](const auto& range) {
         const PeriodicImages images(domain_);
@@ -615,6 +647,7 @@ void System::compute_pair_forces(double dt) {
         // runs after; each pair writes only its own slots, so the order does not matter.
         constexpr std::size_t kBlock = 256;
         std::array<TouchingPair, kBlock> touching;
+        std::vector<TouchingPair> starting_here;
         const NeighborPair* const pair = pairs.data();
         const Vec3* const x = position_.data();
         const double* const radius = radius_.data();
@@ -647,10 +680,30 @@ void System::compute_pair_forces(double dt) {
                   1;  // collect_finished_contacts() records the event and clears the history
             }
           }
-          for (std::size_t t = 0; t < touching_count; ++t)
-            compute_pair_contact(images, touching[t], dt);
+          for (std::size_t t = 0; t < touching_count; ++t) {
+            if (was_touching[touching[t].k])
+              compute_pair_contact(images, touching[t], dt);
+            else
+              starting_here.push_back(touching[t]);  // no contact slot yet
+          }
+        }
+        if (!starting_here.empty()) {
+          const std::lock_guard lock(starting_mutex);
+          starting.insert(starting.end(), starting_here.begin(), starting_here.end());
         }
       });
+  if (starting.empty()) return;
+  // New contacts: slots handed out in pair order (the store's layout does not change a result:
+  // every sum runs in pair order), then their contact law, each writing only its own slots.
+  std::sort(starting.begin(), starting.end(),
+            [](const TouchingPair& a, const TouchingPair& b) { return a.k < b.k; });
+  for (const TouchingPair& t : starting) pair_slot_[t.k] = allocate_contact();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, starting.size(), kParticleGrain),
+                    [&](const auto& range) {
+                      const PeriodicImages images(domain_);
+                      for (std::size_t t = range.begin(); t != range.end(); ++t)
+                        compute_pair_contact(images, starting[t], dt);
+                    });
 }
 
 double System::pair_effective_mass(ParticleId i, ParticleId j) const {
@@ -682,7 +735,8 @@ void System::compute_pair_contact(const PeriodicImages& images, const TouchingPa
                                   images.image_velocity(touching.gradient_images) +
                                   predicted_angular_velocity_[j].cross(arm_j);
   const ContactGeometry geometry{normal, overlap, contact_velocity_i - contact_velocity_j};
-  ContactHistory& history = pair_history_[k];
+  const std::uint32_t slot = pair_slot_[k];
+  ContactHistory& history = contact_history_[slot];
   if (!history.touching) {
     history.touching = true;
     pair_touching_[k] = 1;
@@ -704,12 +758,13 @@ void System::compute_pair_contact(const PeriodicImages& images, const TouchingPa
   // Another task may mark the same particle: both store 1, so the order does not matter.
   std::atomic_ref<std::uint8_t>(particle_in_contact_[i]).store(1, std::memory_order_relaxed);
   std::atomic_ref<std::uint8_t>(particle_in_contact_[j]).store(1, std::memory_order_relaxed);
-  pair_force_[k] = response.force_on_a;
-  pair_branch_[k] = d;
+  ContactForce& out = contact_force_[slot];
+  out.force = response.force_on_a;
+  out.branch = d;
   // arm_i x F and arm_j x (-F) are both multiples of F x n.
   const Vec3 turning = response.force_on_a.cross(normal);
-  pair_torque_a_[k] = lever_i * turning;
-  pair_torque_b_[k] = lever_j * turning;
+  out.torque_a = lever_i * turning;
+  out.torque_b = lever_j * turning;
 }
 
 void System::compute_particle_forces(double dt) {
@@ -726,10 +781,8 @@ void System::compute_particle_forces(double dt) {
         const std::uint32_t* const entry_offset = particle_pair_offset_.data();
         const std::uint32_t* const entries = particle_pair_entry_.data();
         const std::uint8_t* const active = pair_active_.data();
-        const Vec3* const pair_force = pair_force_.data();
-        const Vec3* const pair_torque_a = pair_torque_a_.data();
-        const Vec3* const pair_torque_b = pair_torque_b_.data();
-        const Vec3* const pair_branch = pair_branch_.data();
+        const std::uint32_t* const slot_of = pair_slot_.data();
+        const ContactForce* const contact = contact_force_.data();
         std::uint8_t* const in_contact = particle_in_contact_.data();
         // Gravity plus the pairs in force on p, in pair order.
         const auto pair_sum = [&](std::size_t p, Vec3& force, Vec3& torque) {
@@ -741,13 +794,14 @@ void System::compute_particle_forces(double dt) {
             const std::uint32_t entry = entries[e];
             const std::uint32_t k = entry >> 1;
             if (!active[k]) continue;
+            const ContactForce& c = contact[slot_of[k]];
             if ((entry & 1) == 0) {
-              force += pair_force[k];
-              torque += pair_torque_a[k];
-              virial.noalias() += pair_force[k] * pair_branch[k].transpose();
+              force += c.force;
+              torque += c.torque_a;
+              virial.noalias() += c.force * c.branch.transpose();
             } else {
-              force -= pair_force[k];
-              torque += pair_torque_b[k];
+              force -= c.force;
+              torque += c.torque_b;
             }
           }
         };
@@ -915,8 +969,10 @@ void System::collect_finished_contacts() {
   const auto& pairs = neighbors_.pairs();
   for_each_nonzero(pair_finished_, [&](std::size_t k) {
     const auto [i, j] = pairs[k];
-    finish(pair_history_[k], pair_category(material_[i], material_[j]), i, j, false,
+    finish(contact_history_[pair_slot_[k]], pair_category(material_[i], material_[j]), i, j, false,
            materials_.pair(material_[i], material_[j]).tangential_stiffness);
+    free_contact_slots_.push_back(pair_slot_[k]);
+    pair_slot_[k] = kNoContact;
     pair_touching_[k] = 0;
     pair_finished_[k] = 0;
   });
@@ -937,7 +993,7 @@ void System::collect_finished_contacts() {
 
 std::size_t System::active_contact_count() const {
   std::size_t count = 0;
-  for (const auto& history : pair_history_) count += history.touching ? 1 : 0;
+  for (const std::uint8_t touching : pair_touching_) count += touching;
   for (std::size_t p = 0; p < size(); ++p) count += wall_contact_count(p);
   return count;
 }
@@ -945,14 +1001,14 @@ std::size_t System::active_contact_count() const {
 std::vector<ActiveContact> System::active_contacts() const {
   std::vector<ActiveContact> contacts;
   const auto& pairs = neighbors_.pairs();
-  for (std::size_t k = 0; k < pair_history_.size(); ++k) {
+  for (std::size_t k = 0; k < pair_active_.size(); ++k) {
     if (!pair_active_[k]) continue;
     const auto [i, j] = pairs[k];
     contacts.push_back(ActiveContact{.a = i,
                                      .b = j,
                                      .with_wall = false,
-                                     .point = pair_history_[k].point,
-                                     .force_on_a = pair_force_[k],
+                                     .point = pair_history(k).point,
+                                     .force_on_a = pair_force(k),
                                      .branch = domain_.separation(position_[i], position_[j])});
   }
   for (std::size_t p = 0; p < size(); ++p) {
@@ -972,10 +1028,10 @@ std::vector<ActiveContact> System::active_contacts() const {
 std::vector<Dissipation> System::dissipation_by_category() const {
   std::vector<Dissipation> total = finished_dissipation_;
   const auto& pairs = neighbors_.pairs();
-  for (std::size_t k = 0; k < pair_history_.size() && k < pairs.size(); ++k) {
-    if (pair_history_[k].touching) {
+  for (std::size_t k = 0; k < pair_touching_.size() && k < pairs.size(); ++k) {
+    if (pair_touching_[k]) {
       total[pair_category(material_[pairs[k].i], material_[pairs[k].j])] +=
-          pair_history_[k].dissipated;
+          pair_history(k).dissipated;
     }
   }
   for (std::size_t p = 0; p < size(); ++p) {
@@ -996,8 +1052,8 @@ EnergyBudget System::energy() const {
                       0.5 * inertia * angular_velocity_[p].squaredNorm();
     budget.potential -= mass_[p] * gravity_.dot(position_[p]);
   }
-  for (const auto& history : pair_history_) {
-    if (history.touching) budget.elastic += history.elastic_energy;
+  for (std::size_t k = 0; k < pair_touching_.size(); ++k) {
+    if (pair_touching_[k]) budget.elastic += pair_history(k).elastic_energy;
   }
   for (std::size_t p = 0; p < size(); ++p) {
     for (int s = 0; s < wall_contact_count(p); ++s)
@@ -1021,15 +1077,14 @@ std::size_t bytes_of(const std::vector<T>& v) {
 std::size_t System::memory_bytes() const {
   std::size_t bytes = neighbors_.memory_bytes();
   for (const auto* array : {&position_, &velocity_, &angular_velocity_, &force_, &torque_,
-                            &predicted_velocity_, &predicted_angular_velocity_, &pair_force_,
-                            &pair_torque_a_, &pair_torque_b_, &pair_branch_})
+                            &predicted_velocity_, &predicted_angular_velocity_})
     bytes += bytes_of(*array);
   for (const auto* array : {&radius_, &mass_, &inv_mass_, &inv_inertia_}) bytes += bytes_of(*array);
-  bytes += bytes_of(material_) + bytes_of(group_) + bytes_of(pair_history_) +
+  bytes += bytes_of(material_) + bytes_of(group_) + bytes_of(pair_slot_) +
            bytes_of(pair_touching_) + bytes_of(pair_active_) + bytes_of(pair_finished_) +
-           bytes_of(finished_pair_history_) + bytes_of(particle_pair_offset_) +
-           bytes_of(particle_pair_entry_) + bytes_of(particle_in_contact_) +
-           bytes_of(finished_wall_mask_);
+           bytes_of(contact_history_) + bytes_of(contact_force_) + bytes_of(free_contact_slots_) +
+           bytes_of(particle_pair_offset_) + bytes_of(particle_pair_entry_) +
+           bytes_of(particle_in_contact_) + bytes_of(finished_wall_mask_);
   for (const WallSlots& buffer : wall_slots_)
     bytes += bytes_of(buffer.slot) + bytes_of(buffer.count);
   return bytes;

@@ -201,11 +201,17 @@ class System {
   KinematicGroup& group(GroupId g) { return groups_.at(g - 1); }
   const WallLoad& group_load(GroupId g) const { return group_loads_.at(g - 1); }
 
-  // Contacts now in force: pairs from the neighbour list with their history.
+  // Contacts now in force: pairs from the neighbour list with their history. Only the pairs that
+  // touch hold a history and forces, in a compact store of contacts (a candidate pair that is
+  // apart costs a few bytes, not the 216 of a contact).
   std::span<const NeighborPair> candidate_pairs() const { return neighbors_.pairs(); }
-  std::span<const ContactHistory> pair_histories() const { return pair_history_; }
-  // Force on the first particle of each candidate pair; valid for pairs whose history is touching.
-  std::span<const Vec3> pair_forces() const { return pair_force_; }
+  // Whether candidate pair k touches (has a contact history).
+  bool pair_touching(std::size_t k) const { return pair_touching_[k] != 0; }
+  // The history of candidate pair k and the force on its first particle; k must touch.
+  const ContactHistory& pair_history(std::size_t k) const {
+    return contact_history_[pair_slot_[k]];
+  }
+  const Vec3& pair_force(std::size_t k) const { return contact_force_[pair_slot_[k]].force; }
   std::size_t active_contact_count() const;
   // Sum over the pair contacts in force of F b^T: F the force on the first particle, b the
   // minimum-image vector from its centre to the second's (the pair-contact part of -V sigma).
@@ -250,10 +256,16 @@ class System {
   // if `finish_last_kick`; returns whether the neighbour list must be rebuilt.
   bool kick_and_drift(bool finish_last_kick);
   void update_neighbors(bool rebuild);
-  // After rebuild_neighbors from the touching pairs `pairs` (sorted): puts their forces back, so
-  // that what reads the contacts in force before the next step sees them.
-  void restore_pair_forces(std::span<const NeighborPair> pairs, std::span<const Vec3> forces);
-  // Builds a new neighbour list and carries the histories of `old_pairs` (sorted) over to it.
+  // After rebuild_neighbors from the touching pairs `pairs` (sorted): marks them in force and
+  // puts their forces back (`forces`, or the ones their contacts hold when empty), so that what
+  // reads the contacts in force before the next step sees them.
+  void restore_pair_forces(std::span<const NeighborPair> pairs, std::span<const Vec3> forces = {});
+  // Builds a new neighbour list and carries the contacts of `old_pairs` (sorted; old_slot[o] the
+  // contact of old pair o, or kNoContact) over to it; the contact store is laid out again in
+  // the new pairs' order.
+  void rebuild_neighbors(std::span<const NeighborPair> old_pairs,
+                         std::span<const std::uint32_t> old_slot);
+  // The same from a history per old pair (a checkpoint's), forces zero.
   void rebuild_neighbors(std::span<const NeighborPair> old_pairs,
                          std::vector<ContactHistory> old_history);
   void compute_pair_forces(double dt);
@@ -264,8 +276,11 @@ class System {
     double gradient_images;  // PeriodicImages::separation's
     std::uint32_t k;         // the pair's index
   };
-  // The contact law of a candidate pair that touches.
+  // The contact law of a candidate pair that touches (it has a contact slot).
   void compute_pair_contact(const PeriodicImages& images, const TouchingPair& touching, double dt);
+  // A slot in the contact store for a pair that starts touching (one freed by a finished contact
+  // first), its history cleared.
+  std::uint32_t allocate_contact();
   // m_eff of a pair of particles (a kinematic one counts as infinitely heavy) and C_n of their
   // contact.
   double pair_effective_mass(ParticleId i, ParticleId j) const;
@@ -298,17 +313,27 @@ class System {
   std::vector<Wall> walls_;
   std::vector<WallLoad> wall_loads_;
 
-  // Pair contacts, aligned with neighbors_.pairs().
+  // Pair contacts. Per candidate pair, aligned with neighbors_.pairs():
   NeighborSearch neighbors_;
-  std::vector<ContactHistory> pair_history_;
-  // pair_history_[k].touching in one byte per pair, so that screening the pairs, most of them
-  // apart, reads no history.
+  static constexpr std::uint32_t kNoContact = 0xffffffffu;
+  std::vector<std::uint32_t> pair_slot_;  // its contact's slot in the store below, or kNoContact
+  // pair_slot_[k] != kNoContact in one byte per pair, so that screening the pairs, most of them
+  // apart, reads no more.
   std::vector<std::uint8_t> pair_touching_;
-  std::vector<Vec3> pair_force_, pair_torque_a_, pair_torque_b_;
-  std::vector<Vec3> pair_branch_;  // from the first particle's centre to the second's (in force)
   std::vector<std::uint8_t> pair_active_;    // the pair touches this step: its force is valid
   std::vector<std::uint8_t> pair_finished_;  // the pair separated this step
-  std::vector<ContactHistory> finished_pair_history_;
+  // The contact store: one slot per pair that touches, in the pairs' order after each neighbour
+  // rebuild, new contacts in the slots finished ones freed (or at the end). Split in what the
+  // force gather reads (ContactForce, 96 bytes) and what the contact law keeps (the history).
+  struct ContactForce {
+    Vec3 force = Vec3::Zero();     // on the first particle
+    Vec3 torque_a = Vec3::Zero();  // on the first particle
+    Vec3 torque_b = Vec3::Zero();  // on the second
+    Vec3 branch = Vec3::Zero();    // from the first particle's centre to the second's
+  };
+  std::vector<ContactHistory> contact_history_;
+  std::vector<ContactForce> contact_force_;
+  std::vector<std::uint32_t> free_contact_slots_;
   Eigen::Matrix3d contact_virial_ = Eigen::Matrix3d::Zero();
   // Per particle, the pairs it belongs to (CSR): entry = pair index * 2 + (0: first, 1: second).
   std::vector<std::uint32_t> particle_pair_offset_, particle_pair_entry_;

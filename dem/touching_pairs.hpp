@@ -12,12 +12,10 @@ namespace millflow::dem {
 template <class Visit>
 void for_each_touching_pair(const System& system, Visit&& visit) {
   const auto pairs = system.candidate_pairs();
-  const auto histories = system.pair_histories();
-  const auto forces = system.pair_forces();
   const auto x = system.positions();
   for (std::size_t k = 0; k < pairs.size(); ++k) {
-    if (!histories[k].touching) continue;
-    visit(k, forces[k], system.domain().separation(x[pairs[k].i], x[pairs[k].j]));
+    if (!system.pair_touching(k)) continue;
+    visit(k, system.pair_force(k), system.domain().separation(x[pairs[k].i], x[pairs[k].j]));
   }
 }
 
