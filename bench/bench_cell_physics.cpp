@@ -39,7 +39,6 @@
 // positively correlated, so the share's error is overstated).
 //
 //   bench_cell_physics [--tables 1,2,3] [--size 5 6 5] [--threads 1] ...  (--help lists all)
-#include <sys/resource.h>
 #include <tbb/task_arena.h>
 
 #include <fmt/format.h>
@@ -59,6 +58,7 @@
 #include <vector>
 
 #include "bench/lammps_export.hpp"
+#include "bench/process_measures.hpp"
 #include "dem/shear_cell.hpp"
 #include "dem/stiffness_policy.hpp"
 #include "method/sites.hpp"
@@ -68,6 +68,7 @@
 namespace {
 
 using namespace millflow;
+using bench::process_cpu_seconds;
 using nlohmann::json;
 
 // Jop, Forterre & Pouliquen 2006, glass beads: mu_2 - mu_s and I_0 (their mu_s = 0.38 and
@@ -122,13 +123,6 @@ struct CellResult {
   double media_kappa = 0.0;  // k_n / (p d) of media-media contacts
   double cpu_seconds = 0.0;
 };
-
-double process_cpu_seconds() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
-         1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-}
 
 json campaign_for(const Options& o, const Cell& c) {
   json campaign = tasks::load_campaign(std::filesystem::path(MILLFLOW_SOURCE_DIR) / "campaigns" /

@@ -29,7 +29,6 @@
 //   --cells_cache=DIR         where the prepared states are kept (default: none)
 //   --cells_skin_fraction=F   time with a neighbour skin of F x the smallest diameter (default:
 //                             the prepared state's)
-#include <sys/resource.h>
 #include <tbb/task_arena.h>
 
 #include <benchmark/benchmark.h>
@@ -47,6 +46,7 @@
 #include <string_view>
 
 #include "bench/lammps_export.hpp"
+#include "bench/process_measures.hpp"
 #include "dem/shear_cell.hpp"
 #include "method/sites.hpp"
 #include "tasks/campaign.hpp"
@@ -55,6 +55,8 @@
 namespace {
 
 using namespace millflow;
+using bench::process_cpu_seconds;
+using bench::state_hash;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
@@ -124,13 +126,6 @@ dem::ShearCellProtocol protocol(const CellCase& c) {
           .warmup_windows = 1,
           .measure_strain = kHugeMeasureStrain,
           .measure = {}};
-}
-
-double process_cpu_seconds() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
-         1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
 }
 
 // The scene's run in its measurement phase, built once per process (and cached on disk).
@@ -208,19 +203,6 @@ void export_for_lammps(const CellCase& c, const dem::ShearCellRun& run) {
   bench::write_lammps_data(system, c.name, *g_options.lammps_dir / (c.name + ".data"));
   bench::write_lammps_params(c.name, "bench_cells, measurement phase", params,
                              *g_options.lammps_dir / (c.name + ".params"));
-}
-
-// FNV-1a over the bytes of the positions and velocities.
-std::uint64_t state_hash(const dem::System& system) {
-  std::uint64_t hash = 0xcbf29ce484222325ULL;
-  const auto mix = [&](std::span<const dem::Vec3> values) {
-    const auto* bytes = reinterpret_cast<const unsigned char*>(values.data());
-    for (std::size_t b = 0; b < values.size_bytes(); ++b)
-      hash = (hash ^ bytes[b]) * 0x100000001b3ULL;
-  };
-  mix(system.positions());
-  mix(system.velocities());
-  return hash;
 }
 
 void run_cell(benchmark::State& state, const CellCase& c, int threads) {

@@ -32,7 +32,6 @@
 //   --dem_cache=DIR      keep the mills' prepared states in DIR (<scene>_steady<V>_warm<T>.ckpt, T
 //                        the real contacts' warm-up, s, and a
 //                        .txt with how each was prepared), and read them from there
-#include <sys/resource.h>
 #include <tbb/task_arena.h>
 
 #include <benchmark/benchmark.h>
@@ -55,6 +54,7 @@
 #include <vector>
 
 #include "bench/lammps_export.hpp"
+#include "bench/process_measures.hpp"
 #include "dem/checkpoint.hpp"
 #include "dem/mill_setup.hpp"
 #include "dem/packing.hpp"
@@ -66,6 +66,9 @@ using namespace millflow::dem;
 using Clock = std::chrono::steady_clock;
 using millflow::bench::add_contact_params;
 using millflow::bench::LammpsParams;
+using millflow::bench::peak_rss_mib;
+using millflow::bench::process_cpu_seconds;
+using millflow::bench::state_hash;
 using millflow::bench::write_lammps_data;
 using millflow::bench::write_lammps_params;
 
@@ -586,34 +589,6 @@ struct Result {
   double per_cpu_second() const { return particle_steps() / cpu_seconds; }
 };
 std::vector<Result> g_results;
-
-double peak_rss_mib() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
-}
-
-double process_cpu_seconds() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  auto seconds = [](const timeval& t) {
-    return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
-  };
-  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
-}
-
-// FNV-1a over the bytes of the positions and velocities.
-std::uint64_t state_hash(const System& system) {
-  std::uint64_t hash = 0xcbf29ce484222325ULL;
-  const auto mix = [&](std::span<const Vec3> values) {
-    const auto* bytes = reinterpret_cast<const unsigned char*>(values.data());
-    for (std::size_t b = 0; b < values.size_bytes(); ++b)
-      hash = (hash ^ bytes[b]) * 0x100000001b3ULL;
-  };
-  mix(system.positions());
-  mix(system.velocities());
-  return hash;
-}
 
 // Scenes are built on first use, so a filtered run builds only what it times.
 class SceneCache {
