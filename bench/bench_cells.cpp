@@ -307,15 +307,32 @@ std::pair<std::unique_ptr<dem::ShearCellRun>, std::string> prepare_staged(
     const CellCase& c, const dem::ShearCellSetup& setup, const std::filesystem::path& scratch) {
   const dem::ShearCellProtocol proto = protocol(c);
   dem::ShearCellSetup current = softened(setup, c.powder_softening);
-  auto run = std::make_unique<dem::ShearCellRun>(current, proto);
+  // The soft phase, the costly one (about 18 CPU-minutes), is kept beside the scratch file so that
+  // a preparation stopped later resumes from it.
+  const std::filesystem::path soft_file = scratch.string() + ".soft.ckpt";
+  std::unique_ptr<dem::ShearCellRun> run;
   const auto cpu0 = process_cpu_seconds();
   std::string how = fmt::format("powder contacts at t_c x {}: ", c.powder_softening);
   tbb::task_arena arena(2);
-  arena.execute([&] {
-    while (run->phase_name() != "measuring") run->advance(1000);
-  });
-  how += fmt::format("compaction and warm-up to step {} ({:.0f} CPU-s)",
-                     run->cell().system().step_count(), process_cpu_seconds() - cpu0);
+  if (std::filesystem::exists(soft_file)) {
+    try {
+      run =
+          std::make_unique<dem::ShearCellRun>(dem::ShearCellRun::resume(current, proto, soft_file));
+      how += fmt::format("compaction and warm-up to step {} (from {})",
+                         run->cell().system().step_count(), soft_file.string());
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "bench_cells: {}: soft phase again ({})\n", c.name, e.what());
+    }
+  }
+  if (!run) {
+    run = std::make_unique<dem::ShearCellRun>(current, proto);
+    arena.execute([&] {
+      while (run->phase_name() != "measuring") run->advance(1000);
+    });
+    how += fmt::format("compaction and warm-up to step {} ({:.0f} CPU-s)",
+                       run->cell().system().step_count(), process_cpu_seconds() - cpu0);
+    run->save(soft_file);
+  }
   fmt::print(stderr, "bench_cells: {}: {}\n", c.name, how);
   std::vector<double> stages = c.stiffening_stages;
   stages.push_back(1.0);
