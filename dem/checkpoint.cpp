@@ -87,27 +87,6 @@ void get_array(BinaryReader& in, std::vector<T>& values, std::size_t count) {
   }
 }
 
-void put_materials(BinaryWriter& out, const MaterialTable& table) {
-  out.put<std::uint64_t>(table.size());
-  for (MaterialId m = 0; m < table.size(); ++m) {
-    out.put_string(table.material(m).name);
-    out.put(table.material(m).density);
-  }
-  for (MaterialId a = 0; a < table.size(); ++a) {
-    for (MaterialId b = a; b < table.size(); ++b) {
-      const bool defined = table.has_interaction(a, b);
-      out.put<std::uint8_t>(defined);
-      if (!defined) continue;
-      const InteractionSpec& s = table.interaction(a, b);
-      out.put(s.restitution);
-      out.put(s.friction);
-      out.put(s.normal_stiffness);
-      out.put(s.tangential_stiffness_ratio);
-      out.put(s.tangential_damping_ratio);
-    }
-  }
-}
-
 MaterialTable get_materials(BinaryReader& in) {
   MaterialTable table;
   const auto count = in.get<std::uint64_t>();
@@ -215,6 +194,31 @@ Wall get_wall(BinaryReader& in) {
 }
 
 }  // namespace
+
+void put_material(BinaryWriter& out, const Material& material) {
+  out.put_string(material.name);
+  out.put(material.density);
+}
+
+void put_interaction(BinaryWriter& out, const InteractionSpec& spec) {
+  out.put(spec.restitution);
+  out.put(spec.friction);
+  out.put(spec.normal_stiffness);
+  out.put(spec.tangential_stiffness_ratio);
+  out.put(spec.tangential_damping_ratio);
+}
+
+void put_materials(BinaryWriter& out, const MaterialTable& table) {
+  out.put<std::uint64_t>(table.size());
+  for (MaterialId m = 0; m < table.size(); ++m) put_material(out, table.material(m));
+  for (MaterialId a = 0; a < table.size(); ++a) {
+    for (MaterialId b = a; b < table.size(); ++b) {
+      const bool defined = table.has_interaction(a, b);
+      out.put<std::uint8_t>(defined);
+      if (defined) put_interaction(out, table.interaction(a, b));
+    }
+  }
+}
 
 // Reads and writes System's private state for the checkpoint functions.
 class CheckpointAccess {

@@ -38,6 +38,7 @@
 #include <string>
 #include <string_view>
 
+#include "dem/binary_io.hpp"
 #include "dem/system.hpp"
 
 namespace millflow::dem {
@@ -49,6 +50,12 @@ inline constexpr std::uint32_t kCheckpointVersion = 4;
 // this build). Throws CorruptData for bytes that do not describe a system or a newer version.
 std::string checkpoint_payload(const System& system);
 System system_from_checkpoint_payload(std::string_view payload, std::uint32_t version);
+
+// The encodings the payload uses for a material, a pair's interaction and the material table
+// (the table opens the system's payload), shared with the shear cell's run identity.
+void put_material(BinaryWriter& out, const Material& material);
+void put_interaction(BinaryWriter& out, const InteractionSpec& spec);
+void put_materials(BinaryWriter& out, const MaterialTable& table);
 
 // Writes atomically (temp file + rename): a crash leaves the previous checkpoint intact.
 void save_checkpoint(const System& system, const std::filesystem::path& path);

@@ -45,6 +45,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "dem/batch_means.hpp"
@@ -452,6 +453,9 @@ struct ShearCellProtocol {
 //        converged (uint8))
 // Collision events finished before a save are tallied into the measurement first.
 inline constexpr std::uint32_t kShearCellCheckpointVersion = 4;
+inline constexpr std::string_view kShearCellCheckpointMagic = "MFSHRCKP";
+// The checkpoint's identity field for this setup and protocol.
+std::string shear_cell_run_identity(const ShearCellSetup& setup, const ShearCellProtocol& protocol);
 
 class ShearCellRun {
  public:

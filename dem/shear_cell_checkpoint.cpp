@@ -19,33 +19,23 @@ using namespace shear_cell_detail;
 
 namespace {
 
-constexpr std::string_view kRunMagic = "MFSHRCKP";
-
 void put(BinaryWriter& out, const Vec3& v) {
   for (int a = 0; a < 3; ++a) out.put(v[a]);
 }
 
-void put(BinaryWriter& out, const Material& material) {
-  out.put_string(material.name);
-  out.put(material.density);
+std::array<double*, 4> means_fields(WindowMeans& w) {
+  return {&w.shear_stress, &w.normal_stress, &w.solid_fraction, &w.bulk_shear_rate};
 }
 
-void put(BinaryWriter& out, const InteractionSpec& spec) {
-  out.put(spec.restitution);
-  out.put(spec.friction);
-  out.put(spec.normal_stiffness);
-  out.put(spec.tangential_stiffness_ratio);
-  out.put(spec.tangential_damping_ratio);
-}
+}  // namespace
 
-// Every setting that shapes the run, so a checkpoint is never continued by another cell.
-std::string run_identity(const ShearCellSetup& s, const ShearCellProtocol& protocol) {
+std::string shear_cell_run_identity(const ShearCellSetup& s, const ShearCellProtocol& protocol) {
   BinaryWriter out;
   out.put(s.media_diameter);
-  put(out, s.media);
-  put(out, s.powder);
+  put_material(out, s.media);
+  put_material(out, s.powder);
   for (const InteractionSpec* spec : {&s.media_media, &s.media_powder, &s.powder_powder})
-    put(out, *spec);
+    put_interaction(out, *spec);
   out.put(s.powder_diameter_ratio);
   out.put(s.powder_load);
   out.put(s.powder_bed_solid_fraction);
@@ -71,12 +61,6 @@ std::string run_identity(const ShearCellSetup& s, const ShearCellProtocol& proto
   out.put(protocol.measure.max_strain);
   return out.bytes();
 }
-
-std::array<double*, 4> means_fields(WindowMeans& w) {
-  return {&w.shear_stress, &w.normal_stress, &w.solid_fraction, &w.bulk_shear_rate};
-}
-
-}  // namespace
 
 void ShearCell::Profile::write(BinaryWriter& out) const {
   for (double v : {w, wy, wyy, wv, wyv, media_volume, powder_volume, slab_volume}) out.put(v);
@@ -222,9 +206,10 @@ void ShearCell::read_state(BinaryReader& in) {
 
 ShearCellRun ShearCellRun::resume(const ShearCellSetup& setup, const ShearCellProtocol& protocol,
                                   const std::filesystem::path& path) {
-  const std::string payload = read_checksummed_file(path, kRunMagic, kShearCellCheckpointVersion);
+  const std::string payload =
+      read_checksummed_file(path, kShearCellCheckpointMagic, kShearCellCheckpointVersion);
   BinaryReader in(payload);
-  if (in.get_string() != run_identity(setup, protocol)) {
+  if (in.get_string() != shear_cell_run_identity(setup, protocol)) {
     throw CorruptData(
         fmt::format("{}: the checkpoint is of another shear cell or protocol", path.string()));
   }
@@ -260,7 +245,7 @@ void ShearCellRun::save(const std::filesystem::path& path) {
   if (done()) throw std::logic_error("shear cell run: a finished run has nothing to checkpoint");
   if (phase_ == Phase::Measuring) cell_.tally_collisions(measurement_);
   BinaryWriter out;
-  out.put_string(run_identity(cell_.setup(), protocol_));
+  out.put_string(shear_cell_run_identity(cell_.setup(), protocol_));
   out.put(kCheckpointVersion);
   out.put_string(checkpoint_payload(cell_.system()));
   cell_.write_state(out);
@@ -274,7 +259,7 @@ void ShearCellRun::save(const std::filesystem::path& path) {
   out.put(stationary_strain_);
   out.put<std::uint8_t>(stationary_);
   measurement_.write(out);
-  write_checksummed_file(path, kRunMagic, kShearCellCheckpointVersion, out.bytes());
+  write_checksummed_file(path, kShearCellCheckpointMagic, kShearCellCheckpointVersion, out.bytes());
 }
 
 }  // namespace millflow::dem
