@@ -30,7 +30,6 @@
 //   --cells_skin_fraction=F   time with a neighbour skin of F x the smallest diameter (default:
 //                             the prepared state's)
 #include <tbb/task_arena.h>
-#include <unistd.h>
 
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
@@ -52,8 +51,6 @@
 
 #include "bench/lammps_export.hpp"
 #include "bench/process_measures.hpp"
-#include "dem/binary_io.hpp"
-#include "dem/checkpoint.hpp"
 #include "dem/shear_cell.hpp"
 #include "method/sites.hpp"
 #include "tasks/campaign.hpp"
@@ -150,20 +147,8 @@ dem::ShearCellProtocol protocol(const CellCase& c) {
 }
 
 // --- The staged preparation (cement_load15) ---------------------------------------------------
-// A ShearCellRun can only be built fresh (placement) or resumed from its checkpoint, and the
-// checkpoint names the setup it belongs to. So a run of the soft setup goes on at the next
-// stiffness by way of its checkpoint: the identity rewritten for the next setup (with dem's
-// own encoders: dem::shear_cell_run_identity, dem::put_materials), the powder's
-// contact stiffnesses in the DEM payload's material table scaled by an exact power of two (the
-// loader works every contact's dashpot out again from them), the rest of the file unchanged; the
-// time step is then worked out again from the new contacts.
-
-// The material table as the DEM payload opens with it (dem/checkpoint.hpp's encoding).
-std::string material_table_bytes(const dem::MaterialTable& table) {
-  dem::BinaryWriter out;
-  dem::put_materials(out, table);
-  return out.bytes();
-}
+// A soft run goes on at the next stiffness through dem::ShearCellRun::with_interactions (the
+// same state, every contact's dashpot and the time step worked out again from the new contacts).
 
 // The setup with the powder's contacts at t_c x softening.
 dem::ShearCellSetup softened(dem::ShearCellSetup setup, double softening) {
@@ -171,45 +156,6 @@ dem::ShearCellSetup softened(dem::ShearCellSetup setup, double softening) {
   setup.media_powder.normal_stiffness *= k;
   setup.powder_powder.normal_stiffness *= k;
   return setup;
-}
-
-// `run` (of setup `from`) continued with setup `to`, which differs in the powder's stiffness.
-dem::ShearCellRun restiffened(dem::ShearCellRun& run, const dem::ShearCellSetup& from,
-                              const dem::ShearCellSetup& to, const dem::ShearCellProtocol& protocol,
-                              const std::filesystem::path& scratch) {
-  const double factor = to.powder_powder.normal_stiffness / from.powder_powder.normal_stiffness;
-  run.save(scratch);
-  const std::string payload = dem::read_checksummed_file(scratch, dem::kShearCellCheckpointMagic,
-                                                         dem::kShearCellCheckpointVersion);
-  dem::BinaryReader in(payload);
-  if (in.get_string() != dem::shear_cell_run_identity(from, protocol))
-    throw std::runtime_error("bench_cells: the run identity's encoding is not the checkpoint's");
-  const auto version = in.get<std::uint32_t>();
-  const std::string system_bytes = in.get_string();
-  const std::string rest = payload.substr(in.position());
-  const dem::System system = dem::system_from_checkpoint_payload(system_bytes, version);
-  const std::string old_table = material_table_bytes(system.materials());
-  if (system_bytes.compare(0, old_table.size(), old_table) != 0)
-    throw std::runtime_error("bench_cells: the material table's encoding is not the checkpoint's");
-  dem::MaterialTable table = system.materials();
-  const dem::MaterialId powder = table.find(from.powder.name);
-  for (dem::MaterialId m = 0; m < table.size(); ++m) {
-    if (!table.has_interaction(m, powder)) continue;
-    dem::InteractionSpec spec = table.interaction(m, powder);
-    spec.normal_stiffness *= factor;
-    table.set_interaction(m, powder, spec);
-  }
-  dem::BinaryWriter out;
-  out.put_string(dem::shear_cell_run_identity(to, protocol));
-  out.put(version);
-  out.put_string(material_table_bytes(table) + system_bytes.substr(old_table.size()));
-  const std::string next = out.bytes() + rest;
-  dem::write_checksummed_file(scratch, dem::kShearCellCheckpointMagic,
-                              dem::kShearCellCheckpointVersion, next);
-  dem::ShearCellRun stiffer = dem::ShearCellRun::resume(to, protocol, scratch);
-  std::filesystem::remove(scratch);
-  stiffer.cell().system().set_time_step_from_collisions(to.steps_per_collision);
-  return stiffer;
 }
 
 struct Chunk {
@@ -244,22 +190,20 @@ constexpr double kSteadyChunkStrain = 0.01;
 constexpr double kMinRealStrain = 0.02;
 constexpr double kMaxRealStrain = 0.4;
 
-// Returns the run in its measurement phase at the real contacts, and how it got there.
+// Returns the run in its measurement phase at the real contacts, and how it got there. The soft
+// phase, the costly one (about 18 CPU-minutes), is kept in `soft_file` so that a preparation
+// stopped later resumes from it.
 std::pair<std::unique_ptr<dem::ShearCellRun>, std::string> prepare_staged(
-    const CellCase& c, const dem::ShearCellSetup& setup, const std::filesystem::path& scratch) {
+    const CellCase& c, const dem::ShearCellSetup& setup, const std::filesystem::path& soft_file) {
   const dem::ShearCellProtocol proto = protocol(c);
-  dem::ShearCellSetup current = softened(setup, c.powder_softening);
-  // The soft phase, the costly one (about 18 CPU-minutes), is kept beside the scratch file so that
-  // a preparation stopped later resumes from it.
-  const std::filesystem::path soft_file = scratch.string() + ".soft.ckpt";
+  const dem::ShearCellSetup soft = softened(setup, c.powder_softening);
   std::unique_ptr<dem::ShearCellRun> run;
   const auto cpu0 = process_cpu_seconds();
   std::string how = fmt::format("powder contacts at t_c x {}: ", c.powder_softening);
   tbb::task_arena arena(2);
   if (std::filesystem::exists(soft_file)) {
     try {
-      run =
-          std::make_unique<dem::ShearCellRun>(dem::ShearCellRun::resume(current, proto, soft_file));
+      run = std::make_unique<dem::ShearCellRun>(dem::ShearCellRun::resume(soft, proto, soft_file));
       how += fmt::format("compaction and warm-up to step {} (from {})",
                          run->cell().system().step_count(), soft_file.string());
     } catch (const std::exception& e) {
@@ -267,7 +211,7 @@ std::pair<std::unique_ptr<dem::ShearCellRun>, std::string> prepare_staged(
     }
   }
   if (!run) {
-    run = std::make_unique<dem::ShearCellRun>(current, proto);
+    run = std::make_unique<dem::ShearCellRun>(soft, proto);
     arena.execute([&] {
       while (run->phase_name() != "measuring") run->advance(1000);
     });
@@ -280,8 +224,7 @@ std::pair<std::unique_ptr<dem::ShearCellRun>, std::string> prepare_staged(
   stages.push_back(1.0);
   for (const double softening : stages) {
     const dem::ShearCellSetup next = softening == 1.0 ? setup : softened(setup, softening);
-    run = std::make_unique<dem::ShearCellRun>(restiffened(*run, current, next, proto, scratch));
-    current = next;
+    run = std::make_unique<dem::ShearCellRun>(run->with_interactions(next));
     if (softening == 1.0) break;
     Chunk chunk;
     arena.execute([&] { chunk = run_chunk(*run, c.stage_strain); });
@@ -342,10 +285,11 @@ const dem::ShearCellRun& prepared(const CellCase& c) {
   const auto start = Clock::now();
   std::string how;
   if (c.powder_softening != 1.0) {
-    const std::filesystem::path scratch =
-        file ? std::filesystem::path(file->string() + ".stage")
-             : std::filesystem::temp_directory_path() / fmt::format("bench_cells_{}.stage", c.name);
-    std::tie(slot, how) = prepare_staged(c, setup, scratch);
+    const std::filesystem::path soft_file =
+        file ? std::filesystem::path(file->string() + ".stage.soft.ckpt")
+             : std::filesystem::temp_directory_path() /
+                   fmt::format("bench_cells_{}.stage.soft.ckpt", c.name);
+    std::tie(slot, how) = prepare_staged(c, setup, soft_file);
   } else {
     slot = std::make_unique<dem::ShearCellRun>(setup, protocol(c));
     tbb::task_arena arena(2);
@@ -450,49 +394,6 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
       static_cast<double>(system.memory_bytes()) / static_cast<double>(particles);
 }
 
-// --cells_selftest (ctest bench_cells_staging): the staging's checkpoint surgery on a small
-// cement cell (3 x 3 x 3 d, placed, not run). Continued at its own setup, the run's DEM payload
-// must come back byte for byte; continued from powder contacts at t_c x 4 to the real ones, its
-// material table and time step must be those of a cell built with the real contacts.
-int selftest() {
-  spdlog::set_level(spdlog::level::warn);
-  dem::ShearCellSetup real = setup_of(cases()[1]);
-  real.size_diameters = {3.0, 3.0, 3.0};
-  const dem::ShearCellProtocol proto = protocol(cases()[1]);
-  const std::filesystem::path scratch =
-      std::filesystem::temp_directory_path() / fmt::format("bench_cells_selftest_{}", ::getpid());
-  int failures = 0;
-  const auto check = [&](bool ok, std::string_view what) {
-    fmt::print(stderr, "bench_cells selftest: {}: {}\n", what, ok ? "ok" : "FAILED");
-    failures += ok ? 0 : 1;
-  };
-  {
-    dem::ShearCellRun run(real, proto);
-    const std::string before = dem::checkpoint_payload(run.cell().system());
-    dem::ShearCellRun same = restiffened(run, real, real, proto, scratch);
-    check(dem::checkpoint_payload(same.cell().system()) == before,
-          "continued at its own setup, the same DEM state");
-  }
-  {
-    const dem::ShearCellSetup soft = softened(real, 4.0);
-    dem::ShearCellRun run(soft, proto);
-    const dem::ShearCellRun fresh(real, proto);
-    const dem::System& want = fresh.cell().system();
-    fmt::print(stderr, "bench_cells selftest: dt {:.4g} s at t_c x 4, {:.4g} s real\n",
-               run.cell().system().time_step(), want.time_step());
-    // The media-media contacts (t_c 2.5 x the powder's) cap the gain at 2.5.
-    check(run.cell().system().time_step() > 2.0 * want.time_step(),
-          "t_c x 4 for the powder, a time step 2.5 x longer");
-    dem::ShearCellRun stiff = restiffened(run, soft, real, proto, scratch);
-    const dem::System& got = stiff.cell().system();
-    check(material_table_bytes(got.materials()) == material_table_bytes(want.materials()),
-          "stiffened back, the real contacts' material table");
-    check(got.time_step() == want.time_step(), "stiffened back, the real time step");
-    check(state_hash(got) == state_hash(run.cell().system()), "the same positions and velocities");
-  }
-  return failures == 0 ? 0 : 1;
-}
-
 // Strips "--name=value" for our flags out of argv; returns the value of each one given.
 std::optional<std::string> take_flag(int& argc, char** argv, std::string_view name) {
   const std::string prefix = fmt::format("--{}=", name);
@@ -510,7 +411,6 @@ std::optional<std::string> take_flag(int& argc, char** argv, std::string_view na
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc == 2 && std::string_view(argv[1]) == "--cells_selftest") return selftest();
   if (auto v = take_flag(argc, argv, "cells_steps")) g_options.steps = std::stoul(*v);
   if (auto v = take_flag(argc, argv, "cells_shear_rate")) g_options.shear_rate = std::stod(*v);
   if (auto v = take_flag(argc, argv, "cells_normal_stress"))

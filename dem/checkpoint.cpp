@@ -193,6 +193,18 @@ Wall get_wall(BinaryReader& in) {
   return wall;
 }
 
+void put_materials(BinaryWriter& out, const MaterialTable& table) {
+  out.put<std::uint64_t>(table.size());
+  for (MaterialId m = 0; m < table.size(); ++m) put_material(out, table.material(m));
+  for (MaterialId a = 0; a < table.size(); ++a) {
+    for (MaterialId b = a; b < table.size(); ++b) {
+      const bool defined = table.has_interaction(a, b);
+      out.put<std::uint8_t>(defined);
+      if (defined) put_interaction(out, table.interaction(a, b));
+    }
+  }
+}
+
 }  // namespace
 
 void put_material(BinaryWriter& out, const Material& material) {
@@ -208,24 +220,13 @@ void put_interaction(BinaryWriter& out, const InteractionSpec& spec) {
   out.put(spec.tangential_damping_ratio);
 }
 
-void put_materials(BinaryWriter& out, const MaterialTable& table) {
-  out.put<std::uint64_t>(table.size());
-  for (MaterialId m = 0; m < table.size(); ++m) put_material(out, table.material(m));
-  for (MaterialId a = 0; a < table.size(); ++a) {
-    for (MaterialId b = a; b < table.size(); ++b) {
-      const bool defined = table.has_interaction(a, b);
-      out.put<std::uint8_t>(defined);
-      if (defined) put_interaction(out, table.interaction(a, b));
-    }
-  }
-}
-
 // Reads and writes System's private state for the checkpoint functions.
 class CheckpointAccess {
  public:
-  static std::string serialise(const System& s) {
+  static std::string serialise(const System& s) { return serialise(s, s.materials_); }
+  static std::string serialise(const System& s, const MaterialTable& materials) {
     BinaryWriter out;
-    put_materials(out, s.materials_);
+    put_materials(out, materials);
     put_domain(out, s.domain_);
     put(out, s.gravity_);
     out.put(s.dt_);
@@ -414,6 +415,17 @@ class CheckpointAccess {
 
 std::string checkpoint_payload(const System& system) {
   return CheckpointAccess::serialise(system);
+}
+
+System system_with_materials(const System& system, const MaterialTable& materials) {
+  if (materials.size() != system.materials().size())
+    throw std::invalid_argument("system_with_materials: another number of materials");
+  for (MaterialId m = 0; m < materials.size(); ++m) {
+    if (materials.material(m).name != system.materials().material(m).name)
+      throw std::invalid_argument("system_with_materials: materials of other names");
+  }
+  return system_from_checkpoint_payload(CheckpointAccess::serialise(system, materials),
+                                        kCheckpointVersion);
 }
 
 System system_from_checkpoint_payload(std::string_view payload, std::uint32_t version) {

@@ -51,11 +51,16 @@ inline constexpr std::uint32_t kCheckpointVersion = 4;
 std::string checkpoint_payload(const System& system);
 System system_from_checkpoint_payload(std::string_view payload, std::uint32_t version);
 
-// The encodings the payload uses for a material, a pair's interaction and the material table
-// (the table opens the system's payload), shared with the shear cell's run identity.
+// The same system (particles, motion, walls, groups, contacts and their histories) with other
+// materials of the same names: every contact's dashpot is worked out again from them, as a
+// checkpoint's loader does, so the copy holds exactly what a run continued from a checkpoint
+// saved with these materials would.
+System system_with_materials(const System& system, const MaterialTable& materials);
+
+// The encodings the payload uses for a material and a pair's interaction, shared with the shear
+// cell's run identity.
 void put_material(BinaryWriter& out, const Material& material);
 void put_interaction(BinaryWriter& out, const InteractionSpec& spec);
-void put_materials(BinaryWriter& out, const MaterialTable& table);
 
 // Writes atomically (temp file + rename): a crash leaves the previous checkpoint intact.
 void save_checkpoint(const System& system, const std::filesystem::path& path);

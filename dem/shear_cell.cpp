@@ -43,20 +43,6 @@ std::size_t powder_count_for(const ShearCellSetup& s) {
       std::llround(solid / sphere_volume_of_diameter(powder_diameter(s))));
 }
 
-MaterialTable make_materials(const ShearCellSetup& s) {
-  MaterialTable table;
-  const MaterialId media = table.add(s.media);
-  const MaterialId powder = table.add(s.powder);
-  const MaterialId wall = table.add({s.media.name + "_wall", s.media.density});
-  table.set_interaction(media, media, s.media_media);
-  table.set_interaction(media, powder, s.media_powder);
-  table.set_interaction(powder, powder, s.powder_powder);
-  table.set_interaction(wall, media, s.media_media);
-  table.set_interaction(wall, powder, s.media_powder);
-  table.set_interaction(wall, wall, s.media_media);
-  return table;
-}
-
 Domain make_domain(const ShearCellSetup& s) {
   const double d = s.media_diameter;
   Domain domain;
@@ -84,6 +70,20 @@ const ShearCellSetup& checked(const ShearCellSetup& s) {
 }
 
 }  // namespace
+
+MaterialTable shear_cell_detail::make_materials(const ShearCellSetup& s) {
+  MaterialTable table;
+  const MaterialId media = table.add(s.media);
+  const MaterialId powder = table.add(s.powder);
+  const MaterialId wall = table.add({s.media.name + "_wall", s.media.density});
+  table.set_interaction(media, media, s.media_media);
+  table.set_interaction(media, powder, s.media_powder);
+  table.set_interaction(powder, powder, s.powder_powder);
+  table.set_interaction(wall, media, s.media_media);
+  table.set_interaction(wall, powder, s.media_powder);
+  table.set_interaction(wall, wall, s.media_media);
+  return table;
+}
 
 ShearCellPopulation shear_cell_population(const ShearCellSetup& s) {
   ShearCellPopulation population{.media = media_count_for(s),

@@ -453,9 +453,6 @@ struct ShearCellProtocol {
 //        converged (uint8))
 // Collision events finished before a save are tallied into the measurement first.
 inline constexpr std::uint32_t kShearCellCheckpointVersion = 4;
-inline constexpr std::string_view kShearCellCheckpointMagic = "MFSHRCKP";
-// The checkpoint's identity field for this setup and protocol.
-std::string shear_cell_run_identity(const ShearCellSetup& setup, const ShearCellProtocol& protocol);
 
 class ShearCellRun {
  public:
@@ -464,6 +461,13 @@ class ShearCellRun {
   // missing, truncated, altered or newer file, and for one saved by another cell or protocol.
   static ShearCellRun resume(const ShearCellSetup& setup, const ShearCellProtocol& protocol,
                              const std::filesystem::path& path);
+
+  // This run continued with `setup`'s contacts (a setup that differs from the run's own in its
+  // interactions only, e.g. stiffer ones): the same particles, motion, contacts and run state,
+  // every contact's dashpot and the time step worked out again from the new contacts, exactly as
+  // a run saved and resumed with that setup would be. Throws std::invalid_argument for a setup
+  // that differs in anything else, std::logic_error once done().
+  ShearCellRun with_interactions(const ShearCellSetup& setup);
 
   // Runs at most `max_steps` more steps (compaction, which runs whole, aside); true when done.
   bool advance(std::uint64_t max_steps);
@@ -482,6 +486,13 @@ class ShearCellRun {
  private:
   enum class Phase : std::uint8_t { Compacting, WarmUp, Measuring, Done };
   ShearCellRun(ShearCell cell, const ShearCellProtocol& protocol);
+  // The checkpoint's payload (save() writes it into the file's container), and the run it
+  // describes for `setup` (its identity must be that setup's), continued with `continue_with`'s
+  // contacts when given (with_interactions); `source` names it in errors.
+  std::string state();
+  static ShearCellRun from_state(const ShearCellSetup& setup, const ShearCellProtocol& protocol,
+                                 std::string_view state, const std::string& source,
+                                 const ShearCellSetup* continue_with);
   // Starts what follows a finished piece (no steps are taken).
   void start_next_piece();
 

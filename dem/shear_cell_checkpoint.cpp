@@ -19,6 +19,8 @@ using namespace shear_cell_detail;
 
 namespace {
 
+constexpr std::string_view kRunMagic = "MFSHRCKP";
+
 void put(BinaryWriter& out, const Vec3& v) {
   for (int a = 0; a < 3; ++a) out.put(v[a]);
 }
@@ -27,9 +29,8 @@ std::array<double*, 4> means_fields(WindowMeans& w) {
   return {&w.shear_stress, &w.normal_stress, &w.solid_fraction, &w.bulk_shear_rate};
 }
 
-}  // namespace
-
-std::string shear_cell_run_identity(const ShearCellSetup& s, const ShearCellProtocol& protocol) {
+// Every setting that shapes the run, so a checkpoint is never continued by another cell.
+std::string run_identity(const ShearCellSetup& s, const ShearCellProtocol& protocol) {
   BinaryWriter out;
   out.put(s.media_diameter);
   put_material(out, s.media);
@@ -61,6 +62,8 @@ std::string shear_cell_run_identity(const ShearCellSetup& s, const ShearCellProt
   out.put(protocol.measure.max_strain);
   return out.bytes();
 }
+
+}  // namespace
 
 void ShearCell::Profile::write(BinaryWriter& out) const {
   for (double v : {w, wy, wyy, wv, wyv, media_volume, powder_volume, slab_volume}) out.put(v);
@@ -206,28 +209,49 @@ void ShearCell::read_state(BinaryReader& in) {
 
 ShearCellRun ShearCellRun::resume(const ShearCellSetup& setup, const ShearCellProtocol& protocol,
                                   const std::filesystem::path& path) {
-  const std::string payload =
-      read_checksummed_file(path, kShearCellCheckpointMagic, kShearCellCheckpointVersion);
-  BinaryReader in(payload);
-  if (in.get_string() != shear_cell_run_identity(setup, protocol)) {
+  return from_state(setup, protocol,
+                    read_checksummed_file(path, kRunMagic, kShearCellCheckpointVersion),
+                    path.string(), nullptr);
+}
+
+ShearCellRun ShearCellRun::with_interactions(const ShearCellSetup& setup) {
+  ShearCellSetup same_interactions = setup;
+  same_interactions.media_media = cell_.setup().media_media;
+  same_interactions.media_powder = cell_.setup().media_powder;
+  same_interactions.powder_powder = cell_.setup().powder_powder;
+  if (run_identity(same_interactions, protocol_) != run_identity(cell_.setup(), protocol_)) {
+    throw std::invalid_argument(
+        "shear cell run: with_interactions takes a setup that differs in its interactions only");
+  }
+  ShearCellRun run = from_state(cell_.setup(), protocol_, state(), "shear cell run", &setup);
+  run.cell_.system().set_time_step_from_collisions(setup.steps_per_collision);
+  return run;
+}
+
+ShearCellRun ShearCellRun::from_state(const ShearCellSetup& setup,
+                                      const ShearCellProtocol& protocol, std::string_view state,
+                                      const std::string& source,
+                                      const ShearCellSetup* continue_with) {
+  BinaryReader in(state);
+  if (in.get_string() != run_identity(setup, protocol)) {
     throw CorruptData(
-        fmt::format("{}: the checkpoint is of another shear cell or protocol", path.string()));
+        fmt::format("{}: the checkpoint is of another shear cell or protocol", source));
   }
   const auto system_version = in.get<std::uint32_t>();
-  ShearCellRun run(
-      ShearCell(setup, system_from_checkpoint_payload(in.get_string(), system_version)), protocol);
+  System system = system_from_checkpoint_payload(in.get_string(), system_version);
+  if (continue_with) system = system_with_materials(system, make_materials(*continue_with));
+  ShearCellRun run(ShearCell(continue_with ? *continue_with : setup, std::move(system)), protocol);
   run.cell_.read_state(in);
   const auto phase = in.get<std::uint8_t>();
   if (phase > static_cast<std::uint8_t>(Phase::Measuring)) {
-    throw CorruptData(fmt::format("{}: unknown shear cell run phase {}", path.string(), phase));
+    throw CorruptData(fmt::format("{}: unknown shear cell run phase {}", source, phase));
   }
   run.phase_ = static_cast<Phase>(phase);
   run.window_index_ = in.get<std::int32_t>();
   run.window_.read(in);
   const auto windows = in.get<std::uint64_t>();
   if (windows > static_cast<std::uint64_t>(run.max_windows_))
-    throw CorruptData(
-        fmt::format("{}: more warm-up windows than the protocol allows", path.string()));
+    throw CorruptData(fmt::format("{}: more warm-up windows than the protocol allows", source));
   run.windows_.resize(windows);
   for (WindowMeans& w : run.windows_) {
     for (double* v : means_fields(w)) *v = in.get<double>();
@@ -237,15 +261,19 @@ ShearCellRun ShearCellRun::resume(const ShearCellSetup& setup, const ShearCellPr
   run.measurement_.read(in);
   run.measurement_.options = protocol.measure;
   if (!in.at_end())
-    throw CorruptData(fmt::format("{}: trailing bytes after the shear cell run", path.string()));
+    throw CorruptData(fmt::format("{}: trailing bytes after the shear cell run", source));
   return run;
 }
 
 void ShearCellRun::save(const std::filesystem::path& path) {
+  write_checksummed_file(path, kRunMagic, kShearCellCheckpointVersion, state());
+}
+
+std::string ShearCellRun::state() {
   if (done()) throw std::logic_error("shear cell run: a finished run has nothing to checkpoint");
   if (phase_ == Phase::Measuring) cell_.tally_collisions(measurement_);
   BinaryWriter out;
-  out.put_string(shear_cell_run_identity(cell_.setup(), protocol_));
+  out.put_string(run_identity(cell_.setup(), protocol_));
   out.put(kCheckpointVersion);
   out.put_string(checkpoint_payload(cell_.system()));
   cell_.write_state(out);
@@ -259,7 +287,7 @@ void ShearCellRun::save(const std::filesystem::path& path) {
   out.put(stationary_strain_);
   out.put<std::uint8_t>(stationary_);
   measurement_.write(out);
-  write_checksummed_file(path, kShearCellCheckpointMagic, kShearCellCheckpointVersion, out.bytes());
+  return out.bytes();
 }
 
 }  // namespace millflow::dem

@@ -78,4 +78,8 @@ inline double placement_gap(const ShearCellSetup& s) {
   return (1.0 + 2.0 * kWallBallJitter) * s.media_diameter + placement_height(s);
 }
 
+// The cell's material table: media, powder and the wall balls' material, with the setup's
+// interactions (dem/shear_cell.cpp).
+MaterialTable make_materials(const ShearCellSetup& s);
+
 }  // namespace millflow::dem::shear_cell_detail

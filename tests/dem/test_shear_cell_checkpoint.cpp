@@ -10,6 +10,7 @@
 #include <set>
 
 #include "dem/binary_io.hpp"
+#include "dem/checkpoint.hpp"
 #include "dem/shear_cell.hpp"
 #include "tests/common/scratch_dir.hpp"
 #include "tests/dem/shear_cells.hpp"
@@ -180,6 +181,59 @@ TEST(ShearCellCheckpointFile, TruncatedAlteredForeignAndMissingFilesAreRefused) 
   EXPECT_EQ(resume_error(setup, file), "no error");
   std::filesystem::remove(file);
   EXPECT_NE(resume_error(setup, file).find("cannot read"), std::string::npos);
+}
+
+// with_interactions: a run continued with its own setup keeps every bit; continued with stiffer
+// powder contacts, it holds what a cell built with them holds (the materials, the time step) and
+// the same particles; a setup that differs in anything but its interactions is refused.
+TEST(ShearCellWithInteractions, AtItsOwnSetupTheRunKeepsEveryBit) {
+  const ShearCellSetup setup = tiny_cell(ShearCellSetup::Boundary::LeesEdwards);
+  ShearCellRun uninterrupted(setup, tiny_protocol());
+  while (!uninterrupted.advance(1000)) {
+  }
+  ShearCellRun run(setup, tiny_protocol());
+  for (int chunk = 0; chunk < 12; ++chunk) run.advance(37);
+  ShearCellRun continued = run.with_interactions(setup);
+  EXPECT_EQ(checkpoint_payload(continued.cell().system()), checkpoint_payload(run.cell().system()));
+  while (!continued.advance(1000)) {
+  }
+  expect_same_bits(uninterrupted, continued);
+}
+
+TEST(ShearCellWithInteractions, StifferPowderContactsAreThoseOfACellBuiltWithThem) {
+  const ShearCellSetup real = tiny_cell(ShearCellSetup::Boundary::LeesEdwards);
+  ShearCellSetup soft = real;
+  soft.media_powder.normal_stiffness /= 16.0;
+  soft.powder_powder.normal_stiffness /= 16.0;
+  ShearCellRun run(soft, tiny_protocol());
+  for (int chunk = 0; chunk < 12; ++chunk) run.advance(37);
+  const ShearCellRun stiff = run.with_interactions(real);
+  const ShearCellRun fresh(real, tiny_protocol());
+  const System& got = stiff.cell().system();
+  const System& want = fresh.cell().system();
+  ASSERT_EQ(got.materials().size(), want.materials().size());
+  for (MaterialId a = 0; a < want.materials().size(); ++a) {
+    for (MaterialId b = a; b < want.materials().size(); ++b) {
+      EXPECT_EQ(got.materials().pair(a, b).normal_stiffness,
+                want.materials().pair(a, b).normal_stiffness)
+          << a << "-" << b;
+    }
+  }
+  EXPECT_EQ(got.time_step(), want.time_step());
+  EXPECT_NE(got.time_step(), run.cell().system().time_step());
+  ASSERT_EQ(got.size(), run.cell().system().size());
+  for (std::size_t p = 0; p < got.size(); ++p) {
+    EXPECT_EQ(got.positions()[p], run.cell().system().positions()[p]) << p;
+    EXPECT_EQ(got.velocities()[p], run.cell().system().velocities()[p]) << p;
+  }
+}
+
+TEST(ShearCellWithInteractions, ASetupThatDiffersInMoreThanItsInteractionsIsRefused) {
+  const ShearCellSetup setup = tiny_cell(ShearCellSetup::Boundary::LeesEdwards);
+  ShearCellRun run(setup, tiny_protocol());
+  ShearCellSetup faster = setup;
+  faster.shear_rate *= 2.0;
+  EXPECT_THROW(run.with_interactions(faster), std::invalid_argument);
 }
 
 }  // namespace
