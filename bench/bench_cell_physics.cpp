@@ -55,6 +55,7 @@
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "bench/lammps_export.hpp"
@@ -87,6 +88,15 @@ struct Options {
   double dilute_load = 0.01;              // table 3's
   double stiffer_factor = 4.0;            // table 1's second stiffness, x the policy's
   std::vector<double> stiffness_factors;  // table 1's stiffnesses, x the policy's (a sequence)
+  // Which pairs table 1's factors multiply: all, powder (media-powder and powder-powder), media
+  // (media-media), media_powder, powder_powder.
+  std::string stiffness_pairs = "all";
+  // > 0: every cell's media-media k_n raised to at least this k_n / (sigma_n d_m) after the
+  // policy and before the factors (a rigidity bound for the balls, a candidate default).
+  double media_kappa = 0.0;
+  // Table 1: each cell's measured dissipation split by term and by contact age (probes every
+  // this many steps; 0: off).
+  std::uint64_t dissipation_probe_every = 0;
   std::vector<double> inertial_numbers{0.01, 0.03, 0.1, 0.2, 0.3};
   double overlap_ratio = 0.125;  // table 5's powder
   double overlap_load = 0.05;
@@ -110,10 +120,149 @@ struct Cell {
   double powder_load = 0.0;
   double shear_rate = 0.0;
   double stiffness_factor = 1.0;
+  std::string stiffness_pairs = "all";  // which pairs stiffness_factor multiplies (Options)
   bool walls = false;
   double powder_ratio = 0.0;      // 0: Options::powder_ratio
   std::vector<double> size = {};  // empty: Options::size
   double strain_factor = 1.0;     // x every strain of the protocol
+};
+
+// Table 1's --dissipation_probe_every: where a cell's measured dissipation goes. Over the window,
+// by contact type and term (normal dashpot, tangential dashpot, Coulomb sliding) from the
+// system's dissipation by category. And from one-step probes, by the age of the contact in
+// binary collision times t_c of its pair (pi / omega_0 / sqrt(1 - zeta^2), the particles' own
+// masses): under 1.5 t_c a collision (a binary contact ends at t_c), above it a contact held by
+// more than its own impact (enduring), in three classes. A probe reads every contact's
+// dissipation before and after one step; a contact that ends within the step is missed.
+class DissipationProbe {
+ public:
+  static constexpr std::array<double, 3> kAgeEdges{1.5, 5.0, 20.0};  // x t_c
+  static constexpr std::size_t kAges = kAgeEdges.size() + 1;
+
+  void start(const dem::System& system) { window0_ = system.dissipation_by_category(); }
+  void finish(const dem::System& system) { window1_ = system.dissipation_by_category(); }
+
+  void snapshot(const dem::System& system) {
+    before_.clear();
+    time0_ = system.time();
+    const auto pairs = system.candidate_pairs();
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+      if (!system.pair_touching(k)) continue;
+      const dem::ContactHistory& h = system.pair_history(k);
+      before_[key(pairs[k].i, pairs[k].j)] = {h.dissipated, h.start_time};
+    }
+  }
+
+  void add_step(const dem::ShearCell& cell) {
+    const dem::System& system = cell.system();
+    const auto pairs = system.candidate_pairs();
+    const auto mass = system.masses();
+    const auto material = system.particle_materials();
+    const double now = system.time(), dt = now - time0_;
+    probes_ += 1.0;
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+      if (!system.pair_touching(k)) continue;
+      const std::uint32_t i = pairs[k].i, j = pairs[k].j;
+      const dem::ContactHistory& h = system.pair_history(k);
+      dem::Dissipation step = h.dissipated;
+      if (h.start_time < time0_) {  // touching before the step: only the step's part
+        const auto it = before_.find(key(i, j));
+        if (it == before_.end() || it->second.start_time != h.start_time) {
+          ++lost_;
+          continue;
+        }
+        step.normal -= it->second.dissipated.normal;
+        step.tangential -= it->second.dissipated.tangential;
+        step.friction -= it->second.dissipated.friction;
+      }
+      const dem::PairParams& pp = system.materials().pair(material[i], material[j]);
+      const double m_eff = mass[i] * mass[j] / (mass[i] + mass[j]);
+      const double t_c = dem::collision_duration(pp.normal_stiffness, m_eff, pp.damping_ratio);
+      const double age = (now - h.start_time) / t_c;
+      const std::size_t a = static_cast<std::size_t>(
+          std::upper_bound(kAgeEdges.begin(), kAgeEdges.end(), age) - kAgeEdges.begin());
+      const auto t = static_cast<std::size_t>(
+          cell.contact_type(system.pair_category(material[i], material[j])));
+      Bin& b = bins_[t][a];
+      b.dissipated += step;
+      b.contacts += 1.0;
+      // C_n v_n^2 dt is the normal dashpot's: the mean v_n^2 over the class's contact-steps.
+      if (h.normal_damping > 0.0) b.vn2_sum += step.normal / (h.normal_damping * dt);
+    }
+  }
+
+  // `m`: the cell's measurements, for the rates (its dissipation density by type, W/m^3).
+  void print(const dem::ShearCell& cell, const dem::ShearCellMeasurements& m) const {
+    double total = 0.0;
+    std::array<dem::Dissipation, dem::kContactTypeCount> by_type{};
+    for (std::size_t c = 0; c < window1_.size() && c < window0_.size(); ++c) {
+      dem::Dissipation d = window1_[c];
+      d.normal -= window0_[c].normal;
+      d.tangential -= window0_[c].tangential;
+      d.friction -= window0_[c].friction;
+      by_type[static_cast<std::size_t>(cell.contact_type(static_cast<std::uint32_t>(c)))] += d;
+      total += d.total();
+    }
+    if (total <= 0.0) return;
+    fmt::print(
+        "    dissipation over the window, % of the cell's, and W/m^3 (the type's rate "
+        "split as its terms): type: normal dashpot, tangential dashpot, sliding (total)\n");
+    for (std::size_t t = 0; t < dem::kContactTypeCount; ++t) {
+      const dem::Dissipation& d = by_type[t];
+      if (d.total() <= 0.0) continue;
+      const double rate = m.dissipation_density[t] / d.total();
+      fmt::print(
+          "      {:<14} {:6.2f} {:6.2f} {:6.2f}  ({:6.2f})   {:9.4g} {:9.4g} {:9.4g}  "
+          "({:9.4g})\n",
+          dem::contact_type_name(static_cast<dem::ContactType>(t)), 100.0 * d.normal / total,
+          100.0 * d.tangential / total, 100.0 * d.friction / total, 100.0 * d.total() / total,
+          rate * d.normal, rate * d.tangential, rate * d.friction, m.dissipation_density[t]);
+    }
+    fmt::print(
+        "    probes ({:.0f} steps, {} contacts lost to a renumbering): by age in t_c of the pair, "
+        "contacts per step, % of the type's probed dissipation, of it % normal / tangential / "
+        "sliding, rms v_n m/s\n",
+        probes_, lost_);
+    for (std::size_t t = 0; t < dem::kContactTypeCount; ++t) {
+      double type_total = 0.0;
+      for (const Bin& b : bins_[t]) type_total += b.dissipated.total();
+      if (type_total <= 0.0) continue;
+      fmt::print("      {:<14}", dem::contact_type_name(static_cast<dem::ContactType>(t)));
+      for (std::size_t a = 0; a < kAges; ++a) {
+        const Bin& b = bins_[t][a];
+        const double d = b.dissipated.total();
+        const std::string label =
+            a == 0 ? fmt::format("<{:g}", kAgeEdges[0])
+                   : (a == kAges - 1 ? fmt::format(">{:g}", kAgeEdges[a - 1])
+                                     : fmt::format("{:g}-{:g}", kAgeEdges[a - 1], kAgeEdges[a]));
+        fmt::print(" | {} {:.0f} {:.1f}% ({:.0f}/{:.0f}/{:.0f}) {:.2e}", label,
+                   b.contacts / probes_, 100.0 * d / type_total,
+                   d > 0.0 ? 100.0 * b.dissipated.normal / d : 0.0,
+                   d > 0.0 ? 100.0 * b.dissipated.tangential / d : 0.0,
+                   d > 0.0 ? 100.0 * b.dissipated.friction / d : 0.0,
+                   b.contacts > 0.0 ? std::sqrt(b.vn2_sum / b.contacts) : 0.0);
+      }
+      fmt::print("\n");
+    }
+  }
+
+ private:
+  struct Before {
+    dem::Dissipation dissipated;
+    double start_time = 0.0;
+  };
+  struct Bin {
+    dem::Dissipation dissipated;
+    double contacts = 0.0, vn2_sum = 0.0;
+  };
+  static std::uint64_t key(std::uint32_t i, std::uint32_t j) {
+    return (static_cast<std::uint64_t>(i) << 32) | j;
+  }
+  std::vector<dem::Dissipation> window0_, window1_;
+  std::unordered_map<std::uint64_t, Before> before_;
+  double time0_ = 0.0, probes_ = 0.0;
+  std::size_t lost_ = 0;
+  std::array<std::array<Bin, kAges>, dem::kContactTypeCount> bins_{};
 };
 
 // What a finished cell reports.
@@ -157,8 +306,24 @@ dem::ShearCellSetup setup_for(const Options& o, const Cell& c, const json& campa
     fmt::print(
         "    stiffness {:<14} k_n {:.4g} N/m ({}: given {:.4g}, static {:.4g}, impact {:.4g})\n",
         p.pair, p.chosen, p.governing, p.given, p.static_bound, p.impact_bound);
-  for (dem::InteractionSpec* pair : {&setup.media_media, &setup.media_powder, &setup.powder_powder})
-    pair->normal_stiffness *= c.stiffness_factor;
+  if (o.media_kappa > 0.0) {
+    const double rigid = o.media_kappa * setup.normal_stress * setup.media_diameter;
+    setup.media_media.normal_stiffness = std::max(setup.media_media.normal_stiffness, rigid);
+    fmt::print("    media-media k_n {:.4g} N/m after --media_kappa {:g}\n",
+               setup.media_media.normal_stiffness, o.media_kappa);
+  }
+  const std::string& which = c.stiffness_pairs;
+  if (which != "all" && which != "powder" && which != "media" && which != "media_powder" &&
+      which != "powder_powder")
+    throw std::invalid_argument(
+        "--stiffness_pairs: all, powder, media, media_powder or "
+        "powder_powder, not " +
+        which);
+  if (which == "all" || which == "media") setup.media_media.normal_stiffness *= c.stiffness_factor;
+  if (which == "all" || which == "powder" || which == "media_powder")
+    setup.media_powder.normal_stiffness *= c.stiffness_factor;
+  if (which == "all" || which == "powder" || which == "powder_powder")
+    setup.powder_powder.normal_stiffness *= c.stiffness_factor;
   return setup;
 }
 
@@ -181,9 +346,26 @@ CellResult run_cell(const Options& o, const Cell& c) {
   const double cpu_start = process_cpu_seconds();
   dem::ShearCellRun run(setup, tasks::shear_cell_protocol(campaign));
   tbb::task_arena arena(o.threads);
+  DissipationProbe probe;
   arena.execute([&] {
-    while (!run.advance(100000)) {
+    if (o.dissipation_probe_every == 0) {
+      while (!run.advance(100000)) {
+      }
+      return;
     }
+    // In pieces of the probe interval: the window's dissipation by term from its first piece
+    // (the measurement starts within the piece before; off by at most one piece of a window of
+    // 1e5 steps and more), a probe of one step after each piece.
+    bool measuring = false;
+    while (!run.advance(o.dissipation_probe_every)) {
+      if (run.phase_name() != "measuring") continue;
+      if (!measuring) probe.start(run.cell().system());
+      measuring = true;
+      probe.snapshot(run.cell().system());
+      if (run.advance(1)) break;
+      probe.add_step(run.cell());
+    }
+    probe.finish(run.cell().system());
   });
   result.cpu_seconds = process_cpu_seconds() - cpu_start;
   result.m = run.measurements();
@@ -207,6 +389,7 @@ CellResult run_cell(const Options& o, const Cell& c) {
         m.bulk_shear_rate, m.target_shear_rate, m.wall_slip, m.gap);
   }
   print_overlaps(m);
+  if (o.dissipation_probe_every > 0) probe.print(run.cell(), m);
   std::fflush(stdout);
   return result;
 }
@@ -252,8 +435,10 @@ void print_row(const std::string& name, Value a, Value b) {
 }
 
 void stiffness_table(const Options& o) {
-  fmt::print("\nTable 1: stiffness sensitivity ({:g} 1/s, {:g} Pa, powder {:g} d at load {:g})\n",
-             o.shear_rate, o.normal_stress, o.powder_ratio, o.load);
+  fmt::print(
+      "\nTable 1: stiffness sensitivity ({:g} 1/s, {:g} Pa, powder {:g} d at load {:g}; the "
+      "factors multiply the {} pairs)\n",
+      o.shear_rate, o.normal_stress, o.powder_ratio, o.load, o.stiffness_pairs);
   // The factors, x the policy's default; without --stiffness_factors the default and
   // --stiffer_factor x it.
   const std::vector<double> factors = o.stiffness_factors.empty()
@@ -261,9 +446,13 @@ void stiffness_table(const Options& o) {
                                           : o.stiffness_factors;
   std::vector<CellResult> media, powder;
   for (double factor : factors) {
-    media.push_back(run_cell(o, {.shear_rate = o.shear_rate, .stiffness_factor = factor}));
-    powder.push_back(run_cell(
-        o, {.powder_load = o.load, .shear_rate = o.shear_rate, .stiffness_factor = factor}));
+    media.push_back(run_cell(o, {.shear_rate = o.shear_rate,
+                                 .stiffness_factor = factor,
+                                 .stiffness_pairs = o.stiffness_pairs}));
+    powder.push_back(run_cell(o, {.powder_load = o.load,
+                                  .shear_rate = o.shear_rate,
+                                  .stiffness_factor = factor,
+                                  .stiffness_pairs = o.stiffness_pairs}));
   }
   // Each factor against the one before (the first pair: the policy's default against x4).
   for (std::size_t i = 1; i < factors.size(); ++i) {
@@ -680,6 +869,16 @@ int main(int argc, char** argv) {
                  "table 1 at each of these stiffnesses, x the policy's (in place of the default "
                  "and --stiffer_factor), each against the one before, and the sequence")
       ->delimiter(',');
+  app.add_option("--stiffness_pairs", o.stiffness_pairs,
+                 "table 1: the pairs its factors multiply: all, powder (media-powder and "
+                 "powder-powder), media (media-media), media_powder, powder_powder");
+  app.add_option("--media_kappa", o.media_kappa,
+                 "raise every cell's media-media k_n to at least this k_n / (sigma_n d_m) after "
+                 "the policy, before the factors (0: off)");
+  app.add_option("--dissipation_probe_every", o.dissipation_probe_every,
+                 "table 1: split each cell's measured dissipation by term (normal dashpot, "
+                 "tangential dashpot, Coulomb sliding) and, from a one-step probe after every "
+                 "this many steps, by contact age in collision times (0: off)");
   app.add_option("--inertial_numbers", o.inertial_numbers, "table 2's I")->delimiter(',');
   app.add_option("--overlap_ratio", o.overlap_ratio, "table 5's powder / ball diameter");
   app.add_option("--overlap_load", o.overlap_load, "table 5's powder load");
