@@ -63,6 +63,9 @@ namespace millflow::dem {
 struct OverlapBound {
   double mean_fraction = 0.01;
   double p95_fraction = 0.03;
+  // A floor on the media-media pair's k_n / (sigma_n d_m), the balls' rigidity (0: none); the
+  // stiffness policy's rigidity bound.
+  double media_rigidity = 0.0;
 };
 
 struct ShearCellSetup {

@@ -43,10 +43,13 @@ PairStiffness derive(const ShearCellSetup& s, const PairSlot& slot) {
   const double allowed_tail = s.overlap_bound.p95_fraction * out.smaller_diameter;
   out.impact_bound =
       driving_mass * (speed / allowed_tail) * (speed / allowed_tail) / contacts_in_series;
-  out.chosen = std::max({out.given, out.static_bound, out.impact_bound});
+  if (slot.type == ContactType::MediaMedia)
+    out.rigidity_bound = s.overlap_bound.media_rigidity * s.normal_stress * d_m;
+  out.chosen = std::max({out.given, out.static_bound, out.impact_bound, out.rigidity_bound});
   out.governing = out.chosen == out.given          ? "given"
                   : out.chosen == out.static_bound ? "static"
-                                                   : "impact";
+                  : out.chosen == out.impact_bound ? "impact"
+                                                   : "rigidity";
   out.kappa = out.chosen / (s.normal_stress * out.smaller_diameter);
   return out;
 }

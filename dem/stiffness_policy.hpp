@@ -21,7 +21,14 @@
 //           grains between two balls share the impact among many contacts (measured: powder-powder
 //           p95 0.1% of d_s where ball-powder reaches 4%), so it takes its own pair mass, n = 1.
 //
-//   k_n = max(k_given, k_static, k_impact)
+//   rigidity  (media-media only, when media_rigidity > 0) the balls' own k_n / (sigma_n d_m)
+//           at least kappa_m = media_rigidity:
+//             k_rigid = kappa_m sigma_n d_m
+//           The overlap bounds keep ball-ball overlaps small, but the friction of a cell with
+//           powder keeps rising with the ball-ball stiffness above them (docs/cell_validation.md,
+//           table 1: tau / p +3.7% from kappa 1.16e4 to 4.6e4, +0.7% on to 1.9e5).
+//
+//   k_n = max(k_given, k_static, k_impact, k_rigid)
 //
 // Why the impact criterion uses the balls' mass and not the grain's: a grain hit by one free ball
 // is stopped by its own tiny mass, but a grain between two colliding balls has to stop the balls.
@@ -52,9 +59,10 @@ struct PairStiffness {
   double given = 0.0;             // k_n the campaign gave, N/m
   double static_bound = 0.0;      // k_static, N/m
   double impact_bound = 0.0;      // k_impact, N/m
+  double rigidity_bound = 0.0;    // k_rigid, N/m (0 for the pairs with powder, or when off)
   double chosen = 0.0;            // k_n used, N/m
   double kappa = 0.0;             // chosen / (sigma_n d_s)
-  std::string governing;          // which of the three is chosen: "given", "static", "impact"
+  std::string governing;          // which is chosen: "given", "static", "impact", "rigidity"
 };
 
 // Raises each pair's normal stiffness in `setup` to the overlap bounds of setup.overlap_bound

@@ -395,6 +395,10 @@ std::vector<engine::FieldRule> micro_fields() {
             "false")
           .defaults(0.03)
           .range(above(0), at_most(0.5)),
+      Field("/shear_cell/stiffness/media_rigidity", FieldType::number,
+            "\"overlap_bound\" also raises the media-media k_n to at least this times sigma_n "
+            "d_m (the balls' rigidity k_n / (sigma_n d_m)); absent or 0: no such bound")
+          .range(at_least(0), at_most(1e7)),
       Field("/shear_cell/steps_per_collision", FieldType::integer,
             "time steps per collision time in the shear cells (dt = t_c / N; "
             "/dem/steps_per_collision is the macro "

@@ -37,14 +37,18 @@ std::string stiffness_log(const std::vector<dem::PairStiffness>& pairs,
                           const dem::ShearCellSetup& setup) {
   std::string text = fmt::format(
       "shear cell stiffness at sigma_n {:.4g} Pa, shear rate {:.4g} 1/s (mean overlap <= {:.3g}, "
-      "p95 <= {:.3g} of d_small):",
+      "p95 <= {:.3g} of d_small{}):",
       setup.normal_stress, setup.shear_rate, setup.overlap_bound.mean_fraction,
-      setup.overlap_bound.p95_fraction);
+      setup.overlap_bound.p95_fraction,
+      setup.overlap_bound.media_rigidity > 0.0
+          ? fmt::format(", media k_n / (sigma_n d_m) >= {:.3g}", setup.overlap_bound.media_rigidity)
+          : std::string());
   for (const dem::PairStiffness& p : pairs) {
     text += fmt::format(
-        " {}: k_n {:.4g} N/m ({} governs; given {:.4g}, static bound {:.4g}, impact bound {:.4g}), "
-        "kappa {:.4g};",
-        p.pair, p.chosen, p.governing, p.given, p.static_bound, p.impact_bound, p.kappa);
+        " {}: k_n {:.4g} N/m ({} governs; given {:.4g}, static bound {:.4g}, impact bound {:.4g}",
+        p.pair, p.chosen, p.governing, p.given, p.static_bound, p.impact_bound);
+    if (p.rigidity_bound > 0.0) text += fmt::format(", rigidity bound {:.4g}", p.rigidity_bound);
+    text += fmt::format("), kappa {:.4g};", p.kappa);
   }
   return text;
 }
@@ -86,7 +90,10 @@ dem::ShearCellSetup shear_cell_setup(const json& params, const json& site,
   setup.steps_per_collision = cell.at("steps_per_collision").get<int>();
   setup.overlap_bound = {
       .mean_fraction = at(cell, "/stiffness/mean_overlap_fraction").get<double>(),
-      .p95_fraction = at(cell, "/stiffness/p95_overlap_fraction").get<double>()};
+      .p95_fraction = at(cell, "/stiffness/p95_overlap_fraction").get<double>(),
+      // Optional, with no default in the field table: a campaign without it keeps its tasks'
+      // parameters (and cached results) as they were.
+      .media_rigidity = cell.value(json::json_pointer("/stiffness/media_rigidity"), 0.0)};
   return setup;
 }
 

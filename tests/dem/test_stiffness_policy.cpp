@@ -79,6 +79,33 @@ TEST(StiffnessPolicy, TakesTheLargestCriterionAndSaysWhichGoverns) {
   EXPECT_DOUBLE_EQ(slow.media_powder.normal_stiffness, 1.6e6);
 }
 
+TEST(StiffnessPolicy, RigidityBoundRaisesOnlyTheBallsToTheirKappa) {
+  ShearCellSetup s = cement_cell(10.0);
+  const auto without = apply_overlap_bound(s);
+  EXPECT_EQ(without[0].rigidity_bound, 0.0);  // off by default
+  EXPECT_EQ(without[0].governing, "given");
+
+  ShearCellSetup rigid = cement_cell(10.0);
+  rigid.overlap_bound.media_rigidity = 5e4;
+  const auto derived = apply_overlap_bound(rigid);
+  // 5e4 x 2e4 Pa x 0.05 m = 5e7 N/m, above the given 1.156e7 and both overlap bounds.
+  EXPECT_NEAR(derived[0].rigidity_bound, 5e7, 1e-6);
+  EXPECT_EQ(derived[0].governing, "rigidity");
+  EXPECT_DOUBLE_EQ(rigid.media_media.normal_stiffness, 5e7);
+  EXPECT_DOUBLE_EQ(derived[0].kappa, 5e4);
+  // The pairs with powder are what they were.
+  for (std::size_t k : {1u, 2u}) {
+    EXPECT_EQ(derived[k].rigidity_bound, 0.0);
+    EXPECT_EQ(derived[k].chosen, without[k].chosen);
+    EXPECT_EQ(derived[k].governing, without[k].governing);
+  }
+  // A floor only: a stiffer given pair keeps its k_n.
+  ShearCellSetup stiff = rigid;
+  stiff.media_media.normal_stiffness = 1e8;
+  EXPECT_EQ(apply_overlap_bound(stiff)[0].governing, "given");
+  EXPECT_DOUBLE_EQ(stiff.media_media.normal_stiffness, 1e8);
+}
+
 TEST(StiffnessPolicy, NeverSoftensAPairAndDescribingChangesNothing) {
   ShearCellSetup s = cement_cell(10.0);
   s.powder_powder.normal_stiffness = 1e8;

@@ -322,6 +322,26 @@ TEST(ShearCellSetup, CampaignStiffnessPolicyKeepsTheGivenStiffness) {
   EXPECT_EQ(raised.at(2).chosen, setup.powder_powder.normal_stiffness);
 }
 
+TEST(ShearCellSetup, MediaRigidityRaisesOnlyTheBallsAndIsOffWhenAbsent) {
+  json params = tiny_cell_params(0.3);
+  dem::ShearCellSetup setup = shear_cell_setup(params, tiny_site(), "key");
+  EXPECT_EQ(setup.overlap_bound.media_rigidity, 0.0);
+  dem::ShearCellSetup plain = setup;
+  const auto without = apply_stiffness_policy(params, plain);
+
+  params["shear_cell"]["stiffness"]["media_rigidity"] = 1e6;
+  setup = shear_cell_setup(params, tiny_site(), "key");
+  EXPECT_EQ(setup.overlap_bound.media_rigidity, 1e6);
+  const auto with = apply_stiffness_policy(params, setup);
+  // 1e6 x 2000 Pa x 0.01 m, above what the collision time of 1 ms gives the balls.
+  EXPECT_DOUBLE_EQ(with.at(0).rigidity_bound, 2e7);
+  EXPECT_EQ(with.at(0).governing, "rigidity");
+  EXPECT_DOUBLE_EQ(setup.media_media.normal_stiffness, 2e7);
+  EXPECT_EQ(setup.media_powder.normal_stiffness, plain.media_powder.normal_stiffness);
+  EXPECT_EQ(setup.powder_powder.normal_stiffness, plain.powder_powder.normal_stiffness);
+  EXPECT_LT(without.at(0).chosen, 2e7);
+}
+
 // One attempt of a task in a work directory kept across attempts: stopped when it reports
 // progress for the `stop_at`-th time (never when 0), its log lines kept.
 struct Attempt {
