@@ -10,6 +10,9 @@
 //                p_yy), friction_mean_pressure (tau / p), the powder's share of the dissipation and
 //                the cushioning (media-media dissipation with powder / without), each with its
 //                standard error, and the difference in units of the combined standard error.
+//                --stiffness_pairs picks the pairs the factors multiply, --media_kappa floors the
+//                balls' k_n / (sigma_n d_m) first (the policy's media_rigidity), and
+//                --dissipation_probe_every splits each cell's dissipation by term and contact age.
 //   2 mu(I)      the media-only cell at inertial numbers --inertial_numbers (the shear rate set
 //                from I at the site's normal stress), against Jop, Forterre & Pouliquen (Nature
 //                441, 2006): mu(I) = mu_s + (mu_2 - mu_s) / (1 + I_0 / I), fitted three ways
