@@ -391,6 +391,14 @@ CellResult run_cell(const Options& o, const Cell& c) {
         "    walls: bulk rate {:.4g} 1/s (target {:.4g}), wall slip {:.3g} m/s, gap {:.4g} m\n",
         m.bulk_shear_rate, m.target_shear_rate, m.wall_slip, m.gap);
   }
+  fmt::print(
+      "    tau / p_yy {:.4f} +- {:.4f}, tau / p {:.4f} +- {:.4f}, dissipation {:.4g} W/m^3 of "
+      "which powder {:.4g} +- {:.3g}, media-media {:.4g} +- {:.3g}\n",
+      m.friction, m.friction_error.standard_error, m.friction_mean_pressure,
+      m.friction_mean_pressure_error.standard_error, m.dissipation_density_total,
+      m.powder_dissipation_error.mean, m.powder_dissipation_error.standard_error,
+      m.dissipation_density[static_cast<std::size_t>(dem::ContactType::MediaMedia)],
+      m.dissipation_standard_error[static_cast<std::size_t>(dem::ContactType::MediaMedia)]);
   print_overlaps(m);
   if (o.dissipation_probe_every > 0) probe.print(run.cell(), m);
   std::fflush(stdout);
