@@ -13,6 +13,10 @@
 // then the measurement phase, which is what is timed (the cell's per-step measurement included).
 // The prepared state is regenerated deterministically, or read from --cells_cache (a ShearCellRun
 // checkpoint per scene; a checkpoint of another setup is refused and regenerated).
+// cement_load15 is prepared in stages (prepare_staged): soft powder contacts, then the real ones
+// with the soft overlaps let out by a stretch of the box (dem::ShearCell::relieve_normal_stress),
+// then windows of the measurement phase until a steady test passes; its cache file says
+// "_steady" only then ("_NOTSTEADY" otherwise, never read back).
 //
 // Counters: pts_per_cpu_s (particle-steps per CPU-second of the process, every thread),
 // pts_per_s (wall), contacts_per_particle (pair and wall contacts in force), bytes_per_particle
@@ -42,6 +46,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <span>
 #include <string>
@@ -52,6 +57,7 @@
 #include "bench/lammps_export.hpp"
 #include "bench/process_measures.hpp"
 #include "dem/shear_cell.hpp"
+#include "dem/stationarity.hpp"
 #include "method/sites.hpp"
 #include "tasks/campaign.hpp"
 #include "tasks/shear_cell.hpp"
@@ -87,9 +93,11 @@ struct CellCase {
   // contacts (media-powder, powder-powder) at t_c x powder_softening (k_n / softening^2, a power
   // of two so that stiffening back is exact) through placement, compaction and the protocol's
   // warm-up, then at each of stiffening_stages for stage_strain, then the real contacts until
-  // steady. The media-media contacts, which set the barostat's speed limit and relaxation time,
-  // keep their real stiffness throughout; their t_c is 2.5 x the powder's, so the time step gains
-  // 2.5 at most (5 us -> 12.5 us at t_c x 4). 1: the plain preparation.
+  // steady; after each stiffening the soft overlaps are let out by stretching the box
+  // (dem::ShearCell::relieve_normal_stress) before the barostat goes on. The media-media
+  // contacts, which set the barostat's speed limit and relaxation time, keep their real stiffness
+  // throughout; their t_c is 2.5 x the powder's, so the time step gains 2.5 at most (5 us ->
+  // 12.5 us at t_c x 4). 1: the plain preparation.
   double powder_softening = 1.0;
   std::vector<double> stiffening_stages = {};
   double stage_strain = 0.02;
@@ -102,11 +110,7 @@ const std::vector<CellCase>& cases() {
        .default_steps = 400,
        .warmup_strain = 1.0},
       {.name = "cement_load05", .powder_load = 0.5, .default_steps = 40},
-      {.name = "cement_load15",
-       .powder_load = 1.5,
-       .default_steps = 20,
-       .powder_softening = 4.0,
-       .stiffening_stages = {2.0}},
+      {.name = "cement_load15", .powder_load = 1.5, .default_steps = 20, .powder_softening = 4.0},
   };
   return all;
 }
@@ -158,56 +162,127 @@ dem::ShearCellSetup softened(dem::ShearCellSetup setup, double softening) {
   return setup;
 }
 
+// One window of the run in its measurement phase: the means over its control intervals.
 struct Chunk {
-  double normal_stress = 0.0;  // mean over the chunk's control intervals, Pa
-  double contacts = 0.0;       // per particle, at the chunk's end
+  double normal_stress = 0.0;   // Pa
+  double shear_stress = 0.0;    // Pa
+  double solid_fraction = 0.0;  // particle volume / box volume
+  double contacts = 0.0;        // contacts in force per particle
 };
 
-// `strain` more of the run in its measurement phase (the timed protocol), the normal stress read
-// once per control interval.
+double particle_volume(const dem::System& system) {
+  double volume = 0.0;
+  for (const double r : system.radii()) volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+  return volume;
+}
+
+// `strain` more of the run in its measurement phase (the timed protocol), sampled once per
+// control interval.
 Chunk run_chunk(dem::ShearCellRun& run, double strain) {
-  dem::System& system = run.cell().system();
-  const auto interval = static_cast<std::uint64_t>(run.cell().setup().steps_per_collision);
+  const dem::ShearCell& cell = run.cell();
+  const dem::System& system = cell.system();
+  const double solid = particle_volume(system);
+  const auto interval = static_cast<std::uint64_t>(cell.setup().steps_per_collision);
   const auto steps = static_cast<std::uint64_t>(
-      std::ceil(strain / (run.cell().setup().shear_rate * system.time_step())));
+      std::ceil(strain / (cell.setup().shear_rate * system.time_step())));
   Chunk chunk;
-  std::uint64_t samples = 0;
+  double samples = 0.0;
   for (std::uint64_t done = 0; done < steps; done += interval) {
     run.advance(interval);
-    chunk.normal_stress += run.cell().stress_control().normal_stress(system);
-    ++samples;
+    chunk.normal_stress += cell.normal_stress_now();
+    chunk.shear_stress += cell.shear_stress_now();
+    chunk.solid_fraction += solid / system.domain().length().prod();
+    chunk.contacts +=
+        static_cast<double>(system.active_contact_count()) / static_cast<double>(system.size());
+    samples += 1.0;
   }
-  chunk.normal_stress /= static_cast<double>(samples);
-  chunk.contacts =
-      static_cast<double>(system.active_contact_count()) / static_cast<double>(system.size());
+  chunk.normal_stress /= samples;
+  chunk.shear_stress /= samples;
+  chunk.solid_fraction /= samples;
+  chunk.contacts /= samples;
   return chunk;
 }
 
-// The real-contact warm-up's test, per chunk of kSteadyChunkStrain: the chunk's mean normal
-// stress within 5% of the target and the contacts per particle within 2% of the chunk before's,
-// at least kMinRealStrain at the real contacts, at most kMaxRealStrain.
-constexpr double kSteadyChunkStrain = 0.01;
-constexpr double kMinRealStrain = 0.02;
-constexpr double kMaxRealStrain = 0.4;
+// The real contacts' test of a steady state, over the last kSteadyWindows windows of
+// kSteadyWindowStrain: the cell's own stationarity test (dem::test_stationarity: no drift of
+// shear stress or solid fraction beyond the windows' scatter, the normal stress carried in every
+// window) with the normal stress's mean within kSteadyTolerance of the target (the cell's test
+// allows 10%, or its scatter), and no drift of the contacts per particle beyond the windows'
+// scatter or kContactsDrift of their mean. At most kMaxRealStrain of real contacts.
+constexpr double kSteadyWindowStrain = 0.01;
+constexpr std::size_t kSteadyWindows = 5;
+constexpr double kSteadyTolerance = 0.05;
+constexpr double kContactsDrift = 0.02;
+constexpr double kMaxRealStrain = 0.3;
 
-// Returns the run in its measurement phase at the real contacts, and how it got there. The soft
-// phase, the costly one (about 18 CPU-minutes), is kept in `soft_file` so that a preparation
-// stopped later resumes from it.
-std::pair<std::unique_ptr<dem::ShearCellRun>, std::string> prepare_staged(
-    const CellCase& c, const dem::ShearCellSetup& setup, const std::filesystem::path& soft_file) {
+struct SteadyVerdict {
+  bool steady = false;
+  std::string why;
+};
+
+SteadyVerdict steady_test(std::span<const Chunk> chunks, double target) {
+  if (chunks.size() < kSteadyWindows) return {false, "too few windows"};
+  const auto last = chunks.last(kSteadyWindows);
+  std::vector<dem::WindowMeans> windows;
+  std::vector<double> contacts, normal;
+  for (const Chunk& c : last) {
+    windows.push_back({.shear_stress = c.shear_stress,
+                       .normal_stress = c.normal_stress,
+                       .solid_fraction = c.solid_fraction,
+                       .bulk_shear_rate = 0.0});
+    contacts.push_back(c.contacts);
+    normal.push_back(c.normal_stress);
+  }
+  const dem::StationarityCriterion criterion{.tolerance = kSteadyTolerance};
+  const dem::StationarityVerdict verdict = dem::test_stationarity(windows, target, 0.0, criterion);
+  const dem::SeriesFit contacts_fit = dem::fit_series(contacts);
+  const dem::SeriesFit normal_fit = dem::fit_series(normal);
+  const bool contacts_ok =
+      std::abs(contacts_fit.drift) <=
+      std::max(criterion.z * contacts_fit.drift_error, kContactsDrift * contacts_fit.mean);
+  const bool normal_ok = std::abs(normal_fit.mean / target - 1.0) <= kSteadyTolerance;
+  SteadyVerdict out;
+  out.steady = verdict.stationary() && contacts_ok && normal_ok;
+  out.why = fmt::format(
+      "over the last {} windows: shear stress {}, solid fraction {}, normal stress {} (mean {:.4g} "
+      "Pa, {}), contacts {} (drift {:.3g} of {:.4g})",
+      kSteadyWindows, verdict.shear_stress ? "steady" : "drifts",
+      verdict.solid_fraction ? "steady" : "drifts", verdict.normal_stress ? "on" : "off",
+      normal_fit.mean, normal_ok ? "within 5%" : "off by more than 5%",
+      contacts_ok ? "steady" : "drift", contacts_fit.drift, contacts_fit.mean);
+  return out;
+}
+
+struct Prepared {
+  std::unique_ptr<dem::ShearCellRun> run;
+  std::string how;
+  bool steady = true;
+};
+
+// Returns the run in its measurement phase at the real contacts, how it got there and whether
+// it passed the steady test. The soft phase, the costly one (about 18 CPU-minutes), is kept in
+// `soft_file` so that a preparation stopped later resumes from it.
+Prepared prepare_staged(const CellCase& c, const dem::ShearCellSetup& setup,
+                        const std::filesystem::path& soft_file) {
   const dem::ShearCellProtocol proto = protocol(c);
   const dem::ShearCellSetup soft = softened(setup, c.powder_softening);
-  std::unique_ptr<dem::ShearCellRun> run;
+  Prepared out;
+  std::unique_ptr<dem::ShearCellRun>& run = out.run;
   const auto cpu0 = process_cpu_seconds();
-  std::string how = fmt::format("powder contacts at t_c x {}: ", c.powder_softening);
+  const auto log = [&](const std::string& line) {
+    fmt::print(stderr, "bench_cells: {}: [{:.0f} CPU-s] {}\n", c.name, process_cpu_seconds() - cpu0,
+               line);
+  };
+  std::string& how = out.how;
+  how = fmt::format("powder contacts at t_c x {}: ", c.powder_softening);
   tbb::task_arena arena(2);
   if (std::filesystem::exists(soft_file)) {
     try {
       run = std::make_unique<dem::ShearCellRun>(dem::ShearCellRun::resume(soft, proto, soft_file));
       how += fmt::format("compaction and warm-up to step {} (from {})",
-                         run->cell().system().step_count(), soft_file.string());
+                         run->cell().system().step_count(), soft_file.filename().string());
     } catch (const std::exception& e) {
-      fmt::print(stderr, "bench_cells: {}: soft phase again ({})\n", c.name, e.what());
+      log(fmt::format("soft phase again ({})", e.what()));
     }
   }
   if (!run) {
@@ -219,40 +294,53 @@ std::pair<std::unique_ptr<dem::ShearCellRun>, std::string> prepare_staged(
                        run->cell().system().step_count(), process_cpu_seconds() - cpu0);
     run->save(soft_file);
   }
-  fmt::print(stderr, "bench_cells: {}: {}\n", c.name, how);
+  log(fmt::format("{}; {:.4g} Pa, {:.3f} contacts per particle", how,
+                  run->cell().normal_stress_now(),
+                  static_cast<double>(run->cell().system().active_contact_count()) /
+                      static_cast<double>(run->cell().system().size())));
   std::vector<double> stages = c.stiffening_stages;
   stages.push_back(1.0);
   for (const double softening : stages) {
     const dem::ShearCellSetup next = softening == 1.0 ? setup : softened(setup, softening);
     run = std::make_unique<dem::ShearCellRun>(run->with_interactions(next));
+    dem::StressReliefResult relief;
+    arena.execute([&] { relief = run->cell().relieve_normal_stress(); });
+    how += fmt::format(
+        "; t_c x {}: {:.4g} Pa at once, relieved {}in {} steps by a stretch of {:.4g} to {:.4g} Pa",
+        softening, relief.first_stress, relief.relieved ? "" : "(NOT: its step cap) ", relief.steps,
+        relief.strain, relief.normal_stress);
+    log(how);
     if (softening == 1.0) break;
     Chunk chunk;
     arena.execute([&] { chunk = run_chunk(*run, c.stage_strain); });
-    how += fmt::format("; t_c x {} for strain {}: {:.4g} Pa, {:.3f} contacts per particle",
-                       softening, c.stage_strain, chunk.normal_stress, chunk.contacts);
-    fmt::print(stderr, "bench_cells: {}: {}\n", c.name, how);
+    how += fmt::format("; then strain {}: {:.4g} Pa, {:.3f} contacts per particle", c.stage_strain,
+                       chunk.normal_stress, chunk.contacts);
+    log(how);
   }
   double strain = 0.0;
-  bool steady = false;
-  Chunk previous{}, chunk{};
-  while (!steady && strain < kMaxRealStrain - 1e-9) {
-    arena.execute([&] { chunk = run_chunk(*run, kSteadyChunkStrain); });
-    strain += kSteadyChunkStrain;
-    steady = strain >= kMinRealStrain - 1e-9 &&
-             std::abs(chunk.normal_stress / setup.normal_stress - 1.0) <= 0.05 &&
-             std::abs(chunk.contacts / previous.contacts - 1.0) <= 0.02;
-    fmt::print(stderr,
-               "bench_cells: {}: real contacts, strain {:.2f}: {:.4g} Pa, {:.4f} contacts "
-               "per particle\n",
-               c.name, strain, chunk.normal_stress, chunk.contacts);
-    previous = chunk;
+  std::vector<Chunk> chunks;
+  SteadyVerdict verdict;
+  while (!verdict.steady && strain < kMaxRealStrain - 1e-9) {
+    Chunk chunk;
+    arena.execute([&] { chunk = run_chunk(*run, kSteadyWindowStrain); });
+    chunks.push_back(chunk);
+    strain += kSteadyWindowStrain;
+    verdict = steady_test(chunks, setup.normal_stress);
+    log(fmt::format(
+        "real contacts, strain {:.2f}: {:.4g} Pa, shear {:.4g} Pa, solid fraction {:.4f}, {:.4f} "
+        "contacts per particle{}",
+        strain, chunk.normal_stress, chunk.shear_stress, chunk.solid_fraction, chunk.contacts,
+        chunks.size() >= kSteadyWindows ? "; " + verdict.why : ""));
   }
+  out.steady = verdict.steady;
+  const Chunk& last = chunks.back();
   how += fmt::format(
-      "; real contacts for strain {:.2f} ({}): last chunk {:.4g} Pa, {:.4f} contacts per "
-      "particle; step {}, {:.0f} CPU-s in all",
-      strain, steady ? "steady" : "NOT steady (the cap)", chunk.normal_stress, chunk.contacts,
-      run->cell().system().step_count(), process_cpu_seconds() - cpu0);
-  return {std::move(run), std::move(how)};
+      "; real contacts for strain {:.2f} ({}): last window {:.4g} Pa, solid fraction {:.4f}, "
+      "{:.4f} contacts per particle ({}); step {}, {:.0f} CPU-s in all",
+      strain, verdict.steady ? "steady" : "NOT steady (the cap)", last.normal_stress,
+      last.solid_fraction, last.contacts, verdict.why, run->cell().system().step_count(),
+      process_cpu_seconds() - cpu0);
+  return out;
 }
 
 // The scene's run in its measurement phase, built once per process (and cached on disk).
@@ -261,17 +349,22 @@ const dem::ShearCellRun& prepared(const CellCase& c) {
   auto& slot = runs[c.name];
   if (slot) return *slot;
   const dem::ShearCellSetup setup = setup_of(c);
+  const bool staged = c.powder_softening != 1.0;
+  // The staged preparation's recipe is in the name (its notes: the .txt beside), and a state is
+  // kept under it only once it passed the steady test ("_steady"); one that did not is kept as
+  // "_NOTSTEADY" for a look, never read back.
+  std::string base = fmt::format("{}_rate{}_p{}_warm{}", c.name, g_options.shear_rate,
+                                 g_options.normal_stress, warmup_strain(c));
+  std::string recipe;
+  if (staged) {
+    base += fmt::format("_powdersoft{}", c.powder_softening);
+    for (const double s : c.stiffening_stages) recipe += fmt::format("x{}", s);
+    recipe += "_relieved";
+  }
   std::optional<std::filesystem::path> file;
   if (g_options.cache) {
     std::filesystem::create_directories(*g_options.cache);
-    std::string recipe;  // the staged preparation's, in the name (its notes: the .txt beside)
-    if (c.powder_softening != 1.0) {
-      recipe = fmt::format("_powdersoft{}", c.powder_softening);
-      for (const double s : c.stiffening_stages) recipe += fmt::format("x{}", s);
-    }
-    file =
-        *g_options.cache / fmt::format("{}_rate{}_p{}_warm{}{}.ckpt", c.name, g_options.shear_rate,
-                                       g_options.normal_stress, warmup_strain(c), recipe);
+    file = *g_options.cache / (base + recipe + (staged ? "_steady" : "") + ".ckpt");
     if (std::filesystem::exists(*file)) {
       try {
         slot = std::make_unique<dem::ShearCellRun>(
@@ -284,12 +377,17 @@ const dem::ShearCellRun& prepared(const CellCase& c) {
   }
   const auto start = Clock::now();
   std::string how;
-  if (c.powder_softening != 1.0) {
-    const std::filesystem::path soft_file =
-        file ? std::filesystem::path(file->string() + ".stage.soft.ckpt")
-             : std::filesystem::temp_directory_path() /
-                   fmt::format("bench_cells_{}.stage.soft.ckpt", c.name);
-    std::tie(slot, how) = prepare_staged(c, setup, soft_file);
+  bool steady = true;
+  if (staged) {
+    // The soft phase depends on the softening only, not on what follows it.
+    const std::filesystem::path soft_file = g_options.cache
+                                                ? *g_options.cache / (base + ".soft.ckpt")
+                                                : std::filesystem::temp_directory_path() /
+                                                      fmt::format("bench_cells_{}.soft.ckpt", base);
+    Prepared p = prepare_staged(c, setup, soft_file);
+    slot = std::move(p.run);
+    how = std::move(p.how);
+    steady = p.steady;
   } else {
     slot = std::make_unique<dem::ShearCellRun>(setup, protocol(c));
     tbb::task_arena arena(2);
@@ -302,6 +400,10 @@ const dem::ShearCellRun& prepared(const CellCase& c) {
              std::chrono::duration<double>(Clock::now() - start).count(),
              slot->cell().system().step_count());
   if (!how.empty()) fmt::print(stderr, "bench_cells: {}: prepared: {}\n", c.name, how);
+  if (!steady) {
+    fmt::print(stderr, "bench_cells: {}: NOT steady: timed anyway, kept as _NOTSTEADY\n", c.name);
+    if (file) file = *g_options.cache / (base + recipe + "_NOTSTEADY.ckpt");
+  }
   if (file) {
     slot->save(*file);
     if (!how.empty()) {

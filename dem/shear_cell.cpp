@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -309,6 +310,76 @@ double ShearCell::motion_energy() const {
 
 void ShearCell::run_strain(double strain) {
   advance(steps_for_strain(strain));
+}
+
+namespace {
+
+// Mean overlap of the pair contacts in force as a fraction of their centre distance at touch
+// (r_i + r_j); 0 without any.
+double mean_overlap_fraction(const System& system) {
+  const auto x = system.positions();
+  const auto r = system.radii();
+  double sum = 0.0, count = 0.0;
+  for (const NeighborPair& pair : system.candidate_pairs()) {
+    const double reach = r[pair.i] + r[pair.j];
+    const double overlap = reach - system.domain().separation(x[pair.i], x[pair.j]).norm();
+    if (overlap <= 0.0) continue;
+    sum += overlap / reach;
+    count += 1.0;
+  }
+  return count > 0.0 ? sum / count : 0.0;
+}
+
+}  // namespace
+
+StressReliefResult ShearCell::relieve_normal_stress(const StressRelief& relief) {
+  if (walls()) throw std::logic_error("shear cell: relieve_normal_stress needs Lees-Edwards");
+  if (!compacted_) throw std::logic_error("shear cell: relieve_normal_stress before compaction");
+  const double target = setup_.normal_stress;
+  const double height0 = system_.domain().length().y();
+  const auto interval = static_cast<std::uint64_t>(setup_.steps_per_collision);
+  StressReliefResult result;
+  int settled = 0;
+  double power = lees_edwards_power();
+  while (result.steps + interval <= relief.max_steps) {
+    double stress = 0.0;
+    for (std::uint64_t s = 0; s < interval; ++s) {
+      system_.step();
+      const double next = lees_edwards_power();
+      le_work_ += 0.5 * (power + next) * system_.time_step();
+      power = next;
+      stress += control_->normal_stress(system_);
+    }
+    result.steps += interval;
+    ++result.intervals;
+    result.normal_stress = stress / static_cast<double>(interval);
+    if (result.intervals == 1) result.first_stress = result.normal_stress;
+    if (std::abs(result.normal_stress / target - 1.0) <= relief.tolerance) {
+      if (++settled >= relief.settled_intervals) {
+        result.relieved = true;
+        break;
+      }
+      continue;
+    }
+    settled = 0;
+    const double strain = std::clamp(
+        relief.gain * (1.0 - target / result.normal_stress) * mean_overlap_fraction(system_),
+        -relief.max_strain_per_interval, relief.max_strain_per_interval);
+    // As the barostat's stretch: velocities relative to the profile gdot (y - y_mid) kept.
+    const double y_mid = system_.domain().lo.y() + 0.5 * system_.domain().length().y();
+    const auto x = system_.positions();
+    const auto v = system_.velocities();
+    std::vector<Vec3> velocities(v.begin(), v.end());
+    for (std::size_t p = 0; p < system_.size(); ++p)
+      velocities[p].x() += setup_.shear_rate * strain * (x[p].y() - y_mid);
+    system_.deform_affinely(1, 1.0 + strain);
+    for (std::size_t p = 0; p < system_.size(); ++p)
+      system_.set_velocity(static_cast<ParticleId>(p), velocities[p]);
+    wall_speed_ = system_.domain().lees_edwards.velocity;
+    power = lees_edwards_power();
+  }
+  result.strain = std::log(system_.domain().length().y() / height0);
+  return result;
 }
 
 }  // namespace millflow::dem

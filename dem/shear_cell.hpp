@@ -223,6 +223,31 @@ struct MeasureOptions {
 
 class ShearCellRun;
 
+// A stiffened Lees-Edwards cell brought back to its target normal stress by stretching it along y
+// (ShearCell::relieve_normal_stress). Each control interval (steps_per_collision steps) answers
+// the interval's mean p_yy; while it is off the target by more than `tolerance`, the box is
+// stretched by
+//   e = clamp(gain x (1 - target / p_yy) x f, +-max_strain_per_interval),
+// f the mean overlap of the contacts in force as a fraction of their centre distance (the
+// stretch that would take the overlaps' excess out if every contact lay along y; a bed answers
+// a y-stretch with some of it only, and the intervals after take the rest). It ends after
+// settled_intervals intervals in a row within the tolerance, or at max_steps.
+struct StressRelief {
+  double tolerance = 0.05;
+  double gain = 1.0;
+  double max_strain_per_interval = 1e-3;
+  int settled_intervals = 5;
+  std::uint64_t max_steps = 20000;
+};
+struct StressReliefResult {
+  bool relieved = false;  // ended on the settled intervals, not on max_steps
+  std::uint64_t steps = 0;
+  int intervals = 0;
+  double strain = 0.0;         // ln(L_y after / L_y before)
+  double first_stress = 0.0;   // the first interval's mean p_yy (before any stretch), Pa
+  double normal_stress = 0.0;  // the last interval's mean p_yy, Pa
+};
+
 // One block of the measured window (kBlockStrain): its stress sums and the energy it took in
 // and dissipated.
 struct MeasuredBlock {
@@ -269,6 +294,22 @@ class ShearCell {
   double servo_max_speed() const { return control_->settings().max_speed; }
 
   ContactType contact_type(std::uint32_t category) const;
+  // Shear and normal stress, Pa, now: from the wall loads (RoughWalls) or the virial (LE).
+  double shear_stress_now() const;
+  double normal_stress_now() const;
+
+  // Preparing a state (Lees-Edwards only): runs the cell with its barostat held (it neither
+  // samples nor answers, so its integral term and running mean stay as they were) and stretches
+  // the box along y between control intervals by the law of StressRelief until the normal stress
+  // is on target. For a cell whose contacts were just made stiffer (ShearCellRun::
+  // with_interactions): the softer contacts' overlaps would hold many times the target, and the
+  // barostat, limited to 5% per relaxation time and with an integral term that winds up, takes
+  // strains to let them out and overshoots. A stretch keeps each particle's velocity relative to
+  // the imposed profile and the images' shear rate, as the barostat's does; the LE boundary's
+  // work is integrated over the steps, but the springs' energy a relief stretch lets out is in
+  // no ledger, so a measured window that spans a relief does not balance. Throws
+  // std::logic_error with rough walls or before compaction.
+  StressReliefResult relieve_normal_stress(const StressRelief& relief = {});
 
  private:
   friend class ShearCellRun;
@@ -374,9 +415,6 @@ class ShearCell {
   double motion_energy() const;
   void sample_profile(Profile& profile) const;
   static double bulk_shear_rate(const Profile& profile);
-  // Shear stress, Pa, now: from the wall loads (RoughWalls) or the virial (LE).
-  double shear_stress_now() const;
-  double normal_stress_now() const;
   // Power the LE boundary puts in now: V gdot tau, W.
   double lees_edwards_power() const;
   // Kinetic energy of the free particles relative to the imposed linear profile (LE), J.

@@ -55,7 +55,7 @@ TaskCost cell_task_cost(const ShearCellSize& size) {
   cost.particles = static_cast<double>(size.media + size.powder + size.wall_balls);
   cost.steps = size.compaction_steps + size.shear_steps;
   cost.steps_at_caps = size.compaction_steps + size.shear_steps_at_caps;
-  const double throughput = size.powder > 0 ? kPowderCellThroughput : kMediaCellThroughput;
+  const double throughput = cell_throughput(size.powder > 0 ? size.powder_load : 0.0);
   const double compaction = cost.particles * size.compaction_steps / kCompactionThroughput;
   cost.core_seconds = compaction + cost.particles * size.shear_steps / throughput;
   cost.core_seconds_at_caps = compaction + cost.particles * size.shear_steps_at_caps / throughput;
@@ -108,6 +108,20 @@ std::string range(double low, double high) {
 
 }  // namespace
 
+double macro_throughput(double balls) {
+  const double t =
+      std::clamp(std::log(balls / kMacroBalls) / std::log(kLargeMillBalls / kMacroBalls), 0.0, 1.0);
+  return 1.0 / ((1.0 - t) / kMacroThroughput + t / kLargeMillThroughput);
+}
+
+double cell_throughput(double powder_load) {
+  if (powder_load <= 0.0) return kMediaCellThroughput;
+  const double t = std::clamp(
+      (powder_load - kPowderVoidsFilledLoad) / (kDensePowderLoad - kPowderVoidsFilledLoad), 0.0,
+      1.0);
+  return 1.0 / ((1.0 - t) / kPowderCellThroughput + t / kDensePowderCellThroughput);
+}
+
 MacroRunSize macro_run_size(const json& macro_params) {
   const method::MacroSettings settings = macro_settings(macro_params, "");
   const dem::MillSetup& mill = settings.mill;
@@ -137,7 +151,8 @@ TaskCost macro_cost(const json& macro_params) {
   TaskCost cost;
   cost.particles = static_cast<double>(size.balls);
   cost.steps = cost.steps_at_caps = size.steps;
-  cost.core_seconds = cost.core_seconds_at_caps = cost.particles * cost.steps / kMacroThroughput;
+  cost.core_seconds = cost.core_seconds_at_caps =
+      cost.particles * cost.steps / macro_throughput(cost.particles);
   return cost;
 }
 
@@ -162,6 +177,7 @@ ShearCellSize shear_cell_size(const json& cell_params, const json& site) {
   ShearCellSize size;
   size.media = population.media;
   size.powder = population.powder;
+  size.powder_load = setup.powder_load;
   size.wall_balls = population.wall_balls;
   const bool walls = setup.boundary == dem::ShearCellSetup::Boundary::RoughWalls;
   const double media_mass = setup.media.density * util::sphere_volume_of_diameter(d);

@@ -38,15 +38,44 @@
 
 namespace millflow::tasks {
 
-// Particle-steps per CPU-second of one core (docs/cost_model.md gives the measurements).
-inline constexpr double kMacroThroughput = 12.6e6;      // a mill charge
-inline constexpr double kMediaCellThroughput = 12.3e6;  // a shear cell of balls only
-inline constexpr double kPowderCellThroughput = 9.8e6;  // a shear cell of balls and powder
+// Particle-steps per CPU-second of one core at 1 thread, each from a measurement
+// (docs/cost_model.md gives them all; docs/benchmarks.md the benches).
+//
+// A mill charge: quick.json's own run (its 1 m slices of 415-726 balls, the loaded figure 7.9 M
+// x 687 / 1158, docs/cost_model.md; bench_dem's mill_1m, 746 balls from a steady charge, 13.0 M,
+// agrees within 3%), and bench_dem's mill_4m (17,000 balls, 16 lifters, steady charge: 8.06 M):
+// a larger charge walks more memory per step. Between the two ball counts the cost per
+// particle-step is interpolated in log(balls); below and above, the nearer figure.
+inline constexpr double kMacroThroughput = 12.6e6;
+inline constexpr double kMacroBalls = 746.0;
+inline constexpr double kLargeMillThroughput = 8.06e6;
+inline constexpr double kLargeMillBalls = 17000.0;
+// A shear cell of balls only: quick.json's own run (its 131-ball cell, 7.3 M loaded x 687 /
+// 1158). bench_cells' le_media_2000 (2,002 balls in a dense bed, 1.87 contacts per particle)
+// runs 4.97 M; the campaigns' media cells are small (131-303 balls) and mostly collisional, so
+// quick's figure stays (docs/cost_model.md says what the dense figure would add).
+inline constexpr double kMediaCellThroughput = 12.3e6;
+// A shear cell of balls and powder at a powder load U <= kPowderVoidsFilledLoad (the powder in
+// the media's voids): bench_cells' cement_load05 (38,322 particles, 0.30 contacts per particle,
+// steady, quiet machine: 12.5 M; quick.json's own 647-particle cell at load 1, 7.6 M loaded x 687
+// / 1158 = 12.8 M, agrees within 3%).
+inline constexpr double kPowderCellThroughput = 12.5e6;
+inline constexpr double kPowderVoidsFilledLoad = 1.0;
+// At U = kDensePowderLoad (the powder overfilling the voids, a dense powder network):
+// bench_cells' cement_load15 (114,359 particles, steady, 1 thread). Between the two loads the
+// cost per particle-step is interpolated linearly in U; above, this figure.
+inline constexpr double kDensePowderCellThroughput = 3.62e6;
+inline constexpr double kDensePowderLoad = 1.5;
 // A cell's compaction: a loose fill, few contacts (the constant also absorbs the model's error
 // in its steps, the bed carrying half the target before it is as dense as assumed).
 inline constexpr double kCompactionThroughput = 56.0e6;
 // The overall solid fraction a compacted cell reaches at most.
 inline constexpr double kCompactedSolidFraction = 0.64;
+
+// The throughputs above as the model uses them: a macro run of `balls`, a cell of balls only
+// (powder_load 0) or with powder at `powder_load`.
+double macro_throughput(double balls);
+double cell_throughput(double powder_load);
 
 struct TaskCost {
   double particles = 0.0;
@@ -72,6 +101,7 @@ nlohmann::json typical_site(const nlohmann::json& macro_params, const std::strin
 // A shear cell of shear_cell-task parameters at a site ({shear_rate_per_s, normal_stress_pa}).
 struct ShearCellSize {
   std::size_t media = 0, powder = 0, wall_balls = 0;
+  double powder_load = 0.0;  // U of the setup (the throughput's key)
   double time_step_s = 0.0;
   double compaction_steps = 0.0;
   double shear_steps = 0.0, shear_steps_at_caps = 0.0;

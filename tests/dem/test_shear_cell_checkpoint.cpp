@@ -236,5 +236,68 @@ TEST(ShearCellWithInteractions, ASetupThatDiffersInMoreThanItsInteractionsIsRefu
   EXPECT_THROW(run.with_interactions(faster), std::invalid_argument);
 }
 
+// relieve_normal_stress: a dense cell prepared with soft powder contacts holds many times its
+// target once they are made real; the relief stretches it back to the target with the barostat
+// held (its state untouched), the same bits every time; rough walls are refused.
+ShearCellRun stiffened_dense_cell() {
+  ShearCellSetup real = small_shear_cell(0.01, 1.5, 0.5);
+  real.boundary = ShearCellSetup::Boundary::LeesEdwards;
+  real.size_diameters = Vec3(4, 5, 4);
+  ShearCellSetup soft = real;
+  soft.media_powder.normal_stiffness /= 16.0;
+  soft.powder_powder.normal_stiffness /= 16.0;
+  const ShearCellProtocol protocol{.warmup_strain = 0.05,
+                                   .warmup_windows = 1,
+                                   .max_warmup_strain = 0.05,
+                                   .measure_strain = 10.0,
+                                   .measure = {}};
+  ShearCellRun run(soft, protocol);
+  while (run.phase_name() != "measuring") run.advance(1000);
+  run.advance(2000);
+  return run.with_interactions(real);
+}
+
+TEST(ShearCellRelief, StretchesAStiffenedCellBackToItsTargetWithTheBarostatHeld) {
+  ShearCellRun a = stiffened_dense_cell();
+  ShearCell& cell = a.cell();
+  const double target = cell.setup().normal_stress;
+  const double height = cell.system().domain().length().y();
+  const double smoothed = cell.stress_control().smoothed_stress();
+  const double last = cell.stress_control().last_interval_stress();
+  const std::uint64_t step = cell.system().step_count();
+  const StressReliefResult relief = cell.relieve_normal_stress({.tolerance = 0.1});
+  EXPECT_GT(relief.first_stress, 3.0 * target);
+  EXPECT_TRUE(relief.relieved);
+  EXPECT_LE(std::abs(relief.normal_stress / target - 1.0), 0.1);
+  EXPECT_GT(relief.strain, 0.0);
+  EXPECT_NEAR(relief.strain, std::log(cell.system().domain().length().y() / height), 1e-12);
+  EXPECT_EQ(cell.system().step_count(), step + relief.steps);
+  EXPECT_EQ(relief.steps,
+            static_cast<std::uint64_t>(relief.intervals * cell.setup().steps_per_collision));
+  EXPECT_EQ(cell.stress_control().smoothed_stress(), smoothed);
+  EXPECT_EQ(cell.stress_control().last_interval_stress(), last);
+  // The images' velocity follows the height: the shear rate stays.
+  EXPECT_NEAR(cell.wall_speed() / cell.system().domain().length().y(), cell.setup().shear_rate,
+              1e-9 * cell.setup().shear_rate);
+  // The run goes on from the relieved state.
+  a.advance(200);
+  EXPECT_EQ(a.phase_name(), "measuring");
+
+  ShearCellRun b = stiffened_dense_cell();
+  const StressReliefResult again = b.cell().relieve_normal_stress({.tolerance = 0.1});
+  EXPECT_EQ(again.steps, relief.steps);
+  EXPECT_TRUE(same_bits(again.normal_stress, relief.normal_stress));
+  b.advance(200);
+  EXPECT_EQ(checkpoint_payload(b.cell().system()), checkpoint_payload(a.cell().system()));
+}
+
+TEST(ShearCellRelief, OnlyLeesEdwardsCellsAfterCompaction) {
+  ShearCell walled(tiny_cell(ShearCellSetup::Boundary::RoughWalls));
+  walled.compact();
+  EXPECT_THROW(walled.relieve_normal_stress(), std::logic_error);
+  ShearCell loose(tiny_cell(ShearCellSetup::Boundary::LeesEdwards));
+  EXPECT_THROW(loose.relieve_normal_stress(), std::logic_error);
+}
+
 }  // namespace
 }  // namespace millflow::dem

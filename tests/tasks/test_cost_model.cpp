@@ -44,6 +44,7 @@ void expect_cell_inputs_match(const json& params, const json& site) {
   EXPECT_EQ(size.media, cell.media_count());
   EXPECT_EQ(size.powder, cell.powder_count());
   EXPECT_EQ(size.wall_balls, cell.wall_ball_count());
+  EXPECT_EQ(size.powder_load, cell.setup().powder_load);
   EXPECT_DOUBLE_EQ(size.time_step_s, cell.system().time_step());
   EXPECT_GT(size.compaction_steps, 0.0);
   EXPECT_GT(size.shear_steps_at_caps, size.shear_steps);
@@ -74,7 +75,7 @@ TEST(CostModel, ShearCellParticlesAndTimeStepAreTheCellsOwn) {
   // The cement campaign's cell (powder 0.125 d, the stiffness policy raising the powder's
   // contacts) made small, with and without powder, Lees-Edwards and walls.
   const json cement = first_point("campaigns/cement_ball_mill.json");
-  for (const double load : {0.0, 0.5}) {
+  for (const double load : {0.0, 0.5, 1.5}) {
     for (const char* boundary : {"lees_edwards", "walls"}) {
       SCOPED_TRACE(fmt::format("load {}, {}", load, boundary));
       expect_cell_inputs_match(cell_params(cement,
@@ -97,6 +98,25 @@ TEST(CostModel, ShearCellParticlesAndTimeStepAreTheCellsOwn) {
                                          }),
                              site);
   }
+}
+
+// The throughputs are the benches' at the loads and ball counts they were measured at, and the
+// cost per particle-step lies between them elsewhere.
+TEST(CostModel, ThroughputsAreTheMeasuredOnesAtTheirScenes) {
+  EXPECT_EQ(tasks::cell_throughput(0.0), tasks::kMediaCellThroughput);
+  EXPECT_DOUBLE_EQ(tasks::cell_throughput(0.5), tasks::kPowderCellThroughput);
+  EXPECT_DOUBLE_EQ(tasks::cell_throughput(tasks::kPowderVoidsFilledLoad),
+                   tasks::kPowderCellThroughput);
+  EXPECT_DOUBLE_EQ(tasks::cell_throughput(tasks::kDensePowderLoad),
+                   tasks::kDensePowderCellThroughput);
+  const double mid = 0.5 * (tasks::kPowderVoidsFilledLoad + tasks::kDensePowderLoad);
+  EXPECT_DOUBLE_EQ(1.0 / tasks::cell_throughput(mid),
+                   0.5 / tasks::kPowderCellThroughput + 0.5 / tasks::kDensePowderCellThroughput);
+  EXPECT_DOUBLE_EQ(tasks::macro_throughput(415.0), tasks::kMacroThroughput);
+  EXPECT_DOUBLE_EQ(tasks::macro_throughput(tasks::kLargeMillBalls), tasks::kLargeMillThroughput);
+  const double balls = 8454.0;  // the cement campaign's smallest charge
+  EXPECT_LT(tasks::macro_throughput(balls), tasks::kMacroThroughput);
+  EXPECT_GT(tasks::macro_throughput(balls), tasks::kLargeMillThroughput);
 }
 
 TEST(CostModel, ShearStepsAreTheStrainsOverTheStrainPerStep) {
