@@ -24,9 +24,10 @@
 //   rigidity  (media-media only, when media_rigidity > 0) the balls' own k_n / (sigma_n d_m)
 //           at least kappa_m = media_rigidity:
 //             k_rigid = kappa_m sigma_n d_m
-//           The overlap bounds keep ball-ball overlaps small, but the friction of a cell with
-//           powder keeps rising with the ball-ball stiffness above them (docs/cell_validation.md,
-//           table 1: tau / p +3.7% from kappa 1.16e4 to 4.6e4, +0.7% on to 1.9e5).
+//           Opt-in, not a default: one run per cell found the friction of a cell with powder
+//           rising with the ball-ball stiffness above the overlap bounds (tau / p +3.7% from
+//           kappa 1.16e4 to 4.6e4), a second seed found it falling (-1.5 to -2.1%), so whether
+//           the balls' stiffness moves it is not settled (docs/cell_validation.md, table 1).
 //
 //   k_n = max(k_given, k_static, k_impact, k_rigid)
 //
