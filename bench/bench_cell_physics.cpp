@@ -104,6 +104,9 @@ struct Options {
   int lammps_sample_every = 50;
   double wall_speed = 0.0;        // table 4 open loop: > 0 holds the walls at this speed, m/s
   double open_loop_strain = 8.0;  // table 4 open loop: strain after compaction
+  // Table 4: both cells run the rough walls' protocol (dem::kRoughWallStrains) unless a strain
+  // flag was given.
+  bool wall_strains = true;
 };
 
 struct Cell {
@@ -444,11 +447,18 @@ void dilute_table(const Options& o) {
             friction_mean_pressure(dilute));
 }
 
-void walls_table(const Options& o) {
+void walls_table(const Options& options) {
+  Options o = options;
+  if (o.wall_strains) {
+    o.warmup_strain = dem::kRoughWallStrains.warmup_strain;
+    o.max_warmup_strain = dem::kRoughWallStrains.max_warmup_strain;
+    o.measure_strain = o.max_strain = dem::kRoughWallStrains.measure_strain;
+  }
   fmt::print(
       "\nTable 4: rough walls against Lees-Edwards at the walls' bulk inertial number ({:g} 1/s, "
-      "{:g} Pa)\n",
-      o.shear_rate, o.normal_stress);
+      "{:g} Pa; strains warm-up {:g} (max {:g}), measure {:g} (max {:g}){})\n",
+      o.shear_rate, o.normal_stress, o.warmup_strain, o.max_warmup_strain, o.measure_strain,
+      o.max_strain, o.wall_strains ? ", the rough walls' protocol" : "");
   const CellResult walls = run_cell(o, {.shear_rate = o.shear_rate, .walls = true});
   const CellResult le = run_cell(o, {.shear_rate = shear_rate_for(o, walls.m.inertial_number)});
   fmt::print("  I: walls {:.4f} (bulk rate, wall load), Lees-Edwards {:.4f}\n",
@@ -705,6 +715,9 @@ int main(int argc, char** argv) {
   app.add_flag("--debug_log", debug_log,
                "the cells' debug log on stderr (compaction, warm-up windows, wall speed)");
   CLI11_PARSE(app, argc, argv);
+  for (const char* strain :
+       {"--warmup_strain", "--max_warmup_strain", "--measure_strain", "--max_strain"})
+    if (app.count(strain) > 0) o.wall_strains = false;
   spdlog::set_level(debug_log ? spdlog::level::debug : spdlog::level::warn);
   const std::set<int> tables(o.tables.begin(), o.tables.end());
   fmt::print(

@@ -1,7 +1,7 @@
 // The stress control of both boundaries at realistic stiffness: the rough walls' servo and the
 // Lees-Edwards barostat hold the target normal stress within 5% at k_n / (p d) = 1e4 (the walls
 // also at 1e2 and 1e5, with their bulk rate and slip), and the walls drive the bulk to the site's
-// rate within 15% at 1e4 (docs/shear_cells.md).
+// rate within 5% at 1e4 (docs/shear_cells.md).
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
 
@@ -64,21 +64,23 @@ TEST(ShearCellStressControl, WallServoHoldsTheNormalStressOfSoftAndStiffBalls) {
 }
 
 // The walls drive the bulk to the site's rate at k_n / (p d) = 1e4, in a cell of the campaign's
-// table-4 size (8 x 10 x 8 d) at I = 0.3. Measured, seeds 1, 2, 3: +11.6%, +2.3%, +13.6% (normal
-// stress 1005-1017 Pa, energy balance within 0.3%); with the walls and controller before (jitter
-// 0.25 d, estimates on 3 windows, no drift test on the rate) +19.0%, +23.7%, +16.0%. So 15%, not
-// the 5% issue 12 asks for: the bed still speeds up by up to 10% over the measured window after
-// the controller has settled on its warm-up windows (docs/cell_validation.md, table 4 a fifth
-// time, "Not yet done").
+// table-4 size (8 x 10 x 8 d) at I = 0.3, with the rough walls' protocol (dem::kRoughWallStrains:
+// warm-up in windows of 1 strain to a cap of 16, 8 strains measured with the catch-up law of
+// dem/wall_speed_controller.hpp). Measured, seeds 1-6: +3.2%, +0.5%, +1.1%, -1.3%, +0.2%, +1.5%
+// (normal stress 1006-1014 Pa, energy balance within 0.7%); the same protocol without the
+// catch-up law +6.5%, +0.4%, +15.0%, +1.2%, -2.5%, -2.0%; the code before (warm-up in windows of
+// 0.5 strain to 12, 4 measured, no catch-up) +11.6%, +2.3%, +13.6%. So the 5% of issue 12
+// (docs/cell_validation.md, table 4 a seventh time). About 7 CPU s.
 TEST(ShearCellStressControl, WallsDriveTheBulkToTheSiteRateAtRealisticStiffness) {
   spdlog::set_level(std::getenv("MF_DEBUG") ? spdlog::level::debug : spdlog::level::warn);
   ShearCellSetup setup = testing::small_shear_cell(0.3);
   setup.size_diameters = Vec3(8, 10, 8);
   setup.media_media.normal_stiffness = 1e4 * setup.normal_stress * setup.media_diameter;
-  ShearCellRun run(setup, {.warmup_strain = 2.0,
-                           .warmup_windows = 4,
-                           .max_warmup_strain = 12.0,
-                           .measure_strain = 4.0,
+  const RoughWallStrains& strains = kRoughWallStrains;
+  ShearCellRun run(setup, {.warmup_strain = strains.warmup_strain,
+                           .warmup_windows = strains.warmup_windows,
+                           .max_warmup_strain = strains.max_warmup_strain,
+                           .measure_strain = strains.measure_strain,
                            .measure = {.samples = 100}});
   run.advance(~std::uint64_t{0});
   const ShearCellMeasurements& m = run.measurements();
@@ -90,7 +92,7 @@ TEST(ShearCellStressControl, WallsDriveTheBulkToTheSiteRateAtRealisticStiffness)
       100.0 * (m.bulk_shear_rate / m.target_shear_rate - 1.0), m.wall_slip, m.wall_speed,
       m.energy_balance_error);
   EXPECT_NEAR(m.normal_stress, 1000.0, 50.0);
-  EXPECT_NEAR(m.bulk_shear_rate / m.target_shear_rate, 1.0, 0.15);
+  EXPECT_NEAR(m.bulk_shear_rate / m.target_shear_rate, 1.0, 0.05);
   EXPECT_LT(m.energy_balance_error, 0.01);
 }
 
