@@ -97,6 +97,27 @@ TEST(ShearCellStressControl, WallsDriveTheBulkToTheSiteRateAtRealisticStiffness)
   EXPECT_LT(m.energy_balance_error, 0.01);
 }
 
+// The measured window's catch-up law on a synthetic bed that follows the walls at once with a
+// bulk fraction of 0.6, the walls starting at the speed a fraction of 0.72 would want (the rate
+// 17% low): over 8 strains in stretches of 0.5 the window's mean rate ends within 2% of the
+// target (-0.6%; at the starting speed it would stay 17% low), and the walls' mean speed is what
+// they travelled.
+TEST(ShearCellStressControl, TheMeasuredWindowsCatchUpBringsItsMeanRateToTheTarget) {
+  const double target = 10.0, gap = 0.5, fraction = 0.6;
+  WallSpeedController controller(target);
+  controller.start_measured_window();
+  const double stretch = WallSpeedController::kMeasuredControlStrain / target;  // s
+  double speed = target * gap / 0.72, time = 0.0, bulk_strain = 0.0, travel = 0.0;
+  for (int k = 0; k < 16; ++k) {
+    bulk_strain += fraction * speed / gap * stretch;
+    travel += speed * stretch;
+    time += stretch;
+    if (k < 15) speed = controller.update_measured(bulk_strain / time, time, speed, gap);
+  }
+  EXPECT_NEAR(bulk_strain / time / target, 1.0, 0.02);
+  EXPECT_NEAR(controller.measured_mean_speed(time, speed), travel / time, 1e-12);
+}
+
 TEST(ShearCellStressControl, BarostatHoldsTheNormalStressAtRealisticStiffness) {
   const ShearCellMeasurements m = run_at_stiffness(ShearCellSetup::Boundary::LeesEdwards, 1e4);
   EXPECT_NEAR(m.normal_stress, 1000.0, 50.0);
