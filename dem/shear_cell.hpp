@@ -419,10 +419,11 @@ struct ShearCellProtocol {
 //
 // Checkpoint file: the checksummed container of dem/binary_io.hpp, magic "MFSHRCKP", payload
 // version kShearCellCheckpointVersion. Payload (version 5; version 4 lacked the wall-speed
-// controller's measured-window duration and travel; version 3 held the earlier filtered
-// wall-speed controller's two sums, window count and settled flag, and a rough-wall window's
-// stress sums over its profile samples only; version 2 only the previous warm-up window's
-// means, no wall-speed controller, and the barostat's state for both boundaries), in order:
+// controller's measured-window duration and travel and the servo's integral term; version 3 held
+// the earlier filtered wall-speed controller's two sums, window count and settled flag, and a
+// rough-wall window's stress sums over its profile samples only; version 2 only the previous
+// warm-up window's means, no wall-speed controller, and the barostat's state for both boundaries),
+// in order:
 //   identity: string, the setup (overlap bound included) and protocol (warm-up cap, convergence
 //             target and cap included) encoded field by field (resume() refuses a file whose
 //             identity differs from the cell it is asked to continue)
@@ -431,8 +432,8 @@ struct ShearCellProtocol {
 //   cell: media, powder and wall ball counts (uint64), wall speed, LE boundary work; the stress
 //         control (StressControl::write: stress sum and sample count since the last control
 //         interval, the stress that interval answered and its running mean over the relaxation
-//         time; the barostat then its stretches' work and its integral term, the servo nothing
-//         more); the wall-speed controller (WallSpeedController::write: the bulk
+//         time; the barostat then its stretches' work and its integral term, the servo its
+//         integral term); the wall-speed controller (WallSpeedController::write: the bulk
 //         fractions of the windows at the current speed (uint64 count, doubles), the last
 //         steady estimate (double), settled (uint8), its steady points that stepped: the last,
 //         the latest below the target and the latest above it, each speed, bulk fraction and
