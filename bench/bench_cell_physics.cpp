@@ -110,6 +110,9 @@ struct Options {
   // cell's does not: docs/cell_validation.md, table 4 a seventh time).
   bool wall_strains = true;
   bool wall_size = true;
+  // Table 4: > 0 sets both cells' media-media (and wall) contacts to k_n = this x p d in place
+  // of the stiffness policy's (the servo's stiffness sweep).
+  double wall_kappa = 0.0;
 };
 
 struct Cell {
@@ -120,6 +123,7 @@ struct Cell {
   double powder_ratio = 0.0;      // 0: Options::powder_ratio
   std::vector<double> size = {};  // empty: Options::size
   double strain_factor = 1.0;     // x every strain of the protocol
+  double media_kappa = 0.0;       // > 0: media-media k_n / (p d), in place of the policy's
 };
 
 // What a finished cell reports.
@@ -165,6 +169,8 @@ dem::ShearCellSetup setup_for(const Options& o, const Cell& c, const json& campa
         p.pair, p.chosen, p.governing, p.given, p.static_bound, p.impact_bound);
   for (dem::InteractionSpec* pair : {&setup.media_media, &setup.media_powder, &setup.powder_powder})
     pair->normal_stiffness *= c.stiffness_factor;
+  if (c.media_kappa > 0.0)
+    setup.media_media.normal_stiffness = c.media_kappa * setup.normal_stress * setup.media_diameter;
   return setup;
 }
 
@@ -465,8 +471,11 @@ void walls_table(const Options& options) {
       o.shear_rate, o.normal_stress, o.size[0], o.size[1], o.size[2], o.warmup_strain,
       o.max_warmup_strain, o.measure_strain, o.max_strain,
       o.wall_strains ? ", the rough walls' protocol" : "");
-  const CellResult walls = run_cell(o, {.shear_rate = o.shear_rate, .walls = true});
-  const CellResult le = run_cell(o, {.shear_rate = shear_rate_for(o, walls.m.inertial_number)});
+  const CellResult walls =
+      run_cell(o, {.shear_rate = o.shear_rate, .walls = true, .media_kappa = o.wall_kappa});
+  const CellResult le = run_cell(
+      o, {.shear_rate = shear_rate_for(o, walls.m.inertial_number), .media_kappa = o.wall_kappa});
+  fmt::print("  wall load / target {:.4f}\n", walls.m.normal_stress / o.normal_stress);
   fmt::print("  I: walls {:.4f} (bulk rate, wall load), Lees-Edwards {:.4f}\n",
              walls.m.inertial_number, le.m.inertial_number);
   print_header("Lees-Edwards", "rough walls");
@@ -717,6 +726,9 @@ int main(int argc, char** argv) {
                  "table 4 open loop: hold the rough walls at this relative speed, m/s (no "
                  "wall-speed controller, no Lees-Edwards cell)");
   app.add_option("--open_loop_strain", o.open_loop_strain, "table 4 open loop: strain");
+  app.add_option("--wall_kappa", o.wall_kappa,
+                 "table 4: media-media (and wall) k_n / (p d) of both cells, in place of the "
+                 "stiffness policy's");
   bool debug_log = false;
   app.add_flag("--debug_log", debug_log,
                "the cells' debug log on stderr (compaction, warm-up windows, wall speed)");
