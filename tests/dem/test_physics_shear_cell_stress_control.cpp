@@ -97,6 +97,37 @@ TEST(ShearCellStressControl, WallsDriveTheBulkToTheSiteRateAtRealisticStiffness)
   EXPECT_LT(m.energy_balance_error, 0.01);
 }
 
+// The walls hold the MEAN normal stress within 5% in a tall narrow cell (5 x 10 x 5 d) of the
+// campaign's steel (restitution 0.3, friction 0.75) at k_n / (p d) = 1e4, I = 0.3, with the rough
+// walls' protocol. With the proportional law alone the mean wall load sat 10-13% above the
+// target there (the campaign's cell in table 4: 1.122 and 1.096, seeds 1 and 2; this cell 1.128,
+// seed 1; with restitution 0.5 and friction 0.5 only 1.037 and 1.046). The integral term
+// (dem::IntegralTerm) settles only when the mean load is on target: 1.003 and 1.000 (seeds 1, 2;
+// docs/shear_cells.md, "Stress control"). About 2.5 CPU s. (Its energy balance is open by 1.8%
+// with or without the integral term, not asserted here.)
+TEST(ShearCellStressControl, WallServoHoldsTheMeanNormalStressOfATallNarrowCell) {
+  spdlog::set_level(std::getenv("MF_DEBUG") ? spdlog::level::debug : spdlog::level::warn);
+  ShearCellSetup setup = testing::small_shear_cell(0.3);
+  setup.size_diameters = Vec3(5, 10, 5);
+  setup.media_media.normal_stiffness = 1e4 * setup.normal_stress * setup.media_diameter;
+  setup.media_media.restitution = 0.3;
+  setup.media_media.friction = 0.75;
+  const RoughWallStrains& strains = kRoughWallStrains;
+  ShearCellRun run(setup, {.warmup_strain = strains.warmup_strain,
+                           .warmup_windows = strains.warmup_windows,
+                           .max_warmup_strain = strains.max_warmup_strain,
+                           .measure_strain = strains.measure_strain,
+                           .measure = {.samples = 100}});
+  run.advance(~std::uint64_t{0});
+  const ShearCellMeasurements& m = run.measurements();
+  std::printf(
+      "walls 5 x 10 x 5 at I 0.3, k_n/(p d) 1e4: normal stress %.4g Pa (%.4f of the target), "
+      "stationary %d, bulk rate %+.1f%%, energy balance %.2g\n",
+      m.normal_stress, m.normal_stress / setup.normal_stress, m.stationary,
+      100.0 * (m.bulk_shear_rate / m.target_shear_rate - 1.0), m.energy_balance_error);
+  EXPECT_NEAR(m.normal_stress / setup.normal_stress, 1.0, 0.05);
+}
+
 // The measured window's catch-up law on a synthetic bed that follows the walls at once with a
 // bulk fraction of 0.6, the walls starting at the speed a fraction of 0.72 would want (the rate
 // 17% low): over 8 strains in stretches of 0.5 the window's mean rate ends within 2% of the
