@@ -121,6 +121,8 @@ class StressControl {
   double smoothed_stress() const { return smoothed_stress_; }
   // Energy the control put in besides the walls' work (the barostat's stretches), J.
   virtual double work() const { return 0.0; }
+  // The PI law's integral term b as the last interval left it, strain per tau (IntegralTerm).
+  virtual double integral_term() const = 0;
 
   // Checkpoint state: the base's four doubles (stress sum and sample count since the last
   // interval, the stress it answered, its running mean over tau), then the boundary's own.
@@ -153,6 +155,7 @@ class RoughWallServo final : public StressControl {
     return std::make_unique<RoughWallServo>(*this);
   }
   double normal_stress(const System& system) const override;
+  double integral_term() const override { return integral_.value(); }
 
  protected:
   // The wall load is free every step.
@@ -191,6 +194,7 @@ class LeesEdwardsBarostat final : public StressControl {
   }
   double normal_stress(const System& system) const override;
   double work() const override { return work_; }
+  double integral_term() const override { return integral_.value(); }
 
  protected:
   std::uint64_t sample_every() const override;
