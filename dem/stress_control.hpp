@@ -93,7 +93,7 @@ class IntegralTerm {
 // seeds was 1.025 of the target against 1.004 with 2 tau).
 inline constexpr double kBarostatIntegralTimes = 2.0;
 // The wall servo's: it only has to take out the mean load's offset of the proportional law
-// (10-14% in 5 x 10 x 5 d cells), over 0.8 strain at the default gain. (With 2 tau the 8 x 10 x
+// (10-14% in 5 x 10 x 5 d cells), over 1.6 strain in table 4's cells. (With 2 tau the 8 x 10 x
 // 8 d test cell's bulk rate came out -5.2%, -2.1%, +4.8%, -0.6%, -0.4%, -2.7% on seeds 1-6,
 // with 8 tau +2.5%, -2.0%, -3.8%, -1.0%, -5.0%, -2.0%: within the seeds' scatter; with 2 tau the
 // 6 x 6 x 6 cell at k_n / (p d) 1e2 ran its bulk 16% ahead of the walls, with 8 tau 17% behind.
