@@ -382,6 +382,9 @@ class ShearCell {
   // Profile, stress tensor and overlaps at a sample; the block bookkeeping at a block's end.
   void sample_measurement(Measurement& measurement);
   void close_block(Measurement& measurement);
+  // Sets the wall speed from the measured window's bulk rate so far (RoughWalls; the catch-up
+  // law of dem/wall_speed_controller.hpp).
+  void control_measured_wall_speed(const Measurement& measurement);
   void start_block(Measurement& measurement);
   // Standard errors from the finished blocks; true when they meet the target.
   bool errors_within_target(const Measurement& measurement) const;
@@ -456,10 +459,12 @@ struct ShearCellProtocol {
 // few hundred collision times). advance() in chunks of any size gives the same bits too.
 //
 // Checkpoint file: the checksummed container of dem/binary_io.hpp, magic "MFSHRCKP", payload
-// version kShearCellCheckpointVersion. Payload (version 4; version 3 held the earlier filtered
-// wall-speed controller's two sums, window count and settled flag, and a rough-wall window's
-// stress sums over its profile samples only; version 2 only the previous warm-up window's
-// means, no wall-speed controller, and the barostat's state for both boundaries), in order:
+// version kShearCellCheckpointVersion. Payload (version 5; version 4 lacked the wall-speed
+// controller's measured-window duration and travel and the servo's integral term; version 3 held
+// the earlier filtered wall-speed controller's two sums, window count and settled flag, and a
+// rough-wall window's stress sums over its profile samples only; version 2 only the previous
+// warm-up window's means, no wall-speed controller, and the barostat's state for both boundaries),
+// in order:
 //   identity: string, the setup (overlap bound included) and protocol (warm-up cap, convergence
 //             target and cap included) encoded field by field (resume() refuses a file whose
 //             identity differs from the cell it is asked to continue)
@@ -468,12 +473,13 @@ struct ShearCellProtocol {
 //   cell: media, powder and wall ball counts (uint64), wall speed, LE boundary work; the stress
 //         control (StressControl::write: stress sum and sample count since the last control
 //         interval, the stress that interval answered and its running mean over the relaxation
-//         time; the barostat then its stretches' work and its integral term, the servo nothing
-//         more); the wall-speed controller (WallSpeedController::write: the bulk
+//         time; the barostat then its stretches' work and its integral term, the servo its
+//         integral term); the wall-speed controller (WallSpeedController::write: the bulk
 //         fractions of the windows at the current speed (uint64 count, doubles), the last
 //         steady estimate (double), settled (uint8), its steady points that stepped: the last,
 //         the latest below the target and the latest above it, each speed, bulk fraction and
-//         its standard error (3 doubles, speed 0 for none));
+//         its standard error (3 doubles, speed 0 for none), the measured window's duration
+//         up to its last control point and the walls' travel over it (2 doubles));
 //         compacted (uint8)
 //   run: phase (uint8: 0 compacting, 1 warm-up, 2 measuring), warm-up window index
 //        (int32); the window in progress (uint64 steps, half, every, done; profile: 8 doubles;
@@ -493,7 +499,7 @@ struct ShearCellProtocol {
 //        dissipated-energy histogram (dem/spectrum.hpp), wall seconds measured so far,
 //        converged (uint8))
 // Collision events finished before a save are tallied into the measurement first.
-inline constexpr std::uint32_t kShearCellCheckpointVersion = 4;
+inline constexpr std::uint32_t kShearCellCheckpointVersion = 5;
 
 class ShearCellRun {
  public:

@@ -5,12 +5,17 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include "dem/shear_cell.hpp"
 #include "dem/touching_pairs.hpp"
 
 namespace millflow::dem {
 namespace {
+
+// Blocks between the measured window's wall-speed control points.
+const std::size_t kMeasuredControlBlocks = static_cast<std::size_t>(
+    std::lround(WallSpeedController::kMeasuredControlStrain / kBlockStrain));
 
 void tally(const std::vector<CollisionEvent>& events, const ShearCell& cell,
            std::array<CollisionStats, kContactTypeCount>& stats) {
@@ -105,6 +110,7 @@ ShearCell::Measurement ShearCell::start_measurement(double strain, const Measure
   m.budget0 = system_.energy();
   m.dissipation0 = system_.dissipation_by_category();
   start_block(m);
+  if (walls()) speed_controller_.start_measured_window();
   if (options.record_collisions) {
     system_.take_collision_events();
     system_.set_record_collisions(true);
@@ -149,10 +155,23 @@ void ShearCell::advance_measurement(Measurement& m, std::uint64_t max_steps) {
     if (s % m.block_steps == 0 && m.current.stress_samples > 0.0) {
       close_block(m);
       m.converged = s >= m.min_steps && errors_within_target(m);
+      if (walls() && !m.converged && s < m.steps && m.blocks.size() % kMeasuredControlBlocks == 0)
+        control_measured_wall_speed(m);
     }
   }
   m.wall_seconds +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+}
+
+void ShearCell::control_measured_wall_speed(const Measurement& m) {
+  const double time = static_cast<double>(m.done) * system_.time_step();
+  const double rate = bulk_shear_rate(m.profile);
+  const double speed = speed_controller_.update_measured(rate, time, wall_speed_, gap());
+  spdlog::debug(
+      "shear cell: measured strain {:.3g}: the window's bulk rate {:.4g} 1/s (target {:.4g}), "
+      "wall speed {:.4g} -> {:.4g} m/s",
+      setup_.shear_rate * time, rate, setup_.shear_rate, wall_speed_, speed);
+  set_wall_speed(speed);
 }
 
 void ShearCell::sample_measurement(Measurement& m) {
@@ -295,7 +314,10 @@ ShearCellMeasurements ShearCell::finish_measurement(Measurement& in) {
   m.particle_steps_per_second = static_cast<double>(in.done * system_.size()) / m.wall_seconds;
   m.target_shear_rate = setup_.shear_rate;
   m.bulk_shear_rate = bulk_shear_rate(in.profile);
-  m.wall_speed = wall_speed_;
+  // With walls the walls' mean speed over the window (the catch-up law moves it).
+  m.wall_speed = walls() ? speed_controller_.measured_mean_speed(
+                               static_cast<double>(in.done) * system_.time_step(), wall_speed_)
+                         : wall_speed_;
 
   // Whole-window sums over the blocks and the one in progress; halves by block.
   std::vector<MeasuredBlock> blocks = in.blocks;
@@ -313,8 +335,8 @@ ShearCellMeasurements ShearCell::finish_measurement(Measurement& in) {
     half_samples[half] += b.stress_samples;
   }
   m.gap = gap_sum / samples;
-  m.nominal_shear_rate = wall_speed_ / m.gap;
-  m.wall_slip = 0.5 * (wall_speed_ - m.bulk_shear_rate * m.gap);
+  m.nominal_shear_rate = m.wall_speed / m.gap;
+  m.wall_slip = 0.5 * (m.wall_speed - m.bulk_shear_rate * m.gap);
   m.volume = wall_area() * m.gap;
   m.shear_stress_first_half = half_shear[0] / half_samples[0];
   m.shear_stress_second_half =

@@ -73,12 +73,39 @@ double WallSpeedController::next_speed(const SteadyPoint& now, const SteadyPoint
   return proportional;
 }
 
+void WallSpeedController::start_measured_window() {
+  measured_time_ = 0.0;
+  measured_travel_ = 0.0;
+}
+
+double WallSpeedController::update_measured(double window_rate, double window_time,
+                                            double wall_speed, double gap) {
+  measured_travel_ += wall_speed * (window_time - measured_time_);
+  measured_time_ = window_time;
+  const double fraction =
+      measured_travel_ > 0.0 ? window_rate * window_time * gap / measured_travel_ : 0.0;
+  if (!(fraction > 0.0) || !(window_time > 0.0)) return wall_speed;
+  const double behind = (target_rate_ - window_rate) * window_time;  // bulk strain short
+  const double rate =
+      std::clamp(target_rate_ + behind * target_rate_ / kCatchUpStrain,
+                 (1.0 - kMaxCatchUp) * target_rate_, (1.0 + kMaxCatchUp) * target_rate_);
+  return std::clamp(rate * gap / fraction, wall_speed / kMaxMeasuredStep,
+                    wall_speed * kMaxMeasuredStep);
+}
+
+double WallSpeedController::measured_mean_speed(double window_time, double wall_speed) const {
+  if (!(window_time > 0.0)) return wall_speed;
+  return (measured_travel_ + wall_speed * (window_time - measured_time_)) / window_time;
+}
+
 void WallSpeedController::write(BinaryWriter& out) const {
   out.put_span<double>(fractions_);
   out.put(bulk_fraction_);
   out.put<std::uint8_t>(settled_);
   for (const SteadyPoint& p : {last_, below_, above_})
     for (double v : {p.speed, p.fraction, p.fraction_error}) out.put(v);
+  out.put(measured_time_);
+  out.put(measured_travel_);
 }
 
 void WallSpeedController::read(BinaryReader& in) {
@@ -87,6 +114,8 @@ void WallSpeedController::read(BinaryReader& in) {
   settled_ = in.get<std::uint8_t>() != 0;
   for (SteadyPoint* p : {&last_, &below_, &above_})
     for (double* v : {&p->speed, &p->fraction, &p->fraction_error}) *v = in.get<double>();
+  measured_time_ = in.get<double>();
+  measured_travel_ = in.get<double>();
 }
 
 }  // namespace millflow::dem

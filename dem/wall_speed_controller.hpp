@@ -35,6 +35,21 @@
 
 namespace millflow::dem {
 
+// The rough-wall cell's protocol (the strains of a ShearCellProtocol; docs/shear_cells.md,
+// "Wall speed"): a warm-up in windows of 1 strain (4 at least, to a cap of 16: the bed leaves
+// compaction denser than it flows and takes 10-16 strains to reach its flowing density), then 8
+// strains measured with the catch-up law below. Shorter ones missed the site's rate by up to
+// 17.5% (warm-up in windows of 0.5 strain to 12, 4 measured) and 9.0% (the same, 8 measured) on
+// seeds 1-3 of the 8 x 10 x 8 d test cell even with the catch-up law. Campaigns (Lees-Edwards)
+// set their own strains.
+struct RoughWallStrains {
+  double warmup_strain = 4.0;
+  int warmup_windows = 4;
+  double max_warmup_strain = 16.0;
+  double measure_strain = 8.0;
+};
+inline constexpr RoughWallStrains kRoughWallStrains{};
+
 class WallSpeedController {
  public:
   static constexpr int kSteadyWindows = 4;
@@ -43,6 +58,25 @@ class WallSpeedController {
   static constexpr double kMaxStep = 2.0;
   static constexpr double kSettleTolerance = 0.05;
   static constexpr double kMaxExtrapolation = 2.0;
+
+  // The measured window (a catch-up law on the window's mean): every kMeasuredControlStrain of
+  // the target's strain the speed is set so that the bulk strain the window is short of (or
+  // ahead of) the target's is made up over the next kCatchUpStrain: the next stretch's rate
+  // g* = g_t + (g_t - G) T g_t / kCatchUpStrain, G the bulk rate of the window so far (the fit
+  // the result reports) and T its duration, g* within kMaxCatchUp of g_t; the speed for it
+  // U = g* H / f, f = G T H / (the walls' travel over the window) the window's bulk fraction so
+  // far, at most a factor kMaxMeasuredStep from the speed before. Why: a bed that has reached
+  // its flowing state still wanders by 10-20% in bulk rate within 2-3 strains, so a window of 8
+  // strains at a fixed speed missed the site's rate by up to 15% (8 x 10 x 8 d test cell, seeds
+  // 1-6: +6.5, +0.4, +15.0, +1.2, -2.5, -2.0%), and with the catch-up by at most 3.2% (+3.2,
+  // +0.5, +1.1, -1.3, +0.2, +1.5%). Gentle on purpose: the bulk rate answers a speed change
+  // only 2-3 strains later, and a law that made up the deficit over 2 strains, 25% and 25% a
+  // step, swung the walls from 1.97 to 1.28 m/s and back and left -4.9% (docs/cell_validation.md,
+  // table 4 a seventh time).
+  static constexpr double kMeasuredControlStrain = 0.5;
+  static constexpr double kCatchUpStrain = 4.0;
+  static constexpr double kMaxCatchUp = 0.1;
+  static constexpr double kMaxMeasuredStep = 1.05;
 
   explicit WallSpeedController(double target_rate) : target_rate_(target_rate) {}
 
@@ -56,10 +90,21 @@ class WallSpeedController {
   // Windows at the current speed the next estimate rests on.
   int windows() const { return static_cast<int>(fractions_.size()); }
 
+  // Opens the measured window (its travel and duration start at zero).
+  void start_measured_window();
+  // A control point of the measured window: the window's bulk rate so far `window_rate` (1/s)
+  // over its duration so far `window_time` (s), the walls at `wall_speed` (m/s) since the last
+  // point and the gap `gap` (m): returns the wall speed for the next stretch.
+  double update_measured(double window_rate, double window_time, double wall_speed, double gap);
+  // The walls' mean speed over the measured window of duration `window_time`, the walls at
+  // `wall_speed` since the last control point.
+  double measured_mean_speed(double window_time, double wall_speed) const;
+
   // Checkpoint state: the current windows' bulk fractions (a span of doubles), the last steady
   // estimate (double), settled (uint8), then the steady points that stepped (the last, the
   // latest below the target, the latest above it; each: speed, bulk fraction and its standard
-  // error, three doubles, speed 0 for none).
+  // error, three doubles, speed 0 for none), then the measured window's duration up to its last
+  // control point (s) and the walls' travel over it (m) (two doubles).
   void write(BinaryWriter& out) const;
   void read(BinaryReader& in);
 
@@ -79,6 +124,7 @@ class WallSpeedController {
   double bulk_fraction_ = 0.0;
   bool settled_ = false;
   SteadyPoint last_, below_, above_;
+  double measured_time_ = 0.0, measured_travel_ = 0.0;  // the measured window's, s and m
 };
 
 }  // namespace millflow::dem

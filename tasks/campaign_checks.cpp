@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "dem/wall_speed_controller.hpp"
 #include "engine/json_validator.hpp"
 
 #include "util/sphere.hpp"
@@ -130,6 +131,7 @@ class ConsistencyChecker {
     check_at_least("/shear_cell/convergence/max_strain", "/shear_cell/measure_strain");
     check_at_least("/shear_cell/stiffness/p95_overlap_fraction",
                    "/shear_cell/stiffness/mean_overlap_fraction");
+    check_wall_measured_window();
     return std::move(errors_);
   }
 
@@ -446,6 +448,23 @@ class ConsistencyChecker {
     if (!cap || !value || *cap >= *value) return;
     error(cap_path, quantity(*cap) + " is below " + value_path + " = " + quantity(*value),
           "raise it to at least " + quantity(*value) + " or lower " + value_path);
+  }
+
+  // Rough walls drive the bulk to the site's rate over the measured window by setting their
+  // speed every kMeasuredControlStrain (dem/wall_speed_controller.hpp): a window without two
+  // such points cannot.
+  void check_wall_measured_window() {
+    const auto measure = campaign_.number("/shear_cell/measure_strain");
+    if (campaign_.text("/shear_cell/boundary") != "walls" || !measure) return;
+    const double least = 2.0 * dem::WallSpeedController::kMeasuredControlStrain;
+    if (*measure >= least) return;
+    error("/shear_cell/measure_strain",
+          quantity(*measure) +
+              " is too short for rough walls, whose speed answers the measured window's bulk "
+              "rate every " +
+              quantity(dem::WallSpeedController::kMeasuredControlStrain) + " strain",
+          "raise it to at least " + quantity(least) + " (the walls' protocol measures " +
+              quantity(dem::kRoughWallStrains.measure_strain) + ")");
   }
 
   void check_powder_count() {

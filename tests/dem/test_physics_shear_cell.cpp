@@ -55,8 +55,9 @@ TEST_F(ShearCellPhysics, ServoHoldsTheNormalStressAndTheEnergyBalanceCloses) {
   ShearCell cell(setup);
   cell.warm_up(2.0, 2);
   // The servo acts once per control interval: the top wall keeps its y velocity through the
-  // interval and at its end takes v = clamp(M (p_target / p_bed) (F_mean - F_target), +-v_max)
-  // from the interval's mean load, p_bed = min(p_target, running mean of the loads over tau).
+  // interval and at its end takes v = clamp(M (p_target / p_bed) (F_mean - F_target) + b H / tau,
+  // +-v_max) from the interval's mean load, p_bed = min(p_target, running mean of the loads over
+  // tau), b the integral term after the interval (H / tau = M K p_target A).
   System& system = cell.system();
   const StressControl& control = cell.stress_control();
   const std::uint64_t interval = control.settings().interval_steps;
@@ -79,9 +80,10 @@ TEST_F(ShearCellPhysics, ServoHoldsTheNormalStressAndTheEnergyBalanceCloses) {
     const double load = control.last_interval_stress() * cell.wall_area();
     const double bed_pressure = std::min(control.smoothed_stress(), setup.normal_stress);
     ASSERT_GT(bed_pressure, 0.0);
-    const double expected =
-        std::clamp(cell.servo_mobility() * (setup.normal_stress / bed_pressure) * (load - target),
-                   -cell.servo_max_speed(), cell.servo_max_speed());
+    const double expected = std::clamp(
+        cell.servo_mobility() * (setup.normal_stress / bed_pressure) * (load - target) +
+            cell.servo_mobility() * kFlowingBedModulus * target * control.integral_term(),
+        -cell.servo_max_speed(), cell.servo_max_speed());
     EXPECT_NEAR(system.group(2).velocity.y(), expected, 1e-12 * cell.servo_max_speed())
         << "interval " << i;
     mean_load += load / intervals;
