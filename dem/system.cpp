@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <mutex>
 #include <numbers>
 #include <stdexcept>
 
@@ -27,6 +26,10 @@ namespace {
 constexpr std::size_t kReduceGrain = 1024;
 constexpr std::size_t kParticleGrain = 256;
 constexpr std::size_t kPairGrain = 1024;
+
+double square(double v) {
+  return v * v;
+}
 
 bool finite(const Vec3& v) {
   return v.allFinite();
@@ -275,17 +278,29 @@ void System::set_neighbor_skin(double skin) {
   if (!prepared_) return;
   // A running system keeps its state: only the neighbour list is built again, with the new skin,
   // the pairs in force keeping their histories and forces (which the skin does not change).
-  std::vector<NeighborPair> touching_pairs;
-  std::vector<std::uint32_t> touching_slot;
+  const std::vector<TouchingSlot> touching = touching_pairs();
+  neighbors_ = NeighborSearch(NeighborSearchOptions{.skin = skin_});
+  rebuild_with_touching(touching);
+}
+
+std::vector<System::TouchingSlot> System::touching_pairs() const {
+  std::vector<TouchingSlot> touching;
   const auto& pairs = neighbors_.pairs();
   for (std::size_t k = 0; k < pairs.size(); ++k) {
-    if (!pair_touching_[k]) continue;
-    touching_pairs.push_back(pairs[k]);
-    touching_slot.push_back(pair_slot_[k]);
+    if (pair_touching_[k]) touching.push_back(TouchingSlot{pairs[k], pair_slot_[k]});
   }
-  neighbors_ = NeighborSearch(NeighborSearchOptions{.skin = skin_});
-  rebuild_neighbors(touching_pairs, touching_slot);
-  restore_pair_forces(touching_pairs);
+  return touching;
+}
+
+void System::rebuild_with_touching(std::span<const TouchingSlot> touching) {
+  std::vector<NeighborPair> pairs(touching.size());
+  std::vector<std::uint32_t> slots(touching.size());
+  for (std::size_t c = 0; c < touching.size(); ++c) {
+    pairs[c] = touching[c].pair;
+    slots[c] = touching[c].slot;
+  }
+  rebuild_neighbors(pairs, slots);
+  restore_pair_forces(pairs);
 }
 
 void System::deform_affinely(int axis, double factor) {
@@ -394,6 +409,8 @@ bool System::kick_and_drift(bool finish_last_kick) {
   const std::span<const Vec3> reference = neighbors_.reference_positions();
   const bool track_displacement = reference.size() == size();
   const std::array<double, 3> no_image_limit = no_image_limits();
+  const double image_test_sq =
+      square(std::min({no_image_limit[0], no_image_limit[1], no_image_limit[2]}));
   // The largest displacement since the last neighbour-list build, found in the same pass (an exact
   // maximum, so any split of the range gives the same answer).
   const double max_displacement_sq = tbb::parallel_reduce(
@@ -431,13 +448,16 @@ bool System::kick_and_drift(bool finish_last_kick) {
           angular_velocity[p] = w;
           if (track_displacement) {
             Vec3 moved = x - reference_position[p];
-            if (!(std::abs(moved[0]) < no_image_limit[0] &&
+            double moved_sq = moved.squaredNorm();
+            if (!(moved_sq < image_test_sq) &&  // below it, no axis can reach its limit
+                !(std::abs(moved[0]) < no_image_limit[0] &&
                   std::abs(moved[1]) < no_image_limit[1] &&
                   std::abs(moved[2]) < no_image_limit[2])) {
               double gradient_images;
               moved = images.separation(reference_position[p], x, gradient_images);
+              moved_sq = moved.squaredNorm();
             }
-            running = std::max(running, moved.squaredNorm());
+            running = std::max(running, moved_sq);
           }
         }
         return running;
@@ -601,108 +621,198 @@ std::vector<ParticleId> System::reorder_particles() {
   }
 
   // The pairs in force, renumbered, with their histories and forces, sorted for the rebuild.
-  struct Carried {
-    NeighborPair pair;
-    std::uint32_t slot;
-  };
-  std::vector<Carried> carried;
-  const auto& pairs = neighbors_.pairs();
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    if (!pair_touching_[k]) continue;
-    Carried c{{new_of[pairs[k].i], new_of[pairs[k].j]}, pair_slot_[k]};
+  std::vector<TouchingSlot> carried = touching_pairs();
+  for (TouchingSlot& c : carried) {
+    c.pair = {new_of[c.pair.i], new_of[c.pair.j]};
     if (c.pair.i > c.pair.j) {
       // The spring and the force are those of the first particle against the second.
       std::swap(c.pair.i, c.pair.j);
       contact_history_[c.slot].spring = -contact_history_[c.slot].spring;
       contact_force_[c.slot].force = -contact_force_[c.slot].force;
     }
-    carried.push_back(c);
   }
-  std::sort(carried.begin(), carried.end(), [](const Carried& a, const Carried& b) {
+  std::sort(carried.begin(), carried.end(), [](const TouchingSlot& a, const TouchingSlot& b) {
     return a.pair.i != b.pair.i ? a.pair.i < b.pair.i : a.pair.j < b.pair.j;
   });
-  std::vector<NeighborPair> carried_pairs;
-  std::vector<std::uint32_t> carried_slot;
-  for (const Carried& c : carried) {
-    carried_pairs.push_back(c.pair);
-    carried_slot.push_back(c.slot);
-  }
-  rebuild_neighbors(carried_pairs, carried_slot);
-  restore_pair_forces(carried_pairs);
+  rebuild_with_touching(carried);
   return old_of;
 }
+
+// The contact law of the candidate pairs that touch (they have a contact slot), with every array
+// it reads or writes held in a local pointer (the member vectors' addresses are read once per
+// task, not once per contact).
+struct System::PairContactKernel {
+  explicit PairContactKernel(System& s, double step_dt)
+      : system(s),
+        images(s.domain_),
+        pair(s.neighbors_.pairs().data()),
+        radius(s.radius_.data()),
+        position(s.position_.data()),
+        predicted_velocity(s.predicted_velocity_.data()),
+        predicted_angular_velocity(s.predicted_angular_velocity_.data()),
+        material(s.material_.data()),
+        params(&s.materials_.pair(0, 0)),
+        material_count(s.materials_.size()),
+        slot_of(s.pair_slot_.data()),
+        history_of(s.contact_history_.data()),
+        force_of(s.contact_force_.data()),
+        touching_flag(s.pair_touching_.data()),
+        active(s.pair_active_.data()),
+        in_contact(s.particle_in_contact_.data()),
+        time(s.time_),
+        dt(step_dt) {}
+
+  [[gnu::always_inline]] void operator()(const TouchingPair& touching) const {
+    const std::size_t k = touching.k;
+    const auto [i, j] = pair[k];
+    const Vec3& d = touching.separation;
+    const double reach = radius[i] + radius[j];
+    const double distance = std::sqrt(touching.distance_sq);
+    const Vec3 normal = d * (-1.0 / distance);  // from j towards i
+    const double overlap = reach - distance;
+    const double lever_i = radius[i] - 0.5 * overlap, lever_j = radius[j] - 0.5 * overlap;
+    const Vec3 arm_i = -lever_i * normal;
+    const Vec3 arm_j = lever_j * normal;
+    const Vec3 contact_velocity_i =
+        predicted_velocity[i] + predicted_angular_velocity[i].cross(arm_i);
+    const Vec3 contact_velocity_j = predicted_velocity[j] +
+                                    images.image_velocity(touching.gradient_images) +
+                                    predicted_angular_velocity[j].cross(arm_j);
+    const ContactGeometry geometry{normal, overlap, contact_velocity_i - contact_velocity_j};
+    const std::uint32_t slot = slot_of[k];
+    ContactHistory& history = history_of[slot];
+    if (!history.touching) [[unlikely]] {
+      history.touching = true;
+      touching_flag[k] = 1;
+      history.start_time = time;
+      history.normal_damping = system.pair_normal_damping(i, j);
+      const double v_n = geometry.relative_velocity.dot(normal);
+      history.impact_speed = std::max(-v_n, 0.0);
+      history.impact_energy = 0.5 * system.pair_effective_mass(i, j) * v_n * v_n;
+    }
+    const ContactResponse response =
+        linear_spring_dashpot_damped(params[material[i] * material_count + material[j]],
+                                     history.normal_damping, geometry, history.spring, dt);
+    history.spring = response.spring;
+    history.elastic_energy = response.elastic_energy;
+    history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
+                                      response.dissipated_friction};
+    history.point = position[i] + arm_i;
+    active[k] = 1;
+    // Another task may mark the same particle: both store 1, so the order does not matter.
+    std::atomic_ref<std::uint8_t>(in_contact[i]).store(1, std::memory_order_relaxed);
+    std::atomic_ref<std::uint8_t>(in_contact[j]).store(1, std::memory_order_relaxed);
+    ContactForce& out = force_of[slot];
+    out.force = response.force_on_a;
+    out.branch = d;
+    // arm_i x F and arm_j x (-F) are both multiples of F x n.
+    const Vec3 turning = response.force_on_a.cross(normal);
+    out.torque_a = lever_i * turning;
+    out.torque_b = lever_j * turning;
+  }
+
+  const System& system;
+  const PeriodicImages images;
+  const NeighborPair* const pair;
+  const double* const radius;
+  const Vec3* const position;
+  const Vec3* const predicted_velocity;
+  const Vec3* const predicted_angular_velocity;
+  const MaterialId* const material;
+  const PairParams* const params;
+  const std::size_t material_count;
+  const std::uint32_t* const slot_of;
+  ContactHistory* const history_of;
+  ContactForce* const force_of;
+  std::uint8_t* const touching_flag;
+  std::uint8_t* const active;
+  std::uint8_t* const in_contact;
+  const double time;
+  const double dt;
+};
 
 void System::compute_pair_forces(double dt) {
   const std::span<const NeighborPair> pairs = neighbors_.pairs();
   const bool has_groups = !groups_.empty();
   const std::array<double, 3> no_image_limit = no_image_limits();
-  // Pairs that start touching this step: they get a contact slot after the pass, in pair order.
-  std::vector<TouchingPair> starting;
-  std::mutex starting_mutex;
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, pairs.size(), kPairGrain), [&](const auto& range) {
-        const PeriodicImages images(domain_);
-        // Screening first, in a tight loop over blocks of pairs: most candidate pairs are apart.
-        // The touching ones of a block are queued with their separation and their contact law
-        // runs after; each pair writes only its own slots, so the order does not matter.
-        constexpr std::size_t kBlock = 256;
-        std::array<TouchingPair, kBlock> touching;
-        std::vector<TouchingPair> starting_here;
-        const NeighborPair* const pair = pairs.data();
-        const Vec3* const x = position_.data();
-        const double* const radius = radius_.data();
-        const GroupId* const group = group_.data();
-        const std::uint8_t* const was_touching = pair_touching_.data();
-        std::uint8_t* const active = pair_active_.data();
-        std::uint8_t* const finished = pair_finished_.data();
-        const bool skip_wall_balls = has_groups;
-        const double limit_x = no_image_limit[0], limit_y = no_image_limit[1],
-                     limit_z = no_image_limit[2];
-        for (std::size_t block = range.begin(); block < range.end(); block += kBlock) {
-          std::size_t touching_count = 0;
-          const std::size_t block_end = std::min(block + kBlock, range.end());
-          for (std::size_t k = block; k != block_end; ++k) {
-            const auto [i, j] = pair[k];
-            active[k] = 0;
-            if (skip_wall_balls && group[i] != kFreeParticle && group[j] != kFreeParticle)
-              continue;  // two wall balls never interact
-            Vec3 d = x[j] - x[i];
-            double gradient_images = 0.0;
-            if (!(std::abs(d[0]) < limit_x && std::abs(d[1]) < limit_y && std::abs(d[2]) < limit_z))
-              d = images.separation(x[i], x[j], gradient_images);
-            const double distance_sq = d.squaredNorm();
-            const double reach = radius[i] + radius[j];
-            if (distance_sq < reach * reach) {
-              touching[touching_count++] =
-                  TouchingPair{d, distance_sq, gradient_images, static_cast<std::uint32_t>(k)};
-            } else if (was_touching[k]) {
-              finished[k] =
-                  1;  // collect_finished_contacts() records the event and clears the history
-            }
+  // The pairs in fixed chunks; each chunk queues the pairs that start touching this step (they get
+  // a contact slot after the pass, in pair order: chunk by chunk). The queues keep their capacity
+  // from step to step.
+  const std::size_t chunk_count = (pairs.size() + kPairGrain - 1) / kPairGrain;
+  if (starting_by_chunk_.size() < chunk_count) starting_by_chunk_.resize(chunk_count);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunk_count, 1), [&](const auto& chunks) {
+    const PeriodicImages images(domain_);
+    const PairContactKernel contact(*this, dt);
+    // Screening first, in a tight loop over blocks of pairs: most candidate pairs are apart.
+    // The touching ones of a block are queued with their separation and their contact law
+    // runs after; each pair writes only its own slots, so the order does not matter.
+    constexpr std::size_t kBlock = 256;
+    std::array<TouchingPair, kBlock> touching;
+    const NeighborPair* const pair = pairs.data();
+    const Vec3* const x = position_.data();
+    const double* const radius = radius_.data();
+    const GroupId* const group = group_.data();
+    const std::uint8_t* const was_touching = pair_touching_.data();
+    std::uint8_t* const active = pair_active_.data();
+    std::uint8_t* const finished = pair_finished_.data();
+    const bool skip_wall_balls = has_groups;
+    const double limit_x = no_image_limit[0], limit_y = no_image_limit[1],
+                 limit_z = no_image_limit[2];
+    const double image_test_sq = square(std::min({limit_x, limit_y, limit_z}));
+    for (std::size_t chunk = chunks.begin(); chunk != chunks.end(); ++chunk) {
+      std::vector<TouchingPair>& starting_here = starting_by_chunk_[chunk];
+      starting_here.clear();
+      const std::size_t chunk_end = std::min((chunk + 1) * kPairGrain, pairs.size());
+      for (std::size_t block = chunk * kPairGrain; block < chunk_end; block += kBlock) {
+        std::size_t touching_count = 0;
+        const std::size_t block_end = std::min(block + kBlock, chunk_end);
+        for (std::size_t k = block; k != block_end; ++k) {
+          const auto [i, j] = pair[k];
+          active[k] = 0;
+          if (skip_wall_balls && group[i] != kFreeParticle && group[j] != kFreeParticle)
+            continue;  // two wall balls never interact
+          Vec3 d = x[j] - x[i];
+          double gradient_images = 0.0;
+          double distance_sq = d.squaredNorm();
+          // Below the smallest limit squared, no component can reach its limit: most pairs
+          // skip the test of each axis.
+          if (!(distance_sq < image_test_sq) &&
+              !(std::abs(d[0]) < limit_x && std::abs(d[1]) < limit_y && std::abs(d[2]) < limit_z)) {
+            d = images.separation(x[i], x[j], gradient_images);
+            distance_sq = d.squaredNorm();
           }
-          for (std::size_t t = 0; t < touching_count; ++t) {
-            if (was_touching[touching[t].k])
-              compute_pair_contact(images, touching[t], dt);
-            else
-              starting_here.push_back(touching[t]);  // no contact slot yet
+          const double reach = radius[i] + radius[j];
+          if (distance_sq < reach * reach) {
+            touching[touching_count++] =
+                TouchingPair{d, distance_sq, gradient_images, static_cast<std::uint32_t>(k)};
+          } else if (was_touching[k]) {
+            finished[k] =
+                1;  // collect_finished_contacts() records the event and clears the history
           }
         }
-        if (!starting_here.empty()) {
-          const std::lock_guard lock(starting_mutex);
-          starting.insert(starting.end(), starting_here.begin(), starting_here.end());
+        for (std::size_t t = 0; t < touching_count; ++t) {
+          if (was_touching[touching[t].k])
+            contact(touching[t]);
+          else
+            starting_here.push_back(touching[t]);  // no contact slot yet
         }
-      });
-  if (starting.empty()) return;
+      }
+    }
+  });
   // New contacts: slots handed out in pair order (the store's layout does not change a result:
   // every sum runs in pair order), then their contact law, each writing only its own slots.
-  std::sort(starting.begin(), starting.end(),
-            [](const TouchingPair& a, const TouchingPair& b) { return a.k < b.k; });
-  for (const TouchingPair& t : starting) pair_slot_[t.k] = allocate_contact();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, starting.size(), kParticleGrain),
+  starting_.clear();
+  for (std::size_t chunk = 0; chunk < chunk_count; ++chunk) {
+    const std::vector<TouchingPair>& here = starting_by_chunk_[chunk];
+    starting_.insert(starting_.end(), here.begin(), here.end());
+  }
+  if (starting_.empty()) return;
+  for (const TouchingPair& t : starting_) pair_slot_[t.k] = allocate_contact();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, starting_.size(), kParticleGrain),
                     [&](const auto& range) {
-                      const PeriodicImages images(domain_);
+                      const PairContactKernel contact(*this, dt);
                       for (std::size_t t = range.begin(); t != range.end(); ++t)
-                        compute_pair_contact(images, starting[t], dt);
+                        contact(starting_[t]);
                     });
 }
 
@@ -715,56 +825,6 @@ double System::pair_normal_damping(ParticleId i, ParticleId j) const {
   const PairParams& params = materials_.pair(material_[i], material_[j]);
   return normal_damping_coefficient(params.normal_stiffness, pair_effective_mass(i, j),
                                     params.damping_ratio);
-}
-
-void System::compute_pair_contact(const PeriodicImages& images, const TouchingPair& touching,
-                                  double dt) {
-  const std::size_t k = touching.k;
-  const auto [i, j] = neighbors_.pairs()[k];
-  const Vec3& d = touching.separation;
-  const double reach = radius_[i] + radius_[j];
-  const double distance = std::sqrt(touching.distance_sq);
-  const Vec3 normal = d * (-1.0 / distance);  // from j towards i
-  const double overlap = reach - distance;
-  const double lever_i = radius_[i] - 0.5 * overlap, lever_j = radius_[j] - 0.5 * overlap;
-  const Vec3 arm_i = -lever_i * normal;
-  const Vec3 arm_j = lever_j * normal;
-  const Vec3 contact_velocity_i =
-      predicted_velocity_[i] + predicted_angular_velocity_[i].cross(arm_i);
-  const Vec3 contact_velocity_j = predicted_velocity_[j] +
-                                  images.image_velocity(touching.gradient_images) +
-                                  predicted_angular_velocity_[j].cross(arm_j);
-  const ContactGeometry geometry{normal, overlap, contact_velocity_i - contact_velocity_j};
-  const std::uint32_t slot = pair_slot_[k];
-  ContactHistory& history = contact_history_[slot];
-  if (!history.touching) {
-    history.touching = true;
-    pair_touching_[k] = 1;
-    history.start_time = time_;
-    history.normal_damping = pair_normal_damping(i, j);
-    const double v_n = geometry.relative_velocity.dot(normal);
-    history.impact_speed = std::max(-v_n, 0.0);
-    history.impact_energy = 0.5 * pair_effective_mass(i, j) * v_n * v_n;
-  }
-  const ContactResponse response =
-      linear_spring_dashpot_damped(materials_.pair(material_[i], material_[j]),
-                                   history.normal_damping, geometry, history.spring, dt);
-  history.spring = response.spring;
-  history.elastic_energy = response.elastic_energy;
-  history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
-                                    response.dissipated_friction};
-  history.point = position_[i] + arm_i;
-  pair_active_[k] = 1;
-  // Another task may mark the same particle: both store 1, so the order does not matter.
-  std::atomic_ref<std::uint8_t>(particle_in_contact_[i]).store(1, std::memory_order_relaxed);
-  std::atomic_ref<std::uint8_t>(particle_in_contact_[j]).store(1, std::memory_order_relaxed);
-  ContactForce& out = contact_force_[slot];
-  out.force = response.force_on_a;
-  out.branch = d;
-  // arm_i x F and arm_j x (-F) are both multiples of F x n.
-  const Vec3 turning = response.force_on_a.cross(normal);
-  out.torque_a = lever_i * turning;
-  out.torque_b = lever_j * turning;
 }
 
 void System::compute_particle_forces(double dt) {

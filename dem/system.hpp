@@ -260,6 +260,17 @@ class System {
   // puts their forces back (`forces`, or the ones their contacts hold when empty), so that what
   // reads the contacts in force before the next step sees them.
   void restore_pair_forces(std::span<const NeighborPair> pairs, std::span<const Vec3> forces = {});
+  // A candidate pair that touches and its contact's slot.
+  struct TouchingSlot {
+    NeighborPair pair;
+    std::uint32_t slot;
+  };
+  // The touching candidate pairs, in pair order.
+  std::vector<TouchingSlot> touching_pairs() const;
+  // Builds the neighbour list again keeping the contacts of `touching` (sorted by pair; slots in
+  // the current store) and their forces, in force as before (set_neighbor_skin,
+  // reorder_particles).
+  void rebuild_with_touching(std::span<const TouchingSlot> touching);
   // Builds a new neighbour list and carries the contacts of `old_pairs` (sorted; old_slot[o] the
   // contact of old pair o, or kNoContact) over to it; the contact store is laid out again in
   // the new pairs' order.
@@ -276,8 +287,12 @@ class System {
     double gradient_images;  // PeriodicImages::separation's
     std::uint32_t k;         // the pair's index
   };
+  // Pairs that start touching in a step, per chunk of kPairGrain pairs of the screening pass, then
+  // all in pair order (kept, so that a step allocates nothing once they have grown).
+  std::vector<std::vector<TouchingPair>> starting_by_chunk_;
+  std::vector<TouchingPair> starting_;
   // The contact law of a candidate pair that touches (it has a contact slot).
-  void compute_pair_contact(const PeriodicImages& images, const TouchingPair& touching, double dt);
+  struct PairContactKernel;
   // A slot in the contact store for a pair that starts touching (one freed by a finished contact
   // first), its history cleared.
   std::uint32_t allocate_contact();
