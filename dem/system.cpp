@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -509,22 +510,34 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   contact_history_ = std::move(history);
   contact_force_ = std::move(force);
   free_contact_slots_.clear();
-  pair_active_.assign(pairs.size(), 0);
   pair_finished_.assign(pairs.size(), 0);
   particle_in_contact_.assign(size(), 0);
 
-  // Per-particle pair lists in pair order, so force sums run in a fixed order.
+  // Per-particle pair lists in pair order, so force sums run in a fixed order; each particle's
+  // list starts at a multiple of 8 entries, so that the force gather reads its entries' in-force
+  // bytes 8 at a time without reading another particle's.
   particle_pair_offset_.assign(size() + 1, 0);
   for (const auto& pair : pairs) {
     ++particle_pair_offset_[pair.i + 1];
     ++particle_pair_offset_[pair.j + 1];
   }
-  for (std::size_t p = 0; p < size(); ++p) particle_pair_offset_[p + 1] += particle_pair_offset_[p];
+  for (std::size_t p = 0; p < size(); ++p) {
+    particle_pair_offset_[p + 1] =
+        particle_pair_offset_[p] + ((particle_pair_offset_[p + 1] + 7u) & ~7u);
+  }
   particle_pair_entry_.resize(particle_pair_offset_[size()]);
+  entry_in_force_.assign(particle_pair_offset_[size()], 0);
+  pair_second_entry_.resize(pairs.size());
+  particle_first_entry_shift_.resize(size());
   std::vector<std::uint32_t> fill(particle_pair_offset_.begin(), particle_pair_offset_.end() - 1);
   for (std::uint32_t k = 0; k < pairs.size(); ++k) {
-    particle_pair_entry_[fill[pairs[k].i]++] = 2 * k;
-    particle_pair_entry_[fill[pairs[k].j]++] = 2 * k + 1;
+    const auto [i, j] = pairs[k];
+    // Pair k's entry in i's list is k + the shift, the same for every pair of row i: the pairs
+    // (h, i) with h < i, which fill i's list first, all come before row i.
+    particle_first_entry_shift_[i] = fill[i] - k;
+    particle_pair_entry_[fill[i]++] = 2 * k;
+    pair_second_entry_[k] = fill[j];
+    particle_pair_entry_[fill[j]++] = 2 * k + 1;
   }
 }
 
@@ -538,7 +551,6 @@ void System::restore_pair_forces(std::span<const NeighborPair> pairs,
       throw std::logic_error(fmt::format(
           "a touching pair ({}, {}) is out of reach of its particles", pairs[c].i, pairs[c].j));
     if (!forces.empty()) contact_force_[pair_slot_[k]].force = forces[c];
-    pair_active_[k] = 1;
   }
 }
 
@@ -657,7 +669,9 @@ struct System::PairContactKernel {
         history_of(s.contact_history_.data()),
         force_of(s.contact_force_.data()),
         touching_flag(s.pair_touching_.data()),
-        active(s.pair_active_.data()),
+        first_entry_shift(s.particle_first_entry_shift_.data()),
+        second_entry(s.pair_second_entry_.data()),
+        entry_in_force(s.entry_in_force_.data()),
         in_contact(s.particle_in_contact_.data()),
         time(s.time_),
         dt(step_dt) {}
@@ -698,7 +712,9 @@ struct System::PairContactKernel {
     history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
                                       response.dissipated_friction};
     history.point = position[i] + arm_i;
-    active[k] = 1;
+    // Each entry belongs to one pair: no other task writes it.
+    entry_in_force[k + first_entry_shift[i]] = 1;
+    entry_in_force[second_entry[k]] = 1;
     // Another task may mark the same particle: both store 1, so the order does not matter.
     std::atomic_ref<std::uint8_t>(in_contact[i]).store(1, std::memory_order_relaxed);
     std::atomic_ref<std::uint8_t>(in_contact[j]).store(1, std::memory_order_relaxed);
@@ -725,7 +741,9 @@ struct System::PairContactKernel {
   ContactHistory* const history_of;
   ContactForce* const force_of;
   std::uint8_t* const touching_flag;
-  std::uint8_t* const active;
+  const std::uint32_t* const first_entry_shift;
+  const std::uint32_t* const second_entry;
+  std::uint8_t* const entry_in_force;
   std::uint8_t* const in_contact;
   const double time;
   const double dt;
@@ -753,7 +771,6 @@ void System::compute_pair_forces(double dt) {
     const double* const radius = radius_.data();
     const GroupId* const group = group_.data();
     const std::uint8_t* const was_touching = pair_touching_.data();
-    std::uint8_t* const active = pair_active_.data();
     std::uint8_t* const finished = pair_finished_.data();
     const bool skip_wall_balls = has_groups;
     const double limit_x = no_image_limit[0], limit_y = no_image_limit[1],
@@ -768,7 +785,6 @@ void System::compute_pair_forces(double dt) {
         const std::size_t block_end = std::min(block + kBlock, chunk_end);
         for (std::size_t k = block; k != block_end; ++k) {
           const auto [i, j] = pair[k];
-          active[k] = 0;
           if (skip_wall_balls && group[i] != kFreeParticle && group[j] != kFreeParticle)
             continue;  // two wall balls never interact
           Vec3 d = x[j] - x[i];
@@ -840,7 +856,7 @@ void System::compute_particle_forces(double dt) {
       [&](const tbb::blocked_range<std::size_t>& range, Eigen::Matrix3d virial) -> Eigen::Matrix3d {
         const std::uint32_t* const entry_offset = particle_pair_offset_.data();
         const std::uint32_t* const entries = particle_pair_entry_.data();
-        const std::uint8_t* const active = pair_active_.data();
+        std::uint8_t* const entry_in_force = entry_in_force_.data();
         const std::uint32_t* const slot_of = pair_slot_.data();
         const ContactForce* const contact = contact_force_.data();
         std::uint8_t* const in_contact = particle_in_contact_.data();
@@ -850,18 +866,23 @@ void System::compute_particle_forces(double dt) {
           torque = Vec3::Zero();
           if (!in_contact[p]) return;  // only particles with a pair in force have anything to sum
           in_contact[p] = 0;
-          for (std::uint32_t e = entry_offset[p]; e < entry_offset[p + 1]; ++e) {
-            const std::uint32_t entry = entries[e];
-            const std::uint32_t k = entry >> 1;
-            if (!active[k]) continue;
-            const ContactForce& c = contact[slot_of[k]];
-            if ((entry & 1) == 0) {
-              force += c.force;
-              torque += c.torque_a;
-              virial.noalias() += c.force * c.branch.transpose();
-            } else {
-              force -= c.force;
-              torque += c.torque_b;
+          // The entries in force, 8 in-force bytes at a time (each 0 or 1), cleared as read.
+          for (std::uint32_t base = entry_offset[p]; base < entry_offset[p + 1]; base += 8) {
+            std::uint64_t word;
+            std::memcpy(&word, entry_in_force + base, sizeof word);
+            if (word == 0) continue;
+            std::memset(entry_in_force + base, 0, sizeof word);
+            for (; word != 0; word &= word - 1) {
+              const std::uint32_t entry = entries[base + (std::countr_zero(word) >> 3)];
+              const ContactForce& c = contact[slot_of[entry >> 1]];
+              if ((entry & 1) == 0) {
+                force += c.force;
+                torque += c.torque_a;
+                virial.noalias() += c.force * c.branch.transpose();
+              } else {
+                force -= c.force;
+                torque += c.torque_b;
+              }
             }
           }
         };
@@ -1061,8 +1082,8 @@ std::size_t System::active_contact_count() const {
 std::vector<ActiveContact> System::active_contacts() const {
   std::vector<ActiveContact> contacts;
   const auto& pairs = neighbors_.pairs();
-  for (std::size_t k = 0; k < pair_active_.size(); ++k) {
-    if (!pair_active_[k]) continue;
+  for (std::size_t k = 0; k < pair_touching_.size(); ++k) {
+    if (!pair_touching_[k]) continue;
     const auto [i, j] = pairs[k];
     contacts.push_back(ActiveContact{.a = i,
                                      .b = j,
@@ -1141,7 +1162,8 @@ std::size_t System::memory_bytes() const {
     bytes += bytes_of(*array);
   for (const auto* array : {&radius_, &mass_, &inv_mass_, &inv_inertia_}) bytes += bytes_of(*array);
   bytes += bytes_of(material_) + bytes_of(group_) + bytes_of(pair_slot_) +
-           bytes_of(pair_touching_) + bytes_of(pair_active_) + bytes_of(pair_finished_) +
+           bytes_of(pair_touching_) + bytes_of(entry_in_force_) + bytes_of(pair_second_entry_) +
+           bytes_of(particle_first_entry_shift_) + bytes_of(pair_finished_) +
            bytes_of(contact_history_) + bytes_of(contact_force_) + bytes_of(free_contact_slots_) +
            bytes_of(particle_pair_offset_) + bytes_of(particle_pair_entry_) +
            bytes_of(particle_in_contact_) + bytes_of(finished_wall_mask_);

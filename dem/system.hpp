@@ -335,7 +335,7 @@ class System {
   // pair_slot_[k] != kNoContact in one byte per pair, so that screening the pairs, most of them
   // apart, reads no more.
   std::vector<std::uint8_t> pair_touching_;
-  std::vector<std::uint8_t> pair_active_;    // the pair touches this step: its force is valid
+
   std::vector<std::uint8_t> pair_finished_;  // the pair separated this step
   // The contact store: one slot per pair that touches, in the pairs' order after each neighbour
   // rebuild, new contacts in the slots finished ones freed (or at the end). Split in what the
@@ -351,7 +351,13 @@ class System {
   std::vector<std::uint32_t> free_contact_slots_;
   Eigen::Matrix3d contact_virial_ = Eigen::Matrix3d::Zero();
   // Per particle, the pairs it belongs to (CSR): entry = pair index * 2 + (0: first, 1: second).
+  // Each particle's list starts at a multiple of 8 (unused entries pad it).
   std::vector<std::uint32_t> particle_pair_offset_, particle_pair_entry_;
+  // Per entry, whether its pair is in force this step (set by the contact law, cleared by the
+  // force gather), so that the gather visits only those; where the contact law finds a pair's two
+  // entries: k + particle_first_entry_shift_[i] and pair_second_entry_[k].
+  std::vector<std::uint8_t> entry_in_force_;
+  std::vector<std::uint32_t> pair_second_entry_, particle_first_entry_shift_;
   std::vector<std::uint8_t>
       particle_in_contact_;  // has a pair in force this step (reset when summed)
 
