@@ -354,7 +354,7 @@ void System::prepare_first_step() {
   update_neighbors(neighbors_.needs_rebuild(domain_, position_));
   // Forces at the current time (no spring increment, no dissipation: no time passes).
   compute_pair_forces(0.0);
-  compute_particle_forces(0.0);
+  compute_particle_forces(0.0, /*closing_kick=*/false);
   reduce_loads(0.0);
   collect_finished_contacts();
   prepared_ = true;
@@ -365,17 +365,16 @@ void System::step(std::size_t count) {
   for (std::size_t n = 0; n < count; ++n) {
     if (reorder_every_ > 0 && step_count_ % reorder_every_ == 0) reorder_particles();
     domain_.advance_shear(dt_);  // the image offset at t + dt, where drift() wraps positions
-    const bool rebuild = kick_and_drift(/*finish_last_kick=*/n > 0);
+    const bool rebuild = kick_and_drift();
     time_ += dt_;
     for (Wall& wall : walls_) advance_wall(wall, dt_);
     update_neighbors(rebuild);
     compute_pair_forces(dt_);
-    compute_particle_forces(dt_);
+    // The closing half kick uses only this step's forces and masses: the force gather applies it
+    // as it sums each particle's force, sparing a pass over the particles.
+    compute_particle_forces(dt_, /*closing_kick=*/true);
     reduce_loads(dt_);
     collect_finished_contacts();
-    // The closing half kick uses only this step's forces and masses: the next step's first pass
-    // applies it, sparing a pass over the particles, except after the last step of the call.
-    if (n + 1 == count) kick(0.5 * dt_);
     for (std::size_t w = 0; w < walls_.size(); ++w) control_wall(walls_[w], wall_loads_[w]);
     ++step_count_;
   }
@@ -390,22 +389,11 @@ std::array<double, 3> System::no_image_limits() const {
   return limit;
 }
 
-// Once per step() call (the drift pass applies it within a call).
-void System::kick(double half_dt) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain),
-                    [&](const auto& range) {
-                      for (std::size_t p = range.begin(); p != range.end(); ++p) {
-                        velocity_[p] += force_[p] * (inv_mass_[p] * half_dt);
-                        angular_velocity_[p] += torque_[p] * (inv_inertia_[p] * half_dt);
-                      }
-                    });
-}
-
 // The hot loops below read and write through local pointers, declared inside each task: Eigen's
 // vector stores may alias anything, which would otherwise make the compiler reload every array's
 // address and the box after each store.
 
-bool System::kick_and_drift(bool finish_last_kick) {
+bool System::kick_and_drift() {
   const double half_dt = 0.5 * dt_, dt = dt_;
   const std::span<const Vec3> reference = neighbors_.reference_positions();
   const bool track_displacement = reference.size() == size();
@@ -432,10 +420,7 @@ bool System::kick_and_drift(bool finish_last_kick) {
         for (std::size_t p = range.begin(); p != range.end(); ++p) {
           Vec3 v = velocity[p];
           Vec3 w = angular_velocity[p];
-          if (finish_last_kick) {  // the same two additions as kick() then this pass
-            v += force[p] * (inv_mass[p] * half_dt);
-            w += torque[p] * (inv_inertia[p] * half_dt);
-          }
+
           v += force[p] * (inv_mass[p] * half_dt);
           w += torque[p] * (inv_inertia[p] * half_dt);
           if (group[p] != kFreeParticle) v = groups_[group[p] - 1].velocity;
@@ -843,7 +828,8 @@ double System::pair_normal_damping(ParticleId i, ParticleId j) const {
                                     params.damping_ratio);
 }
 
-void System::compute_particle_forces(double dt) {
+void System::compute_particle_forces(double dt, bool closing_kick) {
+  const double half_dt = 0.5 * dt_;
   const WallSlots& before = wall_slots_[wall_current_];
   WallSlots& after = wall_slots_[1 - wall_current_];
   std::vector<WallPose> poses;
@@ -853,7 +839,10 @@ void System::compute_particle_forces(double dt) {
   // joined in a fixed order: the same bits at any thread count, and across a checkpoint.
   contact_virial_ = tbb::parallel_deterministic_reduce(
       tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), Eigen::Matrix3d::Zero().eval(),
-      [&](const tbb::blocked_range<std::size_t>& range, Eigen::Matrix3d virial) -> Eigen::Matrix3d {
+      [&](const tbb::blocked_range<std::size_t>& range,
+          const Eigen::Matrix3d& virial_before) -> Eigen::Matrix3d {
+        // A local sum, which the stores below to the particle arrays cannot alias.
+        Eigen::Matrix3d virial = virial_before;
         const std::uint32_t* const entry_offset = particle_pair_offset_.data();
         const std::uint32_t* const entries = particle_pair_entry_.data();
         std::uint8_t* const entry_in_force = entry_in_force_.data();
@@ -890,21 +879,38 @@ void System::compute_particle_forces(double dt) {
                                // registers
           Vec3* const force = force_.data();
           Vec3* const torque = torque_.data();
+          Vec3* const velocity = velocity_.data();
+          Vec3* const angular_velocity = angular_velocity_.data();
+          const double* const inv_mass = inv_mass_.data();
+          const double* const inv_inertia = inv_inertia_.data();
           for (std::size_t p = range.begin(); p != range.end(); ++p) {
             Vec3 f, t;
             pair_sum(p, f, t);
             force[p] = f;
             torque[p] = t;
+            if (closing_kick) {
+              velocity[p] += f * (inv_mass[p] * half_dt);
+              angular_velocity[p] += t * (inv_inertia[p] * half_dt);
+            }
           }
           return virial;
         }
+        // The sums, and the closing half kick with them (as a pass of its own would: every
+        // particle).
+        const auto store = [&](std::size_t p, const Vec3& force, const Vec3& torque) {
+          force_[p] = force;
+          torque_[p] = torque;
+          if (closing_kick) {
+            velocity_[p] += force * (inv_mass_[p] * half_dt);
+            angular_velocity_[p] += torque * (inv_inertia_[p] * half_dt);
+          }
+        };
         std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
         for (std::size_t p = range.begin(); p != range.end(); ++p) {
           Vec3 force, torque;
           pair_sum(p, force, torque);
           if (!is_free(p)) {  // no wall slots in use, in either buffer
-            force_[p] = force;
-            torque_[p] = torque;
+            store(p, force, torque);
             continue;
           }
           const int old_count = before.count[p];
@@ -963,8 +969,7 @@ void System::compute_particle_forces(double dt) {
           }
           after.count[p] = static_cast<std::uint8_t>(count);
           finished_wall_mask_[p] = static_cast<std::uint8_t>(~matched & ((1u << old_count) - 1u));
-          force_[p] = force;
-          torque_[p] = torque;
+          store(p, force, torque);
         }
         return virial;
       },

@@ -246,15 +246,15 @@ class System {
 
   bool is_free(ParticleId p) const { return group_[p] == kFreeParticle; }
   void prepare_first_step();
-  void kick(double half_dt);
+
   // Per axis, the largest |b - a| that needs no periodic image: PeriodicImages::separation
   // returns b - a unchanged when every component is below it (half a box on a periodic axis, the
   // Lees-Edwards gradient axis included; infinite on an open one), so the hot loops call it only
   // for the few pairs (or displacements) that are not.
   std::array<double, 3> no_image_limits() const;
-  // The first half kick and the drift in one pass, after the previous step's closing half kick
-  // if `finish_last_kick`; returns whether the neighbour list must be rebuilt.
-  bool kick_and_drift(bool finish_last_kick);
+  // The first half kick and the drift in one pass; returns whether the neighbour list must be
+  // rebuilt.
+  bool kick_and_drift();
   void update_neighbors(bool rebuild);
   // After rebuild_neighbors from the touching pairs `pairs` (sorted): marks them in force and
   // puts their forces back (`forces`, or the ones their contacts hold when empty), so that what
@@ -300,7 +300,9 @@ class System {
   // contact.
   double pair_effective_mass(ParticleId i, ParticleId j) const;
   double pair_normal_damping(ParticleId i, ParticleId j) const;
-  void compute_particle_forces(double dt);
+  // The forces and torques on the particles, the contact virial, the wall contacts; with
+  // `closing_kick`, the step's closing half kick in the same pass.
+  void compute_particle_forces(double dt, bool closing_kick);
   void reduce_loads(double dt);
   void collect_finished_contacts();
 
