@@ -766,31 +766,39 @@ void System::compute_pair_forces(double dt) {
       starting_here.clear();
       const std::size_t chunk_end = std::min((chunk + 1) * kPairGrain, pairs.size());
       for (std::size_t block = chunk * kPairGrain; block < chunk_end; block += kBlock) {
-        std::size_t touching_count = 0;
         const std::size_t block_end = std::min(block + kBlock, chunk_end);
-        for (std::size_t k = block; k != block_end; ++k) {
-          const auto [i, j] = pair[k];
-          if (skip_wall_balls && group[i] != kFreeParticle && group[j] != kFreeParticle)
-            continue;  // two wall balls never interact
-          Vec3 d = x[j] - x[i];
-          double gradient_images = 0.0;
-          double distance_sq = d.squaredNorm();
-          // Below the smallest limit squared, no component can reach its limit: most pairs
-          // skip the test of each axis.
-          if (!(distance_sq < image_test_sq) &&
-              !(std::abs(d[0]) < limit_x && std::abs(d[1]) < limit_y && std::abs(d[2]) < limit_z)) {
-            d = images.separation(x[i], x[j], gradient_images);
-            distance_sq = d.squaredNorm();
+        // The loop twice, with and without the kinematic groups' test (the compiler keeps the
+        // test in the loop otherwise).
+        const auto screen = [&](auto skip_wall_balls) {
+          std::size_t touching_count = 0;
+          for (std::size_t k = block; k != block_end; ++k) {
+            const auto [i, j] = pair[k];
+            if (skip_wall_balls() && group[i] != kFreeParticle && group[j] != kFreeParticle)
+              continue;  // two wall balls never interact
+            Vec3 d = x[j] - x[i];
+            double gradient_images = 0.0;
+            double distance_sq = d.squaredNorm();
+            // Below the smallest limit squared, no component can reach its limit: most pairs
+            // skip the test of each axis.
+            if (!(distance_sq < image_test_sq) &&
+                !(std::abs(d[0]) < limit_x && std::abs(d[1]) < limit_y &&
+                  std::abs(d[2]) < limit_z)) {
+              d = images.separation(x[i], x[j], gradient_images);
+              distance_sq = d.squaredNorm();
+            }
+            const double reach = radius[i] + radius[j];
+            if (distance_sq < reach * reach) {
+              touching[touching_count++] =
+                  TouchingPair{d, distance_sq, gradient_images, static_cast<std::uint32_t>(k)};
+            } else if (was_touching[k]) {
+              finished[k] =
+                  1;  // collect_finished_contacts() records the event and clears the history
+            }
           }
-          const double reach = radius[i] + radius[j];
-          if (distance_sq < reach * reach) {
-            touching[touching_count++] =
-                TouchingPair{d, distance_sq, gradient_images, static_cast<std::uint32_t>(k)};
-          } else if (was_touching[k]) {
-            finished[k] =
-                1;  // collect_finished_contacts() records the event and clears the history
-          }
-        }
+          return touching_count;
+        };
+        const std::size_t touching_count =
+            skip_wall_balls ? screen(std::true_type{}) : screen(std::false_type{});
         for (std::size_t t = 0; t < touching_count; ++t) {
           if (was_touching[touching[t].k])
             contact(touching[t]);
