@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cstring>
+#include <tuple>
+#include <vector>
 
 #include "dem/checkpoint.hpp"
 #include "dem/rng.hpp"
@@ -225,6 +227,41 @@ TEST(LeesEdwards, ChangingTheSkinOfARunningSystemKeepsItsBits) {
   EXPECT_EQ(
       std::memcmp(wide.velocities().data(), narrow.velocities().data(), wide.size() * sizeof(Vec3)),
       0);
+}
+
+// The contacts in force between steps, as (first, second, force on the first) in old numbers.
+std::vector<std::tuple<ParticleId, std::uint32_t, Vec3>> contacts_in_old_numbers(
+    const System& system, const std::vector<ParticleId>& old_of) {
+  std::vector<std::tuple<ParticleId, std::uint32_t, Vec3>> out;
+  for (const ActiveContact& c : system.active_contacts()) {
+    ParticleId a = old_of.empty() ? c.a : old_of[c.a];
+    std::uint32_t b = old_of.empty() ? c.b : old_of[c.b];
+    Vec3 force = c.force_on_a;
+    if (a > b) {
+      std::swap(a, b);
+      force = -force;
+    }
+    out.emplace_back(a, b, force);
+  }
+  std::sort(out.begin(), out.end(), [](const auto& x, const auto& y) {
+    return std::pair(std::get<0>(x), std::get<1>(x)) < std::pair(std::get<0>(y), std::get<1>(y));
+  });
+  return out;
+}
+
+TEST(LeesEdwards, ContactsInForceSurviveANewSkinAndARenumberingBetweenSteps) {
+  System system = dense_sheared_box();
+  system.step(50);
+  const auto before = contacts_in_old_numbers(system, {});
+  const double elastic = system.energy().elastic;
+  ASSERT_GT(before.size(), 10u);
+  const auto radii = system.radii();
+  system.set_neighbor_skin(0.05 * 2.0 * *std::min_element(radii.begin(), radii.end()));
+  EXPECT_EQ(contacts_in_old_numbers(system, {}), before);
+  EXPECT_EQ(system.energy().elastic, elastic);
+  const std::vector<ParticleId> old_of = system.reorder_particles();
+  EXPECT_EQ(contacts_in_old_numbers(system, old_of), before);
+  EXPECT_NEAR(system.energy().elastic, elastic, 1e-12 * elastic);  // summed in another order
 }
 
 }  // namespace
