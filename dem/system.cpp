@@ -580,7 +580,10 @@ std::vector<ParticleId> System::reorder_particles() {
   if (n == 0) return {};
   if (!prepared_) prepare_first_step();
   // The Morton key of each particle's cell.
-  const double cell = 2.0 * *std::min_element(radius_.begin(), radius_.end()) + skin_;
+  // The cell is that of the finest neighbour-list level at the default skin (0.3 x the smallest
+  // diameter), whatever the skin: the skin then changes no result.
+  const double smallest = *std::min_element(radius_.begin(), radius_.end());
+  const double cell = 2.0 * smallest + (0.3 * 2.0) * smallest;
   std::vector<std::pair<std::uint64_t, ParticleId>> keyed;
   std::vector<ParticleId> free_slots;
   for (std::size_t p = 0; p < n; ++p) {

@@ -135,8 +135,9 @@ class System {
   double time_step() const { return dt_; }
 
   // Neighbour-list skin, m (default: 0.3 x smallest diameter, set on the first step). A system
-  // already stepping rebuilds its list and keeps its state. The forces' bits do not depend on the
-  // skin (they are summed over the touching pairs in (i, j) order); reorder_particles' cells do.
+  // already stepping rebuilds its list and keeps its state. No result's bits depend on the skin
+  // (forces are summed over the touching pairs in (i, j) order, and reorder_particles' cells are
+  // those of the default skin), only the time a step takes.
   void set_neighbor_skin(double skin);
   double neighbor_skin() const { return skin_; }
 
@@ -146,8 +147,9 @@ class System {
   void step(std::size_t count = 1);
 
   // Renumbers the free particles in the order of their cells along a Z-order (Morton) curve:
-  // cells of the finest neighbour-list level (2 x smallest radius + skin), in the box from its
-  // lower corner; ties by the current index. Members of kinematic groups keep their indices (a
+  // cells of the finest neighbour-list level at the default skin (2 x smallest radius + 0.3 x
+  // smallest diameter, whatever the skin), in the box from its lower corner; ties by the current
+  // index. Members of kinematic groups keep their indices (a
   // caller may know where they are); the free particles take the remaining indices in that
   // order. Contact histories go with their pairs (a pair whose particles swap order has its
   // tangential spring and force negated, exactly), and the neighbour list is rebuilt. Particles
