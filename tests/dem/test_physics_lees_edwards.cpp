@@ -214,7 +214,7 @@ TEST(LeesEdwards, ChangingTheSkinOfARunningSystemKeepsItsBits) {
   const auto run = [](double skin_fraction) {
     System system = dense_sheared_box();
     system.set_reorder_interval(25);  // the renumbering's cells do not follow the skin either
-    system.step(50);  // contacts with loaded tangential springs
+    system.step(50);                  // contacts with loaded tangential springs
     const auto radii = system.radii();
     system.set_neighbor_skin(skin_fraction * 2.0 * *std::min_element(radii.begin(), radii.end()));
     system.step(150);
