@@ -7,6 +7,7 @@
 // a run gives the same bits at any thread count. The caller picks the thread count by running
 // step() inside a tbb::task_arena.
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -20,6 +21,30 @@
 #include "dem/walls.hpp"
 
 namespace millflow::dem {
+
+// Choosing the neighbour skin by a cost model (issue 17). A step screens every candidate pair
+// and a rebuild sorts every particle into cells and builds the list again, so a skin s costs,
+// per particle and step, with p(s) candidate pairs per particle,
+//   p(s) x per_candidate_step + per_particle_rebuild / steps_per_rebuild(s).
+// A smaller skin screens fewer pairs and rebuilds more often. The constants are instructions
+// measured with callgrind on le_media_2000 and cement_load05 (docs/benchmarks.md, "The skin
+// chosen per scene": 61 and 41 per candidate pair-step; 1,600-2,200 and 3,000-4,100 per
+// particle-rebuild). The choice never reads a clock, so a run chooses the same skin every time
+// (and no result's bits depend on the skin anyway).
+struct SkinCostModel {
+  double per_candidate_step = 50.0;      // screening and gathering, per candidate pair and step
+  double per_particle_rebuild = 3500.0;  // a rebuild of the list, per particle
+};
+struct SkinCandidate {
+  double skin = 0.0;                // m
+  double pairs_per_particle = 0.0;  // candidate pairs / particles, at this skin
+  double steps_per_rebuild = 0.0;   // steps between rebuilds, at this skin
+};
+// The cost above, instructions per particle and step.
+double skin_cost(const SkinCandidate& c, const SkinCostModel& model);
+// Index of the cheapest candidate; of equal costs the first. Throws std::invalid_argument for no
+// candidates or one with a non-positive skin or interval.
+std::size_t cheapest_skin(std::span<const SkinCandidate> candidates, const SkinCostModel& model);
 
 using ParticleId = std::uint32_t;
 using GroupId = std::uint32_t;
@@ -140,6 +165,24 @@ class System {
   // those of the default skin), only the time a step takes.
   void set_neighbor_skin(double skin);
   double neighbor_skin() const { return skin_; }
+  // Neighbour rebuilds the skin test asked for since the first step (not those of a new skin or a
+  // renumbering).
+  std::uint64_t neighbor_rebuild_count() const { return rebuild_count_; }
+  // Chooses the skin from measurement: once `stretch` more steps have run at the current skin,
+  // the next step() call counts the candidate pairs at each of `skins` (m; lists built from the
+  // positions then) and predicts each skin's steps between rebuilds from those measured in the
+  // stretch: the rebuild test's travel (2 x largest displacement + Lees-Edwards offset change)
+  // per step since the list's last build gives the current skin's interval (skin / travel per
+  // step), and the travel grows linearly over so few steps, so an interval scales with its skin
+  // (with no travel yet, stretch / rebuilds, a rebuild at least),
+  // then sets the cheapest by `model` (cheapest_skin) and logs what it derived the choice from.
+  // Deterministic: the same state and stretch choose the same skin. Throws std::invalid_argument
+  // for no skins, a skin <= 0 or a zero stretch.
+  void choose_neighbor_skin(std::vector<double> skins, std::uint64_t stretch,
+                            SkinCostModel model = {});
+  // The candidates of the last choice (empty before one), the chosen one's index in them.
+  std::span<const SkinCandidate> skin_candidates() const { return skin_candidates_; }
+  std::size_t chosen_skin() const { return chosen_skin_; }
 
   // Throws if two particles overlap by more than `tolerance` x the smaller radius, naming them.
   void check_overlaps(double tolerance) const;
@@ -315,6 +358,16 @@ class System {
   double time_ = 0.0;
   std::uint64_t step_count_ = 0;
   double skin_ = 0.0;
+  std::uint64_t rebuild_count_ = 0;
+  std::uint64_t build_step_ = 0;  // step_count_ at the last build of the list
+  // A pending skin choice (choose_neighbor_skin): the skins, the step it measures from and the
+  // rebuilds counted then; the last choice's candidates.
+  std::vector<double> skin_choice_;
+  std::uint64_t skin_choice_step_ = 0, skin_choice_stretch_ = 0, skin_choice_rebuilds_ = 0;
+  SkinCostModel skin_model_;
+  std::vector<SkinCandidate> skin_candidates_;
+  std::size_t chosen_skin_ = 0;
+  void finish_skin_choice();
   bool prepared_ = false;
   bool record_collisions_ = false;
   std::uint64_t reorder_every_ = 0;
