@@ -27,14 +27,17 @@ namespace millflow::dem {
 // per particle and step, with p(s) candidate pairs per particle,
 //   p(s) x per_candidate_step + per_particle_rebuild / steps_per_rebuild(s).
 // A smaller skin screens fewer pairs and rebuilds more often. The constants are instructions
-// measured with callgrind on le_media_2000 and cement_load05 (docs/benchmarks.md, "The skin
-// chosen per scene": 61 and 41 per candidate pair-step; 1,600-2,200 and 3,000-4,100 per
-// particle-rebuild). The choice never reads a clock, so a run chooses the same skin every time
-// (and no result's bits depend on the skin anyway).
+// measured with callgrind as the differences between whole runs at skins 0.1-0.3 x the smallest
+// diameter (docs/benchmarks.md, "The skin chosen per scene"): a candidate pair-step 41 on
+// cement_load05 and 61 on le_media_2000 (the smaller taken: a near tie goes to the wider skin), a
+// rebuild 4,500 per particle on cement_load05 (le_media_2000 rebuilds too rarely to tell). The
+// choice never reads a clock, so a run chooses the same skin every time (and no result's bits
+// depend on the skin anyway).
 struct SkinCostModel {
-  double per_candidate_step = 50.0;      // screening and gathering, per candidate pair and step
-  double per_particle_rebuild = 3500.0;  // a rebuild of the list, per particle
+  double per_candidate_step = 41.0;      // screening and gathering, per candidate pair and step
+  double per_particle_rebuild = 4500.0;  // a rebuild of the list, per particle
 };
+
 struct SkinCandidate {
   double skin = 0.0;                // m
   double pairs_per_particle = 0.0;  // candidate pairs / particles, at this skin
