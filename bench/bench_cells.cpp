@@ -32,7 +32,9 @@
 //                             (bench/run_cell_comparison.sh)
 //   --cells_cache=DIR         where the prepared states are kept (default: none)
 //   --cells_skin_fraction=F   time with a neighbour skin of F x the smallest diameter (default:
-//                             the prepared state's)
+//                             the prepared state's); F = auto: the skin that
+//                             dem::System::choose_neighbor_skin picks among 0.1, 0.15, 0.2 and
+//                             0.3 x the smallest diameter, after 100 steps of a copy
 #include <tbb/task_arena.h>
 
 #include <benchmark/benchmark.h>
@@ -78,6 +80,7 @@ struct Options {
   double normal_stress = 1e5;  // Pa
   std::optional<double> warmup_strain;
   std::optional<double> skin_fraction;
+  bool skin_auto = false;
   std::optional<std::filesystem::path> cache;
   std::optional<std::filesystem::path> lammps_dir;
 };
@@ -460,7 +463,21 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   spdlog::set_level(spdlog::level::warn);
   dem::ShearCellRun run = prepared(c);  // every benchmark times its own copy
   if (g_options.lammps_dir) export_for_lammps(c, run);
-  if (g_options.skin_fraction) {
+  if (g_options.skin_auto) {
+    // The choice measures a stretch of steps, on a copy: the timed run starts from the prepared
+    // state, at the chosen skin.
+    dem::ShearCellRun probe = prepared(c);
+    dem::System& probe_system = probe.cell().system();
+    const auto radii = probe_system.radii();
+    const double d = 2.0 * *std::min_element(radii.begin(), radii.end());
+    probe_system.choose_neighbor_skin({0.1 * d, 0.15 * d, 0.2 * d, 0.3 * d}, 100);
+    spdlog::set_level(spdlog::level::info);  // the choice's log line
+    probe.advance(101);                      // with the cell's stress control, as the timed run
+    spdlog::set_level(spdlog::level::warn);
+    fmt::print(stderr, "SKIN {} chosen {:.4g} x smallest diameter\n", c.name,
+               probe_system.neighbor_skin() / d);
+    run.cell().system().set_neighbor_skin(probe_system.neighbor_skin());
+  } else if (g_options.skin_fraction) {
     dem::System& system = run.cell().system();
     const auto radii = system.radii();
     system.set_neighbor_skin(*g_options.skin_fraction * 2.0 *
@@ -521,8 +538,13 @@ int main(int argc, char** argv) {
     g_options.warmup_strain = std::stod(*v);
   if (auto v = take_flag(argc, argv, "cells_cache")) g_options.cache = *v;
   if (auto v = take_flag(argc, argv, "cells_lammps_dir")) g_options.lammps_dir = *v;
-  if (auto v = take_flag(argc, argv, "cells_skin_fraction"))
-    g_options.skin_fraction = std::stod(*v);
+  if (auto v = take_flag(argc, argv, "cells_skin_fraction")) {
+    if (*v == "auto") {
+      g_options.skin_auto = true;
+    } else {
+      g_options.skin_fraction = std::stod(*v);
+    }
+  }
   for (const CellCase& c : cases()) {
     for (const int threads : {1, 2}) {
       benchmark::RegisterBenchmark(

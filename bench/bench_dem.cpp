@@ -162,7 +162,10 @@ MillSetup mill_setup(const MillCase& c, double contact_duration) {
   return setup;
 }
 
-// A copy of `source` (particles, walls and their motion, groups) with other materials.
+// A copy of `source` (particles, walls and their motion, groups) with other materials: a fresh
+// system, without the contacts' histories, its clock and step count at zero. Not
+// dem::system_with_materials, which keeps the whole state (the springs, the clock): the mills'
+// prepared states, and so their timed bits and cached checkpoints, would change.
 System with_materials(const System& source, MaterialTable materials) {
   System copy(std::move(materials), source.domain(), source.gravity());
   for (GroupId g = 1; g <= source.group_count(); ++g) copy.add_group(source.group(g));

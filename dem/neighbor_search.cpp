@@ -302,6 +302,10 @@ bool NeighborSearch::needs_rebuild(const Domain& domain, std::span<const Vec3> p
 bool NeighborSearch::needs_rebuild(const Domain& domain, std::size_t particle_count,
                                    double max_displacement_sq) const {
   if (!built_ || particle_count != reference_positions_.size()) return true;
+  return travel(domain, max_displacement_sq) >= options_.skin;
+}
+
+double NeighborSearch::travel(const Domain& domain, double max_displacement_sq) const {
   double offset_change = 0.0;
   if (domain.lees_edwards.enabled) {
     const double flow_length = domain.length()[domain.lees_edwards.flow_axis];
@@ -309,7 +313,7 @@ bool NeighborSearch::needs_rebuild(const Domain& domain, std::size_t particle_co
     offset_change -= std::round(offset_change / flow_length) * flow_length;
   }
   const double max_displacement = std::sqrt(max_displacement_sq);
-  return 2.0 * max_displacement + std::abs(offset_change) >= options_.skin;
+  return 2.0 * max_displacement + std::abs(offset_change);
 }
 
 std::size_t NeighborSearch::memory_bytes() const {

@@ -58,6 +58,9 @@ class NeighborSearch {
                      double max_displacement_sq) const;
   // Positions at the last build (empty before the first).
   std::span<const Vec3> reference_positions() const { return reference_positions_; }
+  // What the rebuild test compares with the skin: 2 * sqrt(max_displacement_sq) + |change of the
+  // Lees-Edwards offset since build| (see needs_rebuild).
+  double travel(const Domain& domain, double max_displacement_sq) const;
   // Forces a rebuild at the next needs_rebuild (after the box itself changed).
   void invalidate() { built_ = false; }
 

@@ -4,10 +4,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <mutex>
 #include <numbers>
 #include <stdexcept>
 
@@ -27,6 +27,10 @@ namespace {
 constexpr std::size_t kReduceGrain = 1024;
 constexpr std::size_t kParticleGrain = 256;
 constexpr std::size_t kPairGrain = 1024;
+
+double square(double v) {
+  return v * v;
+}
 
 bool finite(const Vec3& v) {
   return v.allFinite();
@@ -275,17 +279,29 @@ void System::set_neighbor_skin(double skin) {
   if (!prepared_) return;
   // A running system keeps its state: only the neighbour list is built again, with the new skin,
   // the pairs in force keeping their histories and forces (which the skin does not change).
-  std::vector<NeighborPair> touching_pairs;
-  std::vector<std::uint32_t> touching_slot;
+  const std::vector<TouchingSlot> touching = touching_pairs();
+  neighbors_ = NeighborSearch(NeighborSearchOptions{.skin = skin_});
+  rebuild_with_touching(touching);
+}
+
+std::vector<System::TouchingSlot> System::touching_pairs() const {
+  std::vector<TouchingSlot> touching;
   const auto& pairs = neighbors_.pairs();
   for (std::size_t k = 0; k < pairs.size(); ++k) {
-    if (!pair_touching_[k]) continue;
-    touching_pairs.push_back(pairs[k]);
-    touching_slot.push_back(pair_slot_[k]);
+    if (pair_touching_[k]) touching.push_back(TouchingSlot{pairs[k], pair_slot_[k]});
   }
-  neighbors_ = NeighborSearch(NeighborSearchOptions{.skin = skin_});
-  rebuild_neighbors(touching_pairs, touching_slot);
-  restore_pair_forces(touching_pairs);
+  return touching;
+}
+
+void System::rebuild_with_touching(std::span<const TouchingSlot> touching) {
+  std::vector<NeighborPair> pairs(touching.size());
+  std::vector<std::uint32_t> slots(touching.size());
+  for (std::size_t c = 0; c < touching.size(); ++c) {
+    pairs[c] = touching[c].pair;
+    slots[c] = touching[c].slot;
+  }
+  rebuild_neighbors(pairs, slots);
+  restore_pair_forces(pairs);
 }
 
 void System::deform_affinely(int axis, double factor) {
@@ -338,7 +354,7 @@ void System::prepare_first_step() {
   update_neighbors(neighbors_.needs_rebuild(domain_, position_));
   // Forces at the current time (no spring increment, no dissipation: no time passes).
   compute_pair_forces(0.0);
-  compute_particle_forces(0.0);
+  compute_particle_forces(0.0, /*closing_kick=*/false);
   reduce_loads(0.0);
   collect_finished_contacts();
   prepared_ = true;
@@ -347,19 +363,25 @@ void System::prepare_first_step() {
 void System::step(std::size_t count) {
   if (!prepared_) prepare_first_step();
   for (std::size_t n = 0; n < count; ++n) {
+    if (!skin_choice_.empty() && step_count_ >= skin_choice_step_ + skin_choice_stretch_) {
+      finish_skin_choice();
+    }
     if (reorder_every_ > 0 && step_count_ % reorder_every_ == 0) reorder_particles();
     domain_.advance_shear(dt_);  // the image offset at t + dt, where drift() wraps positions
-    const bool rebuild = kick_and_drift(/*finish_last_kick=*/n > 0);
+    const bool rebuild = kick_and_drift();
     time_ += dt_;
     for (Wall& wall : walls_) advance_wall(wall, dt_);
     update_neighbors(rebuild);
+    if (rebuild) {
+      ++rebuild_count_;
+      build_step_ = step_count_ + 1;  // the list holds the positions after this step's drift
+    }
     compute_pair_forces(dt_);
-    compute_particle_forces(dt_);
+    // The closing half kick uses only this step's forces and masses: the force gather applies it
+    // as it sums each particle's force, sparing a pass over the particles.
+    compute_particle_forces(dt_, /*closing_kick=*/true);
     reduce_loads(dt_);
     collect_finished_contacts();
-    // The closing half kick uses only this step's forces and masses: the next step's first pass
-    // applies it, sparing a pass over the particles, except after the last step of the call.
-    if (n + 1 == count) kick(0.5 * dt_);
     for (std::size_t w = 0; w < walls_.size(); ++w) control_wall(walls_[w], wall_loads_[w]);
     ++step_count_;
   }
@@ -374,26 +396,17 @@ std::array<double, 3> System::no_image_limits() const {
   return limit;
 }
 
-// Once per step() call (the drift pass applies it within a call).
-void System::kick(double half_dt) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, size(), kParticleGrain),
-                    [&](const auto& range) {
-                      for (std::size_t p = range.begin(); p != range.end(); ++p) {
-                        velocity_[p] += force_[p] * (inv_mass_[p] * half_dt);
-                        angular_velocity_[p] += torque_[p] * (inv_inertia_[p] * half_dt);
-                      }
-                    });
-}
-
 // The hot loops below read and write through local pointers, declared inside each task: Eigen's
 // vector stores may alias anything, which would otherwise make the compiler reload every array's
 // address and the box after each store.
 
-bool System::kick_and_drift(bool finish_last_kick) {
+bool System::kick_and_drift() {
   const double half_dt = 0.5 * dt_, dt = dt_;
   const std::span<const Vec3> reference = neighbors_.reference_positions();
   const bool track_displacement = reference.size() == size();
   const std::array<double, 3> no_image_limit = no_image_limits();
+  const double image_test_sq =
+      square(std::min({no_image_limit[0], no_image_limit[1], no_image_limit[2]}));
   // The largest displacement since the last neighbour-list build, found in the same pass (an exact
   // maximum, so any split of the range gives the same answer).
   const double max_displacement_sq = tbb::parallel_reduce(
@@ -414,10 +427,7 @@ bool System::kick_and_drift(bool finish_last_kick) {
         for (std::size_t p = range.begin(); p != range.end(); ++p) {
           Vec3 v = velocity[p];
           Vec3 w = angular_velocity[p];
-          if (finish_last_kick) {  // the same two additions as kick() then this pass
-            v += force[p] * (inv_mass[p] * half_dt);
-            w += torque[p] * (inv_inertia[p] * half_dt);
-          }
+
           v += force[p] * (inv_mass[p] * half_dt);
           w += torque[p] * (inv_inertia[p] * half_dt);
           if (group[p] != kFreeParticle) v = groups_[group[p] - 1].velocity;
@@ -431,19 +441,103 @@ bool System::kick_and_drift(bool finish_last_kick) {
           angular_velocity[p] = w;
           if (track_displacement) {
             Vec3 moved = x - reference_position[p];
-            if (!(std::abs(moved[0]) < no_image_limit[0] &&
+            double moved_sq = moved.squaredNorm();
+            if (!(moved_sq < image_test_sq) &&  // below it, no axis can reach its limit
+                !(std::abs(moved[0]) < no_image_limit[0] &&
                   std::abs(moved[1]) < no_image_limit[1] &&
                   std::abs(moved[2]) < no_image_limit[2])) {
               double gradient_images;
               moved = images.separation(reference_position[p], x, gradient_images);
+              moved_sq = moved.squaredNorm();
             }
-            running = std::max(running, moved.squaredNorm());
+            running = std::max(running, moved_sq);
           }
         }
         return running;
       },
       [](double a, double b) { return std::max(a, b); });
   return neighbors_.needs_rebuild(domain_, size(), max_displacement_sq);
+}
+
+double skin_cost(const SkinCandidate& c, const SkinCostModel& model) {
+  return c.pairs_per_particle * model.per_candidate_step +
+         model.per_particle_rebuild / c.steps_per_rebuild;
+}
+
+std::size_t cheapest_skin(std::span<const SkinCandidate> candidates, const SkinCostModel& model) {
+  if (candidates.empty()) throw std::invalid_argument("cheapest_skin: no candidate skins");
+  std::size_t best = 0;
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    const SkinCandidate& c = candidates[k];
+    if (!(c.skin > 0.0) || !(c.steps_per_rebuild > 0.0)) {
+      throw std::invalid_argument(fmt::format("cheapest_skin: skin {} m with {} steps per rebuild",
+                                              c.skin, c.steps_per_rebuild));
+    }
+    if (skin_cost(c, model) < skin_cost(candidates[best], model)) best = k;
+  }
+  return best;
+}
+
+void System::choose_neighbor_skin(std::vector<double> skins, std::uint64_t stretch,
+                                  SkinCostModel model) {
+  if (skins.empty() || stretch == 0) {
+    throw std::invalid_argument("choose_neighbor_skin: no skins or a zero stretch");
+  }
+  for (double s : skins) {
+    if (!(s > 0.0) || !std::isfinite(s)) {
+      throw std::invalid_argument(fmt::format("choose_neighbor_skin: skin = {} m", s));
+    }
+  }
+  skin_choice_ = std::move(skins);
+  skin_choice_step_ = step_count_;
+  skin_choice_stretch_ = stretch;
+  skin_choice_rebuilds_ = rebuild_count_;
+  skin_model_ = model;
+}
+
+void System::finish_skin_choice() {
+  const std::vector<double> skins = std::move(skin_choice_);
+  skin_choice_.clear();
+  const std::uint64_t steps = step_count_ - skin_choice_step_;
+  const std::uint64_t rebuilds = std::max<std::uint64_t>(rebuild_count_ - skin_choice_rebuilds_, 1);
+  double measured_interval = static_cast<double>(steps) / static_cast<double>(rebuilds);
+  const std::span<const Vec3> reference = neighbors_.reference_positions();
+  double max_displacement_sq = 0.0;
+  for (std::size_t i = 0; i < reference.size() && i < size(); ++i) {
+    max_displacement_sq =
+        std::max(max_displacement_sq, domain_.separation(reference[i], position_[i]).squaredNorm());
+  }
+  const double travel = neighbors_.travel(domain_, max_displacement_sq);
+  const std::uint64_t since_build = step_count_ - build_step_;
+  if (since_build > 0 && travel > 0.0) {
+    measured_interval = skin_ * static_cast<double>(since_build) / travel;
+  }
+  const double particles = static_cast<double>(std::max<std::size_t>(size(), 1));
+  skin_candidates_.clear();
+  for (double s : skins) {
+    NeighborSearch search(NeighborSearchOptions{.skin = s});
+    search.build(domain_, position_, radius_);
+    skin_candidates_.push_back(
+        {.skin = s,
+         .pairs_per_particle = static_cast<double>(search.pairs().size()) / particles,
+         .steps_per_rebuild = measured_interval * s / skin_});
+  }
+  chosen_skin_ = cheapest_skin(skin_candidates_, skin_model_);
+  std::string table;
+  for (const SkinCandidate& c : skin_candidates_) {
+    table +=
+        fmt::format(" [{:.4g} m: {:.3f} pairs/particle, {:.1f} steps/rebuild, cost {:.0f}]", c.skin,
+                    c.pairs_per_particle, c.steps_per_rebuild, skin_cost(c, skin_model_));
+  }
+  spdlog::info(
+      "neighbour skin chosen: {:.4g} m (was {:.4g} m; {} rebuilds in {} steps measured at it, "
+      "travel {:.3g} m in the {} steps since the last build, "
+      "cost model {} per candidate pair-step + {} per particle-rebuild):{}",
+      skin_candidates_[chosen_skin_].skin, skin_, rebuild_count_ - skin_choice_rebuilds_, steps,
+      travel, since_build, skin_model_.per_candidate_step, skin_model_.per_particle_rebuild, table);
+  if (skin_candidates_[chosen_skin_].skin != skin_) {
+    set_neighbor_skin(skin_candidates_[chosen_skin_].skin);
+  }
 }
 
 void System::update_neighbors(bool rebuild) {
@@ -467,6 +561,7 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
 void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
                                std::span<const std::uint32_t> old_slot) {
   neighbors_.build(domain_, position_, radius_);
+  build_step_ = step_count_;
   const auto& pairs = neighbors_.pairs();
 
   // Carry the contacts over to the new list (both lists are sorted by (i, j)), into a store laid
@@ -489,22 +584,34 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   contact_history_ = std::move(history);
   contact_force_ = std::move(force);
   free_contact_slots_.clear();
-  pair_active_.assign(pairs.size(), 0);
   pair_finished_.assign(pairs.size(), 0);
   particle_in_contact_.assign(size(), 0);
 
-  // Per-particle pair lists in pair order, so force sums run in a fixed order.
+  // Per-particle pair lists in pair order, so force sums run in a fixed order; each particle's
+  // list starts at a multiple of 8 entries, so that the force gather reads its entries' in-force
+  // bytes 8 at a time without reading another particle's.
   particle_pair_offset_.assign(size() + 1, 0);
   for (const auto& pair : pairs) {
     ++particle_pair_offset_[pair.i + 1];
     ++particle_pair_offset_[pair.j + 1];
   }
-  for (std::size_t p = 0; p < size(); ++p) particle_pair_offset_[p + 1] += particle_pair_offset_[p];
+  for (std::size_t p = 0; p < size(); ++p) {
+    particle_pair_offset_[p + 1] =
+        particle_pair_offset_[p] + ((particle_pair_offset_[p + 1] + 7u) & ~7u);
+  }
   particle_pair_entry_.resize(particle_pair_offset_[size()]);
+  entry_in_force_.assign(particle_pair_offset_[size()], 0);
+  pair_second_entry_.resize(pairs.size());
+  particle_first_entry_shift_.resize(size());
   std::vector<std::uint32_t> fill(particle_pair_offset_.begin(), particle_pair_offset_.end() - 1);
   for (std::uint32_t k = 0; k < pairs.size(); ++k) {
-    particle_pair_entry_[fill[pairs[k].i]++] = 2 * k;
-    particle_pair_entry_[fill[pairs[k].j]++] = 2 * k + 1;
+    const auto [i, j] = pairs[k];
+    // Pair k's entry in i's list is k + the shift, the same for every pair of row i: the pairs
+    // (h, i) with h < i, which fill i's list first, all come before row i.
+    particle_first_entry_shift_[i] = fill[i] - k;
+    particle_pair_entry_[fill[i]++] = 2 * k;
+    pair_second_entry_[k] = fill[j];
+    particle_pair_entry_[fill[j]++] = 2 * k + 1;
   }
 }
 
@@ -518,7 +625,6 @@ void System::restore_pair_forces(std::span<const NeighborPair> pairs,
       throw std::logic_error(fmt::format(
           "a touching pair ({}, {}) is out of reach of its particles", pairs[c].i, pairs[c].j));
     if (!forces.empty()) contact_force_[pair_slot_[k]].force = forces[c];
-    pair_active_[k] = 1;
   }
 }
 
@@ -563,7 +669,10 @@ std::vector<ParticleId> System::reorder_particles() {
   if (n == 0) return {};
   if (!prepared_) prepare_first_step();
   // The Morton key of each particle's cell.
-  const double cell = 2.0 * *std::min_element(radius_.begin(), radius_.end()) + skin_;
+  // The cell is that of the finest neighbour-list level at the default skin (0.3 x the smallest
+  // diameter), whatever the skin: the skin then changes no result.
+  const double smallest = *std::min_element(radius_.begin(), radius_.end());
+  const double cell = 2.0 * smallest + (0.3 * 2.0) * smallest;
   std::vector<std::pair<std::uint64_t, ParticleId>> keyed;
   std::vector<ParticleId> free_slots;
   for (std::size_t p = 0; p < n; ++p) {
@@ -601,76 +710,174 @@ std::vector<ParticleId> System::reorder_particles() {
   }
 
   // The pairs in force, renumbered, with their histories and forces, sorted for the rebuild.
-  struct Carried {
-    NeighborPair pair;
-    std::uint32_t slot;
-  };
-  std::vector<Carried> carried;
-  const auto& pairs = neighbors_.pairs();
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    if (!pair_touching_[k]) continue;
-    Carried c{{new_of[pairs[k].i], new_of[pairs[k].j]}, pair_slot_[k]};
+  std::vector<TouchingSlot> carried = touching_pairs();
+  for (TouchingSlot& c : carried) {
+    c.pair = {new_of[c.pair.i], new_of[c.pair.j]};
     if (c.pair.i > c.pair.j) {
       // The spring and the force are those of the first particle against the second.
       std::swap(c.pair.i, c.pair.j);
       contact_history_[c.slot].spring = -contact_history_[c.slot].spring;
       contact_force_[c.slot].force = -contact_force_[c.slot].force;
     }
-    carried.push_back(c);
   }
-  std::sort(carried.begin(), carried.end(), [](const Carried& a, const Carried& b) {
+  std::sort(carried.begin(), carried.end(), [](const TouchingSlot& a, const TouchingSlot& b) {
     return a.pair.i != b.pair.i ? a.pair.i < b.pair.i : a.pair.j < b.pair.j;
   });
-  std::vector<NeighborPair> carried_pairs;
-  std::vector<std::uint32_t> carried_slot;
-  for (const Carried& c : carried) {
-    carried_pairs.push_back(c.pair);
-    carried_slot.push_back(c.slot);
-  }
-  rebuild_neighbors(carried_pairs, carried_slot);
-  restore_pair_forces(carried_pairs);
+  rebuild_with_touching(carried);
   return old_of;
 }
+
+// The contact law of the candidate pairs that touch (they have a contact slot), with every array
+// it reads or writes held in a local pointer (the member vectors' addresses are read once per
+// task, not once per contact).
+struct System::PairContactKernel {
+  explicit PairContactKernel(System& s, double step_dt)
+      : system(s),
+        images(s.domain_),
+        pair(s.neighbors_.pairs().data()),
+        radius(s.radius_.data()),
+        position(s.position_.data()),
+        predicted_velocity(s.predicted_velocity_.data()),
+        predicted_angular_velocity(s.predicted_angular_velocity_.data()),
+        material(s.material_.data()),
+        params(&s.materials_.pair(0, 0)),
+        material_count(s.materials_.size()),
+        slot_of(s.pair_slot_.data()),
+        history_of(s.contact_history_.data()),
+        force_of(s.contact_force_.data()),
+        touching_flag(s.pair_touching_.data()),
+        first_entry_shift(s.particle_first_entry_shift_.data()),
+        second_entry(s.pair_second_entry_.data()),
+        entry_in_force(s.entry_in_force_.data()),
+        in_contact(s.particle_in_contact_.data()),
+        time(s.time_),
+        dt(step_dt) {}
+
+  [[gnu::always_inline]] void operator()(const TouchingPair& touching) const {
+    const std::size_t k = touching.k;
+    const auto [i, j] = pair[k];
+    const Vec3& d = touching.separation;
+    const double reach = radius[i] + radius[j];
+    const double distance = std::sqrt(touching.distance_sq);
+    const Vec3 normal = d * (-1.0 / distance);  // from j towards i
+    const double overlap = reach - distance;
+    const double lever_i = radius[i] - 0.5 * overlap, lever_j = radius[j] - 0.5 * overlap;
+    const Vec3 arm_i = -lever_i * normal;
+    const Vec3 arm_j = lever_j * normal;
+    const Vec3 contact_velocity_i =
+        predicted_velocity[i] + predicted_angular_velocity[i].cross(arm_i);
+    const Vec3 contact_velocity_j = predicted_velocity[j] +
+                                    images.image_velocity(touching.gradient_images) +
+                                    predicted_angular_velocity[j].cross(arm_j);
+    const ContactGeometry geometry{normal, overlap, contact_velocity_i - contact_velocity_j};
+    const std::uint32_t slot = slot_of[k];
+    ContactHistory& history = history_of[slot];
+    if (!history.touching) [[unlikely]] {
+      history.touching = true;
+      touching_flag[k] = 1;
+      history.start_time = time;
+      history.normal_damping = system.pair_normal_damping(i, j);
+      const double v_n = geometry.relative_velocity.dot(normal);
+      history.impact_speed = std::max(-v_n, 0.0);
+      history.impact_energy = 0.5 * system.pair_effective_mass(i, j) * v_n * v_n;
+    }
+    const ContactResponse response =
+        linear_spring_dashpot_damped(params[material[i] * material_count + material[j]],
+                                     history.normal_damping, geometry, history.spring, dt);
+    history.spring = response.spring;
+    history.elastic_energy = response.elastic_energy;
+    history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
+                                      response.dissipated_friction};
+    history.point = position[i] + arm_i;
+    // Each entry belongs to one pair: no other task writes it.
+    entry_in_force[k + first_entry_shift[i]] = 1;
+    entry_in_force[second_entry[k]] = 1;
+    // Another task may mark the same particle: both store 1, so the order does not matter.
+    std::atomic_ref<std::uint8_t>(in_contact[i]).store(1, std::memory_order_relaxed);
+    std::atomic_ref<std::uint8_t>(in_contact[j]).store(1, std::memory_order_relaxed);
+    ContactForce& out = force_of[slot];
+    out.force = response.force_on_a;
+    out.branch = d;
+    // arm_i x F and arm_j x (-F) are both multiples of F x n.
+    const Vec3 turning = response.force_on_a.cross(normal);
+    out.torque_a = lever_i * turning;
+    out.torque_b = lever_j * turning;
+  }
+
+  const System& system;
+  const PeriodicImages images;
+  const NeighborPair* const pair;
+  const double* const radius;
+  const Vec3* const position;
+  const Vec3* const predicted_velocity;
+  const Vec3* const predicted_angular_velocity;
+  const MaterialId* const material;
+  const PairParams* const params;
+  const std::size_t material_count;
+  const std::uint32_t* const slot_of;
+  ContactHistory* const history_of;
+  ContactForce* const force_of;
+  std::uint8_t* const touching_flag;
+  const std::uint32_t* const first_entry_shift;
+  const std::uint32_t* const second_entry;
+  std::uint8_t* const entry_in_force;
+  std::uint8_t* const in_contact;
+  const double time;
+  const double dt;
+};
 
 void System::compute_pair_forces(double dt) {
   const std::span<const NeighborPair> pairs = neighbors_.pairs();
   const bool has_groups = !groups_.empty();
   const std::array<double, 3> no_image_limit = no_image_limits();
-  // Pairs that start touching this step: they get a contact slot after the pass, in pair order.
-  std::vector<TouchingPair> starting;
-  std::mutex starting_mutex;
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, pairs.size(), kPairGrain), [&](const auto& range) {
-        const PeriodicImages images(domain_);
-        // Screening first, in a tight loop over blocks of pairs: most candidate pairs are apart.
-        // The touching ones of a block are queued with their separation and their contact law
-        // runs after; each pair writes only its own slots, so the order does not matter.
-        constexpr std::size_t kBlock = 256;
-        std::array<TouchingPair, kBlock> touching;
-        std::vector<TouchingPair> starting_here;
-        const NeighborPair* const pair = pairs.data();
-        const Vec3* const x = position_.data();
-        const double* const radius = radius_.data();
-        const GroupId* const group = group_.data();
-        const std::uint8_t* const was_touching = pair_touching_.data();
-        std::uint8_t* const active = pair_active_.data();
-        std::uint8_t* const finished = pair_finished_.data();
-        const bool skip_wall_balls = has_groups;
-        const double limit_x = no_image_limit[0], limit_y = no_image_limit[1],
-                     limit_z = no_image_limit[2];
-        for (std::size_t block = range.begin(); block < range.end(); block += kBlock) {
+  // The pairs in fixed chunks; each chunk queues the pairs that start touching this step (they get
+  // a contact slot after the pass, in pair order: chunk by chunk). The queues keep their capacity
+  // from step to step.
+  const std::size_t chunk_count = (pairs.size() + kPairGrain - 1) / kPairGrain;
+  if (starting_by_chunk_.size() < chunk_count) starting_by_chunk_.resize(chunk_count);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunk_count, 1), [&](const auto& chunks) {
+    const PeriodicImages images(domain_);
+    const PairContactKernel contact(*this, dt);
+    // Screening first, in a tight loop over blocks of pairs: most candidate pairs are apart.
+    // The touching ones of a block are queued with their separation and their contact law
+    // runs after; each pair writes only its own slots, so the order does not matter.
+    constexpr std::size_t kBlock = 256;
+    std::array<TouchingPair, kBlock> touching;
+    const NeighborPair* const pair = pairs.data();
+    const Vec3* const x = position_.data();
+    const double* const radius = radius_.data();
+    const GroupId* const group = group_.data();
+    const std::uint8_t* const was_touching = pair_touching_.data();
+    std::uint8_t* const finished = pair_finished_.data();
+    const bool skip_wall_balls = has_groups;
+    const double limit_x = no_image_limit[0], limit_y = no_image_limit[1],
+                 limit_z = no_image_limit[2];
+    const double image_test_sq = square(std::min({limit_x, limit_y, limit_z}));
+    for (std::size_t chunk = chunks.begin(); chunk != chunks.end(); ++chunk) {
+      std::vector<TouchingPair>& starting_here = starting_by_chunk_[chunk];
+      starting_here.clear();
+      const std::size_t chunk_end = std::min((chunk + 1) * kPairGrain, pairs.size());
+      for (std::size_t block = chunk * kPairGrain; block < chunk_end; block += kBlock) {
+        const std::size_t block_end = std::min(block + kBlock, chunk_end);
+        // The loop twice, with and without the kinematic groups' test (the compiler keeps the
+        // test in the loop otherwise).
+        const auto screen = [&](auto skip_wall_balls) {
           std::size_t touching_count = 0;
-          const std::size_t block_end = std::min(block + kBlock, range.end());
           for (std::size_t k = block; k != block_end; ++k) {
             const auto [i, j] = pair[k];
-            active[k] = 0;
-            if (skip_wall_balls && group[i] != kFreeParticle && group[j] != kFreeParticle)
+            if (skip_wall_balls() && group[i] != kFreeParticle && group[j] != kFreeParticle)
               continue;  // two wall balls never interact
             Vec3 d = x[j] - x[i];
             double gradient_images = 0.0;
-            if (!(std::abs(d[0]) < limit_x && std::abs(d[1]) < limit_y && std::abs(d[2]) < limit_z))
+            double distance_sq = d.squaredNorm();
+            // Below the smallest limit squared, no component can reach its limit: most pairs
+            // skip the test of each axis.
+            if (!(distance_sq < image_test_sq) &&
+                !(std::abs(d[0]) < limit_x && std::abs(d[1]) < limit_y &&
+                  std::abs(d[2]) < limit_z)) {
               d = images.separation(x[i], x[j], gradient_images);
-            const double distance_sq = d.squaredNorm();
+              distance_sq = d.squaredNorm();
+            }
             const double reach = radius[i] + radius[j];
             if (distance_sq < reach * reach) {
               touching[touching_count++] =
@@ -680,29 +887,33 @@ void System::compute_pair_forces(double dt) {
                   1;  // collect_finished_contacts() records the event and clears the history
             }
           }
-          for (std::size_t t = 0; t < touching_count; ++t) {
-            if (was_touching[touching[t].k])
-              compute_pair_contact(images, touching[t], dt);
-            else
-              starting_here.push_back(touching[t]);  // no contact slot yet
-          }
+          return touching_count;
+        };
+        const std::size_t touching_count =
+            skip_wall_balls ? screen(std::true_type{}) : screen(std::false_type{});
+        for (std::size_t t = 0; t < touching_count; ++t) {
+          if (was_touching[touching[t].k])
+            contact(touching[t]);
+          else
+            starting_here.push_back(touching[t]);  // no contact slot yet
         }
-        if (!starting_here.empty()) {
-          const std::lock_guard lock(starting_mutex);
-          starting.insert(starting.end(), starting_here.begin(), starting_here.end());
-        }
-      });
-  if (starting.empty()) return;
+      }
+    }
+  });
   // New contacts: slots handed out in pair order (the store's layout does not change a result:
   // every sum runs in pair order), then their contact law, each writing only its own slots.
-  std::sort(starting.begin(), starting.end(),
-            [](const TouchingPair& a, const TouchingPair& b) { return a.k < b.k; });
-  for (const TouchingPair& t : starting) pair_slot_[t.k] = allocate_contact();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, starting.size(), kParticleGrain),
+  starting_.clear();
+  for (std::size_t chunk = 0; chunk < chunk_count; ++chunk) {
+    const std::vector<TouchingPair>& here = starting_by_chunk_[chunk];
+    starting_.insert(starting_.end(), here.begin(), here.end());
+  }
+  if (starting_.empty()) return;
+  for (const TouchingPair& t : starting_) pair_slot_[t.k] = allocate_contact();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, starting_.size(), kParticleGrain),
                     [&](const auto& range) {
-                      const PeriodicImages images(domain_);
+                      const PairContactKernel contact(*this, dt);
                       for (std::size_t t = range.begin(); t != range.end(); ++t)
-                        compute_pair_contact(images, starting[t], dt);
+                        contact(starting_[t]);
                     });
 }
 
@@ -717,57 +928,8 @@ double System::pair_normal_damping(ParticleId i, ParticleId j) const {
                                     params.damping_ratio);
 }
 
-void System::compute_pair_contact(const PeriodicImages& images, const TouchingPair& touching,
-                                  double dt) {
-  const std::size_t k = touching.k;
-  const auto [i, j] = neighbors_.pairs()[k];
-  const Vec3& d = touching.separation;
-  const double reach = radius_[i] + radius_[j];
-  const double distance = std::sqrt(touching.distance_sq);
-  const Vec3 normal = d * (-1.0 / distance);  // from j towards i
-  const double overlap = reach - distance;
-  const double lever_i = radius_[i] - 0.5 * overlap, lever_j = radius_[j] - 0.5 * overlap;
-  const Vec3 arm_i = -lever_i * normal;
-  const Vec3 arm_j = lever_j * normal;
-  const Vec3 contact_velocity_i =
-      predicted_velocity_[i] + predicted_angular_velocity_[i].cross(arm_i);
-  const Vec3 contact_velocity_j = predicted_velocity_[j] +
-                                  images.image_velocity(touching.gradient_images) +
-                                  predicted_angular_velocity_[j].cross(arm_j);
-  const ContactGeometry geometry{normal, overlap, contact_velocity_i - contact_velocity_j};
-  const std::uint32_t slot = pair_slot_[k];
-  ContactHistory& history = contact_history_[slot];
-  if (!history.touching) {
-    history.touching = true;
-    pair_touching_[k] = 1;
-    history.start_time = time_;
-    history.normal_damping = pair_normal_damping(i, j);
-    const double v_n = geometry.relative_velocity.dot(normal);
-    history.impact_speed = std::max(-v_n, 0.0);
-    history.impact_energy = 0.5 * pair_effective_mass(i, j) * v_n * v_n;
-  }
-  const ContactResponse response =
-      linear_spring_dashpot_damped(materials_.pair(material_[i], material_[j]),
-                                   history.normal_damping, geometry, history.spring, dt);
-  history.spring = response.spring;
-  history.elastic_energy = response.elastic_energy;
-  history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
-                                    response.dissipated_friction};
-  history.point = position_[i] + arm_i;
-  pair_active_[k] = 1;
-  // Another task may mark the same particle: both store 1, so the order does not matter.
-  std::atomic_ref<std::uint8_t>(particle_in_contact_[i]).store(1, std::memory_order_relaxed);
-  std::atomic_ref<std::uint8_t>(particle_in_contact_[j]).store(1, std::memory_order_relaxed);
-  ContactForce& out = contact_force_[slot];
-  out.force = response.force_on_a;
-  out.branch = d;
-  // arm_i x F and arm_j x (-F) are both multiples of F x n.
-  const Vec3 turning = response.force_on_a.cross(normal);
-  out.torque_a = lever_i * turning;
-  out.torque_b = lever_j * turning;
-}
-
-void System::compute_particle_forces(double dt) {
+void System::compute_particle_forces(double dt, bool closing_kick) {
+  const double half_dt = 0.5 * dt_;
   const WallSlots& before = wall_slots_[wall_current_];
   WallSlots& after = wall_slots_[1 - wall_current_];
   std::vector<WallPose> poses;
@@ -777,10 +939,13 @@ void System::compute_particle_forces(double dt) {
   // joined in a fixed order: the same bits at any thread count, and across a checkpoint.
   contact_virial_ = tbb::parallel_deterministic_reduce(
       tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), Eigen::Matrix3d::Zero().eval(),
-      [&](const tbb::blocked_range<std::size_t>& range, Eigen::Matrix3d virial) -> Eigen::Matrix3d {
+      [&](const tbb::blocked_range<std::size_t>& range,
+          const Eigen::Matrix3d& virial_before) -> Eigen::Matrix3d {
+        // A local sum, which the stores below to the particle arrays cannot alias.
+        Eigen::Matrix3d virial = virial_before;
         const std::uint32_t* const entry_offset = particle_pair_offset_.data();
         const std::uint32_t* const entries = particle_pair_entry_.data();
-        const std::uint8_t* const active = pair_active_.data();
+        std::uint8_t* const entry_in_force = entry_in_force_.data();
         const std::uint32_t* const slot_of = pair_slot_.data();
         const ContactForce* const contact = contact_force_.data();
         std::uint8_t* const in_contact = particle_in_contact_.data();
@@ -790,18 +955,23 @@ void System::compute_particle_forces(double dt) {
           torque = Vec3::Zero();
           if (!in_contact[p]) return;  // only particles with a pair in force have anything to sum
           in_contact[p] = 0;
-          for (std::uint32_t e = entry_offset[p]; e < entry_offset[p + 1]; ++e) {
-            const std::uint32_t entry = entries[e];
-            const std::uint32_t k = entry >> 1;
-            if (!active[k]) continue;
-            const ContactForce& c = contact[slot_of[k]];
-            if ((entry & 1) == 0) {
-              force += c.force;
-              torque += c.torque_a;
-              virial.noalias() += c.force * c.branch.transpose();
-            } else {
-              force -= c.force;
-              torque += c.torque_b;
+          // The entries in force, 8 in-force bytes at a time (each 0 or 1), cleared as read.
+          for (std::uint32_t base = entry_offset[p]; base < entry_offset[p + 1]; base += 8) {
+            std::uint64_t word;
+            std::memcpy(&word, entry_in_force + base, sizeof word);
+            if (word == 0) continue;
+            std::memset(entry_in_force + base, 0, sizeof word);
+            for (; word != 0; word &= word - 1) {
+              const std::uint32_t entry = entries[base + (std::countr_zero(word) >> 3)];
+              const ContactForce& c = contact[slot_of[entry >> 1]];
+              if ((entry & 1) == 0) {
+                force += c.force;
+                torque += c.torque_a;
+                virial.noalias() += c.force * c.branch.transpose();
+              } else {
+                force -= c.force;
+                torque += c.torque_b;
+              }
             }
           }
         };
@@ -809,21 +979,38 @@ void System::compute_particle_forces(double dt) {
                                // registers
           Vec3* const force = force_.data();
           Vec3* const torque = torque_.data();
+          Vec3* const velocity = velocity_.data();
+          Vec3* const angular_velocity = angular_velocity_.data();
+          const double* const inv_mass = inv_mass_.data();
+          const double* const inv_inertia = inv_inertia_.data();
           for (std::size_t p = range.begin(); p != range.end(); ++p) {
             Vec3 f, t;
             pair_sum(p, f, t);
             force[p] = f;
             torque[p] = t;
+            if (closing_kick) {
+              velocity[p] += f * (inv_mass[p] * half_dt);
+              angular_velocity[p] += t * (inv_inertia[p] * half_dt);
+            }
           }
           return virial;
         }
+        // The sums, and the closing half kick with them (as a pass of its own would: every
+        // particle).
+        const auto store = [&](std::size_t p, const Vec3& force, const Vec3& torque) {
+          force_[p] = force;
+          torque_[p] = torque;
+          if (closing_kick) {
+            velocity_[p] += force * (inv_mass_[p] * half_dt);
+            angular_velocity_[p] += torque * (inv_inertia_[p] * half_dt);
+          }
+        };
         std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
         for (std::size_t p = range.begin(); p != range.end(); ++p) {
           Vec3 force, torque;
           pair_sum(p, force, torque);
           if (!is_free(p)) {  // no wall slots in use, in either buffer
-            force_[p] = force;
-            torque_[p] = torque;
+            store(p, force, torque);
             continue;
           }
           const int old_count = before.count[p];
@@ -882,8 +1069,7 @@ void System::compute_particle_forces(double dt) {
           }
           after.count[p] = static_cast<std::uint8_t>(count);
           finished_wall_mask_[p] = static_cast<std::uint8_t>(~matched & ((1u << old_count) - 1u));
-          force_[p] = force;
-          torque_[p] = torque;
+          store(p, force, torque);
         }
         return virial;
       },
@@ -1001,8 +1187,8 @@ std::size_t System::active_contact_count() const {
 std::vector<ActiveContact> System::active_contacts() const {
   std::vector<ActiveContact> contacts;
   const auto& pairs = neighbors_.pairs();
-  for (std::size_t k = 0; k < pair_active_.size(); ++k) {
-    if (!pair_active_[k]) continue;
+  for (std::size_t k = 0; k < pair_touching_.size(); ++k) {
+    if (!pair_touching_[k]) continue;
     const auto [i, j] = pairs[k];
     contacts.push_back(ActiveContact{.a = i,
                                      .b = j,
@@ -1081,7 +1267,8 @@ std::size_t System::memory_bytes() const {
     bytes += bytes_of(*array);
   for (const auto* array : {&radius_, &mass_, &inv_mass_, &inv_inertia_}) bytes += bytes_of(*array);
   bytes += bytes_of(material_) + bytes_of(group_) + bytes_of(pair_slot_) +
-           bytes_of(pair_touching_) + bytes_of(pair_active_) + bytes_of(pair_finished_) +
+           bytes_of(pair_touching_) + bytes_of(entry_in_force_) + bytes_of(pair_second_entry_) +
+           bytes_of(particle_first_entry_shift_) + bytes_of(pair_finished_) +
            bytes_of(contact_history_) + bytes_of(contact_force_) + bytes_of(free_contact_slots_) +
            bytes_of(particle_pair_offset_) + bytes_of(particle_pair_entry_) +
            bytes_of(particle_in_contact_) + bytes_of(finished_wall_mask_);

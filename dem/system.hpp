@@ -7,6 +7,7 @@
 // a run gives the same bits at any thread count. The caller picks the thread count by running
 // step() inside a tbb::task_arena.
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -20,6 +21,33 @@
 #include "dem/walls.hpp"
 
 namespace millflow::dem {
+
+// Choosing the neighbour skin by a cost model (issue 17). A step screens every candidate pair
+// and a rebuild sorts every particle into cells and builds the list again, so a skin s costs,
+// per particle and step, with p(s) candidate pairs per particle,
+//   p(s) x per_candidate_step + per_particle_rebuild / steps_per_rebuild(s).
+// A smaller skin screens fewer pairs and rebuilds more often. The constants are instructions
+// measured with callgrind as the differences between whole runs at skins 0.1-0.3 x the smallest
+// diameter (docs/benchmarks.md, "The skin chosen per scene"): a candidate pair-step 41 on
+// cement_load05 and 61 on le_media_2000 (the smaller taken: a near tie goes to the wider skin), a
+// rebuild 4,500 per particle on cement_load05 (le_media_2000 rebuilds too rarely to tell). The
+// choice never reads a clock, so a run chooses the same skin every time (and no result's bits
+// depend on the skin anyway).
+struct SkinCostModel {
+  double per_candidate_step = 41.0;      // screening and gathering, per candidate pair and step
+  double per_particle_rebuild = 4500.0;  // a rebuild of the list, per particle
+};
+
+struct SkinCandidate {
+  double skin = 0.0;                // m
+  double pairs_per_particle = 0.0;  // candidate pairs / particles, at this skin
+  double steps_per_rebuild = 0.0;   // steps between rebuilds, at this skin
+};
+// The cost above, instructions per particle and step.
+double skin_cost(const SkinCandidate& c, const SkinCostModel& model);
+// Index of the cheapest candidate; of equal costs the first. Throws std::invalid_argument for no
+// candidates or one with a non-positive skin or interval.
+std::size_t cheapest_skin(std::span<const SkinCandidate> candidates, const SkinCostModel& model);
 
 using ParticleId = std::uint32_t;
 using GroupId = std::uint32_t;
@@ -135,10 +163,29 @@ class System {
   double time_step() const { return dt_; }
 
   // Neighbour-list skin, m (default: 0.3 x smallest diameter, set on the first step). A system
-  // already stepping rebuilds its list and keeps its state. The forces' bits do not depend on the
-  // skin (they are summed over the touching pairs in (i, j) order); reorder_particles' cells do.
+  // already stepping rebuilds its list and keeps its state. No result's bits depend on the skin
+  // (forces are summed over the touching pairs in (i, j) order, and reorder_particles' cells are
+  // those of the default skin), only the time a step takes.
   void set_neighbor_skin(double skin);
   double neighbor_skin() const { return skin_; }
+  // Neighbour rebuilds the skin test asked for since the first step (not those of a new skin or a
+  // renumbering).
+  std::uint64_t neighbor_rebuild_count() const { return rebuild_count_; }
+  // Chooses the skin from measurement: once `stretch` more steps have run at the current skin,
+  // the next step() call counts the candidate pairs at each of `skins` (m; lists built from the
+  // positions then) and predicts each skin's steps between rebuilds from those measured in the
+  // stretch: the rebuild test's travel (2 x largest displacement + Lees-Edwards offset change)
+  // per step since the list's last build gives the current skin's interval (skin / travel per
+  // step), and the travel grows linearly over so few steps, so an interval scales with its skin
+  // (with no travel yet, stretch / rebuilds, a rebuild at least),
+  // then sets the cheapest by `model` (cheapest_skin) and logs what it derived the choice from.
+  // Deterministic: the same state and stretch choose the same skin. Throws std::invalid_argument
+  // for no skins, a skin <= 0 or a zero stretch.
+  void choose_neighbor_skin(std::vector<double> skins, std::uint64_t stretch,
+                            SkinCostModel model = {});
+  // The candidates of the last choice (empty before one), the chosen one's index in them.
+  std::span<const SkinCandidate> skin_candidates() const { return skin_candidates_; }
+  std::size_t chosen_skin() const { return chosen_skin_; }
 
   // Throws if two particles overlap by more than `tolerance` x the smaller radius, naming them.
   void check_overlaps(double tolerance) const;
@@ -146,8 +193,9 @@ class System {
   void step(std::size_t count = 1);
 
   // Renumbers the free particles in the order of their cells along a Z-order (Morton) curve:
-  // cells of the finest neighbour-list level (2 x smallest radius + skin), in the box from its
-  // lower corner; ties by the current index. Members of kinematic groups keep their indices (a
+  // cells of the finest neighbour-list level at the default skin (2 x smallest radius + 0.3 x
+  // smallest diameter, whatever the skin), in the box from its lower corner; ties by the current
+  // index. Members of kinematic groups keep their indices (a
   // caller may know where they are); the free particles take the remaining indices in that
   // order. Contact histories go with their pairs (a pair whose particles swap order has its
   // tangential spring and force negated, exactly), and the neighbour list is rebuilt. Particles
@@ -246,20 +294,31 @@ class System {
 
   bool is_free(ParticleId p) const { return group_[p] == kFreeParticle; }
   void prepare_first_step();
-  void kick(double half_dt);
+
   // Per axis, the largest |b - a| that needs no periodic image: PeriodicImages::separation
   // returns b - a unchanged when every component is below it (half a box on a periodic axis, the
   // Lees-Edwards gradient axis included; infinite on an open one), so the hot loops call it only
   // for the few pairs (or displacements) that are not.
   std::array<double, 3> no_image_limits() const;
-  // The first half kick and the drift in one pass, after the previous step's closing half kick
-  // if `finish_last_kick`; returns whether the neighbour list must be rebuilt.
-  bool kick_and_drift(bool finish_last_kick);
+  // The first half kick and the drift in one pass; returns whether the neighbour list must be
+  // rebuilt.
+  bool kick_and_drift();
   void update_neighbors(bool rebuild);
   // After rebuild_neighbors from the touching pairs `pairs` (sorted): marks them in force and
   // puts their forces back (`forces`, or the ones their contacts hold when empty), so that what
   // reads the contacts in force before the next step sees them.
   void restore_pair_forces(std::span<const NeighborPair> pairs, std::span<const Vec3> forces = {});
+  // A candidate pair that touches and its contact's slot.
+  struct TouchingSlot {
+    NeighborPair pair;
+    std::uint32_t slot;
+  };
+  // The touching candidate pairs, in pair order.
+  std::vector<TouchingSlot> touching_pairs() const;
+  // Builds the neighbour list again keeping the contacts of `touching` (sorted by pair; slots in
+  // the current store) and their forces, in force as before (set_neighbor_skin,
+  // reorder_particles).
+  void rebuild_with_touching(std::span<const TouchingSlot> touching);
   // Builds a new neighbour list and carries the contacts of `old_pairs` (sorted; old_slot[o] the
   // contact of old pair o, or kNoContact) over to it; the contact store is laid out again in
   // the new pairs' order.
@@ -276,8 +335,12 @@ class System {
     double gradient_images;  // PeriodicImages::separation's
     std::uint32_t k;         // the pair's index
   };
+  // Pairs that start touching in a step, per chunk of kPairGrain pairs of the screening pass, then
+  // all in pair order (kept, so that a step allocates nothing once they have grown).
+  std::vector<std::vector<TouchingPair>> starting_by_chunk_;
+  std::vector<TouchingPair> starting_;
   // The contact law of a candidate pair that touches (it has a contact slot).
-  void compute_pair_contact(const PeriodicImages& images, const TouchingPair& touching, double dt);
+  struct PairContactKernel;
   // A slot in the contact store for a pair that starts touching (one freed by a finished contact
   // first), its history cleared.
   std::uint32_t allocate_contact();
@@ -285,7 +348,9 @@ class System {
   // contact.
   double pair_effective_mass(ParticleId i, ParticleId j) const;
   double pair_normal_damping(ParticleId i, ParticleId j) const;
-  void compute_particle_forces(double dt);
+  // The forces and torques on the particles, the contact virial, the wall contacts; with
+  // `closing_kick`, the step's closing half kick in the same pass.
+  void compute_particle_forces(double dt, bool closing_kick);
   void reduce_loads(double dt);
   void collect_finished_contacts();
 
@@ -296,6 +361,16 @@ class System {
   double time_ = 0.0;
   std::uint64_t step_count_ = 0;
   double skin_ = 0.0;
+  std::uint64_t rebuild_count_ = 0;
+  std::uint64_t build_step_ = 0;  // step_count_ at the last build of the list
+  // A pending skin choice (choose_neighbor_skin): the skins, the step it measures from and the
+  // rebuilds counted then; the last choice's candidates.
+  std::vector<double> skin_choice_;
+  std::uint64_t skin_choice_step_ = 0, skin_choice_stretch_ = 0, skin_choice_rebuilds_ = 0;
+  SkinCostModel skin_model_;
+  std::vector<SkinCandidate> skin_candidates_;
+  std::size_t chosen_skin_ = 0;
+  void finish_skin_choice();
   bool prepared_ = false;
   bool record_collisions_ = false;
   std::uint64_t reorder_every_ = 0;
@@ -320,7 +395,7 @@ class System {
   // pair_slot_[k] != kNoContact in one byte per pair, so that screening the pairs, most of them
   // apart, reads no more.
   std::vector<std::uint8_t> pair_touching_;
-  std::vector<std::uint8_t> pair_active_;    // the pair touches this step: its force is valid
+
   std::vector<std::uint8_t> pair_finished_;  // the pair separated this step
   // The contact store: one slot per pair that touches, in the pairs' order after each neighbour
   // rebuild, new contacts in the slots finished ones freed (or at the end). Split in what the
@@ -336,7 +411,13 @@ class System {
   std::vector<std::uint32_t> free_contact_slots_;
   Eigen::Matrix3d contact_virial_ = Eigen::Matrix3d::Zero();
   // Per particle, the pairs it belongs to (CSR): entry = pair index * 2 + (0: first, 1: second).
+  // Each particle's list starts at a multiple of 8 (unused entries pad it).
   std::vector<std::uint32_t> particle_pair_offset_, particle_pair_entry_;
+  // Per entry, whether its pair is in force this step (set by the contact law, cleared by the
+  // force gather), so that the gather visits only those; where the contact law finds a pair's two
+  // entries: k + particle_first_entry_shift_[i] and pair_second_entry_[k].
+  std::vector<std::uint8_t> entry_in_force_;
+  std::vector<std::uint32_t> pair_second_entry_, particle_first_entry_shift_;
   std::vector<std::uint8_t>
       particle_in_contact_;  // has a pair in force this step (reset when summed)
 
