@@ -33,6 +33,22 @@ double normal_spring_energy(const System& system) {
 
 }  // namespace
 
+double stretch_along_y_keeping_profile(System& system, double shear_rate, double strain) {
+  // Particles keep their velocity relative to the imposed profile gdot (y - y_mid), which
+  // stretches with the box about its lower face like the positions.
+  const double y_mid = system.domain().lo.y() + 0.5 * system.domain().length().y();
+  const auto x = system.positions();
+  const auto v = system.velocities();
+  std::vector<Vec3> velocities(v.begin(), v.end());
+  for (std::size_t p = 0; p < system.size(); ++p)
+    velocities[p].x() += shear_rate * strain * (x[p].y() - y_mid);
+  const double springs_before = normal_spring_energy(system);
+  system.deform_affinely(1, 1.0 + strain);
+  for (std::size_t p = 0; p < system.size(); ++p)
+    system.set_velocity(static_cast<ParticleId>(p), velocities[p]);
+  return normal_spring_energy(system) - springs_before;
+}
+
 bool StressControl::after_step(System& system) {
   if (system.step_count() % sample_every() == 0) {
     stress_sum_ += normal_stress(system);
@@ -121,19 +137,7 @@ bool LeesEdwardsBarostat::answer(System& system, double stress, bool closing) {
   const double strain =
       closing ? -s.max_speed * control_interval / height
               : (proportional + integral_.value()) * control_interval / s.relaxation_time;
-  // Particles keep their velocity relative to the imposed profile gdot (y - y_mid), which
-  // stretches with the box about its lower face like the positions.
-  const double y_mid = system.domain().lo.y() + 0.5 * height;
-  const auto x = system.positions();
-  const auto v = system.velocities();
-  std::vector<Vec3> velocities(v.begin(), v.end());
-  for (std::size_t p = 0; p < system.size(); ++p)
-    velocities[p].x() += s.shear_rate * strain * (x[p].y() - y_mid);
-  const double springs_before = normal_spring_energy(system);
-  system.deform_affinely(1, 1.0 + strain);
-  for (std::size_t p = 0; p < system.size(); ++p)
-    system.set_velocity(static_cast<ParticleId>(p), velocities[p]);
-  work_ += normal_spring_energy(system) - springs_before;
+  work_ += stretch_along_y_keeping_profile(system, s.shear_rate, strain);
   return true;
 }
 

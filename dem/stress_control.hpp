@@ -156,6 +156,12 @@ class StressControl {
   double smoothed_stress_ = 0.0;  // its running mean over tau, Pa
 };
 
+// Stretches a Lees-Edwards cell along y by the factor 1 + strain about its lower face
+// (System::deform_affinely), keeping every particle's velocity relative to the imposed profile
+// shear_rate (y - y_mid), which stretches with the box. Returns the energy the stretch put into
+// the pairs' normal springs, J (the barostat's work; a preparation's relief may discard it).
+double stretch_along_y_keeping_profile(System& system, double shear_rate, double strain);
+
 // The top wall's group (servo along y) and the bottom one; area A of each wall.
 class RoughWallServo final : public StressControl {
  public:
