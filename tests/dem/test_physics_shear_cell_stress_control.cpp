@@ -65,6 +65,18 @@ TEST(ShearCellStressControl, WallServoHoldsTheNormalStressOfSoftAndStiffBalls) {
   expect_walls_hold_their_targets(1e5);
 }
 
+// A whole rough-wall cell run with the walls' protocol (dem::kRoughWallStrains).
+ShearCellMeasurements run_with_the_rough_walls_protocol(const ShearCellSetup& setup) {
+  const RoughWallStrains& strains = kRoughWallStrains;
+  ShearCellRun run(setup, {.warmup_strain = strains.warmup_strain,
+                           .warmup_windows = strains.warmup_windows,
+                           .max_warmup_strain = strains.max_warmup_strain,
+                           .measure_strain = strains.measure_strain,
+                           .measure = {.samples = 100}});
+  run.advance(~std::uint64_t{0});
+  return run.measurements();
+}
+
 // The walls drive the bulk to the site's rate at k_n / (p d) = 1e4, in a cell of the campaign's
 // table-4 size (8 x 10 x 8 d) at I = 0.3, with the rough walls' protocol (dem::kRoughWallStrains:
 // warm-up in windows of 1 strain to a cap of 16, 8 strains measured with the catch-up law of
@@ -80,14 +92,7 @@ TEST(ShearCellStressControl, WallsDriveTheBulkToTheSiteRateAtRealisticStiffness)
   ShearCellSetup setup = testing::small_shear_cell(0.3);
   setup.size_diameters = Vec3(8, 10, 8);
   setup.media_media.normal_stiffness = 1e4 * setup.normal_stress * setup.media_diameter;
-  const RoughWallStrains& strains = kRoughWallStrains;
-  ShearCellRun run(setup, {.warmup_strain = strains.warmup_strain,
-                           .warmup_windows = strains.warmup_windows,
-                           .max_warmup_strain = strains.max_warmup_strain,
-                           .measure_strain = strains.measure_strain,
-                           .measure = {.samples = 100}});
-  run.advance(~std::uint64_t{0});
-  const ShearCellMeasurements& m = run.measurements();
+  const ShearCellMeasurements m = run_with_the_rough_walls_protocol(setup);
   std::printf(
       "walls 8 x 10 x 8 at I 0.3, k_n/(p d) 1e4: normal stress %.4g Pa, stationary %d at strain "
       "%.3g, bulk rate %.4g (target %.4g, %+.1f%%), slip %.3g m/s of wall speed %.3g m/s, energy "
@@ -116,14 +121,7 @@ TEST(ShearCellStressControl, WallServoHoldsTheMeanNormalStressOfATallNarrowCell)
   setup.media_media.normal_stiffness = 1e4 * setup.normal_stress * setup.media_diameter;
   setup.media_media.restitution = 0.3;
   setup.media_media.friction = 0.75;
-  const RoughWallStrains& strains = kRoughWallStrains;
-  ShearCellRun run(setup, {.warmup_strain = strains.warmup_strain,
-                           .warmup_windows = strains.warmup_windows,
-                           .max_warmup_strain = strains.max_warmup_strain,
-                           .measure_strain = strains.measure_strain,
-                           .measure = {.samples = 100}});
-  run.advance(~std::uint64_t{0});
-  const ShearCellMeasurements& m = run.measurements();
+  const ShearCellMeasurements m = run_with_the_rough_walls_protocol(setup);
   std::printf(
       "walls 5 x 10 x 5 at I 0.3, k_n/(p d) 1e4: normal stress %.4g Pa (%.4f of the target), "
       "stationary %d, bulk rate %+.1f%%, energy balance %.2g\n",
