@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -340,6 +341,7 @@ StressReliefResult ShearCell::relieve_normal_stress(const StressRelief& relief) 
   const auto interval = static_cast<std::uint64_t>(setup_.steps_per_collision);
   StressReliefResult result;
   int settled = 0;
+  std::optional<std::uint64_t> on_target_at;  // steps when an interval was first within
   double power = lees_edwards_power();
   while (result.steps + interval <= relief.max_steps) {
     double stress = 0.0;
@@ -354,14 +356,17 @@ StressReliefResult ShearCell::relieve_normal_stress(const StressRelief& relief) 
     ++result.intervals;
     result.normal_stress = stress / static_cast<double>(interval);
     if (result.intervals == 1) result.first_stress = result.normal_stress;
-    if (std::abs(result.normal_stress / target - 1.0) <= relief.tolerance) {
-      if (++settled >= relief.settled_intervals) {
+    const bool within = std::abs(result.normal_stress / target - 1.0) <= relief.tolerance;
+    if (within && !on_target_at) on_target_at = result.steps;
+    const bool holding = on_target_at && result.steps - *on_target_at < relief.hold_steps;
+    settled = within ? settled + 1 : 0;
+    if (within && !holding) {
+      if (settled >= relief.settled_intervals) {
         result.relieved = true;
         break;
       }
       continue;
     }
-    settled = 0;
     const double strain = std::clamp(
         relief.gain * (1.0 - target / result.normal_stress) * mean_overlap_fraction(system_),
         -relief.max_strain_per_interval, relief.max_strain_per_interval);
@@ -379,6 +384,7 @@ StressReliefResult ShearCell::relieve_normal_stress(const StressRelief& relief) 
     power = lees_edwards_power();
   }
   result.strain = std::log(system_.domain().length().y() / height0);
+  control_->reset_integral_term();
   return result;
 }
 

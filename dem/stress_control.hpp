@@ -87,6 +87,11 @@ class StressControl {
   double smoothed_stress() const { return smoothed_stress_; }
   // Energy the control put in besides the walls' work (the barostat's stretches), J.
   virtual double work() const { return 0.0; }
+  // The integral term (the barostat's b, strain per tau; 0 for a control without one) and its
+  // reset to 0, for a preparation that brought the stress on target by other means
+  // (ShearCell::relieve_normal_stress): a term wound up before would push the bed off again.
+  virtual double integral_term() const { return 0.0; }
+  virtual void reset_integral_term() {}
 
   // Checkpoint state: the base's four doubles (stress sum and sample count since the last
   // interval, the stress it answered, its running mean over tau), then the boundary's own.
@@ -153,6 +158,8 @@ class LeesEdwardsBarostat final : public StressControl {
   }
   double normal_stress(const System& system) const override;
   double work() const override { return work_; }
+  double integral_term() const override { return bias_; }
+  void reset_integral_term() override { bias_ = 0.0; }
 
  protected:
   std::uint64_t sample_every() const override;
