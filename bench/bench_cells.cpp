@@ -215,7 +215,7 @@ Chunk run_chunk(dem::ShearCellRun& run, double strain) {
 // barostat goes on, and hands over with the barostat's integral term at 0: the real contacts'
 // network re-forms under shear for about 0.1 strain (contacts per particle 2.07 -> 2.25, shear
 // stress 13 -> 37 kPa); handed over at once, the bed's stress fell to 84 kPa while the barostat
-// (time constant 0.1 strain) lagged, its integral term wound up on the dip, and it overshot to
+// (time constant 0.2 strain) lagged, its integral term wound up on the dip, and it overshot to
 // 113 kPa, still 10% high at strain 0.3 (the first run, docs/benchmarks.md).
 constexpr double kReliefHoldStrain = 0.1;
 constexpr double kSteadyWindowStrain = 0.01;

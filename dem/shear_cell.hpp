@@ -232,7 +232,7 @@ class ShearCellRun;
 // once an interval is within the tolerance the relief goes on for at least hold_steps more steps
 // and stretches by the law every interval, within the tolerance too, so that it follows a bed
 // that is still relaxing (the real contacts' network re-forms under shear for strains after a
-// stiffening; the barostat, with its time constant of 0.1 strain, lags it and overshoots).
+// stiffening; the barostat, with its time constant of 0.2 strain here, lags it and overshoots).
 struct StressRelief {
   double tolerance = 0.05;
   double gain = 1.0;
