@@ -5,8 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
-#include <vector>
 
 #include <fmt/format.h>
 
@@ -340,6 +340,7 @@ StressReliefResult ShearCell::relieve_normal_stress(const StressRelief& relief) 
   const auto interval = static_cast<std::uint64_t>(setup_.steps_per_collision);
   StressReliefResult result;
   int settled = 0;
+  std::optional<std::uint64_t> on_target_at;  // steps when an interval was first within
   double power = lees_edwards_power();
   while (result.steps + interval <= relief.max_steps) {
     double stress = 0.0;
@@ -354,31 +355,27 @@ StressReliefResult ShearCell::relieve_normal_stress(const StressRelief& relief) 
     ++result.intervals;
     result.normal_stress = stress / static_cast<double>(interval);
     if (result.intervals == 1) result.first_stress = result.normal_stress;
-    if (std::abs(result.normal_stress / target - 1.0) <= relief.tolerance) {
-      if (++settled >= relief.settled_intervals) {
+    const bool within = std::abs(result.normal_stress / target - 1.0) <= relief.tolerance;
+    if (within && !on_target_at) on_target_at = result.steps;
+    const bool holding = on_target_at && result.steps - *on_target_at < relief.hold_steps;
+    settled = within ? settled + 1 : 0;
+    if (within && !holding) {
+      if (settled >= relief.settled_intervals) {
         result.relieved = true;
         break;
       }
       continue;
     }
-    settled = 0;
     const double strain = std::clamp(
         relief.gain * (1.0 - target / result.normal_stress) * mean_overlap_fraction(system_),
         -relief.max_strain_per_interval, relief.max_strain_per_interval);
-    // As the barostat's stretch: velocities relative to the profile gdot (y - y_mid) kept.
-    const double y_mid = system_.domain().lo.y() + 0.5 * system_.domain().length().y();
-    const auto x = system_.positions();
-    const auto v = system_.velocities();
-    std::vector<Vec3> velocities(v.begin(), v.end());
-    for (std::size_t p = 0; p < system_.size(); ++p)
-      velocities[p].x() += setup_.shear_rate * strain * (x[p].y() - y_mid);
-    system_.deform_affinely(1, 1.0 + strain);
-    for (std::size_t p = 0; p < system_.size(); ++p)
-      system_.set_velocity(static_cast<ParticleId>(p), velocities[p]);
+    // The barostat's stretch; the springs' energy it lets out is in no ledger (StressRelief).
+    stretch_along_y_keeping_profile(system_, setup_.shear_rate, strain);
     wall_speed_ = system_.domain().lees_edwards.velocity;
     power = lees_edwards_power();
   }
   result.strain = std::log(system_.domain().length().y() / height0);
+  control_->reset_integral_term();
   return result;
 }
 

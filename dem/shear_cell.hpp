@@ -231,13 +231,18 @@ class ShearCellRun;
 // f the mean overlap of the contacts in force as a fraction of their centre distance (the
 // stretch that would take the overlaps' excess out if every contact lay along y; a bed answers
 // a y-stretch with some of it only, and the intervals after take the rest). It ends after
-// settled_intervals intervals in a row within the tolerance, or at max_steps.
+// settled_intervals intervals in a row within the tolerance, or at max_steps. With hold_steps,
+// once an interval is within the tolerance the relief goes on for at least hold_steps more steps
+// and stretches by the law every interval, within the tolerance too, so that it follows a bed
+// that is still relaxing (the real contacts' network re-forms under shear for strains after a
+// stiffening; the barostat, with its time constant of 0.2 strain here, lags it and overshoots).
 struct StressRelief {
   double tolerance = 0.05;
   double gain = 1.0;
   double max_strain_per_interval = 1e-3;
   int settled_intervals = 5;
   std::uint64_t max_steps = 20000;
+  std::uint64_t hold_steps = 0;
 };
 struct StressReliefResult {
   bool relieved = false;  // ended on the settled intervals, not on max_steps
@@ -299,7 +304,8 @@ class ShearCell {
   double normal_stress_now() const;
 
   // Preparing a state (Lees-Edwards only): runs the cell with its barostat held (it neither
-  // samples nor answers, so its integral term and running mean stay as they were) and stretches
+  // samples nor answers, so its running mean stays as it was; its integral term, wound up by the
+  // softer bed, is reset to 0 at the end, the stress being on target) and stretches
   // the box along y between control intervals by the law of StressRelief until the normal stress
   // is on target. For a cell whose contacts were just made stiffer (ShearCellRun::
   // with_interactions): the softer contacts' overlaps would hold many times the target, and the

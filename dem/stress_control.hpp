@@ -80,6 +80,7 @@ class IntegralTerm {
     return value_;
   }
   double value() const { return value_; }
+  void reset() { value_ = 0.0; }
   void write(BinaryWriter& out) const { out.put(value_); }
   void read(BinaryReader& in) { value_ = in.get<double>(); }
 
@@ -131,8 +132,11 @@ class StressControl {
   double smoothed_stress() const { return smoothed_stress_; }
   // Energy the control put in besides the walls' work (the barostat's stretches), J.
   virtual double work() const { return 0.0; }
-  // The PI law's integral term b as the last interval left it, strain per tau (IntegralTerm).
+  // The PI law's integral term b as the last interval left it, strain per tau (IntegralTerm),
+  // and its reset to 0, for a preparation that brought the stress on target by other means
+  // (ShearCell::relieve_normal_stress): a term wound up before would push the bed off again.
   virtual double integral_term() const = 0;
+  virtual void reset_integral_term() = 0;
 
   // Checkpoint state: the base's four doubles (stress sum and sample count since the last
   // interval, the stress it answered, its running mean over tau), then the boundary's own.
@@ -172,6 +176,7 @@ class RoughWallServo final : public StressControl {
   }
   double normal_stress(const System& system) const override;
   double integral_term() const override { return integral_.value(); }
+  void reset_integral_term() override { integral_.reset(); }
 
  protected:
   // The wall load is free every step.
@@ -211,6 +216,7 @@ class LeesEdwardsBarostat final : public StressControl {
   double normal_stress(const System& system) const override;
   double work() const override { return work_; }
   double integral_term() const override { return integral_.value(); }
+  void reset_integral_term() override { integral_.reset(); }
 
  protected:
   std::uint64_t sample_every() const override;

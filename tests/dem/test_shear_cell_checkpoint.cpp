@@ -291,6 +291,32 @@ TEST(ShearCellRelief, StretchesAStiffenedCellBackToItsTargetWithTheBarostatHeld)
   EXPECT_EQ(checkpoint_payload(b.cell().system()), checkpoint_payload(a.cell().system()));
 }
 
+TEST(ShearCellRelief, HoldsOnTargetForItsHoldAndResetsTheBarostatsIntegralTerm) {
+  ShearCellRun plain = stiffened_dense_cell();
+  const StressReliefResult quick = plain.cell().relieve_normal_stress({.tolerance = 0.1});
+  ASSERT_TRUE(quick.relieved);
+
+  ShearCellRun a = stiffened_dense_cell();
+  ShearCell& cell = a.cell();
+  const double target = cell.setup().normal_stress;
+  // The dense cell's barostat ran before the stiffening: its integral term is not 0.
+  EXPECT_NE(cell.stress_control().integral_term(), 0.0);
+  const std::uint64_t hold = 20 * static_cast<std::uint64_t>(cell.setup().steps_per_collision);
+  const StressReliefResult held =
+      cell.relieve_normal_stress({.tolerance = 0.1, .max_steps = 40000, .hold_steps = hold});
+  EXPECT_TRUE(held.relieved);
+  EXPECT_LE(std::abs(held.normal_stress / target - 1.0), 0.1);
+  // The same law up to the first interval on target (not the first: it holds 3x the target),
+  // then `hold` steps more at least.
+  const auto interval = static_cast<std::uint64_t>(cell.setup().steps_per_collision);
+  EXPECT_GE(held.steps, 2 * interval + hold);
+  EXPECT_GT(held.steps, quick.steps);
+  EXPECT_EQ(cell.stress_control().integral_term(), 0.0);
+  EXPECT_EQ(plain.cell().stress_control().integral_term(), 0.0);
+  a.advance(200);
+  EXPECT_EQ(a.phase_name(), "measuring");
+}
+
 TEST(ShearCellRelief, OnlyLeesEdwardsCellsAfterCompaction) {
   ShearCell walled(tiny_cell(ShearCellSetup::Boundary::RoughWalls));
   walled.compact();
