@@ -209,9 +209,17 @@ void ShearCell::read_state(BinaryReader& in) {
 
 ShearCellRun ShearCellRun::resume(const ShearCellSetup& setup, const ShearCellProtocol& protocol,
                                   const std::filesystem::path& path) {
-  return from_state(setup, protocol,
-                    read_checksummed_file(path, kRunMagic, kShearCellCheckpointVersion),
-                    path.string(), nullptr);
+  std::uint32_t version = 0;
+  std::string state = read_checksummed_file(path, kRunMagic, kShearCellCheckpointVersion, &version);
+  // Only this build's layout is read: an older payload lacks fields this one holds and would be
+  // misread (the container accepts any version up to this build's).
+  if (version != kShearCellCheckpointVersion) {
+    throw CorruptData(fmt::format(
+        "{}: a shear cell checkpoint of version {}, this build continues version {} only (the run "
+        "starts again)",
+        path.string(), version, kShearCellCheckpointVersion));
+  }
+  return from_state(setup, protocol, state, path.string(), nullptr);
 }
 
 ShearCellRun ShearCellRun::with_interactions(const ShearCellSetup& setup) {

@@ -1,6 +1,7 @@
 // Shear cell checkpoints: a run stopped at several points of its warm-up and measurement and
 // continued from its checkpoint file gives the same bits as a run that never stopped, with both
 // boundaries; truncated, altered and foreign files are refused with a message that says so.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
 
@@ -179,6 +180,15 @@ TEST(ShearCellCheckpointFile, TruncatedAlteredForeignAndMissingFilesAreRefused) 
   EXPECT_NE(resume_error(other, file).find("the checkpoint is of another shear cell or protocol"),
             std::string::npos);
   EXPECT_EQ(resume_error(setup, file), "no error");
+  // The same payload in a container of the previous version: refused, not misread.
+  write_checksummed_file(file, "MFSHRCKP", kShearCellCheckpointVersion - 1,
+                         read_checksummed_file(file, "MFSHRCKP", kShearCellCheckpointVersion));
+  EXPECT_NE(resume_error(setup, file)
+                .find(fmt::format(
+                    "a shear cell checkpoint of version {}, this build continues version {} only",
+                    kShearCellCheckpointVersion - 1, kShearCellCheckpointVersion)),
+            std::string::npos)
+      << resume_error(setup, file);
   std::filesystem::remove(file);
   EXPECT_NE(resume_error(setup, file).find("cannot read"), std::string::npos);
 }
