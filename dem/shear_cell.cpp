@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <optional>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -310,73 +309,6 @@ double ShearCell::motion_energy() const {
 
 void ShearCell::run_strain(double strain) {
   advance(steps_for_strain(strain));
-}
-
-namespace {
-
-// Mean overlap of the pair contacts in force as a fraction of their centre distance at touch
-// (r_i + r_j); 0 without any.
-double mean_overlap_fraction(const System& system) {
-  const auto x = system.positions();
-  const auto r = system.radii();
-  double sum = 0.0, count = 0.0;
-  for (const NeighborPair& pair : system.candidate_pairs()) {
-    const double reach = r[pair.i] + r[pair.j];
-    const double overlap = reach - system.domain().separation(x[pair.i], x[pair.j]).norm();
-    if (overlap <= 0.0) continue;
-    sum += overlap / reach;
-    count += 1.0;
-  }
-  return count > 0.0 ? sum / count : 0.0;
-}
-
-}  // namespace
-
-StressReliefResult ShearCell::relieve_normal_stress(const StressRelief& relief) {
-  if (walls()) throw std::logic_error("shear cell: relieve_normal_stress needs Lees-Edwards");
-  if (!compacted_) throw std::logic_error("shear cell: relieve_normal_stress before compaction");
-  const double target = setup_.normal_stress;
-  const double height0 = system_.domain().length().y();
-  const auto interval = static_cast<std::uint64_t>(setup_.steps_per_collision);
-  StressReliefResult result;
-  int settled = 0;
-  std::optional<std::uint64_t> on_target_at;  // steps when an interval was first within
-  double power = lees_edwards_power();
-  while (result.steps + interval <= relief.max_steps) {
-    double stress = 0.0;
-    for (std::uint64_t s = 0; s < interval; ++s) {
-      system_.step();
-      const double next = lees_edwards_power();
-      le_work_ += 0.5 * (power + next) * system_.time_step();
-      power = next;
-      stress += control_->normal_stress(system_);
-    }
-    result.steps += interval;
-    ++result.intervals;
-    result.normal_stress = stress / static_cast<double>(interval);
-    if (result.intervals == 1) result.first_stress = result.normal_stress;
-    const bool within = std::abs(result.normal_stress / target - 1.0) <= relief.tolerance;
-    if (within && !on_target_at) on_target_at = result.steps;
-    const bool holding = on_target_at && result.steps - *on_target_at < relief.hold_steps;
-    settled = within ? settled + 1 : 0;
-    if (within && !holding) {
-      if (settled >= relief.settled_intervals) {
-        result.relieved = true;
-        break;
-      }
-      continue;
-    }
-    const double strain = std::clamp(
-        relief.gain * (1.0 - target / result.normal_stress) * mean_overlap_fraction(system_),
-        -relief.max_strain_per_interval, relief.max_strain_per_interval);
-    // The barostat's stretch; the springs' energy it lets out is in no ledger (StressRelief).
-    stretch_along_y_keeping_profile(system_, setup_.shear_rate, strain);
-    wall_speed_ = system_.domain().lees_edwards.velocity;
-    power = lees_edwards_power();
-  }
-  result.strain = std::log(system_.domain().length().y() / height0);
-  control_->reset_integral_term();
-  return result;
 }
 
 }  // namespace millflow::dem

@@ -415,6 +415,12 @@ class ShearCell {
   // runs the barostat (step_controlled, which compact() itself uses).
   void advance(std::size_t steps);
   void step_controlled(std::size_t steps);
+  // `steps` steps with the LE boundary's work integrated over each (trapezoidal rule); after each
+  // step `after_step()` runs and returns true when it stretched the box (step_controlled: the
+  // stress control; relieve_normal_stress: a held barostat's stress sample). Defined in
+  // dem/shear_cell_stress_control.cpp, its only user.
+  template <class AfterStep>
+  void step_integrating_work(std::size_t steps, AfterStep&& after_step);
   // Work put in so far (walls or LE boundary), J.
   double work_in() const;
   // Work put in by shearing (walls or LE images) so far, J.

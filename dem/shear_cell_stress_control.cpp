@@ -1,9 +1,12 @@
 // The shear cell's side of its stress control (dem/stress_control.hpp): the constants it derives
-// from the setup, compaction, and the steps that run the control and the LE boundary's work.
+// from the setup, compaction, the steps that run the control and the LE boundary's work, and the
+// relief of a stiffened cell's stress.
 #include "dem/shear_cell.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <stdexcept>
 #include <vector>
 
 #include <spdlog/spdlog.h>
@@ -18,6 +21,22 @@ namespace {
 // A flowing bed answers a change of its volume over a shear strain of about this much; a
 // control faster than that pumps energy into the cell instead of holding its stress.
 constexpr double kRelaxationStrain = 0.1;
+
+// Mean overlap of the pair contacts in force as a fraction of their centre distance at touch
+// (r_i + r_j); 0 without any.
+double mean_overlap_fraction(const System& system) {
+  const auto x = system.positions();
+  const auto r = system.radii();
+  double sum = 0.0, count = 0.0;
+  for (const NeighborPair& pair : system.candidate_pairs()) {
+    const double reach = r[pair.i] + r[pair.j];
+    const double overlap = reach - system.domain().separation(x[pair.i], x[pair.j]).norm();
+    if (overlap <= 0.0) continue;
+    sum += overlap / reach;
+    count += 1.0;
+  }
+  return count > 0.0 ? sum / count : 0.0;
+}
 
 }  // namespace
 
@@ -71,7 +90,8 @@ void ShearCell::compact() {
                 end.compacted() ? "" : " (time limit: the bed never carried half its target)");
 }
 
-void ShearCell::step_controlled(std::size_t steps) {
+template <class AfterStep>
+void ShearCell::step_integrating_work(std::size_t steps, AfterStep&& after_step) {
   // The LE boundary's work, by the trapezoidal rule over every step (the walls' work is the
   // system's own wall work).
   double power = walls() ? 0.0 : lees_edwards_power();
@@ -82,11 +102,57 @@ void ShearCell::step_controlled(std::size_t steps) {
       le_work_ += 0.5 * (power + next) * system_.time_step();
       power = next;
     }
-    if (control_->after_step(system_)) {  // the barostat stretched the box
+    if (after_step()) {  // the box was stretched
       power = lees_edwards_power();
       wall_speed_ = system_.domain().lees_edwards.velocity;
     }
   }
+}
+
+void ShearCell::step_controlled(std::size_t steps) {
+  step_integrating_work(steps, [&] { return control_->after_step(system_); });
+}
+
+StressReliefResult ShearCell::relieve_normal_stress(const StressRelief& relief) {
+  if (walls()) throw std::logic_error("shear cell: relieve_normal_stress needs Lees-Edwards");
+  if (!compacted_) throw std::logic_error("shear cell: relieve_normal_stress before compaction");
+  const double target = setup_.normal_stress;
+  const double height0 = system_.domain().length().y();
+  const auto interval = static_cast<std::uint64_t>(setup_.steps_per_collision);
+  StressReliefResult result;
+  int settled = 0;
+  std::optional<std::uint64_t> on_target_at;  // steps when an interval was first within
+  while (result.steps + interval <= relief.max_steps) {
+    double stress = 0.0;
+    step_integrating_work(interval, [&] {
+      stress += control_->normal_stress(system_);  // the barostat held: sampled here only
+      return false;
+    });
+    result.steps += interval;
+    ++result.intervals;
+    result.normal_stress = stress / static_cast<double>(interval);
+    if (result.intervals == 1) result.first_stress = result.normal_stress;
+    const bool within = std::abs(result.normal_stress / target - 1.0) <= relief.tolerance;
+    if (within && !on_target_at) on_target_at = result.steps;
+    const bool holding = on_target_at && result.steps - *on_target_at < relief.hold_steps;
+    settled = within ? settled + 1 : 0;
+    if (within && !holding) {
+      if (settled >= relief.settled_intervals) {
+        result.relieved = true;
+        break;
+      }
+      continue;
+    }
+    const double strain = std::clamp(
+        relief.gain * (1.0 - target / result.normal_stress) * mean_overlap_fraction(system_),
+        -relief.max_strain_per_interval, relief.max_strain_per_interval);
+    // The barostat's stretch; the springs' energy it lets out is in no ledger (StressRelief).
+    stretch_along_y_keeping_profile(system_, setup_.shear_rate, strain);
+    wall_speed_ = system_.domain().lees_edwards.velocity;
+  }
+  result.strain = std::log(system_.domain().length().y() / height0);
+  control_->reset_integral_term();
+  return result;
 }
 
 }  // namespace millflow::dem
