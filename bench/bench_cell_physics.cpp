@@ -184,12 +184,10 @@ class DissipationProbe {
           ++lost_;
           continue;
         }
-        step.normal -= it->second.dissipated.normal;
-        step.tangential -= it->second.dissipated.tangential;
-        step.friction -= it->second.dissipated.friction;
+        step -= it->second.dissipated;
       }
       const dem::PairParams& pp = system.materials().pair(material[i], material[j]);
-      const double m_eff = mass[i] * mass[j] / (mass[i] + mass[j]);
+      const double m_eff = dem::effective_mass(mass[i], mass[j]);
       const double t_c = dem::collision_duration(pp.normal_stiffness, m_eff, pp.damping_ratio);
       const double age = (now - h.start_time) / t_c;
       const std::size_t a = static_cast<std::size_t>(
@@ -210,9 +208,7 @@ class DissipationProbe {
     std::array<dem::Dissipation, dem::kContactTypeCount> by_type{};
     for (std::size_t c = 0; c < window1_.size() && c < window0_.size(); ++c) {
       dem::Dissipation d = window1_[c];
-      d.normal -= window0_[c].normal;
-      d.tangential -= window0_[c].tangential;
-      d.friction -= window0_[c].friction;
+      d -= window0_[c];
       by_type[static_cast<std::size_t>(cell.contact_type(static_cast<std::uint32_t>(c)))] += d;
       total += d.total();
     }
@@ -325,13 +321,7 @@ dem::ShearCellSetup setup_for(const Options& o, const Cell& c, const json& campa
     fmt::print("    media-media k_n {:.4g} N/m after --media_kappa {:g}\n",
                setup.media_media.normal_stiffness, o.media_kappa);
   }
-  const std::string& which = c.stiffness_pairs;
-  if (which != "all" && which != "powder" && which != "media" && which != "media_powder" &&
-      which != "powder_powder")
-    throw std::invalid_argument(
-        "--stiffness_pairs: all, powder, media, media_powder or "
-        "powder_powder, not " +
-        which);
+  const std::string& which = c.stiffness_pairs;  // checked by the option's IsMember
   if (which == "all" || which == "media") setup.media_media.normal_stiffness *= c.stiffness_factor;
   if (which == "all" || which == "powder" || which == "media_powder")
     setup.media_powder.normal_stiffness *= c.stiffness_factor;
@@ -908,7 +898,8 @@ int main(int argc, char** argv) {
       ->delimiter(',');
   app.add_option("--stiffness_pairs", o.stiffness_pairs,
                  "table 1: the pairs its factors multiply: all, powder (media-powder and "
-                 "powder-powder), media (media-media), media_powder, powder_powder");
+                 "powder-powder), media (media-media), media_powder, powder_powder")
+      ->check(CLI::IsMember({"all", "powder", "media", "media_powder", "powder_powder"}));
   app.add_option("--media_kappa", o.media_kappa,
                  "raise every cell's media-media k_n to at least this k_n / (sigma_n d_m) after "
                  "the policy, before the factors (0: off)");

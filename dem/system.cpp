@@ -28,6 +28,9 @@ constexpr std::size_t kReduceGrain = 1024;
 constexpr std::size_t kParticleGrain = 256;
 constexpr std::size_t kPairGrain = 1024;
 
+// The default neighbour skin, x the smallest radius (0.3 x the smallest diameter).
+constexpr double kDefaultSkinPerSmallestRadius = 0.6;
+
 double square(double v) {
   return v * v;
 }
@@ -344,7 +347,7 @@ void System::check_overlaps(double tolerance) const {
 void System::prepare_first_step() {
   if (dt_ == 0.0) set_time_step_from_collisions(20);
   if (skin_ == 0.0 && size() > 0) {
-    skin_ = 0.6 * *std::min_element(radius_.begin(), radius_.end());
+    skin_ = kDefaultSkinPerSmallestRadius * *std::min_element(radius_.begin(), radius_.end());
   }
   neighbors_ = NeighborSearch(NeighborSearchOptions{.skin = skin_});
   pair_slot_.clear();
@@ -427,7 +430,6 @@ bool System::kick_and_drift() {
         for (std::size_t p = range.begin(); p != range.end(); ++p) {
           Vec3 v = velocity[p];
           Vec3 w = angular_velocity[p];
-
           v += force[p] * (inv_mass[p] * half_dt);
           w += torque[p] * (inv_inertia[p] * half_dt);
           if (group[p] != kFreeParticle) v = groups_[group[p] - 1].velocity;
@@ -669,10 +671,10 @@ std::vector<ParticleId> System::reorder_particles() {
   if (n == 0) return {};
   if (!prepared_) prepare_first_step();
   // The Morton key of each particle's cell.
-  // The cell is that of the finest neighbour-list level at the default skin (0.3 x the smallest
-  // diameter), whatever the skin: the skin then changes no result.
+  // The cell is that of the finest neighbour-list level at the default skin, whatever the skin:
+  // the skin then changes no result.
   const double smallest = *std::min_element(radius_.begin(), radius_.end());
-  const double cell = 2.0 * smallest + (0.3 * 2.0) * smallest;
+  const double cell = 2.0 * smallest + kDefaultSkinPerSmallestRadius * smallest;
   std::vector<std::pair<std::uint64_t, ParticleId>> keyed;
   std::vector<ParticleId> free_slots;
   for (std::size_t p = 0; p < n; ++p) {
@@ -975,36 +977,31 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
             }
           }
         };
+        // The sums, and the closing half kick with them (as a pass of its own would: every
+        // particle).
+        Vec3* const force_of = force_.data();
+        Vec3* const torque_of = torque_.data();
+        Vec3* const velocity = velocity_.data();
+        Vec3* const angular_velocity = angular_velocity_.data();
+        const double* const inv_mass = inv_mass_.data();
+        const double* const inv_inertia = inv_inertia_.data();
+        const auto store = [&](std::size_t p, const Vec3& force, const Vec3& torque) {
+          force_of[p] = force;
+          torque_of[p] = torque;
+          if (closing_kick) {
+            velocity[p] += force * (inv_mass[p] * half_dt);
+            angular_velocity[p] += torque * (inv_inertia[p] * half_dt);
+          }
+        };
         if (walls_.empty()) {  // a loop of its own: without the wall code it keeps its values in
                                // registers
-          Vec3* const force = force_.data();
-          Vec3* const torque = torque_.data();
-          Vec3* const velocity = velocity_.data();
-          Vec3* const angular_velocity = angular_velocity_.data();
-          const double* const inv_mass = inv_mass_.data();
-          const double* const inv_inertia = inv_inertia_.data();
           for (std::size_t p = range.begin(); p != range.end(); ++p) {
-            Vec3 f, t;
-            pair_sum(p, f, t);
-            force[p] = f;
-            torque[p] = t;
-            if (closing_kick) {
-              velocity[p] += f * (inv_mass[p] * half_dt);
-              angular_velocity[p] += t * (inv_inertia[p] * half_dt);
-            }
+            Vec3 force, torque;
+            pair_sum(p, force, torque);
+            store(p, force, torque);
           }
           return virial;
         }
-        // The sums, and the closing half kick with them (as a pass of its own would: every
-        // particle).
-        const auto store = [&](std::size_t p, const Vec3& force, const Vec3& torque) {
-          force_[p] = force;
-          torque_[p] = torque;
-          if (closing_kick) {
-            velocity_[p] += force * (inv_mass_[p] * half_dt);
-            angular_velocity_[p] += torque * (inv_inertia_[p] * half_dt);
-          }
-        };
         std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
         for (std::size_t p = range.begin(); p != range.end(); ++p) {
           Vec3 force, torque;

@@ -81,6 +81,12 @@ struct Dissipation {
     friction += o.friction;
     return *this;
   }
+  Dissipation& operator-=(const Dissipation& o) {
+    normal -= o.normal;
+    tangential -= o.tangential;
+    friction -= o.friction;
+    return *this;
+  }
 };
 
 // One finished contact (collision): from first touch to separation.
