@@ -48,7 +48,6 @@
 #include <fstream>
 #include <map>
 #include <memory>
-#include <numbers>
 #include <optional>
 #include <span>
 #include <string>
@@ -63,6 +62,7 @@
 #include "method/sites.hpp"
 #include "tasks/campaign.hpp"
 #include "tasks/shear_cell.hpp"
+#include "util/sphere.hpp"
 
 namespace {
 
@@ -175,7 +175,7 @@ struct Chunk {
 
 double particle_volume(const dem::System& system) {
   double volume = 0.0;
-  for (const double r : system.radii()) volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+  for (const double r : system.radii()) volume += util::sphere_volume_of_radius(r);
   return volume;
 }
 

@@ -106,20 +106,25 @@ std::string range(double low, double high) {
   return engineering(low) + " - " + engineering(high);
 }
 
+// The throughput a fraction t (clamped to [0, 1]) of the way from `from` to `to`, interpolating
+// the cost per particle-step (1 / throughput), not the throughput.
+double throughput_between(double t, double from, double to) {
+  t = std::clamp(t, 0.0, 1.0);
+  return 1.0 / ((1.0 - t) / from + t / to);
+}
+
 }  // namespace
 
 double macro_throughput(double balls) {
-  const double t =
-      std::clamp(std::log(balls / kMacroBalls) / std::log(kLargeMillBalls / kMacroBalls), 0.0, 1.0);
-  return 1.0 / ((1.0 - t) / kMacroThroughput + t / kLargeMillThroughput);
+  return throughput_between(std::log(balls / kMacroBalls) / std::log(kLargeMillBalls / kMacroBalls),
+                            kMacroThroughput, kLargeMillThroughput);
 }
 
 double cell_throughput(double powder_load) {
   if (powder_load <= 0.0) return kMediaCellThroughput;
-  const double t = std::clamp(
-      (powder_load - kPowderVoidsFilledLoad) / (kDensePowderLoad - kPowderVoidsFilledLoad), 0.0,
-      1.0);
-  return 1.0 / ((1.0 - t) / kPowderCellThroughput + t / kDensePowderCellThroughput);
+  return throughput_between(
+      (powder_load - kPowderVoidsFilledLoad) / (kDensePowderLoad - kPowderVoidsFilledLoad),
+      kPowderCellThroughput, kDensePowderCellThroughput);
 }
 
 MacroRunSize macro_run_size(const json& macro_params) {
