@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdint>
 
-#include "dem/stationarity.hpp"
 
 namespace millflow::dem {
 namespace {

@@ -202,14 +202,16 @@ TEST(WallSpeedController, SettlesOnABedWhoseRateHardlyAnswersTheSpeed) {
   // As the 8 x 10 x 8 cell measured: 0.9 + 0.1 U / U0, so from 1.9 U0 the bulk runs 9% fast and
   // the proportional law needs a dozen steps (1.9, 1.74, 1.62, ... U0); the secant through two
   // steady points finds U0.
-  const int settled = seeds_settled_on_target([](double u) { return 0.9 + 0.1 * u; }, 1.9, 0.05);
+  const int settled = seeds_settled_on_target([](double u) { return 0.9 + 0.1 * u; }, 1.9,
+                                             WallSpeedController::kSettleTolerance);
   EXPECT_GE(settled, 18);
 }
 
 TEST(WallSpeedController, SettlesOnABedWhoseRateGrowsFasterThanTheSpeed) {
   // Rate ~ U^2: the proportional law jumps between U0 / u and u U0 for ever (from 0.6 U0: 1.2,
   // 0.83, 1.2, ...); regula falsi between the two sides settles.
-  const int settled = seeds_settled_on_target([](double u) { return u * u; }, 0.6, 0.05);
+  const int settled = seeds_settled_on_target([](double u) { return u * u; }, 0.6,
+                                             WallSpeedController::kSettleTolerance);
   EXPECT_GE(settled, 18);
 }
 
