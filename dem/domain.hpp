@@ -96,6 +96,12 @@ class PeriodicImages {
     return d;
   }
 
+  // The same, for callers that need no image count.
+  Vec3 separation(const Vec3& a, const Vec3& b) const {
+    double gradient_images = 0.0;
+    return separation(a, b, gradient_images);
+  }
+
   // The velocity to add to b's for its image `gradient_images` boxes up the gradient axis.
   Vec3 image_velocity(double gradient_images) const {
     Vec3 shift = Vec3::Zero();
