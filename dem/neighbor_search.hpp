@@ -90,8 +90,8 @@ class NeighborSearch {
   std::span<const std::uint32_t> partners_of(std::uint32_t q) const;
 
   // What only a build reads, freed when it ends: between rebuilds the list is its pairs and
-  // reference positions alone (the grids and per-chunk candidates were about as many bytes per
-  // particle again; allocating them anew costs a rebuild nothing measurable, docs/benchmarks.md).
+  // reference positions alone (allocating the scratch again costs a rebuild 1-2% more
+  // instructions, docs/benchmarks.md).
   struct BuildScratch {
     std::vector<CellGrid> grids;               // coarsest first
     std::vector<double> level_max_radius;      // per grid
