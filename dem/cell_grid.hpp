@@ -44,10 +44,6 @@ class CellGrid {
 
   std::size_t cell_count() const { return cell_start_.empty() ? 0 : cell_start_.size() - 1; }
   const std::vector<Member>& members() const { return members_; }
-  std::size_t memory_bytes() const {
-    return cell_start_.capacity() * sizeof(std::uint32_t) + members_.capacity() * sizeof(Member) +
-           member_cell_.capacity() * sizeof(std::size_t);
-  }
 
  private:
   // Up to two runs [begin, end) of cell indices along one axis (two when the range wraps).

@@ -120,6 +120,7 @@ void NeighborSearch::build(const Domain& domain, std::span<const Vec3> positions
   bin_levels(domain, positions, radii);
   search(domain, positions, radii);
   assemble_pairs(positions.size());
+  build_ = BuildScratch{};
 
   reference_positions_.assign(positions.begin(), positions.end());
   reference_offset_ = domain.lees_edwards.offset;
@@ -141,55 +142,55 @@ void NeighborSearch::assign_levels(std::span<const double> radii) {
     return level;
   };
   std::array<double, kMaxLevels> level_r_max{};
-  level_of_.resize(radii.size());
+  build_.level_of.resize(radii.size());
   for (std::size_t i = 0; i < radii.size(); ++i) {
     const int level = nominal_level(radii[i]);
-    level_of_[i] = static_cast<std::uint8_t>(level);
+    build_.level_of[i] = static_cast<std::uint8_t>(level);
     level_r_max[level] = std::max(level_r_max[level], radii[i]);
   }
   // Drop empty levels (radii are positive, so an empty level has r_max 0).
   std::array<std::uint8_t, kMaxLevels> compact{};
-  level_max_radius_.clear();
+  build_.level_max_radius.clear();
   for (int level = 0; level < kMaxLevels; ++level) {
-    compact[level] = static_cast<std::uint8_t>(level_max_radius_.size());
-    if (level_r_max[level] > 0.0) level_max_radius_.push_back(level_r_max[level]);
+    compact[level] = static_cast<std::uint8_t>(build_.level_max_radius.size());
+    if (level_r_max[level] > 0.0) build_.level_max_radius.push_back(level_r_max[level]);
   }
-  for (auto& level : level_of_) level = compact[level];
+  for (auto& level : build_.level_of) level = compact[level];
 }
 
 void NeighborSearch::bin_levels(const Domain& domain, std::span<const Vec3> positions,
                                 std::span<const double> radii) {
-  grids_.resize(level_max_radius_.size());
-  for (std::size_t level = 0; level < grids_.size(); ++level) {
-    level_members_.clear();
-    for (std::uint32_t i = 0; i < level_of_.size(); ++i) {
-      if (level_of_[i] == level) level_members_.push_back(i);
+  build_.grids.resize(build_.level_max_radius.size());
+  for (std::size_t level = 0; level < build_.grids.size(); ++level) {
+    build_.level_members.clear();
+    for (std::uint32_t i = 0; i < build_.level_of.size(); ++i) {
+      if (build_.level_of[i] == level) build_.level_members.push_back(i);
     }
-    grids_[level].configure(domain, 2.0 * level_max_radius_[level] + options_.skin,
-                            max_cells_for(level_members_.size()));
-    grids_[level].bin(positions, radii, level_members_);
+    build_.grids[level].configure(domain, 2.0 * build_.level_max_radius[level] + options_.skin,
+                                  max_cells_for(build_.level_members.size()));
+    build_.grids[level].bin(positions, radii, build_.level_members);
   }
 }
 
 void NeighborSearch::search(const Domain& domain, std::span<const Vec3> positions,
                             std::span<const double> radii) {
   const std::size_t n = positions.size();
-  chunks_.resize((n + kChunkSize - 1) / kChunkSize);
-  partner_begin_.resize(n);
-  partner_count_.resize(n);
-  lower_count_.resize(n);
+  build_.chunks.resize((n + kChunkSize - 1) / kChunkSize);
+  build_.partner_begin.resize(n);
+  build_.partner_count.resize(n);
+  build_.lower_count.resize(n);
   const double largest_reach =
-      level_max_radius_.empty() ? 0.0 : 2.0 * level_max_radius_.front() + options_.skin;
+      build_.level_max_radius.empty() ? 0.0 : 2.0 * build_.level_max_radius.front() + options_.skin;
   const double padding = reach_padding(domain, largest_reach);
   const SeparationBound bound(domain);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks_.size()),
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, build_.chunks.size()),
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       for (std::size_t c = range.begin(); c != range.end(); ++c) {
                         search_chunk(domain, bound, positions, radii, c, padding);
                       }
                     });
-  stats_ = Stats{grids_.size(), 0, 0};
-  for (const Chunk& chunk : chunks_) {
+  stats_ = Stats{build_.grids.size(), 0, 0};
+  for (const Chunk& chunk : build_.chunks) {
     stats_.cells_visited += chunk.cells_visited;
     stats_.candidates_tested += chunk.candidates_tested;
   }
@@ -198,7 +199,7 @@ void NeighborSearch::search(const Domain& domain, std::span<const Vec3> position
 void NeighborSearch::search_chunk(const Domain& domain, const SeparationBound& bound,
                                   std::span<const Vec3> positions, std::span<const double> radii,
                                   std::size_t chunk_index, double reach_padding) {
-  Chunk& chunk = chunks_[chunk_index];
+  Chunk& chunk = build_.chunks[chunk_index];
   chunk.partners.clear();
   chunk.cells_visited = 0;
   chunk.candidates_tested = 0;
@@ -207,72 +208,78 @@ void NeighborSearch::search_chunk(const Domain& domain, const SeparationBound& b
       static_cast<std::uint32_t>(std::min(positions.size(), (chunk_index + 1) * kChunkSize));
   for (std::uint32_t q = first; q < last; ++q) {
     const std::size_t begin = chunk.partners.size();
-    const std::size_t own_level = level_of_[q];
+    const std::size_t own_level = build_.level_of[q];
     const Vec3& xq = positions[q];
     const double rq = radii[q];
     for (std::size_t level = 0; level <= own_level; ++level) {
       // Within its own level a pair is found by its smaller index; across levels by the finer one.
       const bool same_level = level == own_level;
-      const double reach = rq + level_max_radius_[level] + options_.skin + reach_padding;
-      chunk.cells_visited += grids_[level].visit_near(xq, reach, [&](const CellGrid::Member& m) {
-        if (same_level && m.index <= q) return;
-        ++chunk.candidates_tested;
-        const double cutoff = rq + m.radius + options_.skin;
-        if (bound.squared(xq, m.position) > kBoundMargin * cutoff * cutoff) return;
-        const bool found = m.index > q
-                               ? within_cutoff(domain, xq, rq, m.position, m.radius, options_.skin)
-                               : within_cutoff(domain, m.position, m.radius, xq, rq, options_.skin);
-        if (found) chunk.partners.push_back(m.index);
-      });
+      const double reach = rq + build_.level_max_radius[level] + options_.skin + reach_padding;
+      chunk.cells_visited +=
+          build_.grids[level].visit_near(xq, reach, [&](const CellGrid::Member& m) {
+            if (same_level && m.index <= q) return;
+            ++chunk.candidates_tested;
+            const double cutoff = rq + m.radius + options_.skin;
+            if (bound.squared(xq, m.position) > kBoundMargin * cutoff * cutoff) return;
+            const bool found =
+                m.index > q ? within_cutoff(domain, xq, rq, m.position, m.radius, options_.skin)
+                            : within_cutoff(domain, m.position, m.radius, xq, rq, options_.skin);
+            if (found) chunk.partners.push_back(m.index);
+          });
     }
     // Cells visited twice (tiny Lees-Edwards boxes) repeat partners: sort and drop repeats.
     const auto found_begin = chunk.partners.begin() + static_cast<std::ptrdiff_t>(begin);
     std::sort(found_begin, chunk.partners.end());
     chunk.partners.erase(std::unique(found_begin, chunk.partners.end()), chunk.partners.end());
-    partner_begin_[q] = static_cast<std::uint32_t>(begin);
-    partner_count_[q] = static_cast<std::uint32_t>(chunk.partners.size() - begin);
-    lower_count_[q] = static_cast<std::uint32_t>(
+    build_.partner_begin[q] = static_cast<std::uint32_t>(begin);
+    build_.partner_count[q] = static_cast<std::uint32_t>(chunk.partners.size() - begin);
+    build_.lower_count[q] = static_cast<std::uint32_t>(
         std::lower_bound(found_begin, chunk.partners.end(), q) - found_begin);
   }
 }
 
 std::span<const std::uint32_t> NeighborSearch::partners_of(std::uint32_t q) const {
-  return std::span<const std::uint32_t>(chunks_[q / kChunkSize].partners)
-      .subspan(partner_begin_[q], partner_count_[q]);
+  return std::span<const std::uint32_t>(build_.chunks[q / kChunkSize].partners)
+      .subspan(build_.partner_begin[q], build_.partner_count[q]);
 }
 
 void NeighborSearch::assemble_pairs(std::size_t particle_count) {
   // Candidates q found for a lower p (from a finer level) belong to row p: counting sort them by
   // p, in increasing q, so each row is the merge of two sorted lists.
-  incoming_begin_.assign(particle_count + 1, 0);
+  build_.incoming_begin.assign(particle_count + 1, 0);
   for (std::uint32_t q = 0; q < particle_count; ++q) {
-    for (const std::uint32_t p : partners_of(q).first(lower_count_[q])) ++incoming_begin_[p + 1];
+    for (const std::uint32_t p : partners_of(q).first(build_.lower_count[q]))
+      ++build_.incoming_begin[p + 1];
   }
-  for (std::size_t p = 0; p < particle_count; ++p) incoming_begin_[p + 1] += incoming_begin_[p];
-  incoming_.resize(incoming_begin_[particle_count]);
+  for (std::size_t p = 0; p < particle_count; ++p)
+    build_.incoming_begin[p + 1] += build_.incoming_begin[p];
+  build_.incoming.resize(build_.incoming_begin[particle_count]);
   for (std::uint32_t q = 0; q < particle_count; ++q) {
-    for (const std::uint32_t p : partners_of(q).first(lower_count_[q]))
-      incoming_[incoming_begin_[p]++] = q;
+    for (const std::uint32_t p : partners_of(q).first(build_.lower_count[q]))
+      build_.incoming[build_.incoming_begin[p]++] = q;
   }
   // The fill advanced each begin to the next row's begin: shift back.
-  for (std::size_t p = particle_count; p > 0; --p) incoming_begin_[p] = incoming_begin_[p - 1];
-  if (particle_count > 0) incoming_begin_[0] = 0;
+  for (std::size_t p = particle_count; p > 0; --p)
+    build_.incoming_begin[p] = build_.incoming_begin[p - 1];
+  if (particle_count > 0) build_.incoming_begin[0] = 0;
 
-  row_begin_.assign(particle_count + 1, 0);
+  build_.row_begin.assign(particle_count + 1, 0);
   for (std::uint32_t p = 0; p < particle_count; ++p) {
-    const std::size_t incoming = incoming_begin_[p + 1] - incoming_begin_[p];
-    row_begin_[p + 1] = row_begin_[p] + (partner_count_[p] - lower_count_[p]) + incoming;
+    const std::size_t incoming = build_.incoming_begin[p + 1] - build_.incoming_begin[p];
+    build_.row_begin[p + 1] =
+        build_.row_begin[p] + (build_.partner_count[p] - build_.lower_count[p]) + incoming;
   }
-  pairs_.resize(row_begin_[particle_count]);
+  pairs_.resize(build_.row_begin[particle_count]);
   tbb::parallel_for(
       tbb::blocked_range<std::uint32_t>(0, static_cast<std::uint32_t>(particle_count)),
       [&](const tbb::blocked_range<std::uint32_t>& range) {
         for (std::uint32_t p = range.begin(); p != range.end(); ++p) {
-          const auto upper = partners_of(p).subspan(lower_count_[p]);
-          const std::span<const std::uint32_t> incoming(incoming_.data() + incoming_begin_[p],
-                                                        incoming_.data() + incoming_begin_[p + 1]);
+          const auto upper = partners_of(p).subspan(build_.lower_count[p]);
+          const std::span<const std::uint32_t> incoming(
+              build_.incoming.data() + build_.incoming_begin[p],
+              build_.incoming.data() + build_.incoming_begin[p + 1]);
           std::size_t a = 0, b = 0;
-          NeighborPair* out = pairs_.data() + row_begin_[p];
+          NeighborPair* out = pairs_.data() + build_.row_begin[p];
           while (a < upper.size() || b < incoming.size()) {
             const bool take_upper =
                 b == incoming.size() || (a < upper.size() && upper[a] < incoming[b]);
@@ -317,14 +324,7 @@ double NeighborSearch::travel(const Domain& domain, double max_displacement_sq) 
 }
 
 std::size_t NeighborSearch::memory_bytes() const {
-  const auto bytes_of = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-  std::size_t bytes = bytes_of(level_of_) + bytes_of(level_members_) + bytes_of(partner_begin_) +
-                      bytes_of(partner_count_) + bytes_of(lower_count_) +
-                      bytes_of(incoming_begin_) + bytes_of(incoming_) + bytes_of(row_begin_) +
-                      bytes_of(pairs_) + bytes_of(reference_positions_);
-  for (const Chunk& chunk : chunks_) bytes += bytes_of(chunk.partners);
-  for (const CellGrid& grid : grids_) bytes += grid.memory_bytes();
-  return bytes;
+  return pairs_.capacity() * sizeof(NeighborPair) + reference_positions_.capacity() * sizeof(Vec3);
 }
 
 std::vector<NeighborPair> brute_force_pairs(const Domain& domain, std::span<const Vec3> positions,

@@ -68,7 +68,7 @@ class NeighborSearch {
   std::size_t build_count() const { return build_count_; }
   const Stats& last_build_stats() const { return stats_; }
   const NeighborSearchOptions& options() const { return options_; }
-  // Bytes held by the grids, candidate lists and reference positions (their capacities).
+  // Bytes held between builds: the candidate list and reference positions (their capacities).
   std::size_t memory_bytes() const;
 
  private:
@@ -89,20 +89,27 @@ class NeighborSearch {
   void assemble_pairs(std::size_t particle_count);
   std::span<const std::uint32_t> partners_of(std::uint32_t q) const;
 
+  // What only a build reads, freed when it ends: between rebuilds the list is its pairs and
+  // reference positions alone (allocating the scratch again costs a rebuild 1-2% more
+  // instructions, docs/benchmarks.md).
+  struct BuildScratch {
+    std::vector<CellGrid> grids;               // coarsest first
+    std::vector<double> level_max_radius;      // per grid
+    std::vector<std::uint8_t> level_of;        // per particle: index into grids
+    std::vector<std::uint32_t> level_members;  // particles of one level
+    std::vector<Chunk> chunks;
+    // Per particle q: its candidates (sorted, unique) are chunks[q / kChunk].partners
+    // [partner_begin[q], + partner_count[q]); the first lower_count[q] of them are < q.
+    std::vector<std::uint32_t> partner_begin, partner_count, lower_count;
+    // Per particle p: the particles q > p that found p from a finer level, in increasing order:
+    // incoming[incoming_begin[p], incoming_begin[p + 1]).
+    std::vector<std::size_t> incoming_begin;
+    std::vector<std::uint32_t> incoming;
+    std::vector<std::size_t> row_begin;  // per particle: where its pairs start in pairs_
+  };
+
   NeighborSearchOptions options_;
-  std::vector<CellGrid> grids_;               // coarsest first
-  std::vector<double> level_max_radius_;      // per grid
-  std::vector<std::uint8_t> level_of_;        // per particle: index into grids_
-  std::vector<std::uint32_t> level_members_;  // scratch: particles of one level
-  std::vector<Chunk> chunks_;
-  // Per particle q: its candidates (sorted, unique) are chunks_[q / kChunk].partners
-  // [partner_begin_[q], + partner_count_[q]); the first lower_count_[q] of them are < q.
-  std::vector<std::uint32_t> partner_begin_, partner_count_, lower_count_;
-  // Per particle p: the particles q > p that found p from a finer level, in increasing order:
-  // incoming_[incoming_begin_[p], incoming_begin_[p + 1]).
-  std::vector<std::size_t> incoming_begin_;
-  std::vector<std::uint32_t> incoming_;
-  std::vector<std::size_t> row_begin_;  // per particle: where its pairs start in pairs_
+  BuildScratch build_;
   std::vector<NeighborPair> pairs_;
 
   std::vector<Vec3> reference_positions_;

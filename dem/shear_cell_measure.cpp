@@ -38,6 +38,11 @@ CollisionStats merged(const std::array<CollisionStats, kContactTypeCount>& stats
   return total;
 }
 
+// The smallest multiple of `every` above `done`.
+std::uint64_t next_multiple(std::uint64_t done, std::uint64_t every) {
+  return (done / every + 1) * every;
+}
+
 bool involves_powder(ContactType type) {
   return type == ContactType::MediaPowder || type == ContactType::PowderPowder ||
          type == ContactType::WallPowder;
@@ -142,9 +147,14 @@ void ShearCell::advance_measurement(Measurement& m, std::uint64_t max_steps) {
   const auto started = std::chrono::steady_clock::now();
   const std::uint64_t end = std::min(m.steps, m.done + max_steps);
   while (m.done < end && !m.converged) {
-    advance(1);
-    const std::uint64_t s = ++m.done;
-    m.current.duration += system_.time_step();
+    // The steps up to the next sample or block end in one call: each call works out the LE
+    // boundary's power at its start, which the call before ended on (nothing between the steps
+    // changes the state, so the bits are those of one call per step, at half the power passes).
+    const std::uint64_t s =
+        std::min({end, next_multiple(m.done, m.stress_every), next_multiple(m.done, m.every),
+                  next_multiple(m.done, m.block_steps)});
+    advance(s - m.done);
+    for (; m.done < s; ++m.done) m.current.duration += system_.time_step();
     if (s % m.stress_every == 0) {
       m.current.shear_sum += shear_stress_now();
       m.current.normal_sum += normal_stress_now();

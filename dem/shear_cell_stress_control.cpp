@@ -27,10 +27,11 @@ constexpr double kRelaxationStrain = 0.1;
 double mean_overlap_fraction(const System& system) {
   const auto x = system.positions();
   const auto r = system.radii();
+  const PeriodicImages images(system.domain());
   double sum = 0.0, count = 0.0;
   for (const NeighborPair& pair : system.candidate_pairs()) {
     const double reach = r[pair.i] + r[pair.j];
-    const double overlap = reach - system.domain().separation(x[pair.i], x[pair.j]).norm();
+    const double overlap = reach - images.separation(x[pair.i], x[pair.j]).norm();
     if (overlap <= 0.0) continue;
     sum += overlap / reach;
     count += 1.0;

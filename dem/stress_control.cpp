@@ -20,10 +20,11 @@ double normal_spring_energy(const System& system) {
   const auto x = system.positions();
   const auto r = system.radii();
   const auto materials = system.particle_materials();
+  // The box's constants once per pass, not per pair (Domain::separation's own, same bits).
+  const PeriodicImages images(system.domain());
   double energy = 0.0;
   for (const NeighborPair& pair : system.candidate_pairs()) {
-    const double overlap =
-        r[pair.i] + r[pair.j] - system.domain().separation(x[pair.i], x[pair.j]).norm();
+    const double overlap = r[pair.i] + r[pair.j] - images.separation(x[pair.i], x[pair.j]).norm();
     if (overlap <= 0.0) continue;
     energy += 0.5 * system.materials().pair(materials[pair.i], materials[pair.j]).normal_stiffness *
               overlap * overlap;

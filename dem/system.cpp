@@ -569,8 +569,15 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   // Carry the contacts over to the new list (both lists are sorted by (i, j)), into a store laid
   // out in the new pairs' order.
   auto key = [](const NeighborPair& p) { return (std::uint64_t{p.i} << 32) | p.j; };
+  // At most the contacts in force now are carried over; the store keeps 1/8 room beyond them for
+  // those that start before the next rebuild (grown by push_back alone it held up to twice their
+  // bytes).
+  const auto carried = static_cast<std::size_t>(std::count_if(
+      old_slot.begin(), old_slot.end(), [](std::uint32_t s) { return s != kNoContact; }));
   std::vector<ContactHistory> history;
   std::vector<ContactForce> force;
+  history.reserve(carried + carried / 8);
+  force.reserve(carried + carried / 8);
   pair_slot_.assign(pairs.size(), kNoContact);
   pair_touching_.assign(pairs.size(), 0);
   std::size_t o = 0;

@@ -13,9 +13,10 @@ template <class Visit>
 void for_each_touching_pair(const System& system, Visit&& visit) {
   const auto pairs = system.candidate_pairs();
   const auto x = system.positions();
+  const PeriodicImages images(system.domain());  // once per pass, not per pair
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     if (!system.pair_touching(k)) continue;
-    visit(k, system.pair_force(k), system.domain().separation(x[pairs[k].i], x[pairs[k].j]));
+    visit(k, system.pair_force(k), images.separation(x[pairs[k].i], x[pairs[k].j]));
   }
 }
 

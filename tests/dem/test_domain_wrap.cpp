@@ -1,9 +1,15 @@
-// Domain::wrap and Domain::advance_shear at the edges where rounding lands exactly on hi or L.
+// Domain::wrap and Domain::advance_shear at the edges where rounding lands exactly on hi or L;
+// round_half_away against std::round.
 #include "dem/domain.hpp"
 
 #include <gtest/gtest.h>
 
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <limits>
 #include <random>
+#include <vector>
 
 namespace millflow::dem {
 namespace {
@@ -71,6 +77,32 @@ TEST(DomainAdvanceShear, OffsetStaysBelowTheFlowLength) {
   d.lees_edwards.velocity = -0.5;
   d.advance_shear(1.0);
   EXPECT_DOUBLE_EQ(d.lees_edwards.offset, 0.75);
+}
+
+// The image code's rounding must give std::round's bits for every double: ties away from zero,
+// the sign of a zero, the values next to each half, the range where the conversion stops, and
+// random values of every magnitude.
+TEST(RoundHalfAway, GivesStdRoundBitsForEveryKindOfDouble) {
+  const auto bits = [](double x) { return std::bit_cast<std::uint64_t>(x); };
+  const double inf = std::numeric_limits<double>::infinity();
+  // Each value is tried with both signs.
+  std::vector<double> values = {0.0,    0.5,    1.5,   2.5,    0.3, 0x1p52,
+                                0x1p53, 0x1p63, 1e300, 5e-324, inf};
+  for (double n = -4.0; n <= 4.0; n += 1.0) {
+    for (const double x : {n + 0.5, n - 0.5, n})
+      for (const double toward : {-1e9, 1e9}) values.push_back(std::nextafter(x, toward));
+  }
+  for (const double edge : {0x1p52, 0x1p51})
+    for (const double toward : {0.0, 1e300}) values.push_back(std::nextafter(edge, toward));
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::uniform_int_distribution<int> exponent(-60, 60);
+  for (int k = 0; k < 100000; ++k) values.push_back(std::ldexp(unit(rng), exponent(rng)));
+  for (const double x : values) {
+    EXPECT_EQ(bits(round_half_away(x)), bits(std::round(x))) << x;
+    EXPECT_EQ(bits(round_half_away(-x)), bits(std::round(-x))) << -x;
+  }
+  EXPECT_TRUE(std::isnan(round_half_away(std::numeric_limits<double>::quiet_NaN())));
 }
 
 }  // namespace
