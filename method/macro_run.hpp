@@ -39,10 +39,15 @@
 
 namespace millflow::method {
 
+inline constexpr double kDefaultSkinFraction = 0.3;
+
 struct MacroSettings {
   dem::MillSetup mill;
   int steps_per_collision = 20;
-  double skin_fraction = 0.3;  // neighbour skin / smallest ball diameter
+  // Neighbour skin / smallest ball diameter; empty ("auto"): kDefaultSkinFraction until the end
+  // of the warm-up, then the cheapest of dem::kSkinFractionCandidates by trial
+  // (dem/skin_choice.hpp).
+  std::optional<double> skin_fraction = kDefaultSkinFraction;
   double settle_time = 0.5;    // s, shell at rest
   double warmup_revolutions = 2.0;
   double measure_revolutions = 3.0;
