@@ -1,8 +1,8 @@
 // The macro task: parameter translation, a tiny run through the task function with all its
 // artifacts, interruption and resumption with the same result, and the macro_results view.
-#include <algorithm>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <functional>
