@@ -12,14 +12,13 @@
 namespace millflow::dem {
 
 SkinCandidate skin_candidate(const SkinTrial& trial, double smallest_diameter) {
-  const double particle_steps =
-      static_cast<double>(trial.steps) * static_cast<double>(std::max<std::size_t>(trial.particles, 1));
+  const double particle_steps = static_cast<double>(trial.steps) *
+                                static_cast<double>(std::max<std::size_t>(trial.particles, 1));
   return {.skin = trial.skin_fraction * smallest_diameter,
           .pairs_per_particle = trial.candidate_pair_steps / particle_steps,
-          .steps_per_rebuild = trial.rebuilds == 0
-                                   ? std::numeric_limits<double>::infinity()
-                                   : static_cast<double>(trial.steps) /
-                                         static_cast<double>(trial.rebuilds)};
+          .steps_per_rebuild = trial.rebuilds == 0 ? std::numeric_limits<double>::infinity()
+                                                   : static_cast<double>(trial.steps) /
+                                                         static_cast<double>(trial.rebuilds)};
 }
 
 double smallest_diameter(const System& system) {

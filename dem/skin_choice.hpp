@@ -21,7 +21,7 @@ inline constexpr std::uint64_t kSkinTrialSteps = 100;
 
 // What one candidate skin's trial counted.
 struct SkinTrial {
-  double skin_fraction = 0.0;        // of the smallest diameter
+  double skin_fraction = 0.0;  // of the smallest diameter
   std::uint64_t steps = 0;
   double candidate_pair_steps = 0.0;  // candidate pairs summed over the steps
   std::uint64_t rebuilds = 0;         // rebuilds the skin test asked for in the steps

@@ -48,7 +48,7 @@ struct MacroSettings {
   // of the warm-up, then the cheapest of dem::kSkinFractionCandidates by trial
   // (dem/skin_choice.hpp).
   std::optional<double> skin_fraction = kDefaultSkinFraction;
-  double settle_time = 0.5;    // s, shell at rest
+  double settle_time = 0.5;  // s, shell at rest
   double warmup_revolutions = 2.0;
   double measure_revolutions = 3.0;
   double sample_interval = 0.01;        // s between flow frames

@@ -38,8 +38,11 @@ bool same_trials(const SkinChoice& a, const SkinChoice& b) {
 }
 
 TEST(SkinChoice, ATrialAsTheCostModelsCandidate) {
-  const SkinTrial quiet{.skin_fraction = 0.1, .steps = 100, .candidate_pair_steps = 4.0e5,
-                        .rebuilds = 0, .particles = 1000};
+  const SkinTrial quiet{.skin_fraction = 0.1,
+                        .steps = 100,
+                        .candidate_pair_steps = 4.0e5,
+                        .rebuilds = 0,
+                        .particles = 1000};
   const SkinCandidate c = skin_candidate(quiet, 0.002);
   EXPECT_DOUBLE_EQ(c.skin, 2e-4);
   EXPECT_DOUBLE_EQ(c.pairs_per_particle, 4.0);
@@ -59,9 +62,8 @@ TEST(SkinChoice, ChoosesACandidateTheSameWayEveryTimeAndAtAnyThreadCount) {
   auto choose = [&](int threads) {
     tbb::task_arena arena(threads);
     SkinChoice choice;
-    arena.execute([&] {
-      choice = choose_skin_by_trials(system, kSkinFractionCandidates, kSkinTrialSteps);
-    });
+    arena.execute(
+        [&] { choice = choose_skin_by_trials(system, kSkinFractionCandidates, kSkinTrialSteps); });
     return choice;
   };
   const SkinChoice one = choose(1);
