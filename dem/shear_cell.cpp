@@ -193,7 +193,7 @@ ShearCell::ShearCell(const ShearCellSetup& setup)
     place_powder(system_.domain().lo.y(), system_.domain().hi.y());
   }
   system_.set_time_step_from_collisions(setup_.steps_per_collision);
-  system_.set_neighbor_skin(setup_.neighbor_skin_fraction.value_or(kCompactionSkinFraction) *
+  system_.set_neighbor_skin(setup_.neighbor_skin_fraction.value_or(kDefaultSkinFraction) *
                             smallest_diameter(system_));
   system_.set_reorder_interval(kReorderEverySteps);
   set_wall_speed(walls() ? setup_.shear_rate * nominal_gap(setup_) / kInitialBulkFraction

@@ -50,6 +50,7 @@
 #include <vector>
 
 #include "dem/batch_means.hpp"
+#include "dem/skin_choice.hpp"
 #include "dem/spectrum.hpp"
 #include "dem/stationarity.hpp"
 #include "dem/stress_control.hpp"
@@ -68,9 +69,6 @@ struct OverlapBound {
   // stiffness policy's rigidity bound.
   double media_rigidity = 0.0;
 };
-
-// The skin of an "auto" cell until its choice, after compaction (the system's default).
-inline constexpr double kCompactionSkinFraction = 0.3;
 
 struct ShearCellSetup {
   double media_diameter = 0.01;  // m
@@ -91,10 +89,10 @@ struct ShearCellSetup {
   int steps_per_collision = 20;        // dt = shortest contact duration / this
   OverlapBound overlap_bound;
   // Neighbour-list skin / smallest particle diameter (the campaign's /dem/neighbor_skin_fraction);
-  // empty ("auto"): compaction runs at kCompactionSkinFraction, and the cell then keeps the
+  // empty ("auto"): compaction runs at kDefaultSkinFraction, and the cell then keeps the
   // cheapest of kSkinFractionCandidates by trial (dem/skin_choice.hpp). Costs only: a resumed
   // cell keeps its checkpoint's skin, and it is no part of the run's identity.
-  std::optional<double> neighbor_skin_fraction = 0.3;
+  std::optional<double> neighbor_skin_fraction = kDefaultSkinFraction;
 };
 
 // Checks a setup; throws std::invalid_argument naming the bad value and how to fix it.

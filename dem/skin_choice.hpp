@@ -15,6 +15,10 @@
 
 namespace millflow::dem {
 
+// The skin of an "auto" run until it chooses, and the campaigns' default, as a fraction of the
+// smallest diameter (the system's default).
+inline constexpr double kDefaultSkinFraction = 0.3;
+
 // The candidates, as fractions of the smallest particle diameter, and each trial's steps.
 inline constexpr double kSkinFractionCandidates[] = {0.1, 0.15, 0.2, 0.3};
 inline constexpr std::uint64_t kSkinTrialSteps = 100;

@@ -10,7 +10,6 @@
 #include <fmt/format.h>
 
 #include "dem/checkpoint.hpp"
-#include "dem/skin_choice.hpp"
 #include "dem/vtk.hpp"
 #include "util/durable_file.hpp"
 
@@ -66,7 +65,7 @@ double smallest_diameter(const dem::MillSetup& mill) {
 dem::System fresh_system(const MacroSettings& settings) {
   dem::System system = dem::build_mill(settings.mill);
   system.set_time_step_from_collisions(settings.steps_per_collision);
-  system.set_neighbor_skin(settings.skin_fraction.value_or(kDefaultSkinFraction) *
+  system.set_neighbor_skin(settings.skin_fraction.value_or(dem::kDefaultSkinFraction) *
                            smallest_diameter(settings.mill));
   return system;
 }

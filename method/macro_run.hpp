@@ -33,21 +33,20 @@
 
 #include "dem/flow_sample.hpp"
 #include "dem/mill_setup.hpp"
+#include "dem/skin_choice.hpp"
 #include "dem/system.hpp"
 #include "method/macro_measure.hpp"
 #include "method/macro_result.hpp"
 
 namespace millflow::method {
 
-inline constexpr double kDefaultSkinFraction = 0.3;
-
 struct MacroSettings {
   dem::MillSetup mill;
   int steps_per_collision = 20;
-  // Neighbour skin / smallest ball diameter; empty ("auto"): kDefaultSkinFraction until the end
-  // of the warm-up, then the cheapest of dem::kSkinFractionCandidates by trial
+  // Neighbour skin / smallest ball diameter; empty ("auto"): dem::kDefaultSkinFraction until the
+  // end of the warm-up, then the cheapest of dem::kSkinFractionCandidates by trial
   // (dem/skin_choice.hpp).
-  std::optional<double> skin_fraction = kDefaultSkinFraction;
+  std::optional<double> skin_fraction = dem::kDefaultSkinFraction;
   double settle_time = 0.5;  // s, shell at rest
   double warmup_revolutions = 2.0;
   double measure_revolutions = 3.0;
