@@ -451,6 +451,12 @@ TEST(ShearCell, AnAutoSkinCellReportsItsChoiceAndOtherwiseTheSameResult) {
                           std::end(dem::kSkinFractionCandidates),
                           [&](double f) { return std::abs(f - skin) < 1e-12; }))
       << skin;
+  // Stopped in the warm-up (after the choice) and continued from its checkpoint, it keeps the
+  // skin it chose: the same result bytes as the run that never stopped.
+  const millflow::testing::ScratchDir stopped_dir;
+  ASSERT_TRUE(attempt(auto_params, stopped_dir.path() / "work", 2).outcome.interrupted);
+  const json resumed = attempt(auto_params, stopped_dir.path() / "work", 0).outcome.result;
+  EXPECT_EQ(resumed.at("neighbor_skin_fraction"), skin);
   fixed.erase("neighbor_skin_fraction");
   chosen.erase("neighbor_skin_fraction");
   EXPECT_EQ(chosen.dump(), fixed.dump());
