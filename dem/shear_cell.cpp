@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "dem/skin_choice.hpp"
 #include "dem/touching_pairs.hpp"
 
 #include "dem/shear_cell_geometry.hpp"
@@ -131,9 +132,12 @@ void validate(const ShearCellSetup& s) {
           fmt::format("overlap bound: mean {} and p95 {} of the smaller diameter must satisfy 0 < "
                       "mean <= 0.1 and mean <= p95 <= 0.5 (0.01 and 0.03 are usual)",
                       s.overlap_bound.mean_fraction, s.overlap_bound.p95_fraction));
-  require(s.neighbor_skin_fraction > 0.0 && s.neighbor_skin_fraction <= 2.0,
-          fmt::format("neighbour skin fraction = {} must be in (0, 2] (0.3 is usual)",
-                      s.neighbor_skin_fraction));
+  if (s.neighbor_skin_fraction) {
+    require(*s.neighbor_skin_fraction > 0.0 && *s.neighbor_skin_fraction <= 2.0,
+            fmt::format("neighbour skin fraction = {} must be in (0, 2] (0.3 is usual), or empty "
+                        "to choose it by trial",
+                        *s.neighbor_skin_fraction));
+  }
   require(!(s.gravity && s.boundary == ShearCellSetup::Boundary::LeesEdwards),
           "gravity needs walls: a Lees-Edwards cell is periodic along the gradient axis; turn "
           "gravity off");
@@ -189,9 +193,8 @@ ShearCell::ShearCell(const ShearCellSetup& setup)
     place_powder(system_.domain().lo.y(), system_.domain().hi.y());
   }
   system_.set_time_step_from_collisions(setup_.steps_per_collision);
-  const auto radii = system_.radii();
-  system_.set_neighbor_skin(setup_.neighbor_skin_fraction * 2.0 *
-                            *std::min_element(radii.begin(), radii.end()));
+  system_.set_neighbor_skin(setup_.neighbor_skin_fraction.value_or(kDefaultSkinFraction) *
+                            smallest_diameter(system_));
   system_.set_reorder_interval(kReorderEverySteps);
   set_wall_speed(walls() ? setup_.shear_rate * nominal_gap(setup_) / kInitialBulkFraction
                          : setup_.shear_rate * system_.domain().length().y());
@@ -205,6 +208,16 @@ ShearCell::ShearCell(const ShearCellSetup& setup, System system)
     top_ = 2;
   }
   control_ = StressControlPtr(make_stress_control());
+}
+
+double ShearCell::neighbor_skin_fraction() const {
+  return system_.neighbor_skin() / smallest_diameter(system_);
+}
+
+void ShearCell::choose_neighbor_skin() {
+  const SkinChoice choice =
+      choose_skin_by_trials(system_, kSkinFractionCandidates, kSkinTrialSteps);
+  system_.set_neighbor_skin(choice.skin_fraction() * smallest_diameter(system_));
 }
 
 void ShearCell::set_wall_speed(double speed) {

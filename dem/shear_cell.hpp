@@ -43,12 +43,14 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "dem/batch_means.hpp"
+#include "dem/skin_choice.hpp"
 #include "dem/spectrum.hpp"
 #include "dem/stationarity.hpp"
 #include "dem/stress_control.hpp"
@@ -86,10 +88,11 @@ struct ShearCellSetup {
   double media_solid_fraction = 0.55;  // sets the number of media balls
   int steps_per_collision = 20;        // dt = shortest contact duration / this
   OverlapBound overlap_bound;
-  // Neighbour-list skin / smallest particle diameter (the campaign's /dem/neighbor_skin_fraction).
-  // Costs only: a resumed cell keeps its checkpoint's skin, and it is no part of the run's
-  // identity.
-  double neighbor_skin_fraction = 0.3;
+  // Neighbour-list skin / smallest particle diameter (the campaign's /dem/neighbor_skin_fraction);
+  // empty ("auto"): compaction runs at kDefaultSkinFraction, and the cell then keeps the
+  // cheapest of kSkinFractionCandidates by trial (dem/skin_choice.hpp). Costs only: a resumed
+  // cell keeps its checkpoint's skin, and it is no part of the run's identity.
+  std::optional<double> neighbor_skin_fraction = kDefaultSkinFraction;
 };
 
 // Checks a setup; throws std::invalid_argument naming the bad value and how to fix it.
@@ -275,9 +278,13 @@ class ShearCell {
   std::size_t media_count() const { return media_count_; }
   std::size_t powder_count() const { return powder_count_; }
   std::size_t wall_ball_count() const { return wall_ball_count_; }
+  // The neighbour skin the cell steps at now, as a fraction of its smallest diameter (an "auto"
+  // cell's choice once compacted).
+  double neighbor_skin_fraction() const;
 
-  // Closes the loose placement gap until the bed carries half the normal stress. The first run
-  // below does it if it was not done.
+  // Closes the loose placement gap until the bed carries half the normal stress; an "auto" skin
+  // (ShearCellSetup::neighbor_skin_fraction empty) is then chosen by trial. The first run below
+  // does it if it was not done.
   void compact();
   // Runs `strain` of shear (target rate x time) with no measurement and no control.
   void run_strain(double strain);
@@ -410,6 +417,8 @@ class ShearCell {
   // The servo (RoughWalls) or the barostat (LeesEdwards) with its constants.
   std::unique_ptr<StressControl> make_stress_control() const;
   void set_wall_speed(double speed);
+  // Sets the cheapest skin of kSkinFractionCandidates by trial (dem/skin_choice.hpp).
+  void choose_neighbor_skin();
   std::size_t steps_for_strain(double strain) const;
   // Steps the system after compact(); with Lees-Edwards also integrates the boundary's work and
   // runs the barostat (step_controlled, which compact() itself uses).

@@ -87,12 +87,19 @@ std::string range_text(const FieldRule& rule) {
   return {};
 }
 
+// ' or "auto"', ' or one of "a", "b"': the words a number field takes in place of a number.
+std::string or_words_text(const FieldRule& rule) {
+  if (rule.type != FieldType::number || rule.choices.empty()) return {};
+  return rule.choices.size() == 1 ? " or " + quoted_list(rule.choices)
+                                  : " or one of " + quoted_list(rule.choices);
+}
+
 std::string type_name(const FieldRule& rule) {
   switch (rule.type) {
     case FieldType::integer:
       return "an integer";
     case FieldType::number:
-      return "a number";
+      return "a number" + or_words_text(rule);
     case FieldType::string:
       return "a string";
     case FieldType::boolean:
@@ -111,6 +118,7 @@ std::string type_name(const FieldRule& rule) {
 std::string type_with_range(const FieldRule& rule) {
   const auto range = range_text(rule);
   if (range.empty()) return type_name(rule) + (rule.unit.empty() ? "" : " in " + rule.unit);
+  if (rule.type == FieldType::number) return "a number " + range + or_words_text(rule);
   return type_name(rule) + " " + range;
 }
 
@@ -201,7 +209,7 @@ class Checker {
                    const std::string& path) {
     if (in_range(number, rule)) return;
     report(path, with_unit(quote_value(value), rule.unit) + " is out of range",
-           rule.description + " must be " + range_text(rule), rule);
+           rule.description + " must be " + range_text(rule) + or_words_text(rule), rule);
   }
 
   json check_integer(const json& value, const FieldRule& rule, const std::string& path) {
@@ -220,6 +228,8 @@ class Checker {
   }
 
   json check_number(const json& value, const FieldRule& rule, const std::string& path) {
+    if (value.is_string() && !rule.choices.empty())
+      return check_choice(value, rule, path, type_with_range(rule), type_with_range(rule));
     if (!value.is_number()) return wrong_type(value, rule, path);
     // One spelling per number: 1 and 1.0 give the same normalized document (and cache key).
     const json number = value.get<double>();
@@ -243,14 +253,21 @@ class Checker {
 
   json check_enumeration(const json& value, const FieldRule& rule, const std::string& path) {
     if (!value.is_string()) return wrong_type(value, rule, path);
+    return check_choice(value, rule, path, quoted_list(rule.choices),
+                        "one of " + quoted_list(rule.choices));
+  }
+
+  // A string that must be one of the rule's choices; `allowed` lists what the field takes, `use`
+  // says it as the fix's object.
+  json check_choice(const json& value, const FieldRule& rule, const std::string& path,
+                    const std::string& allowed, const std::string& use) {
     const auto text = value.get<std::string>();
     if (std::find(rule.choices.begin(), rule.choices.end(), text) != rule.choices.end())
       return value;
     const auto suggestion = closest_match(text, rule.choices);
     report(path, quote_value(value) + " is not allowed",
-           suggestion ? "did you mean \"" + *suggestion +
-                            "\"? (allowed: " + quoted_list(rule.choices) + ")"
-                      : "use one of " + quoted_list(rule.choices),
+           suggestion ? "did you mean \"" + *suggestion + "\"? (allowed: " + allowed + ")"
+                      : "use " + use,
            rule);
     return value;
   }
@@ -430,6 +447,9 @@ json schema_of(const FieldRule& rule, const FieldTable& table) {
     case FieldType::number:
       schema = number_bounds_schema(rule);
       schema["type"] = "number";
+      if (!rule.choices.empty()) {
+        schema = {{"anyOf", {schema, {{"type", "string"}, {"enum", rule.choices}}}}};
+      }
       break;
     case FieldType::string:
       schema = {{"type", "string"}};
@@ -490,6 +510,13 @@ Field& Field::pattern(std::string pattern) {
 
 Field& Field::choices(std::vector<std::string> choices) {
   rule_.choices = std::move(choices);
+  return *this;
+}
+
+Field& Field::or_words(std::vector<std::string> words) {
+  if (rule_.type != FieldType::number)
+    throw std::logic_error("field table: or_words on \"" + rule_.path + "\", not a number");
+  rule_.choices = std::move(words);
   return *this;
 }
 

@@ -50,7 +50,8 @@ struct FieldRule {
   std::optional<Bound> maximum;
   std::string pattern;                   // strings: ECMAScript regex the whole string must match;
                                          // maps ("*" child of an object): the keys must match it
-  std::vector<std::string> choices;      // enumeration: the allowed strings
+  std::vector<std::string> choices;      // enumeration: the allowed strings; number: strings
+                                         // allowed in place of a number (e.g. "auto")
   std::optional<std::size_t> min_items;  // arrays: item count; maps: entry count
   std::optional<std::size_t> max_items;
   bool unique_items = false;                // arrays: no item twice
@@ -72,6 +73,8 @@ class Field {
   Field& range(std::optional<Bound> minimum, std::optional<Bound> maximum);
   Field& pattern(std::string pattern);
   Field& choices(std::vector<std::string> choices);
+  // A number field that also takes one of these strings: "a number in (0, 2] or \"auto\"".
+  Field& or_words(std::vector<std::string> words);
   Field& items(std::optional<std::size_t> minimum, std::optional<std::size_t> maximum);
   Field& unique();
   Field& exactly_one_of(std::vector<std::string> keys);

@@ -264,6 +264,8 @@ void to_json(json& out, const CellResult& c) {
       {"overlap_p95_fraction", worst.p95_fraction},
       {"overlap_max_fraction", worst.max_fraction},
       {"overlap_ok", c.overlap_ok},
+      {"neighbor_skin_fraction",
+       c.neighbor_skin_fraction ? json(*c.neighbor_skin_fraction) : json()},
   };
   if (c.standard_errors) out["standard_errors"] = standard_errors_json(*c.standard_errors);
 }
@@ -344,6 +346,8 @@ void from_json(const json& in, CellResult& c) {
     }
   }
   c.overlap_ok = in.at("overlap_ok").get<bool>();
+  if (const auto skin = in.find("neighbor_skin_fraction"); skin != in.end() && !skin->is_null())
+    c.neighbor_skin_fraction = skin->get<double>();
 }
 
 }  // namespace millflow::method

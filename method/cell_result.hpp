@@ -24,7 +24,8 @@
 // normal_stress_pa, power_density_w_m3, powder_dissipation_w_m3, dissipation_w_m3 {by contact type,
 // total}, blocks, batch_blocks}, overlap {by contact type that touched: mean_fraction,
 // p95_fraction, max_fraction, contact_samples}, overlap_{mean,p95,max}_fraction (the type with the
-// largest p95; 0 without contacts), overlap_ok.
+// largest p95; 0 without contacts), overlap_ok, neighbor_skin_fraction (the skin stepped at over
+// the smallest diameter; absent in cells stored before it, read as none).
 //
 // Reading an older cell: without `steady` the cell is steady when steady_state.steady is; without
 // `converged` it counts as converged when steady; without standard_errors it has none.
@@ -100,6 +101,9 @@ struct CellResult {
   std::optional<CellStandardErrors> standard_errors{};
   ByContactType<std::optional<CellOverlap>> overlaps{};  // none for a type that never touched
   bool overlap_ok = true;
+  // The neighbour skin the cell stepped at, as a fraction of its smallest diameter (the campaign's
+  // number, or what "auto" chose); costs only. Cells stored before it was reported lack it.
+  std::optional<double> neighbor_skin_fraction{};
 
   // The contact type with the largest p95 overlap (the first of equals), zeros without contacts.
   CellOverlap worst_overlap() const;

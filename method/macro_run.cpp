@@ -65,7 +65,8 @@ double smallest_diameter(const dem::MillSetup& mill) {
 dem::System fresh_system(const MacroSettings& settings) {
   dem::System system = dem::build_mill(settings.mill);
   system.set_time_step_from_collisions(settings.steps_per_collision);
-  system.set_neighbor_skin(settings.skin_fraction * smallest_diameter(settings.mill));
+  system.set_neighbor_skin(settings.skin_fraction.value_or(dem::kDefaultSkinFraction) *
+                           smallest_diameter(settings.mill));
   return system;
 }
 
@@ -236,6 +237,15 @@ void MacroRun::act(std::uint64_t s) {
 }
 
 void MacroRun::start_measuring() {
+  // "auto": the skin is chosen on the charge in motion, before the measurement records collisions
+  // (the trials step copies; no result depends on the skin).
+  if (!settings_.skin_fraction) {
+    const dem::SkinChoice choice =
+        dem::choose_skin_by_trials(system_, dem::kSkinFractionCandidates, dem::kSkinTrialSteps);
+    system_.set_neighbor_skin(choice.skin_fraction() * smallest_diameter(settings_.mill));
+    log(fmt::format("macro: neighbour skin \"auto\" chose {:.3g} x the smallest diameter",
+                    choice.skin_fraction()));
+  }
   system_.set_record_collisions(true);
   measure_start_s_ = system_.time();
   dissipated_at_start_ = system_.energy().dissipated;

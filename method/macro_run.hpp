@@ -33,6 +33,7 @@
 
 #include "dem/flow_sample.hpp"
 #include "dem/mill_setup.hpp"
+#include "dem/skin_choice.hpp"
 #include "dem/system.hpp"
 #include "method/macro_measure.hpp"
 #include "method/macro_result.hpp"
@@ -42,8 +43,11 @@ namespace millflow::method {
 struct MacroSettings {
   dem::MillSetup mill;
   int steps_per_collision = 20;
-  double skin_fraction = 0.3;  // neighbour skin / smallest ball diameter
-  double settle_time = 0.5;    // s, shell at rest
+  // Neighbour skin / smallest ball diameter; empty ("auto"): dem::kDefaultSkinFraction until the
+  // end of the warm-up, then the cheapest of dem::kSkinFractionCandidates by trial
+  // (dem/skin_choice.hpp).
+  std::optional<double> skin_fraction = dem::kDefaultSkinFraction;
+  double settle_time = 0.5;  // s, shell at rest
   double warmup_revolutions = 2.0;
   double measure_revolutions = 3.0;
   double sample_interval = 0.01;        // s between flow frames

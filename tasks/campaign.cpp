@@ -89,7 +89,10 @@ std::vector<engine::FieldRule> macro_fields() {
       Field("/dem/neighbor_skin_fraction", FieldType::number,
             "neighbour-list skin as a fraction of the smallest particle diameter")
           .defaults(0.3)
-          .range(above(0), at_most(2)),
+          .range(above(0), at_most(2))
+          .or_words({"auto"})
+          .hint("\"auto\" keeps the cheapest skin by trial in each shear cell and macro run "
+                "(docs/shear_cells.md)"),
       Field("/dem/seed", FieldType::integer, "random seed, combined with each task's key")
           .defaults(1)
           .range(at_least(0), at_most(4294967295.0)),

@@ -119,6 +119,12 @@ dem::InteractionSpec interaction_spec(const json& interaction, double reference_
   return spec;
 }
 
+std::optional<double> neighbor_skin_fraction(const json& params) {
+  const std::string path = "/dem/neighbor_skin_fraction";
+  if (field(params, path) == "auto") return std::nullopt;
+  return number(params, path);
+}
+
 method::MacroSettings macro_settings(const json& params, const std::string& task_key) {
   method::MacroSettings settings;
   dem::MillSetup& mill = settings.mill;
@@ -138,7 +144,7 @@ method::MacroSettings macro_settings(const json& params, const std::string& task
   mill.seed = macro_seed(field(params, "/dem/seed").get<std::uint64_t>(), task_key);
 
   settings.steps_per_collision = field(params, "/dem/steps_per_collision").get<int>();
-  settings.skin_fraction = number(params, "/dem/neighbor_skin_fraction");
+  settings.skin_fraction = neighbor_skin_fraction(params);
   settings.settle_time = number(params, "/macro/settle_time");
   settings.warmup_revolutions = number(params, "/macro/warmup_revolutions");
   settings.measure_revolutions = number(params, "/macro/measure_revolutions");

@@ -12,6 +12,7 @@
 //                           interaction gives both contacts the same t_c, hence two different k_n.
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "dem/mill_setup.hpp"
@@ -30,6 +31,10 @@ dem::InteractionSpec interaction_spec(const nlohmann::json& interaction, double 
 // engine::InvalidInput when there is none.
 const nlohmann::json& find_interaction(const nlohmann::json& params, const std::string& a,
                                        const std::string& b);
+
+// params /dem/neighbor_skin_fraction: the number, or empty for "auto" (chosen by trial, each
+// shear cell after compaction and each macro run at the end of its warm-up).
+std::optional<double> neighbor_skin_fraction(const nlohmann::json& params);
 
 // The mass-weighted mean diameter of params /media (its diameter or size distribution), m.
 double media_diameter(const nlohmann::json& params);

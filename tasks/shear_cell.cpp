@@ -86,7 +86,7 @@ dem::ShearCellSetup shear_cell_setup(const json& params, const json& site,
   setup.gravity = cell.at("gravity").get<bool>();
   setup.servo_gain = at(cell, "/stress_control/gain").get<double>();
   setup.seed = macro_seed(at(params, "/dem/seed").get<std::uint64_t>(), task_key);
-  setup.neighbor_skin_fraction = at(params, "/dem/neighbor_skin_fraction").get<double>();
+  setup.neighbor_skin_fraction = neighbor_skin_fraction(params);
   setup.steps_per_collision = cell.at("steps_per_collision").get<int>();
   setup.overlap_bound = {
       .mean_fraction = at(cell, "/stiffness/mean_overlap_fraction").get<double>(),
@@ -187,6 +187,7 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   result.powder_count = cell.powder_count();
   result.wall_ball_count = cell.wall_ball_count();
   result.stiffness = stiffness;
+  result.neighbor_skin_fraction = cell.neighbor_skin_fraction();
   // Timings go to the log, not the result: a result must not depend on the machine's load.
   context.log(fmt::format(
       "shear cell {}: tau {:.4g} Pa, p {:.4g} Pa, mu {:.3g} +- {:.2g}, I {:.3g}, "

@@ -74,7 +74,9 @@ TEST(CellResult, JsonReadsBackToTheSameBytes) {
                   .chosen = 3e5,
                   .kappa = 1.5e4,
                   .governing = "impact"}};
+  r.neighbor_skin_fraction = 0.15;
   const json written = r;
+  EXPECT_EQ(written.at("neighbor_skin_fraction").get<double>(), 0.15);
   EXPECT_EQ(written.at("powder_load").dump(), "0");
   EXPECT_DOUBLE_EQ(written.at("overlap_p95_fraction").get<double>(), 0.018);
   EXPECT_DOUBLE_EQ(written.at("solid_fraction").get<double>(), 0.55 + 0.07);
@@ -95,8 +97,11 @@ TEST(CellResult, OlderCellsReadWithTheirOwnRules) {
   older.erase("steady");
   older.erase("converged");
   older.erase("standard_errors");
+  older.erase("neighbor_skin_fraction");
   older["steady_state"]["steady"] = false;
   CellResult r = older.get<CellResult>();
+  EXPECT_FALSE(r.neighbor_skin_fraction) << "no skin reported before it was";
+  EXPECT_TRUE(json(r).at("neighbor_skin_fraction").is_null());
   EXPECT_FALSE(r.steady) << "steady_state.steady when there is no steady";
   EXPECT_FALSE(r.converged) << "converged when steady, without converged";
   EXPECT_FALSE(r.standard_errors);

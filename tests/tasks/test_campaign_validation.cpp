@@ -138,6 +138,13 @@ TEST(CampaignLoading, FillsEveryDefault) {
   EXPECT_FALSE(campaign.contains("sweep"));
 }
 
+TEST(CampaignLoading, TakesAutoForTheSkinAndKeepsIt) {
+  auto document = millflow::tasks::validate_campaign(
+      json::parse(std::ifstream(source_dir / "tests/tasks/good_campaigns/minimal.json")));
+  document["dem"]["neighbor_skin_fraction"] = "auto";
+  EXPECT_EQ(millflow::tasks::validate_campaign(document)["dem"]["neighbor_skin_fraction"], "auto");
+}
+
 TEST(CampaignLoading, StoresNumbersAsFloatsAndCountsAsIntegers) {
   // One spelling per value, so the same settings always hash to the same task key.
   const auto campaign = load_campaign(source_dir / "tests/tasks/good_campaigns/minimal.json");

@@ -2,6 +2,7 @@
 // artifacts, interruption and resumption with the same result, and the macro_results view.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -355,6 +356,23 @@ TEST_F(MacroRunTest, InterruptedTwiceAndResumedGivesTheSameResultAndFiles) {
         << resumed.artifacts[k].name;
   }
   EXPECT_FALSE(std::filesystem::exists(dir / "state.bin"));  // checkpoints go when the run is done
+}
+
+// "auto" chooses the skin by trial at the end of the warm-up, logs it, and moves no result bit.
+TEST_F(MacroRunTest, AnAutoSkinLogsItsChoiceAndGivesTheSameResult) {
+  json chosen = params();
+  chosen["dem"]["neighbor_skin_fraction"] = "auto";
+  std::vector<std::string> log;
+  const auto outcome =
+      DirectRun{.params = chosen, .work_dir = scratch_->path() / "auto", .log_lines = &log}.run();
+  ASSERT_FALSE(outcome.interrupted);
+  EXPECT_EQ(outcome.result.dump(), result().dump());
+  EXPECT_EQ(std::count_if(log.begin(), log.end(),
+                          [](const std::string& line) {
+                            return line.find("macro: neighbour skin \"auto\" chose") !=
+                                   std::string::npos;
+                          }),
+            1);
 }
 
 // A damaged checkpoint used to fail every resume the same way until the work directory was

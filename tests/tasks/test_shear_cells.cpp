@@ -14,6 +14,7 @@
 #include <set>
 
 #include "dem/material.hpp"
+#include "dem/skin_choice.hpp"
 #include "engine/campaign.hpp"
 #include "tasks/millflow.hpp"
 #include "tasks/shear_cell.hpp"
@@ -225,11 +226,15 @@ TEST(ShearCellSetup, CollisionTimesHoldForEachPairsReferenceParticles) {
   json wider = tiny_cell_params(0.3);
   wider["dem"]["neighbor_skin_fraction"] = 0.5;
   const dem::ShearCellSetup wide_setup = shear_cell_setup(wider, tiny_site(), "key");
-  EXPECT_DOUBLE_EQ(wide_setup.neighbor_skin_fraction, 0.5);
+  EXPECT_EQ(wide_setup.neighbor_skin_fraction, std::optional(0.5));
   const dem::ShearCell cell(wide_setup);
   const auto radii = cell.system().radii();
   EXPECT_DOUBLE_EQ(cell.system().neighbor_skin(),
                    0.5 * 2.0 * *std::min_element(radii.begin(), radii.end()));
+  // "auto" leaves the skin to the cell (chosen by trial after compaction).
+  json chosen = tiny_cell_params(0.3);
+  chosen["dem"]["neighbor_skin_fraction"] = "auto";
+  EXPECT_EQ(shear_cell_setup(chosen, tiny_site(), "key").neighbor_skin_fraction, std::nullopt);
 }
 
 TEST(ShearCell, TinyMediaCellGivesFiniteStressesAndNoPowderDissipation) {
@@ -429,6 +434,32 @@ TEST(ShearCell, AnInterruptedCellContinuesFromItsCheckpointToTheSameResult) {
             file_bytes(reference.outcome.artifacts[0].file));
   EXPECT_FALSE(std::filesystem::exists(work / "cell.ckpt"))
       << "a finished cell leaves no checkpoint";
+}
+
+// An "auto" cell reports the skin it chose, one of the candidates, and otherwise the same result
+// bytes as at the campaign's 0.3 (no result depends on the skin), which it reports too.
+TEST(ShearCell, AnAutoSkinCellReportsItsChoiceAndOtherwiseTheSameResult) {
+  const json fixed_params = tiny_cell_params(0.1);
+  json auto_params = fixed_params;
+  auto_params["dem"]["neighbor_skin_fraction"] = "auto";
+  const millflow::testing::ScratchDir fixed_dir, auto_dir;
+  json fixed = attempt(fixed_params, fixed_dir.path() / "work", 0).outcome.result;
+  json chosen = attempt(auto_params, auto_dir.path() / "work", 0).outcome.result;
+  EXPECT_DOUBLE_EQ(fixed.at("neighbor_skin_fraction").get<double>(), 0.3);
+  const double skin = chosen.at("neighbor_skin_fraction").get<double>();
+  EXPECT_TRUE(std::any_of(std::begin(dem::kSkinFractionCandidates),
+                          std::end(dem::kSkinFractionCandidates),
+                          [&](double f) { return std::abs(f - skin) < 1e-12; }))
+      << skin;
+  // Stopped in the warm-up (after the choice) and continued from its checkpoint, it keeps the
+  // skin it chose: the same result bytes as the run that never stopped.
+  const millflow::testing::ScratchDir stopped_dir;
+  ASSERT_TRUE(attempt(auto_params, stopped_dir.path() / "work", 2).outcome.interrupted);
+  const json resumed = attempt(auto_params, stopped_dir.path() / "work", 0).outcome.result;
+  EXPECT_EQ(resumed.at("neighbor_skin_fraction"), skin);
+  fixed.erase("neighbor_skin_fraction");
+  chosen.erase("neighbor_skin_fraction");
+  EXPECT_EQ(chosen.dump(), fixed.dump());
 }
 
 TEST(ShearCell, AnUnusableCheckpointIsLoggedAndTheCellStartsAgainFromScratch) {

@@ -1,0 +1,115 @@
+// The neighbour skin chosen by trial (dem/skin_choice.hpp): one of the candidates, the same
+// choice every time and at 1 and 2 threads, the original system untouched, and an "auto" cell
+// choosing after compaction.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include <gtest/gtest.h>
+#include <tbb/task_arena.h>
+
+#include "dem/skin_choice.hpp"
+#include "tests/dem/shear_cells.hpp"
+
+namespace millflow::dem {
+namespace {
+
+// A compacted Lees-Edwards cell with powder: the scene the shear cells choose their skin on.
+ShearCell compacted_cell(std::optional<double> skin_fraction) {
+  ShearCellSetup setup = testing::small_shear_cell(0.05, 0.5);
+  setup.boundary = ShearCellSetup::Boundary::LeesEdwards;
+  setup.neighbor_skin_fraction = skin_fraction;
+  ShearCell cell(setup);
+  cell.compact();
+  return cell;
+}
+
+bool same_trials(const SkinChoice& a, const SkinChoice& b) {
+  if (a.chosen != b.chosen || a.trials.size() != b.trials.size()) return false;
+  for (std::size_t k = 0; k < a.trials.size(); ++k) {
+    const SkinTrial &x = a.trials[k], &y = b.trials[k];
+    if (x.skin_fraction != y.skin_fraction || x.steps != y.steps ||
+        x.candidate_pair_steps != y.candidate_pair_steps || x.rebuilds != y.rebuilds ||
+        x.particles != y.particles)
+      return false;
+  }
+  return true;
+}
+
+TEST(SkinChoice, ATrialAsTheCostModelsCandidate) {
+  const SkinTrial quiet{.skin_fraction = 0.1,
+                        .steps = 100,
+                        .candidate_pair_steps = 4.0e5,
+                        .rebuilds = 0,
+                        .particles = 1000};
+  const SkinCandidate c = skin_candidate(quiet, 0.002);
+  EXPECT_DOUBLE_EQ(c.skin, 2e-4);
+  EXPECT_DOUBLE_EQ(c.pairs_per_particle, 4.0);
+  EXPECT_EQ(c.steps_per_rebuild, std::numeric_limits<double>::infinity());
+  EXPECT_DOUBLE_EQ(skin_cost(c, SkinCostModel{}), 4.0 * 41.0);
+  SkinTrial busy = quiet;
+  busy.rebuilds = 4;
+  EXPECT_DOUBLE_EQ(skin_cost(skin_candidate(busy, 0.002), SkinCostModel{}),
+                   4.0 * 41.0 + 4500.0 * 4.0 / 100.0);
+}
+
+TEST(SkinChoice, ChoosesACandidateTheSameWayEveryTimeAndAtAnyThreadCount) {
+  const ShearCell cell = compacted_cell(0.3);
+  const System& system = cell.system();
+  const std::uint64_t step = system.step_count();
+  const double skin = system.neighbor_skin();
+  auto choose = [&](int threads) {
+    tbb::task_arena arena(threads);
+    SkinChoice choice;
+    arena.execute(
+        [&] { choice = choose_skin_by_trials(system, kSkinFractionCandidates, kSkinTrialSteps); });
+    return choice;
+  };
+  const SkinChoice one = choose(1);
+  ASSERT_EQ(one.trials.size(), std::size(kSkinFractionCandidates));
+  for (std::size_t k = 0; k < one.trials.size(); ++k) {
+    EXPECT_EQ(one.trials[k].skin_fraction, kSkinFractionCandidates[k]);
+    EXPECT_EQ(one.trials[k].steps, kSkinTrialSteps);
+    EXPECT_EQ(one.trials[k].particles, system.size());
+    // A wider skin screens at least as many pairs and rebuilds no more often.
+    if (k > 0) {
+      EXPECT_GE(one.trials[k].candidate_pair_steps, one.trials[k - 1].candidate_pair_steps);
+      EXPECT_LE(one.trials[k].rebuilds, one.trials[k - 1].rebuilds);
+    }
+  }
+  EXPECT_TRUE(same_trials(one, choose(1)));
+  EXPECT_TRUE(same_trials(one, choose(2)));
+  // The trials step copies.
+  EXPECT_EQ(system.step_count(), step);
+  EXPECT_EQ(system.neighbor_skin(), skin);
+}
+
+TEST(SkinChoice, AnAutoCellChoosesAfterCompactionTheSameSkinAtOneAndTwoThreads) {
+  auto chosen = [](int threads) {
+    tbb::task_arena arena(threads);
+    double fraction = 0.0;
+    arena.execute([&] { fraction = compacted_cell(std::nullopt).neighbor_skin_fraction(); });
+    return fraction;
+  };
+  const double one = chosen(1);
+  EXPECT_NE(std::find_if(std::begin(kSkinFractionCandidates), std::end(kSkinFractionCandidates),
+                         [&](double f) { return std::abs(f - one) < 1e-12; }),
+            std::end(kSkinFractionCandidates))
+      << one;
+  EXPECT_EQ(chosen(2), one);
+  // A fixed skin stays as given.
+  EXPECT_DOUBLE_EQ(compacted_cell(0.5).neighbor_skin_fraction(), 0.5);
+}
+
+TEST(SkinChoice, RefusesNoCandidatesABadOneOrZeroSteps) {
+  const ShearCell cell = compacted_cell(0.3);
+  const double none[] = {0.0};
+  EXPECT_THROW(choose_skin_by_trials(cell.system(), {}, 10), std::invalid_argument);
+  EXPECT_THROW(choose_skin_by_trials(cell.system(), none, 10), std::invalid_argument);
+  EXPECT_THROW(choose_skin_by_trials(cell.system(), kSkinFractionCandidates, 0),
+               std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace millflow::dem
