@@ -18,9 +18,9 @@
 //    degrees of freedom for the drift's scatter; with 3 windows and one the drift test let a
 //    bed through that still sped up by 5% a strain) show no drift, f = their mean (standard error
 //    se_f) gives the steady bulk rate g = f U / H at this speed. Within kSettleTolerance of the
-//    target (the stationarity test's tolerance) the controller has settled; within the estimate's own standard error se_f / f it waits
-//    for more windows; further off the speed steps (clamped to a factor kMaxStep) and the windows
-//    start anew.
+//    target (the stationarity test's tolerance) the controller has settled; within the estimate's
+//    own standard error se_f / f it waits for more windows; further off the speed steps (clamped to
+//    a factor kMaxStep) and the windows start anew.
 // The step learns how the rate answers the speed, since the bulk rate is NOT in proportion to
 // it (measured in the 8 x 10 x 8 cell: the walls went from 16.5 to 8.75 m/s and the steady bulk
 // rate stayed at 10-13 1/s, so the proportional law stepped far too far): with steady points on

@@ -82,12 +82,13 @@ ShearCellMeasurements run_with_the_rough_walls_protocol(const ShearCellSetup& se
 // warm-up in windows of 1 strain to a cap of 16, 8 strains measured with the catch-up law of
 // dem/wall_speed_controller.hpp), and the cell stationary. Measured, seeds 1-6, with the
 // controller settling within the stationarity test's 10%: +1.5%, -2.0%, +3.1%, -1.0%, -2.6%,
-// -2.0%, every one stationary; settling within 5%: +2.5%, -2.0%, -3.8%, -1.0%, -5.0%, -2.0% (normal stress 996-1003 Pa; with T_i = 2 tau -5.2%, -2.1%,
-// +4.8%, -0.6%, -0.4%, -2.7%); before it (the proportional servo) +3.2%, +0.5%, +1.1%, -1.3%,
-// +0.2%, +1.5% (normal stress 1006-1014 Pa, energy balance within 0.7%); the same protocol without
-// the catch-up law +6.5%, +0.4%, +15.0%, +1.2%, -2.5%, -2.0%; the code before (warm-up in windows
-// of 0.5 strain to 12, 4 measured, no catch-up) +11.6%, +2.3%, +13.6%. So the 5% of issue 12
-// (docs/cell_validation.md, table 4 a seventh and a ninth time). About 7 CPU s.
+// -2.0%, every one stationary; settling within 5%: +2.5%, -2.0%, -3.8%, -1.0%, -5.0%, -2.0% (normal
+// stress 996-1003 Pa; with T_i = 2 tau -5.2%, -2.1%, +4.8%, -0.6%, -0.4%, -2.7%); before it (the
+// proportional servo) +3.2%, +0.5%, +1.1%, -1.3%, +0.2%, +1.5% (normal stress 1006-1014 Pa, energy
+// balance within 0.7%); the same protocol without the catch-up law +6.5%, +0.4%, +15.0%, +1.2%,
+// -2.5%, -2.0%; the code before (warm-up in windows of 0.5 strain to 12, 4 measured, no catch-up)
+// +11.6%, +2.3%, +13.6%. So the 5% of issue 12 (docs/cell_validation.md, table 4 a seventh and a
+// ninth time). About 7 CPU s.
 TEST(ShearCellStressControl, WallsDriveTheBulkToTheSiteRateAtRealisticStiffness) {
   spdlog::set_level(std::getenv("MF_DEBUG") ? spdlog::level::debug : spdlog::level::warn);
   ShearCellSetup setup = testing::small_shear_cell(0.3);

@@ -203,7 +203,7 @@ TEST(WallSpeedController, SettlesOnABedWhoseRateHardlyAnswersTheSpeed) {
   // the proportional law needs a dozen steps (1.9, 1.74, 1.62, ... U0); the secant through two
   // steady points finds U0.
   const int settled = seeds_settled_on_target([](double u) { return 0.9 + 0.1 * u; }, 1.9,
-                                             WallSpeedController::kSettleTolerance);
+                                              WallSpeedController::kSettleTolerance);
   EXPECT_GE(settled, 18);
 }
 
@@ -211,7 +211,7 @@ TEST(WallSpeedController, SettlesOnABedWhoseRateGrowsFasterThanTheSpeed) {
   // Rate ~ U^2: the proportional law jumps between U0 / u and u U0 for ever (from 0.6 U0: 1.2,
   // 0.83, 1.2, ...); regula falsi between the two sides settles.
   const int settled = seeds_settled_on_target([](double u) { return u * u; }, 0.6,
-                                             WallSpeedController::kSettleTolerance);
+                                              WallSpeedController::kSettleTolerance);
   EXPECT_GE(settled, 18);
 }
 
