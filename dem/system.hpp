@@ -177,6 +177,10 @@ class System {
   // Neighbour rebuilds the skin test asked for since the first step (not those of a new skin or a
   // renumbering).
   std::uint64_t neighbor_rebuild_count() const { return rebuild_count_; }
+  // What the rebuild test compares with the skin now: 2 x the largest displacement since the
+  // list's last build + the Lees-Edwards offset's change (0 before a build). The list is rebuilt
+  // once it reaches the skin, so travel / skin is the part of the list's life already used.
+  double neighbor_travel() const;
   // Chooses the skin from measurement: once `stretch` more steps have run at the current skin,
   // the next step() call counts the candidate pairs at each of `skins` (m; lists built from the
   // positions then) and predicts each skin's steps between rebuilds from those measured in the
