@@ -35,7 +35,15 @@ namespace millflow::dem {
 // depend on the skin anyway).
 struct SkinCostModel {
   double per_candidate_step = 41.0;      // screening and gathering, per candidate pair and step
-  double per_particle_rebuild = 4500.0;  // a rebuild of the list, per particle
+  // A rebuild of the list, per particle. Measured directly too (callgrind, inclusive cost of
+  // System::rebuild_neighbors per call / particles, whole `millflow cell` runs of quick.json's
+  // bulk-0 cell, docs/shear_cells.md): 4,660 at skin 0.1 d and 6,680 at 0.3 d on the 131-media
+  // cell (load 0), 5,180 at 0.15 d and 5,800 at 0.2-0.3 d on the 647-particle powder cell (load 1).
+  // Kept at 4,500: the weight matters where rebuilds are frequent, the small skins, and there it
+  // is within 15% (neither cell's choice moves between 4,500 and 5,200); a rebuild grows with the
+  // pairs it finds, but not by one rule across cells (the powder cell finds fewer pairs per
+  // particle and costs more), so it is not scaled by them.
+  double per_particle_rebuild = 4500.0;
 };
 
 struct SkinCandidate {
