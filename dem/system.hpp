@@ -34,7 +34,7 @@ namespace millflow::dem {
 // choice never reads a clock, so a run chooses the same skin every time (and no result's bits
 // depend on the skin anyway).
 struct SkinCostModel {
-  double per_candidate_step = 41.0;      // screening and gathering, per candidate pair and step
+  double per_candidate_step = 41.0;  // screening and gathering, per candidate pair and step
   // A rebuild of the list, per particle. Measured directly too (callgrind, inclusive cost of
   // System::rebuild_neighbors per call / particles, whole `millflow cell` runs of quick.json's
   // bulk-0 cell, docs/shear_cells.md): 4,660 at skin 0.1 d and 6,680 at 0.3 d on the 131-media
