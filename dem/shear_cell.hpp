@@ -279,17 +279,19 @@ class ShearCell {
   std::size_t powder_count() const { return powder_count_; }
   std::size_t wall_ball_count() const { return wall_ball_count_; }
   // The neighbour skin the cell steps at now, as a fraction of its smallest diameter (an "auto"
-  // cell's choice once compacted).
+  // cell's choice once its first warm-up window ended).
   double neighbor_skin_fraction() const;
 
-  // Closes the loose placement gap until the bed carries half the normal stress; an "auto" skin
-  // (ShearCellSetup::neighbor_skin_fraction empty) is then chosen by trial. The first run below
-  // does it if it was not done.
+  // Closes the loose placement gap until the bed carries half the normal stress. The first run
+  // below does it if it was not done.
   void compact();
   // Runs `strain` of shear (target rate x time) with no measurement and no control.
   void run_strain(double strain);
   // Runs `strain` of shear in `windows` equal windows, adjusting the wall speed after each so the
-  // bulk shear rate approaches the target (RoughWalls; LE has no slip and only runs).
+  // bulk shear rate approaches the target (RoughWalls; LE has no slip and only runs). An "auto"
+  // skin (ShearCellSetup::neighbor_skin_fraction empty) is chosen by trial at the end of the
+  // first window: right after compaction the bed still rearranges and rebuilds the list several
+  // times as often as the sheared bed, which made the trials pick too wide a skin.
   void warm_up(double strain, int windows = 4);
   // Runs `strain` of shear and measures over it.
   ShearCellMeasurements measure(double strain, const MeasureOptions& options = {});
@@ -383,7 +385,8 @@ class ShearCell {
   void advance_window(WarmUpWindow& window, std::uint64_t max_steps);
   // Adjusts the wall speed from a finished window's profile (RoughWalls, the wall-speed
   // controller) once the bed has compacted (its solid fraction within kCompactedFractionChange
-  // of `previous`, the window before; nullptr for the first); returns the window's means.
+  // of `previous`, the window before; nullptr for the first); returns the window's means. At the
+  // end of the first (`index` 0) an "auto" skin is chosen.
   WindowMeans finish_window(const WarmUpWindow& window, int index, const WindowMeans* previous);
   // The stationarity test (dem/stationarity.hpp) of the last warm-up windows; with walls the
   // wall-speed controller must have settled too.
@@ -417,7 +420,9 @@ class ShearCell {
   // The servo (RoughWalls) or the barostat (LeesEdwards) with its constants.
   std::unique_ptr<StressControl> make_stress_control() const;
   void set_wall_speed(double speed);
-  // Sets the cheapest skin of kSkinFractionCandidates by trial (dem/skin_choice.hpp).
+  // Sets the cheapest skin of kSkinFractionCandidates by trial (dem/skin_choice.hpp) when the
+  // setup leaves it to the cell ("auto"); a fixed skin stays. finish_window calls it at the end of
+  // the first window, ShearCellRun before a measurement with no warm-up.
   void choose_neighbor_skin();
   std::size_t steps_for_strain(double strain) const;
   // Steps the system after compact(); with Lees-Edwards also integrates the boundary's work and

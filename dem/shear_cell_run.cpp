@@ -93,6 +93,7 @@ void ShearCellRun::start_next_piece() {
     return;
   }
   phase_ = Phase::Measuring;
+  if (window_index_ == 0) cell_.choose_neighbor_skin();  // no warm-up window chose it
   measurement_ = cell_.start_measurement(protocol_.measure_strain, protocol_.measure);
 }
 

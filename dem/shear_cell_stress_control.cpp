@@ -89,7 +89,6 @@ void ShearCell::compact() {
   control_->set_closing(false);
   spdlog::debug("shear cell: compacted in {:.4g} s to a gap of {:.4g} m{}", system_.time(), gap(),
                 end.compacted() ? "" : " (time limit: the bed never carried half its target)");
-  if (!setup_.neighbor_skin_fraction) choose_neighbor_skin();
 }
 
 template <class AfterStep>

@@ -16,9 +16,9 @@ SkinCandidate skin_candidate(const SkinTrial& trial, double smallest_diameter) {
                                 static_cast<double>(std::max<std::size_t>(trial.particles, 1));
   return {.skin = trial.skin_fraction * smallest_diameter,
           .pairs_per_particle = trial.candidate_pair_steps / particle_steps,
-          .steps_per_rebuild = trial.rebuilds == 0 ? std::numeric_limits<double>::infinity()
-                                                   : static_cast<double>(trial.steps) /
-                                                         static_cast<double>(trial.rebuilds)};
+          .steps_per_rebuild = trial.lists_used > 0.0
+                                   ? static_cast<double>(trial.steps) / trial.lists_used
+                                   : std::numeric_limits<double>::infinity()};
 }
 
 double smallest_diameter(const System& system) {
@@ -32,11 +32,14 @@ SkinTrial run_skin_trial(System system, double skin_fraction, std::uint64_t step
   system.set_neighbor_skin(skin_fraction * smallest_diameter(system));
   SkinTrial trial{.skin_fraction = skin_fraction, .steps = steps, .particles = system.size()};
   const std::uint64_t rebuilds0 = system.neighbor_rebuild_count();
+  const double life_used0 = system.neighbor_travel() / system.neighbor_skin();
   for (std::uint64_t s = 0; s < steps; ++s) {
     system.step();
     trial.candidate_pair_steps += static_cast<double>(system.candidate_pairs().size());
   }
   trial.rebuilds = system.neighbor_rebuild_count() - rebuilds0;
+  trial.lists_used = static_cast<double>(trial.rebuilds) +
+                     system.neighbor_travel() / system.neighbor_skin() - life_used0;
   return trial;
 }
 
@@ -58,13 +61,14 @@ SkinChoice choose_skin_by_trials(const System& system, std::span<const double> s
   choice.chosen = cheapest_skin(candidates, model);
   std::string table;
   for (std::size_t k = 0; k < choice.trials.size(); ++k) {
-    table += fmt::format(" [{:.3g} d: {:.3f} pairs/particle, {} rebuilds, cost {:.0f}]",
-                         choice.trials[k].skin_fraction, candidates[k].pairs_per_particle,
-                         choice.trials[k].rebuilds, skin_cost(candidates[k], model));
+    table += fmt::format(
+        " [{:.3g} d: {:.3f} pairs/particle, {} rebuilds, {:.2f} list lives, cost {:.0f}]",
+        choice.trials[k].skin_fraction, candidates[k].pairs_per_particle, choice.trials[k].rebuilds,
+        choice.trials[k].lists_used, skin_cost(candidates[k], model));
   }
   spdlog::info(
       "neighbour skin chosen by trial: {:.3g} x the smallest diameter {:.4g} m ({} steps per "
-      "candidate from step {}; cost per particle-step = pairs x {} + rebuilds per step x {}):{}",
+      "candidate from step {}; cost per particle-step = pairs x {} + list lives per step x {}):{}",
       choice.skin_fraction(), d, steps, system.step_count(), model.per_candidate_step,
       model.per_particle_rebuild, table);
   return choice;

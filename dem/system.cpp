@@ -497,19 +497,24 @@ void System::choose_neighbor_skin(std::vector<double> skins, std::uint64_t stret
   skin_model_ = model;
 }
 
+double System::neighbor_travel() const {
+  const std::span<const Vec3> reference = neighbors_.reference_positions();
+  if (reference.empty()) return 0.0;
+  double max_displacement_sq = 0.0;
+  for (std::size_t i = 0; i < reference.size() && i < size(); ++i) {
+    max_displacement_sq =
+        std::max(max_displacement_sq, domain_.separation(reference[i], position_[i]).squaredNorm());
+  }
+  return neighbors_.travel(domain_, max_displacement_sq);
+}
+
 void System::finish_skin_choice() {
   const std::vector<double> skins = std::move(skin_choice_);
   skin_choice_.clear();
   const std::uint64_t steps = step_count_ - skin_choice_step_;
   const std::uint64_t rebuilds = std::max<std::uint64_t>(rebuild_count_ - skin_choice_rebuilds_, 1);
   double measured_interval = static_cast<double>(steps) / static_cast<double>(rebuilds);
-  const std::span<const Vec3> reference = neighbors_.reference_positions();
-  double max_displacement_sq = 0.0;
-  for (std::size_t i = 0; i < reference.size() && i < size(); ++i) {
-    max_displacement_sq =
-        std::max(max_displacement_sq, domain_.separation(reference[i], position_[i]).squaredNorm());
-  }
-  const double travel = neighbors_.travel(domain_, max_displacement_sq);
+  const double travel = neighbor_travel();
   const std::uint64_t since_build = step_count_ - build_step_;
   if (since_build > 0 && travel > 0.0) {
     measured_interval = skin_ * static_cast<double>(since_build) / travel;

@@ -34,8 +34,16 @@ namespace millflow::dem {
 // choice never reads a clock, so a run chooses the same skin every time (and no result's bits
 // depend on the skin anyway).
 struct SkinCostModel {
-  double per_candidate_step = 41.0;      // screening and gathering, per candidate pair and step
-  double per_particle_rebuild = 4500.0;  // a rebuild of the list, per particle
+  double per_candidate_step = 41.0;  // screening and gathering, per candidate pair and step
+  // A rebuild of the list, per particle. Measured directly too (callgrind, inclusive cost of
+  // System::rebuild_neighbors per call / particles, whole `millflow cell` runs of quick.json's
+  // bulk-0 cell, docs/shear_cells.md): 4,660 at skin 0.1 d and 6,680 at 0.3 d on the 131-media
+  // cell (load 0), 5,180 at 0.15 d and 5,800 at 0.2-0.3 d on the 647-particle powder cell (load 1).
+  // Kept at 4,500: the weight matters where rebuilds are frequent, the small skins, and there it
+  // is within 15% (neither cell's choice moves between 4,500 and 5,200); a rebuild grows with the
+  // pairs it finds, but not by one rule across cells (the powder cell finds fewer pairs per
+  // particle and costs more), so it is not scaled by them.
+  double per_particle_rebuild = 4500.0;
 };
 
 struct SkinCandidate {
@@ -177,6 +185,10 @@ class System {
   // Neighbour rebuilds the skin test asked for since the first step (not those of a new skin or a
   // renumbering).
   std::uint64_t neighbor_rebuild_count() const { return rebuild_count_; }
+  // What the rebuild test compares with the skin now: 2 x the largest displacement since the
+  // list's last build + the Lees-Edwards offset's change (0 before a build). The list is rebuilt
+  // once it reaches the skin, so travel / skin is the part of the list's life already used.
+  double neighbor_travel() const;
   // Chooses the skin from measurement: once `stretch` more steps have run at the current skin,
   // the next step() call counts the candidate pairs at each of `skins` (m; lists built from the
   // positions then) and predicts each skin's steps between rebuilds from those measured in the

@@ -1,6 +1,6 @@
 // The neighbour skin chosen by trial (dem/skin_choice.hpp): one of the candidates, the same
 // choice every time and at 1 and 2 threads, the original system untouched, and an "auto" cell
-// choosing after compaction.
+// choosing at the end of its first warm-up window.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -31,7 +31,7 @@ bool same_trials(const SkinChoice& a, const SkinChoice& b) {
     const SkinTrial &x = a.trials[k], &y = b.trials[k];
     if (x.skin_fraction != y.skin_fraction || x.steps != y.steps ||
         x.candidate_pair_steps != y.candidate_pair_steps || x.rebuilds != y.rebuilds ||
-        x.particles != y.particles)
+        x.lists_used != y.lists_used || x.particles != y.particles)
       return false;
   }
   return true;
@@ -48,10 +48,12 @@ TEST(SkinChoice, ATrialAsTheCostModelsCandidate) {
   EXPECT_DOUBLE_EQ(c.pairs_per_particle, 4.0);
   EXPECT_EQ(c.steps_per_rebuild, std::numeric_limits<double>::infinity());
   EXPECT_DOUBLE_EQ(skin_cost(c, SkinCostModel{}), 4.0 * 41.0);
+  // The lists' lives used, not the whole rebuilds, set the interval.
   SkinTrial busy = quiet;
   busy.rebuilds = 4;
+  busy.lists_used = 4.5;
   EXPECT_DOUBLE_EQ(skin_cost(skin_candidate(busy, 0.002), SkinCostModel{}),
-                   4.0 * 41.0 + 4500.0 * 4.0 / 100.0);
+                   4.0 * 41.0 + 4500.0 * 4.5 / 100.0);
 }
 
 TEST(SkinChoice, ChoosesACandidateTheSameWayEveryTimeAndAtAnyThreadCount) {
@@ -77,6 +79,8 @@ TEST(SkinChoice, ChoosesACandidateTheSameWayEveryTimeAndAtAnyThreadCount) {
       EXPECT_GE(one.trials[k].candidate_pair_steps, one.trials[k - 1].candidate_pair_steps);
       EXPECT_LE(one.trials[k].rebuilds, one.trials[k - 1].rebuilds);
     }
+    // Each trial used at least its rebuilds' lives (the copy's list starts new at its skin).
+    EXPECT_GE(one.trials[k].lists_used, static_cast<double>(one.trials[k].rebuilds));
   }
   EXPECT_TRUE(same_trials(one, choose(1)));
   EXPECT_TRUE(same_trials(one, choose(2)));
@@ -85,11 +89,18 @@ TEST(SkinChoice, ChoosesACandidateTheSameWayEveryTimeAndAtAnyThreadCount) {
   EXPECT_EQ(system.neighbor_skin(), skin);
 }
 
-TEST(SkinChoice, AnAutoCellChoosesAfterCompactionTheSameSkinAtOneAndTwoThreads) {
+TEST(SkinChoice, AnAutoCellChoosesAtTheEndOfItsFirstWarmUpWindowTheSameSkinAtOneAndTwoThreads) {
+  // Compacted, it still steps at the default; one window later at its choice (this small cell
+  // keeps 0.3; tests/tasks/test_shear_cells.cpp has a cell that chooses another).
+  EXPECT_DOUBLE_EQ(compacted_cell(std::nullopt).neighbor_skin_fraction(), kDefaultSkinFraction);
   auto chosen = [](int threads) {
     tbb::task_arena arena(threads);
     double fraction = 0.0;
-    arena.execute([&] { fraction = compacted_cell(std::nullopt).neighbor_skin_fraction(); });
+    arena.execute([&] {
+      ShearCell cell = compacted_cell(std::nullopt);
+      cell.warm_up(0.05, 1);
+      fraction = cell.neighbor_skin_fraction();
+    });
     return fraction;
   };
   const double one = chosen(1);

@@ -231,7 +231,7 @@ TEST(ShearCellSetup, CollisionTimesHoldForEachPairsReferenceParticles) {
   const auto radii = cell.system().radii();
   EXPECT_DOUBLE_EQ(cell.system().neighbor_skin(),
                    0.5 * 2.0 * *std::min_element(radii.begin(), radii.end()));
-  // "auto" leaves the skin to the cell (chosen by trial after compaction).
+  // "auto" leaves the skin to the cell (chosen by trial after its first warm-up window).
   json chosen = tiny_cell_params(0.3);
   chosen["dem"]["neighbor_skin_fraction"] = "auto";
   EXPECT_EQ(shear_cell_setup(chosen, tiny_site(), "key").neighbor_skin_fraction, std::nullopt);
@@ -451,12 +451,18 @@ TEST(ShearCell, AnAutoSkinCellReportsItsChoiceAndOtherwiseTheSameResult) {
                           std::end(dem::kSkinFractionCandidates),
                           [&](double f) { return std::abs(f - skin) < 1e-12; }))
       << skin;
-  // Stopped in the warm-up (after the choice) and continued from its checkpoint, it keeps the
-  // skin it chose: the same result bytes as the run that never stopped.
-  const millflow::testing::ScratchDir stopped_dir;
-  ASSERT_TRUE(attempt(auto_params, stopped_dir.path() / "work", 2).outcome.interrupted);
-  const json resumed = attempt(auto_params, stopped_dir.path() / "work", 0).outcome.result;
-  EXPECT_EQ(resumed.at("neighbor_skin_fraction"), skin);
+  // Stopped in the first warm-up window (before the choice, at its end) and in the second (after
+  // it) and continued from its checkpoint, it reports the same skin: chosen by the continued run,
+  // or the one the checkpoint saved. The log names the window it continues in.
+  for (const auto& [stop_at, window] :
+       {std::pair{1, "warm-up window 1 "}, {5, "warm-up window 2 "}}) {
+    const millflow::testing::ScratchDir stopped_dir;
+    ASSERT_TRUE(attempt(auto_params, stopped_dir.path() / "work", stop_at).outcome.interrupted);
+    const Attempt resumed = attempt(auto_params, stopped_dir.path() / "work", 0);
+    ASSERT_FALSE(resumed.log.empty());
+    EXPECT_NE(resumed.log.front().find(window), std::string::npos) << resumed.log.front();
+    EXPECT_EQ(resumed.outcome.result.at("neighbor_skin_fraction"), skin) << window;
+  }
   fixed.erase("neighbor_skin_fraction");
   chosen.erase("neighbor_skin_fraction");
   EXPECT_EQ(chosen.dump(), fixed.dump());
