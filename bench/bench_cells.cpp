@@ -54,10 +54,12 @@
 #include <string_view>
 #include <tuple>
 #include <utility>
+#include <vector>
 
 #include "bench/lammps_export.hpp"
 #include "bench/process_measures.hpp"
 #include "dem/shear_cell.hpp"
+#include "dem/skin_choice.hpp"
 #include "dem/stationarity.hpp"
 #include "method/sites.hpp"
 #include "tasks/campaign.hpp"
@@ -487,9 +489,10 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
     // state, at the chosen skin.
     dem::ShearCellRun probe = prepared(c);
     dem::System& probe_system = probe.cell().system();
-    const auto radii = probe_system.radii();
-    const double d = 2.0 * *std::min_element(radii.begin(), radii.end());
-    probe_system.choose_neighbor_skin({0.1 * d, 0.15 * d, 0.2 * d, 0.3 * d}, 100);
+    const double d = dem::smallest_diameter(probe_system);
+    std::vector<double> skins;
+    for (double fraction : dem::kSkinFractionCandidates) skins.push_back(fraction * d);
+    probe_system.choose_neighbor_skin(std::move(skins), dem::kSkinTrialSteps);
     spdlog::set_level(spdlog::level::info);  // the choice's log line
     probe.advance(101);                      // with the cell's stress control, as the timed run
     spdlog::set_level(spdlog::level::warn);
@@ -498,9 +501,7 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
     run.cell().system().set_neighbor_skin(probe_system.neighbor_skin());
   } else if (g_options.skin_fraction) {
     dem::System& system = run.cell().system();
-    const auto radii = system.radii();
-    system.set_neighbor_skin(*g_options.skin_fraction * 2.0 *
-                             *std::min_element(radii.begin(), radii.end()));
+    system.set_neighbor_skin(*g_options.skin_fraction * dem::smallest_diameter(system));
   }
   const std::size_t steps = g_options.steps.value_or(c.default_steps);
   const std::size_t particles = run.cell().system().size();

@@ -216,9 +216,7 @@ double ShearCell::neighbor_skin_fraction() const {
 
 void ShearCell::choose_neighbor_skin() {
   if (setup_.neighbor_skin_fraction) return;
-  const SkinChoice choice =
-      choose_skin_by_trials(system_, kSkinFractionCandidates, kSkinTrialSteps);
-  system_.set_neighbor_skin(choice.skin_fraction() * smallest_diameter(system_));
+  adopt_skin_by_trials(system_);
 }
 
 void ShearCell::set_wall_speed(double speed) {

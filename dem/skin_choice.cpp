@@ -74,4 +74,10 @@ SkinChoice choose_skin_by_trials(const System& system, std::span<const double> s
   return choice;
 }
 
+SkinChoice adopt_skin_by_trials(System& system) {
+  SkinChoice choice = choose_skin_by_trials(system, kSkinFractionCandidates, kSkinTrialSteps);
+  system.set_neighbor_skin(choice.skin_fraction() * smallest_diameter(system));
+  return choice;
+}
+
 }  // namespace millflow::dem

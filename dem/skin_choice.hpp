@@ -59,4 +59,8 @@ SkinTrial run_skin_trial(System system, double skin_fraction, std::uint64_t step
 SkinChoice choose_skin_by_trials(const System& system, std::span<const double> skin_fractions,
                                  std::uint64_t steps, const SkinCostModel& model = {});
 
+// "auto": the trials of kSkinFractionCandidates over kSkinTrialSteps on copies of `system`, and
+// the cheapest set as its skin.
+SkinChoice adopt_skin_by_trials(System& system);
+
 }  // namespace millflow::dem

@@ -240,9 +240,7 @@ void MacroRun::start_measuring() {
   // "auto": the skin is chosen on the charge in motion, before the measurement records collisions
   // (the trials step copies; no result depends on the skin).
   if (!settings_.skin_fraction) {
-    const dem::SkinChoice choice =
-        dem::choose_skin_by_trials(system_, dem::kSkinFractionCandidates, dem::kSkinTrialSteps);
-    system_.set_neighbor_skin(choice.skin_fraction() * smallest_diameter(settings_.mill));
+    const dem::SkinChoice choice = dem::adopt_skin_by_trials(system_);
     log(fmt::format("macro: neighbour skin \"auto\" chose {:.3g} x the smallest diameter",
                     choice.skin_fraction()));
   }

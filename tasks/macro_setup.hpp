@@ -33,7 +33,7 @@ const nlohmann::json& find_interaction(const nlohmann::json& params, const std::
                                        const std::string& b);
 
 // params /dem/neighbor_skin_fraction: the number, or empty for "auto" (chosen by trial, each
-// shear cell after compaction and each macro run at the end of its warm-up).
+// shear cell after its first warm-up window and each macro run at the end of its warm-up).
 std::optional<double> neighbor_skin_fraction(const nlohmann::json& params);
 
 // The mass-weighted mean diameter of params /media (its diameter or size distribution), m.
