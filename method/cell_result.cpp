@@ -184,9 +184,19 @@ CellResult cell_result(const dem::ShearCellMeasurements& m) {
   return r;
 }
 
+namespace {
+
+// Only a stiff cell has it: the default cells' results stay as they were.
+void write_stiffness_factor(json& out, const CellResult& c) {
+  if (c.stiffness_factor) out["stiffness_factor"] = *c.stiffness_factor;
+}
+
+}  // namespace
+
 void to_json(json& out, const CellResult& c) {
   if (!c.skipped.empty()) {
     out = {{"skipped", c.skipped}, {"slot", c.slot}, {"powder_load", c.powder_load}};
+    write_stiffness_factor(out, c);
     return;
   }
   json dissipation = by_type_json(c.dissipation_w_m3, [](double x) { return x; });
@@ -268,12 +278,15 @@ void to_json(json& out, const CellResult& c) {
        c.neighbor_skin_fraction ? json(*c.neighbor_skin_fraction) : json()},
   };
   if (c.standard_errors) out["standard_errors"] = standard_errors_json(*c.standard_errors);
+  write_stiffness_factor(out, c);
 }
 
 void from_json(const json& in, CellResult& c) {
   c = CellResult{};
   c.slot = in.at("slot");
   c.powder_load = in.at("powder_load");
+  if (const auto factor = in.find("stiffness_factor"); factor != in.end())
+    c.stiffness_factor = factor->get<double>();
   if (in.contains("skipped")) {
     c.skipped = in.at("skipped").get<std::string>();
     return;

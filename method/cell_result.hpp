@@ -27,6 +27,10 @@
 // largest p95; 0 without contacts), overlap_ok, neighbor_skin_fraction (the skin stepped at over
 // the smallest diameter; absent in cells stored before it, read as none).
 //
+// A stiff cell of /shear_cell/stiffness/sensitivity, skipped or not, also has stiffness_factor F
+// (its powder pairs' k_n are F x the policy's, stiffness.<pair> gives them); the default cells
+// have no such key (read as 1).
+//
 // Reading an older cell: without `steady` the cell is steady when steady_state.steady is; without
 // `converged` it counts as converged when steady; without standard_errors it has none.
 #include <array>
@@ -70,6 +74,9 @@ struct CellResult {
   nlohmann::json slot{};         // {region, index}
   nlohmann::json powder_load{};  // U
   std::string skipped{};         // why no cell ran; then nothing below is set or written
+  // The factor on the powder pairs' k_n of a stiff cell (/shear_cell/stiffness/sensitivity);
+  // none (written as no key, read as 1) for the default cells.
+  std::optional<double> stiffness_factor{};
 
   std::size_t media_count = 0, powder_count = 0, wall_ball_count = 0;
   std::vector<dem::PairStiffness> stiffness{};  // smaller_diameter is not stored

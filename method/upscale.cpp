@@ -77,6 +77,13 @@ Ratio ratio(const Sum& a, const Sum& b) {
   return {r, ea && eb ? std::optional(std::abs(r) * std::hypot(*ea, *eb)) : std::nullopt};
 }
 
+Ratio ratio(const Ratio& a, const Ratio& b) {
+  if (!a.value || !b.value || *b.value <= 0.0) return {};
+  const double r = *a.value / *b.value;
+  if (!a.standard_error || !b.standard_error || *a.value == 0.0) return {r, std::nullopt};
+  return {r, std::abs(r) * std::hypot(*a.standard_error / *a.value, *b.standard_error / *b.value)};
+}
+
 void PowerSums::add(const Site& site, WeightBasis basis, const CellFigures& loaded,
                     const CellFigures* baseline) {
   ++sites;
@@ -126,6 +133,17 @@ PowerSums PowerSums::anchored(double macro_dissipation) const {
   for (Sum* reference : {&a.input_no_powder, &a.collisions_no_powder, &a.rate_no_powder})
     *reference = reference->scaled(k0);
   return a;
+}
+
+void StiffnessSums::add(const Site& site, WeightBasis basis, const CellFigures& loaded,
+                        const CellFigures& stiff_loaded, const CellFigures& baseline) {
+  normal.add(site, basis, loaded, &baseline);
+  stiff.add(site, basis, stiff_loaded, &baseline);
+}
+
+void StiffnessSums::merge(const StiffnessSums& other) {
+  normal.merge(other.normal);
+  stiff.merge(other.stiff);
 }
 
 void SpectrumSum::add(double weight, const CellSpectra& cell) {

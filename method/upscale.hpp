@@ -53,6 +53,8 @@ struct Ratio {
   std::optional<double> value, standard_error;
 };
 Ratio ratio(const Sum& a, const Sum& b);
+// The same for two ratios; none when either has no value or b is not positive.
+Ratio ratio(const Ratio& a, const Ratio& b);
 
 // Sums over the sites of one region (or of all), W or collisions per second in the slice: at
 // load U over the sites with a loaded cell; at load 0 (and `input_paired`, at load U) over those
@@ -72,6 +74,17 @@ struct PowerSums {
   // The sums with the cells' power at each load set to D (the scaling taken as exact in the
   // errors).
   PowerSums anchored(double macro_dissipation) const;
+};
+
+// The stiffness sensitivity's sums over the sites of one region (or of all) that have a default
+// and a stiff cell at load U and a default cell at load 0 (tasks/upscale.hpp, Stiffness
+// sensitivity): the default cells' and the stiff cells' sums, each over the same baselines.
+struct StiffnessSums {
+  PowerSums normal, stiff;
+
+  void add(const Site& site, WeightBasis basis, const CellFigures& loaded,
+           const CellFigures& stiff_loaded, const CellFigures& baseline);
+  void merge(const StiffnessSums& other);
 };
 
 // The media spectrum's shift (tasks/upscale.hpp, Spectra).

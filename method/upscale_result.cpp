@@ -77,6 +77,32 @@ json sensitivity_json(const UpscaleSensitivity& s) {
           {"toe_powder_power_share", optional_json(s.toe_powder_power_share)}};
 }
 
+json left_out_json(const std::vector<LeftOutCell>& cells) {
+  json out = json::array();
+  for (const LeftOutCell& c : cells) {
+    out.push_back({{"site_id", c.site_id},
+                   {"powder_load", c.powder_load},
+                   {"reason", c.reason},
+                   {"counted", c.counted}});
+  }
+  return out;
+}
+
+json stiffness_figures_json(const StiffnessFigures& f) {
+  json out = {{"sites", f.sites}};
+  for (const auto& [key, member] : kStiffnessFigureKeys) out[key] = optional_json(f.*member);
+  return out;
+}
+
+json stiffness_json(const StiffnessSensitivity& s) {
+  json regions = json::object();
+  for (const auto& [region, figures] : s.regions) regions[region] = stiffness_figures_json(figures);
+  return {{"factor", s.factor},
+          {"regions", regions},
+          {"totals", stiffness_figures_json(s.totals)},
+          {"left_out_cells", left_out_json(s.left_out_cells)}};
+}
+
 json site_json(const UpscaleSite& s) {
   return {{"site_id", s.site_id},
           {"region", s.region},
@@ -158,6 +184,41 @@ bool read_flag(const util::JsonFields& in, const std::string& at) {
   return value.get<bool>();
 }
 
+std::vector<LeftOutCell> read_left_out(const util::JsonFields& in, const std::string& at) {
+  std::vector<LeftOutCell> cells;
+  for (std::size_t i = 0; i < in.array_size(at); ++i) {
+    const std::string row = fmt::format("{}/{}", at, i);
+    cells.push_back({.site_id = in.text(row + "/site_id"),
+                     .powder_load = in.number(row + "/powder_load"),
+                     .reason = in.text(row + "/reason"),
+                     .counted = read_flag(in, row + "/counted")});
+  }
+  return cells;
+}
+
+StiffnessFigures read_stiffness_figures(const util::JsonFields& in, const std::string& at) {
+  StiffnessFigures f{.sites = in.count(at + "/sites")};
+  for (const auto& [key, member] : kStiffnessFigureKeys)
+    f.*member = in.number_or_null(at + "/" + key);
+  return f;
+}
+
+std::optional<StiffnessSensitivity> read_stiffness(const util::JsonFields& in,
+                                                   const json& document) {
+  const std::string at = "/stiffness_sensitivity";
+  if (!document.contains("stiffness_sensitivity")) return std::nullopt;
+  StiffnessSensitivity s{.factor = in.number(at + "/factor"),
+                         .totals = read_stiffness_figures(in, at + "/totals"),
+                         .left_out_cells = read_left_out(in, at + "/left_out_cells")};
+  const json& regions = in.at(at + "/regions");
+  if (!regions.is_object()) in.refuse(at + "/regions", "is not an object of regions");
+  for (const std::string& region : region_names()) {
+    if (regions.contains(region))
+      s.regions.emplace_back(region, read_stiffness_figures(in, at + "/regions/" + region));
+  }
+  return s;
+}
+
 }  // namespace
 
 void to_json(json& out, const UpscaleResult& r) {
@@ -166,14 +227,8 @@ void to_json(json& out, const UpscaleResult& r) {
   anchored["uncovered_macro_dissipation_w"] = r.macro_anchored.uncovered_macro_dissipation_w;
   anchored["spectra"] = spectra_json(r.macro_anchored.spectra);
   anchored["media_spectrum_shift"] = shift_json(r.macro_anchored.media_spectrum_shift);
-  json sensitivity = json::array(), left_out = json::array(), sites = json::array();
+  json sensitivity = json::array(), sites = json::array();
   for (const UpscaleSensitivity& s : r.sensitivity) sensitivity.push_back(sensitivity_json(s));
-  for (const LeftOutCell& c : r.left_out_cells) {
-    left_out.push_back({{"site_id", c.site_id},
-                        {"powder_load", c.powder_load},
-                        {"reason", c.reason},
-                        {"counted", c.counted}});
-  }
   for (const UpscaleSite& s : r.sites) sites.push_back(site_json(s));
   out = method_json(r.cells);
   out.update(json{
@@ -194,7 +249,7 @@ void to_json(json& out, const UpscaleResult& r) {
       {"sensitivity", sensitivity},
       {"spectra", spectra_json(r.spectra)},
       {"media_spectrum_shift", shift_json(r.media_spectrum_shift)},
-      {"left_out_cells", left_out},
+      {"left_out_cells", left_out_json(r.left_out_cells)},
       {"sites", sites},
       {"coupling",
        {{"sites", r.coupling.sites},
@@ -202,6 +257,8 @@ void to_json(json& out, const UpscaleResult& r) {
         {"tolerance", r.coupling.tolerance},
         {"within_tolerance", r.coupling.within_tolerance}}},
   });
+  if (r.stiffness_sensitivity)
+    out["stiffness_sensitivity"] = stiffness_json(*r.stiffness_sensitivity);
 }
 
 UpscaleResult read_upscale_result(const json& document, const std::string& owner,
@@ -247,13 +304,8 @@ UpscaleResult read_upscale_result(const json& document, const std::string& owner
                            .powder_power_w = in.number(row + "/powder_power_w")});
     }
   }
-  for (std::size_t i = 0; i < in.array_size("/left_out_cells"); ++i) {
-    const std::string at = fmt::format("/left_out_cells/{}", i);
-    r.left_out_cells.push_back({.site_id = in.text(at + "/site_id"),
-                                .powder_load = in.number(at + "/powder_load"),
-                                .reason = in.text(at + "/reason"),
-                                .counted = read_flag(in, at + "/counted")});
-  }
+  r.left_out_cells = read_left_out(in, "/left_out_cells");
+  r.stiffness_sensitivity = read_stiffness(in, document);
   for (std::size_t i = 0; i < in.array_size("/sites"); ++i) {
     const std::string at = fmt::format("/sites/{}", i);
     r.sites.push_back(

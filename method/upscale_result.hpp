@@ -22,10 +22,16 @@
 //   sites [{site_id, region, x_m, y_m, weight_m3, shear_rate_per_s, normal_stress_pa,
 //   macro_shear_stress_pa, cell_shear_stress_pa, coupling_ratio, power_density_w_m3,
 //   powder_dissipation_w_m3, skipped}],
-//   coupling {sites, median_ratio, tolerance, within_tolerance}.
+//   coupling {sites, median_ratio, tolerance, within_tolerance},
+//   stiffness_sensitivity (only with stiff cells, /shear_cell/stiffness/sensitivity) {factor,
+//   regions {<region>: StiffnessFigures keys}, totals {StiffnessFigures keys}, left_out_cells
+//   [as above]}; StiffnessFigures keys: sites, and cushioning, cushioning_stiff,
+//   cushioning_shift, powder_share, powder_share_stiff, powder_share_shift, each with its _se.
+#include <array>
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -91,6 +97,31 @@ struct UpscaleSensitivity {
   std::optional<double> toe_powder_power_share{};
 };
 
+// The stiffness sensitivity of one region or of all (tasks/upscale.hpp): over the same sites,
+// the cushioning and the powder's share of the cells' power input with the default cells and with
+// the stiff ones, and the relative shift stiff / default - 1, each with its standard error.
+struct StiffnessFigures {
+  std::size_t sites = 0;
+  std::optional<double> cushioning{}, cushioning_se{}, cushioning_stiff{}, cushioning_stiff_se{},
+      cushioning_shift{}, cushioning_shift_se{}, powder_share{}, powder_share_se{},
+      powder_share_stiff{}, powder_share_stiff_se{}, powder_share_shift{}, powder_share_shift_se{};
+};
+
+// The one spelling of StiffnessFigures' keys (but `sites`).
+inline constexpr std::array<std::pair<const char*, std::optional<double> StiffnessFigures::*>, 12>
+    kStiffnessFigureKeys{{{"cushioning", &StiffnessFigures::cushioning},
+                          {"cushioning_se", &StiffnessFigures::cushioning_se},
+                          {"cushioning_stiff", &StiffnessFigures::cushioning_stiff},
+                          {"cushioning_stiff_se", &StiffnessFigures::cushioning_stiff_se},
+                          {"cushioning_shift", &StiffnessFigures::cushioning_shift},
+                          {"cushioning_shift_se", &StiffnessFigures::cushioning_shift_se},
+                          {"powder_share", &StiffnessFigures::powder_share},
+                          {"powder_share_se", &StiffnessFigures::powder_share_se},
+                          {"powder_share_stiff", &StiffnessFigures::powder_share_stiff},
+                          {"powder_share_stiff_se", &StiffnessFigures::powder_share_stiff_se},
+                          {"powder_share_shift", &StiffnessFigures::powder_share_shift},
+                          {"powder_share_shift_se", &StiffnessFigures::powder_share_shift_se}}};
+
 // A cell left out of the sums (or counted against its flags).
 struct LeftOutCell {
   std::string site_id{};
@@ -116,6 +147,14 @@ struct UpscaleCoupling {
   std::size_t within_tolerance = 0;
 };
 
+// What the stiff cells of one point give (tasks/upscale.hpp, Stiffness sensitivity).
+struct StiffnessSensitivity {
+  double factor = 1.0;  // the stiff cells' factor on the powder pairs' k_n
+  std::vector<std::pair<std::string, StiffnessFigures>> regions{};  // in region_names() order
+  StiffnessFigures totals{};
+  std::vector<LeftOutCell> left_out_cells{};  // stiff cells left out (or counted against flags)
+};
+
 struct UpscaleResult {
   UpscaleMethod cells{};  // the top-level figures, but for cells.totals.sites (not stored)
   double fill = 0.0, speed_fraction = 0.0, powder_load = 0.0;
@@ -130,6 +169,7 @@ struct UpscaleResult {
   std::vector<LeftOutCell> left_out_cells{};
   std::vector<UpscaleSite> sites{};
   UpscaleCoupling coupling{};
+  std::optional<StiffnessSensitivity> stiffness_sensitivity{};  // none without stiff cells
 };
 
 void to_json(nlohmann::json& out, const UpscaleResult& result);

@@ -426,6 +426,54 @@ std::string coupling_table(const std::vector<Slice>& slices) {
   return out;
 }
 
+// A relative shift as a signed percentage with its standard error, "-" without one.
+std::string percent(const std::optional<double>& value, const std::optional<double>& se) {
+  if (!value) return "-";
+  return fmt::format("{:+.1f}% (+- {})", 100.0 * *value,
+                     se ? fmt::format("{:.1f}%", 100.0 * *se) : std::string("?"));
+}
+
+std::string stiffness_row(const method::UpscaleResult& p, const std::string& region,
+                          const method::StiffnessFigures& f) {
+  return fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", g(p.fill),
+                     g(p.speed_fraction), g(p.powder_load), region, f.sites, md(f.cushioning),
+                     md(f.cushioning_stiff), percent(f.cushioning_shift, f.cushioning_shift_se),
+                     md(f.powder_share), md(f.powder_share_stiff),
+                     percent(f.powder_share_shift, f.powder_share_shift_se));
+}
+
+// Per point with stiff cells a sentence, and a table by region (empty without stiff cells).
+std::string stiffness_section(const std::vector<UpscalePoint>& points) {
+  std::string sentences, rows;
+  for (const UpscalePoint& point : points) {
+    const method::UpscaleResult& p = point.upscale;
+    if (!p.stiffness_sensitivity) continue;
+    const method::StiffnessSensitivity& s = *p.stiffness_sensitivity;
+    sentences += fmt::format(
+        "- J = {}, phi = {}, U = {}: with the powder pairs {:g} x stiffer, cushioning moves by {} "
+        "and the powder share by {} ({} sites): a systematic error not in the error bars.\n",
+        g(p.fill), g(p.speed_fraction), g(p.powder_load), s.factor,
+        percent(s.totals.cushioning_shift, s.totals.cushioning_shift_se),
+        percent(s.totals.powder_share_shift, s.totals.powder_share_shift_se), s.totals.sites);
+    for (const auto& [region, figures] : s.regions) rows += stiffness_row(p, region, figures);
+    rows += stiffness_row(p, "all", s.totals);
+  }
+  if (sentences.empty()) return {};
+  return "## Stiffness sensitivity\n\n"
+         "The shear cells' powder contacts are only as stiff as the stiffness policy makes them, "
+         "and cushioning and the powder's share of the cells' power move with that stiffness "
+         "(docs/shear_cells.md, \"Stiffness policy\"). Extra cells at the first sites of some "
+         "regions ran with the powder pairs stiffer; comparing them with the default cells at "
+         "the same sites gives the shift below, stiff / default - 1 with its standard error: "
+         "a systematic error of the figures above that their error bars do not carry "
+         "(docs/method.md, \"Stiffness sensitivity\"). The powder share here is the powder's "
+         "share of the power put into the cells.\n\n" +
+         sentences +
+         "\n| fill J | speed phi | powder load U | region | sites | cushioning | stiff | shift | "
+         "powder share | stiff | shift |\n|---|---|---|---|---|---|---|---|---|---|---|\n" +
+         rows + "\n";
+}
+
 std::string index_page(const std::string& campaign, const std::vector<UpscalePoint>& points,
                        const std::vector<Slice>& slices, bool with_macro_runs) {
   std::string out = fmt::format("# Campaign report: {}\n\n", campaign);
@@ -457,6 +505,7 @@ std::string index_page(const std::string& campaign, const std::vector<UpscalePoi
       "Media-media collision power with powder divided by the same without powder, per region: "
       "below 1 the powder "
       "cushions the ball collisions; error bars as above.\n\n";
+  out += stiffness_section(points);
   out +=
       "## Powder collision energy spectra\n\n![powder spectra](powder_spectra.svg)\n\n"
       "Powder collisions per second in the mill slice in each bin of dissipated energy per "

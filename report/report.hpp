@@ -33,7 +33,10 @@
 //                            cushioning_se);  sites.csv  one row per point x site;
 //   spectra.csv              one row per point x energy bin;
 //   index.md                 the page: what each figure shows, the points with their dominant
-//                            region, the coupling agreement, links to the tables and figures.
+//                            region, the coupling agreement, links to the tables and figures;
+//                            with stiff cells (/shear_cell/stiffness/sensitivity) a section with
+//                            a sentence per point and a table per point and region of how far
+//                            cushioning and the powder share move with the powder's stiffness.
 // Points are ordered by fill, speed fraction, powder load; numbers are written with fixed formats
 // (CSV: the shortest text that reads back to the same double), so the same inputs give the same
 // bytes. Result: {campaign, files, points, slices, dominant_regions: [{fill, speed_fraction,

@@ -402,6 +402,26 @@ std::vector<engine::FieldRule> micro_fields() {
             "\"overlap_bound\" also raises the media-media k_n to at least this times sigma_n "
             "d_m (the balls' rigidity k_n / (sigma_n d_m)); absent or 0: no such bound")
           .range(at_least(0), at_most(1e7)),
+      // No default: a campaign without it plans no extra cells and keeps its tasks' parameters.
+      Field("/shear_cell/stiffness/sensitivity", FieldType::object,
+            "extra cells whose powder pairs (media-powder, powder-powder) are stiffer than the "
+            "policy's k_n, at the same sites as the default cells: the upscaling reports how much "
+            "cushioning and the powder's share of the power move, a systematic error the error "
+            "bars do not carry (docs/method.md); absent: no such cells"),
+      Field("/shear_cell/stiffness/sensitivity/factor", FieldType::number,
+            "how many times the policy's k_n the powder pairs get in the extra cells")
+          .defaults(4.0)
+          .range(above(1), at_most(16)),
+      Field("/shear_cell/stiffness/sensitivity/sites_per_region", FieldType::integer,
+            "the first sites of each region that get an extra cell (at most /sites/per_region)")
+          .defaults(1)
+          .range(at_least(1), at_most(20)),
+      Field("/shear_cell/stiffness/sensitivity/regions", FieldType::array,
+            "the regions whose sites get extra cells (of /sites/regions; absent: all of them)")
+          .items(1, flow_regions.size())
+          .unique(),
+      Field("/shear_cell/stiffness/sensitivity/regions/*", FieldType::enumeration, "a flow region")
+          .choices(flow_regions),
       Field("/shear_cell/steps_per_collision", FieldType::integer,
             "time steps per collision time in the shear cells (dt = t_c / N; "
             "/dem/steps_per_collision is the macro "

@@ -132,6 +132,7 @@ class ConsistencyChecker {
     check_at_least("/shear_cell/stiffness/p95_overlap_fraction",
                    "/shear_cell/stiffness/mean_overlap_fraction");
     check_wall_measured_window();
+    check_stiffness_sensitivity();
     return std::move(errors_);
   }
 
@@ -465,6 +466,29 @@ class ConsistencyChecker {
               quantity(dem::WallSpeedController::kMeasuredControlStrain) + " strain",
           "raise it to at least " + quantity(least) + " (the walls' protocol measures " +
               quantity(dem::kRoughWallStrains.measure_strain) + ")");
+  }
+
+  // The extra stiff cells sit at sites the default cells have.
+  void check_stiffness_sensitivity() {
+    const std::string at = "/shear_cell/stiffness/sensitivity";
+    const auto sites = campaign_.number(at + "/sites_per_region");
+    const auto per_region = campaign_.number("/sites/per_region");
+    if (sites && per_region && *sites > *per_region) {
+      error(at + "/sites_per_region",
+            quantity(*sites) + " is above /sites/per_region = " + quantity(*per_region) +
+                ": the stiff cells go to sites the default cells have",
+            "use at most " + quantity(*per_region) + " or raise /sites/per_region");
+    }
+    const auto* regions = campaign_.node(at + "/regions");
+    const auto* chosen = campaign_.node("/sites/regions");
+    if (regions == nullptr || chosen == nullptr) return;
+    for (std::size_t i = 0; i < regions->size(); ++i) {
+      const auto region = (*regions)[i].get<std::string>();
+      if (std::find(chosen->begin(), chosen->end(), region) != chosen->end()) continue;
+      error(at + "/regions/" + std::to_string(i),
+            "region \"" + region + "\" gets no sites (it is not in /sites/regions)",
+            "remove it or add it to /sites/regions");
+    }
   }
 
   void check_powder_count() {

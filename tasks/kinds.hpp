@@ -41,5 +41,10 @@ nlohmann::json shear_cells_params(const nlohmann::json& point);  // shear_cell, 
 // /sites/per_region), below its sites task; returns their keys.
 std::vector<std::string> plan_shear_cells(engine::Plan& plan, const nlohmann::json& point,
                                           const std::string& sites);
+// The stiff cells of /shear_cell/stiffness/sensitivity at the point's load (none without it): the
+// point's cell parameters with stiffness_factor F, one per slot of its regions (all of
+// /sites/regions when it names none) x index below its sites_per_region; returns their keys.
+std::vector<std::string> plan_stiff_cells(engine::Plan& plan, const nlohmann::json& point,
+                                          const std::string& sites);
 
 }  // namespace millflow::tasks

@@ -47,8 +47,12 @@ nlohmann::json shear_cells_params(const nlohmann::json& point) {
   for (const auto& name : names) materials[name] = point.at("materials").at(name);
   // The cells' time step is /shear_cell's; the seed and the skin are the campaign's.
   const nlohmann::json& dem = point.at("dem");
+  // The stiffness sensitivity says which cells to plan, not how a cell runs: without it in their
+  // parameters the default cells keep their keys whether a campaign asks for it or not.
+  nlohmann::json cell = point.at("shear_cell");
+  if (cell.contains("stiffness")) cell["stiffness"].erase("sensitivity");
   return {
-      {"shear_cell", point.at("shear_cell")},
+      {"shear_cell", std::move(cell)},
       {"materials", materials},
       {"interactions", interactions_among(point.at("interactions"), names)},
       {"media", point.at("media")},
@@ -75,12 +79,14 @@ nlohmann::json upscale_params(const nlohmann::json& point) {
            materials.at(powder.at("material").get<std::string>()).at("density")}};
 }
 
-std::vector<std::string> plan_shear_cells(engine::Plan& plan, const nlohmann::json& point,
-                                          const std::string& sites) {
-  const nlohmann::json base = shear_cells_params(point);
-  const int per_region = point.at("sites").at("per_region").get<int>();
+namespace {
+
+// One cell per slot: each of `regions` x the indices below `per_region`.
+std::vector<std::string> plan_slots(engine::Plan& plan, const nlohmann::json& base,
+                                    const nlohmann::json& regions, int per_region,
+                                    const std::string& sites) {
   std::vector<std::string> cells;
-  for (const auto& region : point.at("sites").at("regions")) {
+  for (const auto& region : regions) {
     for (int index = 0; index < per_region; ++index) {
       nlohmann::json params = base;
       params["slot"] = {{"region", region}, {"index", index}};
@@ -88,6 +94,26 @@ std::vector<std::string> plan_shear_cells(engine::Plan& plan, const nlohmann::js
     }
   }
   return cells;
+}
+
+}  // namespace
+
+std::vector<std::string> plan_shear_cells(engine::Plan& plan, const nlohmann::json& point,
+                                          const std::string& sites) {
+  const nlohmann::json& chosen = point.at("sites");
+  return plan_slots(plan, shear_cells_params(point), chosen.at("regions"),
+                    chosen.at("per_region").get<int>(), sites);
+}
+
+std::vector<std::string> plan_stiff_cells(engine::Plan& plan, const nlohmann::json& point,
+                                          const std::string& sites) {
+  const auto sensitivity = nlohmann::json::json_pointer("/shear_cell/stiffness/sensitivity");
+  if (!point.contains(sensitivity)) return {};
+  const nlohmann::json& asked = point.at(sensitivity);
+  nlohmann::json base = shear_cells_params(point);
+  base["stiffness_factor"] = asked.at("factor");
+  return plan_slots(plan, base, asked.value("regions", point.at("sites").at("regions")),
+                    asked.at("sites_per_region").get<int>(), sites);
 }
 
 namespace {
@@ -101,8 +127,8 @@ nlohmann::json without_powder(nlohmann::json point) {
 }  // namespace
 
 // Per point: macro -> average -> sites, and with shear cells on: its cells (and those without
-// powder) -> upscale; one report over every upscale and the macro, average and sites tasks its
-// figures are drawn from.
+// powder, and the stiff ones of /shear_cell/stiffness/sensitivity) -> upscale; one report over
+// every upscale and the macro, average and sites tasks its figures are drawn from.
 void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
   std::vector<std::string> report_inputs;
   for (const CampaignPoint& point : expand(campaign)) {
@@ -117,6 +143,8 @@ void plan_millflow(const nlohmann::json& campaign, engine::Plan& plan) {
     if (load != 0.0) {
       for (const auto& cell : plan_shear_cells(plan, without_powder(document), sites))
         upstream.push_back(cell);
+      // Without powder the stiff cells would be the default ones: those are their reference.
+      for (const auto& cell : plan_stiff_cells(plan, document, sites)) upstream.push_back(cell);
     }
     report_inputs.push_back(plan.add("upscale", upscale_params(document), std::move(upstream)));
     // The loads of a fill and speed share one macro, average and sites task: the report needs each

@@ -34,7 +34,7 @@ dem::ShearCellSetup::Boundary boundary(const std::string& name) {
 }  // namespace
 
 std::string stiffness_log(const std::vector<dem::PairStiffness>& pairs,
-                          const dem::ShearCellSetup& setup) {
+                          const dem::ShearCellSetup& setup, std::optional<double> factor) {
   std::string text = fmt::format(
       "shear cell stiffness at sigma_n {:.4g} Pa, shear rate {:.4g} 1/s (mean overlap <= {:.3g}, "
       "p95 <= {:.3g} of d_small{}):",
@@ -43,6 +43,9 @@ std::string stiffness_log(const std::vector<dem::PairStiffness>& pairs,
       setup.overlap_bound.media_rigidity > 0.0
           ? fmt::format(", media k_n / (sigma_n d_m) >= {:.3g}", setup.overlap_bound.media_rigidity)
           : std::string());
+  if (factor)
+    text +=
+        fmt::format(" the powder pairs' k_n {:g} x the policy's (stiffness sensitivity);", *factor);
   for (const dem::PairStiffness& p : pairs) {
     text += fmt::format(
         " {}: k_n {:.4g} N/m ({} governs; given {:.4g}, static bound {:.4g}, impact bound {:.4g}",
@@ -97,11 +100,36 @@ dem::ShearCellSetup shear_cell_setup(const json& params, const json& site,
   return setup;
 }
 
+namespace {
+
+// A stiff cell's powder pairs (tasks/shear_cell.hpp): k_n x factor after the policy, and what was
+// derived for them to match (the bound that governs stays the policy's).
+void stiffen_powder_pairs(double factor, dem::ShearCellSetup& setup,
+                          std::vector<dem::PairStiffness>& pairs) {
+  setup.media_powder.normal_stiffness *= factor;
+  setup.powder_powder.normal_stiffness *= factor;
+  for (dem::PairStiffness& p : pairs) {
+    if (p.pair == "media-media") continue;
+    p.chosen *= factor;
+    p.kappa *= factor;
+  }
+}
+
+}  // namespace
+
+std::optional<double> stiffness_factor(const json& params) {
+  const auto found = params.find("stiffness_factor");
+  return found == params.end() ? std::nullopt : std::optional(found->get<double>());
+}
+
 std::vector<dem::PairStiffness> apply_stiffness_policy(const json& params,
                                                        dem::ShearCellSetup& setup) {
-  if (at(params, "/shear_cell/stiffness/policy").get<std::string>() == "campaign")
-    return dem::describe_stiffness(setup);
-  return dem::apply_overlap_bound(setup);
+  std::vector<dem::PairStiffness> pairs =
+      at(params, "/shear_cell/stiffness/policy").get<std::string>() == "campaign"
+          ? dem::describe_stiffness(setup)
+          : dem::apply_overlap_bound(setup);
+  if (const auto factor = stiffness_factor(params)) stiffen_powder_pairs(*factor, setup, pairs);
+  return pairs;
 }
 
 namespace {
@@ -152,7 +180,10 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   if (!found.skipped.empty()) {
     context.log(fmt::format("shear cell {} skipped: {}", slot_site_id(slot), found.skipped));
     return engine::TaskOutcome::with_result(
-        method::CellResult{.slot = slot, .powder_load = powder_load, .skipped = found.skipped});
+        method::CellResult{.slot = slot,
+                           .powder_load = powder_load,
+                           .skipped = found.skipped,
+                           .stiffness_factor = stiffness_factor(context.params)});
   }
   std::filesystem::create_directories(
       context.work_dir);  // the engine leaves its creation to the task
@@ -161,7 +192,7 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   const std::vector<dem::PairStiffness> stiffness = apply_stiffness_policy(context.params, setup);
   dem::ShearCellRun run =
       resume_or_start(setup, shear_cell_protocol(context.params), checkpoint, context);
-  context.log(stiffness_log(stiffness, setup));
+  context.log(stiffness_log(stiffness, setup, stiffness_factor(context.params)));
   CheckpointCadence cadence(cell_params.at("checkpoint_interval_s").get<double>());
   while (!run.done()) {
     if (context.stop.stop_requested() || cadence.due()) {
@@ -187,6 +218,7 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   result.powder_count = cell.powder_count();
   result.wall_ball_count = cell.wall_ball_count();
   result.stiffness = stiffness;
+  result.stiffness_factor = stiffness_factor(context.params);
   result.neighbor_skin_fraction = cell.neighbor_skin_fraction();
   // Timings go to the log, not the result: a result must not depend on the machine's load.
   context.log(fmt::format(

@@ -20,7 +20,13 @@
 //   seed             tasks::macro_seed(dem.seed, task key);
 //   stiffness        /shear_cell/stiffness (apply_stiffness_policy below), logged and stored in
 //                    the result as stiffness {by pair: k_n_n_m, kappa, given_n_m,
-//                    static_bound_n_m, impact_bound_n_m, governing}.
+//                    static_bound_n_m, impact_bound_n_m, governing};
+//   stiffness_factor F, only in the parameters of the stiff cells that
+//                    /shear_cell/stiffness/sensitivity plans (tasks/kinds.hpp, plan_stiff_cells):
+//                    the powder pairs' (media-powder, powder-powder) k_n are F x what the policy
+//                    derived, where its bounds govern and the results move with it
+//                    (docs/cell_validation.md, table 1); the balls' pair keeps its k_n. Logged,
+//                    and stored as the result's stiffness_factor (absent in the default cells).
 // Run: a dem::ShearCellRun of shear_cell_protocol (warm-up in windows of warmup_strain /
 // kWarmupWindows until stationary or max_warmup_strain, then measure_strain measured and on to
 // convergence up to convergence/max_strain). The stop token is polled every kStepsBetweenPolls
@@ -31,6 +37,7 @@
 // again from scratch. The file goes when the cell is done. Result: method::CellResult
 // (method/cell_result.hpp), its JSON keys and their meaning.
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -64,11 +71,15 @@ dem::ShearCellSetup shear_cell_setup(const nlohmann::json& params, const nlohman
 
 // The shear_cell block's stiffness policy (/shear_cell/stiffness, docs/shear_cells.md) applied to
 // a setup: "overlap_bound" raises each pair's k_n (dem::apply_overlap_bound), "campaign" keeps
-// them. Returns what was derived for the result's "stiffness" and the log.
+// them; then a stiff cell's factor multiplies the powder pairs' k_n. Returns what was derived
+// (the powder pairs' k_n_n_m and kappa with the factor) for the result's "stiffness" and the log.
 std::vector<dem::PairStiffness> apply_stiffness_policy(const nlohmann::json& params,
                                                        dem::ShearCellSetup& setup);
 std::string stiffness_log(const std::vector<dem::PairStiffness>& pairs,
-                          const dem::ShearCellSetup& setup);
+                          const dem::ShearCellSetup& setup, std::optional<double> factor);
+
+// A stiff cell's stiffness_factor; none for the default cells.
+std::optional<double> stiffness_factor(const nlohmann::json& params);
 
 // The warm-up and measurement of a shear_cell task's parameters.
 dem::ShearCellProtocol shear_cell_protocol(const nlohmann::json& params);

@@ -24,7 +24,8 @@ SlotSite find_slot_site(const json& sites_result, const json& slot) {
                               id, slot.at("region").get<std::string>())};
 }
 
-// One row per shear cell that ran, with the sweep point it belongs to (view macro_lineage).
+// One row per shear cell that ran, with the sweep point it belongs to (view macro_lineage);
+// stiffness_factor tells the stiff cells of /shear_cell/stiffness/sensitivity (1: a default cell).
 engine::ViewDefinition micro_results_view() {
   return {"micro_results", R"sql(
 SELECT c.name AS campaign,
@@ -35,6 +36,7 @@ SELECT c.name AS campaign,
        json_extract(r.result, '$.site.region') AS region,
        json_extract(r.result, '$.site.weight_m3') AS weight_m3,
        json_extract(r.result, '$.powder_load') AS powder_load,
+       coalesce(json_extract(r.result, '$.stiffness_factor'), 1) AS stiffness_factor,
        json_extract(r.result, '$.site.shear_rate_per_s') AS shear_rate_per_s,
        json_extract(r.result, '$.site.normal_stress_pa') AS normal_stress_pa,
        json_extract(r.result, '$.site.shear_stress_pa') AS macro_shear_stress_pa,

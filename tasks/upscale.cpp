@@ -42,12 +42,23 @@ std::string left_out_reason(const method::CellResult& cell) {
   return {};
 }
 
-// The finished (not skipped) cells that count, at load U and at load 0, by site id, and the
-// cells left out or counted against their flags.
+// The finished (not skipped) cells that count, at load U and at load 0, and the stiff cells at
+// load U, by site id, and the cells left out or counted against their flags (the stiff ones
+// apart, with the stiff cells' factor).
 struct UsableCells {
-  std::map<std::string, method::CellResult> loaded, baseline;
-  std::vector<method::LeftOutCell> flagged;
+  std::map<std::string, method::CellResult> loaded, baseline, stiff;
+  std::vector<method::LeftOutCell> flagged, stiff_flagged;
+  std::optional<double> stiffness_factor;
 };
+
+// The stiff cells' one factor; a second one throws (they come from one campaign setting).
+void note_factor(UsableCells& cells, double factor, const std::string& task_key) {
+  if (cells.stiffness_factor && *cells.stiffness_factor != factor)
+    throw std::invalid_argument(
+        fmt::format("upscale {}: stiff cells with factors {} and {}; re-plan the campaign",
+                    task_key, *cells.stiffness_factor, factor));
+  cells.stiffness_factor = factor;
+}
 
 UsableCells usable_cells(const engine::TaskContext& context, double load, bool include_unsteady) {
   UsableCells cells;
@@ -57,14 +68,21 @@ UsableCells usable_cells(const engine::TaskContext& context, double load, bool i
     if (!cell.skipped.empty()) continue;
     const double cell_load = cell.powder_load.get<double>();
     if (cell_load != load && cell_load != 0.0) continue;
+    if (cell.stiffness_factor) note_factor(cells, *cell.stiffness_factor, context.key);
     const std::string id = cell.site.get<method::Site>().site_id;
     if (const std::string reason = left_out_reason(cell); !reason.empty()) {
-      cells.flagged.push_back(
-          {.site_id = id, .powder_load = cell_load, .reason = reason, .counted = include_unsteady});
+      (cell.stiffness_factor ? cells.stiff_flagged : cells.flagged)
+          .push_back({.site_id = id,
+                      .powder_load = cell_load,
+                      .reason = reason,
+                      .counted = include_unsteady});
       if (!include_unsteady) continue;
     }
-    if (cell_load == load) cells.loaded[id] = cell;
-    if (cell_load == 0.0) cells.baseline[id] = cell;
+    if (cell.stiffness_factor)
+      cells.stiff[id] = cell;
+    else if (cell_load == load)
+      cells.loaded[id] = cell;
+    if (!cell.stiffness_factor && cell_load == 0.0) cells.baseline[id] = cell;
   }
   return cells;
 }
@@ -84,15 +102,7 @@ method::UpscaleFigures figures_of(const method::PowerSums& r, const method::Sum&
   const method::Ratio share = method::ratio(r.powder, total_powder);
   const method::Ratio cushioning = method::ratio(r.collisions, r.collisions_no_powder);
   const method::Ratio rate_factor = method::ratio(r.rate, r.rate_no_powder);
-  std::optional<double> energy_factor, energy_factor_se;
-  if (cushioning.value && rate_factor.value && *rate_factor.value > 0.0) {
-    energy_factor = *cushioning.value / *rate_factor.value;
-    if (cushioning.standard_error && rate_factor.standard_error) {
-      energy_factor_se =
-          *energy_factor * std::hypot(*cushioning.standard_error / *cushioning.value,
-                                      *rate_factor.standard_error / *rate_factor.value);
-    }
-  }
+  const method::Ratio energy_factor = method::ratio(cushioning, rate_factor);
   return {.sites = static_cast<std::size_t>(r.sites),
           .volume_m3 = r.volume,
           .solid_volume_m3 = r.solid_volume,
@@ -107,8 +117,68 @@ method::UpscaleFigures figures_of(const method::PowerSums& r, const method::Sum&
           .cushioning_se = cushioning.standard_error,
           .cushioning_rate_factor = rate_factor.value,
           .cushioning_rate_factor_se = rate_factor.standard_error,
-          .cushioning_energy_factor = energy_factor,
-          .cushioning_energy_factor_se = energy_factor_se};
+          .cushioning_energy_factor = energy_factor.value,
+          .cushioning_energy_factor_se = energy_factor.standard_error};
+}
+
+// A ratio's relative shift, stiff / default - 1.
+method::Ratio shift_of(const method::Ratio& r) {
+  return {r.value ? std::optional(*r.value - 1.0) : std::nullopt, r.standard_error};
+}
+
+// The stiffness sensitivity of one region (or of all). Both cushionings share the default
+// baselines, which cancel in their quotient: the shift is C_stiff(U) / C(U) - 1 over the same
+// sites, with the loaded cells' errors alone.
+method::StiffnessFigures stiffness_figures_of(const method::StiffnessSums& r) {
+  const method::Ratio cushioning =
+      method::ratio(r.normal.collisions, r.normal.collisions_no_powder);
+  const method::Ratio cushioning_stiff =
+      method::ratio(r.stiff.collisions, r.stiff.collisions_no_powder);
+  const method::Ratio cushioning_shift =
+      shift_of(method::ratio(r.stiff.collisions, r.normal.collisions));
+  const method::Ratio share = method::ratio(r.normal.powder, r.normal.input);
+  const method::Ratio share_stiff = method::ratio(r.stiff.powder, r.stiff.input);
+  const method::Ratio share_shift = shift_of(method::ratio(share_stiff, share));
+  return {.sites = static_cast<std::size_t>(r.normal.sites),
+          .cushioning = cushioning.value,
+          .cushioning_se = cushioning.standard_error,
+          .cushioning_stiff = cushioning_stiff.value,
+          .cushioning_stiff_se = cushioning_stiff.standard_error,
+          .cushioning_shift = cushioning_shift.value,
+          .cushioning_shift_se = cushioning_shift.standard_error,
+          .powder_share = share.value,
+          .powder_share_se = share.standard_error,
+          .powder_share_stiff = share_stiff.value,
+          .powder_share_stiff_se = share_stiff.standard_error,
+          .powder_share_shift = share_shift.value,
+          .powder_share_shift_se = share_shift.standard_error};
+}
+
+// The stiff cells' comparison with the default ones at the sites that have both and a baseline
+// (none without stiff cells).
+std::optional<method::StiffnessSensitivity> stiffness_sensitivity(const method::SitesResult& sites,
+                                                                  const UsableCells& cells) {
+  if (!cells.stiffness_factor) return std::nullopt;
+  std::map<std::string, method::StiffnessSums> by_region;
+  for (const method::Site& site : sites.sites) {
+    const method::CellResult* loaded = cell_of(cells.loaded, site.site_id);
+    const method::CellResult* stiff = cell_of(cells.stiff, site.site_id);
+    const method::CellResult* baseline = cell_of(cells.baseline, site.site_id);
+    if (!loaded || !stiff || !baseline) continue;
+    by_region[site.region].add(site, sites.weight_by, method::cell_figures(*loaded),
+                               method::cell_figures(*stiff), method::cell_figures(*baseline));
+  }
+  method::StiffnessSensitivity result{.factor = *cells.stiffness_factor,
+                                      .left_out_cells = cells.stiff_flagged};
+  method::StiffnessSums all;
+  for (const std::string& name : method::region_names()) {
+    const auto found = by_region.find(name);
+    if (found == by_region.end()) continue;
+    result.regions.emplace_back(name, stiffness_figures_of(found->second));
+    all.merge(found->second);
+  }
+  result.totals = stiffness_figures_of(all);
+  return result;
 }
 
 // The macro run's dissipation per region, from a sites result's regions (or a rule set's).
@@ -336,6 +406,15 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
       .left_out_cells = std::move(cells.flagged),
       .coupling = coupling_summary(site_rows)};
   result.sites = std::move(site_rows);
+  result.stiffness_sensitivity = stiffness_sensitivity(sites_result, cells);
+  if (const auto& stiff = result.stiffness_sensitivity) {
+    context.log(fmt::format(
+        "upscale U = {}: powder pairs {:g} x stiffer at {} sites: cushioning shift {} +- {}, "
+        "powder share shift {} +- {}",
+        load, stiff->factor, stiff->totals.sites, shown(stiff->totals.cushioning_shift),
+        shown(stiff->totals.cushioning_shift_se), shown(stiff->totals.powder_share_shift),
+        shown(stiff->totals.powder_share_shift_se)));
+  }
   context.log(fmt::format(
       "upscale U = {}: powder {:.4g} W ({} dominates; macro-anchored {:.4g} W, {}), cushioning {}, "
       "{} cells left out, {} of {} sites couple within {:.0f}%",

@@ -5,7 +5,8 @@
 //
 // Parameters: {"powder_load": U, "upscale": {"include_unsteady"}, "media_density_kg_m3",
 // "powder_density_kg_m3"}. Inputs, told apart by kind: the point's macro, average and sites
-// tasks, and its shear_cell tasks at load U and at load 0 (the same tasks when U = 0).
+// tasks, and its shear_cell tasks at load U and at load 0 (the same tasks when U = 0), and the
+// stiff cells at load U (those whose result has stiffness_factor).
 //
 // Cells that count. Cells that were skipped (tasks/shear_cell.hpp) count nowhere. A cell that is
 // not steady (`steady`, else `steady_state.steady`) or not converged (`converged`; a cell without
@@ -69,6 +70,24 @@
 // independent); a collision rate's relative error is 1/sqrt(count) (a Poisson count). Any cell
 // without the standard error it needs makes the figure null.
 //
+// Stiffness sensitivity (only with the stiff cells of /shear_cell/stiffness/sensitivity, whose
+// powder pairs' k_n are F x the policy's, tasks/shear_cell.hpp): the stiff cells count in none of
+// the figures above. Per region with them and over all, at the sites that have a default and a
+// stiff cell at load U and a default cell at load 0 (the stiff cells' reference: without powder
+// they would be the default ones), the same sums as the cells method (the stiff cells with their
+// own weights) give
+//   cushioning(_stiff)    C(U) / C(0), with the default and the stiff loaded cells;
+//   cushioning_shift      cushioning_stiff / cushioning - 1 = C_stiff(U) / C(U) - 1: the
+//                         baselines cancel, so its error is the loaded cells' alone;
+//   powder_share(_stiff)  P_powder / P_in at load U: the powder's share of the power put into the
+//                         cells (what the macro-anchored method multiplies the macro dissipation
+//                         by), not a region's share of the powder power;
+//   powder_share_shift    powder_share_stiff / powder_share - 1;
+// each with its standard error as above (the default and stiff cells independent). Comparing
+// the same sites keeps the sites' scatter out of the shift: it is the systematic error of the
+// policy's stiffness, which the error bars above do not carry (docs/method.md). Stiff cells left
+// out by the rule above are listed in stiffness_sensitivity.left_out_cells, not left_out_cells.
+//
 // Sensitivity: for each rule set of the sites task (default and alternatives), each region's
 // powder power with the macro-anchored method, D_r(rule set) x the powder fraction of the default
 // regions' cells, with the dominant region and the toe's share (regions without cells: none).
@@ -78,7 +97,9 @@
 // power_draw_w, specific_power_kw_per_t}, the cells method's totals and regions (above),
 // powder_to_media_mass_ratio, power_draw_with_powder_w, macro_anchored, sensitivity, spectra,
 // media_spectrum_shift, left_out_cells, sites (per site: position, weight, macro state, cell
-// results, coupling ratio), coupling {sites, median_ratio, tolerance, within_tolerance}.
+// results, coupling ratio), coupling {sites, median_ratio, tolerance, within_tolerance},
+// stiffness_sensitivity {factor, regions {<region>: figures}, totals, left_out_cells} (absent
+// without stiff cells).
 //
 // Coupling check: per site, the media-only cell's shear stress over the macro flow's shear stress
 // on the shear plane at the site (method/coarse_grain.hpp); within tolerance when |ratio - 1| <=
@@ -88,7 +109,7 @@
 
 namespace millflow::tasks {
 
-inline constexpr const char* kUpscaleVersion = "2";
+inline constexpr const char* kUpscaleVersion = "3";
 inline constexpr double kCouplingTolerance = 0.5;
 
 engine::TaskOutcome run_upscale(engine::TaskContext& context);

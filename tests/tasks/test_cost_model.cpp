@@ -100,6 +100,18 @@ TEST(CostModel, ShearCellParticlesAndTimeStepAreTheCellsOwn) {
   }
 }
 
+// A stiff cell's powder pairs collide for half as long at 4x their k_n: in quick.json, whose
+// pairs all have one collision time, the powder's then sets half the time step.
+TEST(CostModel, AStiffCellPaysForItsShorterContacts) {
+  const json plain = cell_params(first_point("campaigns/quick.json"),
+                                 [](json& cell) { cell["powder"]["load"] = 1.0; });
+  json stiff = plain;
+  stiff["stiffness_factor"] = 4.0;
+  const json site = {{"shear_rate_per_s", 4.0}, {"normal_stress_pa", 2e3}};
+  EXPECT_NEAR(tasks::shear_cell_size(stiff, site).time_step_s,
+              0.5 * tasks::shear_cell_size(plain, site).time_step_s, 1e-12);
+}
+
 // The throughputs are the benches' at the loads and ball counts they were measured at, and the
 // cost per particle-step lies between them elsewhere.
 TEST(CostModel, ThroughputsAreTheMeasuredOnesAtTheirScenes) {
@@ -144,8 +156,9 @@ TEST(CostModel, EstimateOfAPlanCountsEveryTaskAndPricesMacroRunsAndCells) {
   const auto by_kind = tasks::estimate_plan(planned);
   ASSERT_EQ(by_kind.at("macro").tasks, 4);
   EXPECT_EQ(by_kind.at("macro").estimated, 4);
-  EXPECT_EQ(by_kind.at("shear_cell").tasks, 120);
-  EXPECT_EQ(by_kind.at("shear_cell").estimated, 120);
+  // 120 cells, and 16 stiff ones (/shear_cell/stiffness/sensitivity) at the points with powder.
+  EXPECT_EQ(by_kind.at("shear_cell").tasks, 136);
+  EXPECT_EQ(by_kind.at("shear_cell").estimated, 136);
   EXPECT_EQ(by_kind.at("average").estimated, 0);
   // Cells at load 0 have balls only; at load 1 the powder: the particle range spans both.
   const json point = first_point("campaigns/quick.json");

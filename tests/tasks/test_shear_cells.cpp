@@ -82,13 +82,55 @@ struct Direct {
   }
 };
 
-// campaigns/quick.json with its shear cells switched on or off.
-std::vector<engine::TaskSpec> quick_plan(bool shear_cells) {
+// campaigns/quick.json with its shear cells switched on or off, and without its stiff cells
+// (/shear_cell/stiffness/sensitivity) unless asked.
+std::vector<engine::TaskSpec> quick_plan(bool shear_cells, bool stiffness_sensitivity = false) {
   engine::Registry registry;
   register_millflow(registry);
   auto campaign = engine::load_campaign_file(registry, MILLFLOW_SOURCE_DIR "/campaigns/quick.json");
   campaign.document["shear_cell"]["enabled"] = shear_cells;
+  if (!stiffness_sensitivity) campaign.document["shear_cell"]["stiffness"].erase("sensitivity");
   return engine::plan_campaign(registry, campaign);
+}
+
+TEST(ShearCellsPlan, StiffnessSensitivityAddsStiffCellsAtLoadedPointsAndRekeysNoOtherCell) {
+  const auto plain = quick_plan(true);
+  const auto with = quick_plan(true, true);
+  std::map<std::string, const engine::TaskSpec*> by_key;
+  for (const auto& task : with) by_key[task.key] = &task;
+  // Without the setting no task has a trace of it; with it every macro, average, sites and
+  // default cell keeps its key (so its cached result), only the upscales and the report gain
+  // inputs.
+  for (const auto& task : plain) {
+    EXPECT_FALSE(task.params.contains("stiffness_factor"));
+    if (task.kind == "shear_cell") {
+      EXPECT_FALSE(task.params.at("shear_cell").at("stiffness").contains("sensitivity"));
+    }
+    if (task.kind != "upscale" && task.kind != "report") {
+      EXPECT_TRUE(by_key.count(task.key)) << task.kind << " " << task.key;
+    }
+  }
+  // quick.json: factor 4 at the first site of the toe and the bulk, at the 2 x 2 x 2 points with
+  // powder (without powder the stiff cell would be the default one, its own reference).
+  std::set<std::string> stiff;
+  for (const auto& task : with) {
+    if (!task.params.contains("stiffness_factor")) continue;
+    stiff.insert(task.key);
+    EXPECT_EQ(task.kind, "shear_cell");
+    EXPECT_EQ(task.params.at("stiffness_factor"), 4.0);
+    EXPECT_EQ(task.params.at("slot").at("index"), 0);
+    EXPECT_TRUE(task.params.at("slot").at("region") == "toe" ||
+                task.params.at("slot").at("region") == "bulk");
+    EXPECT_NE(task.params.at("shear_cell").at("powder").at("load"), 0.0);
+  }
+  EXPECT_EQ(stiff.size(), 4u * 2 * 2);
+  EXPECT_EQ(with.size(), plain.size() + stiff.size());
+  for (const auto& task : with) {
+    if (task.kind != "upscale") continue;
+    const std::size_t stiff_inputs = std::count_if(task.upstream.begin(), task.upstream.end(),
+                                                   [&](const auto& k) { return stiff.count(k); });
+    EXPECT_EQ(stiff_inputs, task.params.at("powder_load") == 0.0 ? 0u : 2u);
+  }
 }
 
 TEST(ShearCellsPlan, DisabledShearCellsStopTheDagAtTheSites) {
@@ -198,6 +240,10 @@ TEST(ShearCellSlot, AnEmptySlotFinishesAtOnceAndSaysWhy) {
             "the sites task chose no site bulk-3 (region bulk has fewer cells or none)");
   EXPECT_EQ(outcome.result.at("powder_load"), 0.5);
   EXPECT_FALSE(outcome.result.contains("shear_stress_pa"));
+  EXPECT_FALSE(outcome.result.contains("stiffness_factor"));
+  params["stiffness_factor"] = 4.0;  // a stiff cell's slot says so even when empty
+  const auto stiff = Direct{.params = params, .inputs = {sites_input()}}.run(run_shear_cell);
+  EXPECT_EQ(stiff.result.at("stiffness_factor"), 4.0);
 }
 
 TEST(ShearCellSetup, CollisionTimesHoldForEachPairsReferenceParticles) {
@@ -345,6 +391,29 @@ TEST(ShearCellSetup, MediaRigidityRaisesOnlyTheBallsAndIsOffWhenAbsent) {
   EXPECT_EQ(setup.media_powder.normal_stiffness, plain.media_powder.normal_stiffness);
   EXPECT_EQ(setup.powder_powder.normal_stiffness, plain.powder_powder.normal_stiffness);
   EXPECT_LT(without.at(0).chosen, 2e7);
+}
+
+TEST(ShearCellSetup, StiffnessFactorMultipliesOnlyThePowderPairsAfterThePolicy) {
+  json params = tiny_cell_params(0.3);
+  dem::ShearCellSetup plain = shear_cell_setup(params, tiny_site(), "key");
+  const auto policy = apply_stiffness_policy(params, plain);
+  EXPECT_FALSE(stiffness_factor(params));
+  params["stiffness_factor"] = 4.0;
+  dem::ShearCellSetup setup = shear_cell_setup(params, tiny_site(), "key");
+  const auto stiff = apply_stiffness_policy(params, setup);
+  EXPECT_EQ(setup.media_media.normal_stiffness, plain.media_media.normal_stiffness);
+  EXPECT_DOUBLE_EQ(setup.media_powder.normal_stiffness, 4.0 * plain.media_powder.normal_stiffness);
+  EXPECT_DOUBLE_EQ(setup.powder_powder.normal_stiffness,
+                   4.0 * plain.powder_powder.normal_stiffness);
+  // What the result stores and the log shows is the stiffened k_n, beside the policy's bounds.
+  EXPECT_EQ(stiff.at(0).chosen, policy.at(0).chosen);
+  for (std::size_t pair : {1u, 2u}) {
+    EXPECT_DOUBLE_EQ(stiff.at(pair).chosen, 4.0 * policy.at(pair).chosen);
+    EXPECT_DOUBLE_EQ(stiff.at(pair).kappa, 4.0 * policy.at(pair).kappa);
+    EXPECT_EQ(stiff.at(pair).static_bound, policy.at(pair).static_bound);
+  }
+  EXPECT_NE(stiffness_log(stiff, setup, 4.0).find("the powder pairs' k_n 4 x the policy's"),
+            std::string::npos);
 }
 
 // One attempt of a task in a work directory kept across attempts: stopped when it reports

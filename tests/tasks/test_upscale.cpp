@@ -5,6 +5,7 @@
 #include <cmath>
 #include <tuple>
 
+#include "method/upscale_result.hpp"
 #include "tasks/upscale.hpp"
 #include "tests/tasks/upscale_inputs.hpp"
 
@@ -202,6 +203,82 @@ TEST(Upscale, StandardErrorsOfTheCellsPropagate) {
   EXPECT_NEAR(toe.at("cushioning_rate_factor_se").get<double>(),
               2.0 / 3.0 * std::hypot(0.01, 1.0 / std::sqrt(1.5e4)), 1e-15);
   EXPECT_TRUE(toe.at("cushioning_energy_factor_se").is_number());
+}
+
+// A stiff cell (stiffness_factor 4) at toe-0, load 1: its media collision power 1.2 times the
+// default cell's (360 against 300 W/m^3), its powder's share of the power put in 0.45 against 0.4.
+engine::TaskInput stiff_toe_cell() {
+  engine::TaskInput stiff =
+      testing::cell("toe-0", 1.0, {1000.0, 450.0, 300.0, 60.0, 940.0, {10, 0}, {5, 5}, 1e6, 1e4});
+  stiff.key = "toe-0-stiff@1";
+  stiff.result["stiffness_factor"] = 4.0;
+  return stiff;
+}
+
+void set_errors(method::CellResult& cell, double powder, double collisions) {
+  method::CellStandardErrors se{.power_density_w_m3 = 20.0, .powder_dissipation_w_m3 = powder};
+  se.dissipation_w_m3[static_cast<std::size_t>(dem::ContactType::MediaMedia)] = collisions;
+  se.dissipation_w_m3[static_cast<std::size_t>(dem::ContactType::WallMedia)] = 1.0;
+  cell.standard_errors = se;
+}
+
+TEST(Upscale, StiffCellsGiveTheShiftOfCushioningAndPowderShareAtTheSameSites) {
+  auto inputs = point_inputs();
+  inputs.push_back(stiff_toe_cell());
+  edit_cell(inputs, "toe-0", 1.0, [](method::CellResult& cell) { set_errors(cell, 10.0, 6.0); });
+  edit_cell(inputs, "toe-0", 0.0, [](method::CellResult& cell) { set_errors(cell, 0.0, 9.0); });
+  auto stiff = inputs.back().result.get<method::CellResult>();
+  set_errors(stiff, 9.0, 11.0);
+  inputs.back().result = stiff;
+  json r = upscale(inputs, 1.0);
+  ASSERT_TRUE(r.contains("stiffness_sensitivity"));
+  const json s = r.at("stiffness_sensitivity");
+  EXPECT_DOUBLE_EQ(s.at("factor"), 4.0);
+  ASSERT_EQ(s.at("regions").size(), 1u) << "only the toe has a stiff cell";
+  const json& toe = s.at("regions").at("toe");
+  EXPECT_EQ(toe.at("sites"), 1);
+  EXPECT_DOUBLE_EQ(toe.at("cushioning"), 300.0 / 600.0);
+  EXPECT_DOUBLE_EQ(toe.at("cushioning_stiff"), 360.0 / 600.0);
+  EXPECT_NEAR(toe.at("cushioning_shift").get<double>(), 0.2, 1e-12);
+  // The baseline cancels: only the two loaded cells' errors (7 and 12 W/m^3) count.
+  EXPECT_NEAR(toe.at("cushioning_shift_se").get<double>(),
+              1.2 * std::hypot(7.0 / 300.0, 12.0 / 360.0), 1e-12);
+  EXPECT_DOUBLE_EQ(toe.at("powder_share"), 0.4);
+  EXPECT_DOUBLE_EQ(toe.at("powder_share_stiff"), 0.45);
+  EXPECT_NEAR(toe.at("powder_share_shift").get<double>(), 0.125, 1e-12);
+  const double share_rel = std::hypot(10.0 / 400.0, 20.0 / 1000.0);
+  const double stiff_rel = std::hypot(9.0 / 450.0, 20.0 / 1000.0);
+  EXPECT_NEAR(toe.at("powder_share_se").get<double>(), 0.4 * share_rel, 1e-12);
+  EXPECT_NEAR(toe.at("powder_share_shift_se").get<double>(),
+              1.125 * std::hypot(share_rel, stiff_rel), 1e-12);
+  EXPECT_EQ(s.at("totals"), toe) << "the toe is the only region with a stiff cell";
+
+  // The stiff cell counts in nothing else; the result reads back as written.
+  EXPECT_EQ(json(method::read_upscale_result(r, "test")), r);
+  r.erase("stiffness_sensitivity");
+  auto without = inputs;
+  without.pop_back();
+  EXPECT_EQ(r, upscale(without, 1.0));
+  EXPECT_FALSE(upscale(without, 1.0).contains("stiffness_sensitivity"));
+}
+
+TEST(Upscale, UnsteadyStiffCellsAreListedApart) {
+  auto inputs = point_inputs();
+  inputs.push_back(stiff_toe_cell());
+  inputs.back().result["steady"] = false;
+  const json r = upscale(inputs, 1.0);
+  EXPECT_TRUE(r.at("left_out_cells").empty());
+  const json& s = r.at("stiffness_sensitivity");
+  ASSERT_EQ(s.at("left_out_cells").size(), 1u);
+  EXPECT_EQ(s.at("left_out_cells").at(0).at("reason"), "not steady");
+  EXPECT_EQ(s.at("totals").at("sites"), 0);
+  EXPECT_TRUE(s.at("totals").at("cushioning_shift").is_null());
+  EXPECT_NEAR(upscale(inputs, 1.0, true)
+                  .at("stiffness_sensitivity")
+                  .at("totals")
+                  .at("cushioning_shift")
+                  .get<double>(),
+              0.2, 1e-12);
 }
 
 TEST(Upscale, SolidVolumeWeightsCountPowerPerVolumeOfMedia) {
