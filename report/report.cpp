@@ -429,8 +429,8 @@ std::string coupling_table(const std::vector<Slice>& slices) {
 // A relative shift as a signed percentage with its standard error, "-" without one.
 std::string percent(const std::optional<double>& value, const std::optional<double>& se) {
   if (!value) return "-";
-  return fmt::format("{:+.1f}% (+- {})", 100.0 * *value,
-                     se ? fmt::format("{:.1f}%", 100.0 * *se) : std::string("?"));
+  return fmt::format("{:+.1f}% ({})", 100.0 * *value,
+                     se ? fmt::format("+- {:.1f}%", 100.0 * *se) : "no standard error");
 }
 
 std::string stiffness_row(const method::UpscaleResult& p, const std::string& region,
@@ -449,12 +449,24 @@ std::string stiffness_section(const std::vector<UpscalePoint>& points) {
     const method::UpscaleResult& p = point.upscale;
     if (!p.stiffness_sensitivity) continue;
     const method::StiffnessSensitivity& s = *p.stiffness_sensitivity;
-    sentences += fmt::format(
-        "- J = {}, phi = {}, U = {}: with the powder pairs {:g} x stiffer, cushioning moves by {} "
-        "and the powder share by {} ({} sites): a systematic error not in the error bars.\n",
-        g(p.fill), g(p.speed_fraction), g(p.powder_load), s.factor,
-        percent(s.totals.cushioning_shift, s.totals.cushioning_shift_se),
-        percent(s.totals.powder_share_shift, s.totals.powder_share_shift_se), s.totals.sites);
+    const std::string point_label = fmt::format("- J = {}, phi = {}, U = {}: ", g(p.fill),
+                                                g(p.speed_fraction), g(p.powder_load));
+    if (s.totals.sites == 0) {
+      sentences +=
+          point_label + fmt::format(
+                            "no site has both a default and a {:g} x stiffer cell that count "
+                            "({} stiff cells left out as unsteady or unconverged).\n",
+                            s.factor, s.left_out_cells.size());
+      continue;
+    }
+    sentences += point_label +
+                 fmt::format(
+                     "with the powder pairs {:g} x stiffer, cushioning moves by {} and the "
+                     "powder share by {} (over {} site{}): a systematic error not in the "
+                     "error bars.\n",
+                     s.factor, percent(s.totals.cushioning_shift, s.totals.cushioning_shift_se),
+                     percent(s.totals.powder_share_shift, s.totals.powder_share_shift_se),
+                     s.totals.sites, s.totals.sites == 1 ? "" : "s");
     for (const auto& [region, figures] : s.regions) rows += stiffness_row(p, region, figures);
     rows += stiffness_row(p, "all", s.totals);
   }

@@ -292,6 +292,47 @@ TEST_F(Report, ReadsTheUpscaleKindsResultsWithAndWithoutPowder) {
   }
 }
 
+// Stiff cells (/shear_cell/stiffness/sensitivity) give their point a sentence and table rows;
+// without them the page has no such section.
+TEST_F(Report, StiffCellsGiveTheirPointASentence) {
+  std::vector<engine::TaskInput> point = testing::point_inputs(0.3, 0.75);
+  // At toe-0: media collision power 360 against 300 W/m^3, powder share 0.45 against 0.4.
+  point.push_back(testing::stiff_cell(
+      "toe-0", 1.0, {1000.0, 450.0, 300.0, 60.0, 940.0, {10, 0}, {5, 5}, 1e6, 1e4}, 4.0));
+  const fs::path fields = dir_.path() / "point-fields.json";
+  std::ofstream(fields) << fields_document(0.3).dump();
+  std::vector<engine::TaskInput> inputs = {
+      {"average-key", "average", json::object(), {{"fields.json", fields}}}};
+  for (double load : {0.0, 1.0}) {
+    inputs.push_back(
+        {fmt::format("upscale-{}", load), "upscale", testing::upscale(point, load), {}});
+  }
+  run(inputs, "stiff");
+  const std::string index = read_text(dir_.path() / "stiff" / "index.md");
+  EXPECT_NE(index.find("- J = 0.3, phi = 0.75, U = 1: with the powder pairs 4 x stiffer, "
+                       "cushioning moves by +20.0% (no standard error) and the powder share by "
+                       "+12.5% (no standard error) (over 1 site): a systematic error not in the "
+                       "error bars.\n"),
+            std::string::npos)
+      << index;
+  EXPECT_NE(index.find("| 0.3 | 0.75 | 1 | toe | 1 | 0.5 | 0.6 | +20.0% (no standard error) | "
+                       "0.4 | 0.45 | +12.5% (no standard error) |\n"),
+            std::string::npos);
+  EXPECT_EQ(index.find("U = 0:"), std::string::npos) << "no stiff cells without powder";
+
+  // A stiff cell left out (unsteady) leaves its point without a shift, and says why.
+  point.back().result["steady"] = false;
+  inputs.back().result = testing::upscale(point, 1.0);
+  run(inputs, "unsteady");
+  EXPECT_NE(read_text(dir_.path() / "unsteady" / "index.md")
+                .find("- J = 0.3, phi = 0.75, U = 1: no site has both a default and a 4 x stiffer "
+                      "cell that count (1 stiff cells left out as unsteady or unconverged).\n"),
+            std::string::npos);
+  run(inputs_, "plain");
+  EXPECT_EQ(read_text(dir_.path() / "plain" / "index.md").find("Stiffness sensitivity"),
+            std::string::npos);
+}
+
 // A point whose media-only cells were all left out of the upscaling (unsteady) has no power draw
 // with powder: the report leaves it out of the plot and the tables instead of failing
 // (quick.json's J = 0.35, 65% point did, with every media-only cell unsteady).

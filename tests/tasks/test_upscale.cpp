@@ -208,11 +208,8 @@ TEST(Upscale, StandardErrorsOfTheCellsPropagate) {
 // A stiff cell (stiffness_factor 4) at toe-0, load 1: its media collision power 1.2 times the
 // default cell's (360 against 300 W/m^3), its powder's share of the power put in 0.45 against 0.4.
 engine::TaskInput stiff_toe_cell() {
-  engine::TaskInput stiff =
-      testing::cell("toe-0", 1.0, {1000.0, 450.0, 300.0, 60.0, 940.0, {10, 0}, {5, 5}, 1e6, 1e4});
-  stiff.key = "toe-0-stiff@1";
-  stiff.result["stiffness_factor"] = 4.0;
-  return stiff;
+  return testing::stiff_cell("toe-0", 1.0,
+                             {1000.0, 450.0, 300.0, 60.0, 940.0, {10, 0}, {5, 5}, 1e6, 1e4}, 4.0);
 }
 
 void set_errors(method::CellResult& cell, double powder, double collisions) {

@@ -67,6 +67,15 @@ inline engine::TaskInput cell(const std::string& site_id, double load, const Cel
           .artifacts = {}};
 }
 
+// A stiff cell of /shear_cell/stiffness/sensitivity (tasks/shear_cell.hpp) at a site.
+inline engine::TaskInput stiff_cell(const std::string& site_id, double load, const CellValues& v,
+                                    double factor) {
+  engine::TaskInput stiff = cell(site_id, load, v);
+  stiff.key = site_id + "-stiff@" + std::to_string(load);
+  stiff.result["stiffness_factor"] = factor;
+  return stiff;
+}
+
 inline engine::TaskInput skipped_cell(const std::string& site_id, double load) {
   return {.key = site_id + "-skipped@" + std::to_string(load),
           .kind = "shear_cell",
