@@ -126,32 +126,28 @@ method::Ratio shift_of(const method::Ratio& r) {
   return {r.value ? std::optional(*r.value - 1.0) : std::nullopt, r.standard_error};
 }
 
+void put(const method::Ratio& r, std::optional<double>& value, std::optional<double>& se) {
+  value = r.value;
+  se = r.standard_error;
+}
+
 // The stiffness sensitivity of one region (or of all). Both cushionings share the default
 // baselines, which cancel in their quotient: the shift is C_stiff(U) / C(U) - 1 over the same
 // sites, with the loaded cells' errors alone.
 method::StiffnessFigures stiffness_figures_of(const method::StiffnessSums& r) {
-  const method::Ratio cushioning =
-      method::ratio(r.normal.collisions, r.normal.collisions_no_powder);
-  const method::Ratio cushioning_stiff =
-      method::ratio(r.stiff.collisions, r.stiff.collisions_no_powder);
-  const method::Ratio cushioning_shift =
-      shift_of(method::ratio(r.stiff.collisions, r.normal.collisions));
+  method::StiffnessFigures f{.sites = static_cast<std::size_t>(r.normal.sites)};
+  put(method::ratio(r.normal.collisions, r.normal.collisions_no_powder), f.cushioning,
+      f.cushioning_se);
+  put(method::ratio(r.stiff.collisions, r.stiff.collisions_no_powder), f.cushioning_stiff,
+      f.cushioning_stiff_se);
+  put(shift_of(method::ratio(r.stiff.collisions, r.normal.collisions)), f.cushioning_shift,
+      f.cushioning_shift_se);
   const method::Ratio share = method::ratio(r.normal.powder, r.normal.input);
   const method::Ratio share_stiff = method::ratio(r.stiff.powder, r.stiff.input);
-  const method::Ratio share_shift = shift_of(method::ratio(share_stiff, share));
-  return {.sites = static_cast<std::size_t>(r.normal.sites),
-          .cushioning = cushioning.value,
-          .cushioning_se = cushioning.standard_error,
-          .cushioning_stiff = cushioning_stiff.value,
-          .cushioning_stiff_se = cushioning_stiff.standard_error,
-          .cushioning_shift = cushioning_shift.value,
-          .cushioning_shift_se = cushioning_shift.standard_error,
-          .powder_share = share.value,
-          .powder_share_se = share.standard_error,
-          .powder_share_stiff = share_stiff.value,
-          .powder_share_stiff_se = share_stiff.standard_error,
-          .powder_share_shift = share_shift.value,
-          .powder_share_shift_se = share_shift.standard_error};
+  put(share, f.powder_share, f.powder_share_se);
+  put(share_stiff, f.powder_share_stiff, f.powder_share_stiff_se);
+  put(shift_of(method::ratio(share_stiff, share)), f.powder_share_shift, f.powder_share_shift_se);
+  return f;
 }
 
 // The stiff cells' comparison with the default ones at the sites that have both and a baseline

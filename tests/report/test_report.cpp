@@ -225,6 +225,20 @@ class Report : public ::testing::Test {
     return run_report(context);
   }
 
+  // The upscale kind's own results of one hand-made point (tests/tasks/upscale_inputs.hpp) at
+  // loads 0 and 1, with their average task.
+  std::vector<engine::TaskInput> own_inputs(const std::vector<engine::TaskInput>& point) {
+    const fs::path fields = dir_.path() / "point-fields.json";
+    std::ofstream(fields) << fields_document(0.3).dump();
+    std::vector<engine::TaskInput> inputs = {
+        {"average-key", "average", json::object(), {{"fields.json", fields}}}};
+    for (double load : {0.0, 1.0}) {
+      inputs.push_back(
+          {fmt::format("upscale-{}", load), "upscale", testing::upscale(point, load), {}});
+    }
+    return inputs;
+  }
+
   // The error of a run whose input `key` has been changed by `edit`.
   std::string error_after(const std::string& key, const std::function<void(json&)>& edit) {
     auto inputs = inputs_;
@@ -272,14 +286,7 @@ TEST_F(Report, WritesEveryFileAsAnArtifact) {
 // powder, must read: this is the contract between the two kinds.
 TEST_F(Report, ReadsTheUpscaleKindsResultsWithAndWithoutPowder) {
   const std::vector<engine::TaskInput> point = testing::point_inputs(0.3, 0.75);
-  const fs::path fields = dir_.path() / "point-fields.json";
-  std::ofstream(fields) << fields_document(0.3).dump();
-  std::vector<engine::TaskInput> inputs = {
-      {"average-key", "average", json::object(), {{"fields.json", fields}}}};
-  for (double load : {0.0, 1.0}) {
-    inputs.push_back(
-        {fmt::format("upscale-{}", load), "upscale", testing::upscale(point, load), {}});
-  }
+  std::vector<engine::TaskInput> inputs = own_inputs(point);
   const auto outcome = run(inputs, "own");
   EXPECT_EQ(outcome.result.at("points"), 2);
   const json& dominant = outcome.result.at("dominant_regions");
@@ -299,14 +306,7 @@ TEST_F(Report, StiffCellsGiveTheirPointASentence) {
   // At toe-0: media collision power 360 against 300 W/m^3, powder share 0.45 against 0.4.
   point.push_back(testing::stiff_cell(
       "toe-0", 1.0, {1000.0, 450.0, 300.0, 60.0, 940.0, {10, 0}, {5, 5}, 1e6, 1e4}, 4.0));
-  const fs::path fields = dir_.path() / "point-fields.json";
-  std::ofstream(fields) << fields_document(0.3).dump();
-  std::vector<engine::TaskInput> inputs = {
-      {"average-key", "average", json::object(), {{"fields.json", fields}}}};
-  for (double load : {0.0, 1.0}) {
-    inputs.push_back(
-        {fmt::format("upscale-{}", load), "upscale", testing::upscale(point, load), {}});
-  }
+  std::vector<engine::TaskInput> inputs = own_inputs(point);
   run(inputs, "stiff");
   const std::string index = read_text(dir_.path() / "stiff" / "index.md");
   EXPECT_NE(index.find("- J = 0.3, phi = 0.75, U = 1: with the powder pairs 4 x stiffer, "
