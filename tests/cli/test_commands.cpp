@@ -310,16 +310,16 @@ TEST_F(Cli, EstimateAndTheDryRunPriceEachKindOfACampaignFile) {
   EXPECT_EQ(rows.at("macro").at(1), "4");
   EXPECT_EQ(rows.at("macro").at(2), "415");
   EXPECT_EQ(rows.at("macro").at(4), "726");
-  EXPECT_EQ(rows.at("shear_cell").at(1), "120");
+  EXPECT_EQ(rows.at("shear_cell").at(1), "136");  // 120 and 16 stiff ones (sensitivity)
   EXPECT_EQ(rows.at("average").at(4), "small");
-  EXPECT_EQ(rows.at("total").at(1), "145");
+  EXPECT_EQ(rows.at("total").at(1), "161");
   EXPECT_GT(std::stod(rows.at("total").at(4)), std::stod(rows.at("total").at(2)));
   // The dry run of a campaign never run prices all of it, and no file is written.
   const auto dry = millflow({"submit", quick, "--dry-run"});
   ASSERT_EQ(dry.exit_code, 0) << dry.err;
   const auto cost = dry.out.find("cost of what would run:");
   ASSERT_NE(cost, std::string::npos) << dry.out;
-  EXPECT_NE(dry.out.find("shear_cell      120", cost), std::string::npos) << dry.out;
+  EXPECT_NE(dry.out.find("shear_cell      136", cost), std::string::npos) << dry.out;
   EXPECT_FALSE(fs::exists(db()));
 }
 
