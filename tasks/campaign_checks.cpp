@@ -132,6 +132,7 @@ class ConsistencyChecker {
     check_at_least("/shear_cell/stiffness/p95_overlap_fraction",
                    "/shear_cell/stiffness/mean_overlap_fraction");
     check_wall_measured_window();
+    check_wall_cell_height();
     return std::move(errors_);
   }
 
@@ -465,6 +466,21 @@ class ConsistencyChecker {
               quantity(dem::WallSpeedController::kMeasuredControlStrain) + " strain",
           "raise it to at least " + quantity(least) + " (the walls' protocol measures " +
               quantity(dem::kRoughWallStrains.measure_strain) + ")");
+  }
+
+  // Rough walls too close together bias the friction (dem::kRoughWallLeastHeight).
+  void check_wall_cell_height() {
+    const auto* size = campaign_.node("/shear_cell/size_diameters");
+    if (campaign_.text("/shear_cell/boundary") != "walls" || size == nullptr || size->size() != 3)
+      return;
+    const double height = (*size)[1].get<double>();
+    if (height >= dem::kRoughWallLeastHeight) return;
+    error("/shear_cell/size_diameters/1",
+          quantity(height) + " ball diameters is too short for rough walls, whose layers leave " +
+              "too little bulk between them below " + quantity(dem::kRoughWallLeastHeight) +
+              " (at 6 its friction came out 11% below Lees-Edwards')",
+          "raise it to at least " + quantity(dem::kRoughWallLeastHeight) +
+              " or use \"lees_edwards\"");
   }
 
   void check_powder_count() {
