@@ -34,7 +34,8 @@ double WallSpeedController::update(double measured_rate, double wall_speed, doub
   last_ = point;
   (off < 0.0 ? below_ : above_) = point;
   fractions_.clear();
-  return std::clamp(next_speed(point, previous, gap), wall_speed / kMaxStep, wall_speed * kMaxStep);
+  const double most = previous.known() ? kMaxStep : kMaxFirstStep;
+  return std::clamp(next_speed(point, previous, gap), wall_speed / most, wall_speed * most);
 }
 
 double WallSpeedController::next_speed(const SteadyPoint& now, const SteadyPoint& previous,

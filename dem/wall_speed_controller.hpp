@@ -20,7 +20,7 @@
 //    se_f) gives the steady bulk rate g = f U / H at this speed. Within kSettleTolerance of the
 //    target (the stationarity test's tolerance) the controller has settled; within the estimate's
 //    own standard error se_f / f it waits for more windows; further off the speed steps (clamped to
-//    a factor kMaxStep) and the windows start anew.
+//    a factor kMaxStep, the first step to kMaxFirstStep) and the windows start anew.
 // The step learns how the rate answers the speed, since the bulk rate is NOT in proportion to
 // it (measured in the 8 x 10 x 8 cell: the walls went from 16.5 to 8.75 m/s and the steady bulk
 // rate stayed at 10-13 1/s, so the proportional law stepped far too far): with steady points on
@@ -51,12 +51,27 @@ struct RoughWallStrains {
 };
 inline constexpr RoughWallStrains kRoughWallStrains{};
 
+// The least height (gradient direction, ball diameters) of a rough-wall cell: below it the wall
+// layers leave too little bulk between them (about 2 d at 6 d) and bias the friction. Measured
+// against Lees-Edwards at the walls' bulk I (docs/cell_validation.md, table 4 a tenth time):
+// tau / p_yy at 6 d 11% below it (6 cells 5 and 8 d wide, -4.8% to -15.8%), at 8-12 d 6% below
+// (12 cells, -0.4% to -12.0%; 8 d alone 7.6%), as at every larger size.
+inline constexpr double kRoughWallLeastHeight = 8.0;
+
 class WallSpeedController {
  public:
   static constexpr int kSteadyWindows = 4;
   static constexpr double kDriftAllowance = 0.05;
   static constexpr double kZ = 2.5;
   static constexpr double kMaxStep = 2.0;
+  // The first step comes on a bed still dilating out of compaction: its bulk fraction then is
+  // 0.6-0.75 of the flowing bed's (0.37 against 0.63 in a 5 x 12 x 5 d cell, 0.61 against 0.8 in
+  // the 8 x 10 x 8 d cell of seed 2), so the proportional step on it overshot by as much (up to
+  // 1.75x, where the first guess, f = 0.65, was already right). 1.25 reaches upward every
+  // flowing bulk fraction the table-4 cells measured (0.55-0.93: at most 0.65 / 0.55 = 1.18 up);
+  // a bed flowing at more than 0.81 takes a second step down. Later steps, on a bed that has
+  // flowed, may go kMaxStep (docs/cell_validation.md, table 4 a tenth time).
+  static constexpr double kMaxFirstStep = 1.25;
   // The stationarity test's tolerance on the bulk rate: a controller that settled only within a
   // tighter band kept stepping a bed the cell already called stationary, and each step restarts
   // its 2-3 strain lag (the 8 x 10 x 8 test cell ended up to 8% off on such late steps).

@@ -345,8 +345,9 @@ std::vector<engine::FieldRule> micro_fields() {
             "the sites)")
           .defaults(true),
       Field("/shear_cell/boundary", FieldType::enumeration,
-            "boundaries in the gradient direction; \"walls\" (rough walls) fails validation at "
-            "realistic stiffness and is for testing only (docs/cell_validation.md)")
+            "boundaries in the gradient direction; \"walls\" (rough walls, the check on "
+            "Lees-Edwards of docs/cell_validation.md, table 4; friction 5-7% below it at the "
+            "same bulk I) needs size_diameters[1] of at least 8")
           .defaults("lees_edwards")
           .choices({"walls", "lees_edwards"}),
       Field("/shear_cell/size_diameters", FieldType::array,

@@ -133,6 +133,7 @@ class ConsistencyChecker {
                    "/shear_cell/stiffness/mean_overlap_fraction");
     check_wall_measured_window();
     check_stiffness_sensitivity();
+    check_wall_cell_height();
     return std::move(errors_);
   }
 
@@ -489,6 +490,21 @@ class ConsistencyChecker {
             "region \"" + region + "\" gets no sites (it is not in /sites/regions)",
             "remove it or add it to /sites/regions");
     }
+  }
+
+  // Rough walls too close together bias the friction (dem::kRoughWallLeastHeight).
+  void check_wall_cell_height() {
+    const auto* size = campaign_.node("/shear_cell/size_diameters");
+    if (campaign_.text("/shear_cell/boundary") != "walls" || size == nullptr || size->size() != 3)
+      return;
+    const double height = (*size)[1].get<double>();
+    if (height >= dem::kRoughWallLeastHeight) return;
+    error("/shear_cell/size_diameters/1",
+          quantity(height) + " ball diameters is too short for rough walls, whose layers leave " +
+              "too little bulk between them below " + quantity(dem::kRoughWallLeastHeight) +
+              " (at 6 its friction came out 11% below Lees-Edwards')",
+          "raise it to at least " + quantity(dem::kRoughWallLeastHeight) +
+              " or use \"lees_edwards\"");
   }
 
   void check_powder_count() {
