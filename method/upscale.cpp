@@ -61,20 +61,12 @@ void Sum::merge(const Sum& other) {
   known = known && other.known;
 }
 
-std::optional<double> Sum::relative_error() const {
-  if (!known || value == 0.0) return std::nullopt;
-  return std::sqrt(variance) / std::abs(value);
-}
-
 std::optional<double> Sum::standard_error() const {
   return known ? std::optional(std::sqrt(variance)) : std::nullopt;
 }
 
 Ratio ratio(const Sum& a, const Sum& b) {
-  if (b.value <= 0.0) return {};
-  const double r = a.value / b.value;
-  const auto ea = a.relative_error(), eb = b.relative_error();
-  return {r, ea && eb ? std::optional(std::abs(r) * std::hypot(*ea, *eb)) : std::nullopt};
+  return ratio(Ratio{a.value, a.standard_error()}, Ratio{b.value, b.standard_error()});
 }
 
 Ratio ratio(const Ratio& a, const Ratio& b) {

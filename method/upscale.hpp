@@ -44,7 +44,6 @@ struct Sum {
   void add(double w, double x, const std::optional<double>& se);
   void merge(const Sum& other);
   Sum scaled(double k) const { return {k * value, k * k * variance, known}; }
-  std::optional<double> relative_error() const;
   std::optional<double> standard_error() const;
 };
 

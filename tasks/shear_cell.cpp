@@ -175,15 +175,15 @@ dem::ShearCellProtocol shear_cell_protocol(const json& params) {
 engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   const json& cell_params = context.params.at("shear_cell");
   const json& slot = context.params.at("slot");
+  const std::optional<double> factor = stiffness_factor(context.params);
   const json powder_load = at(cell_params, "/powder/load");
   const SlotSite found = find_slot_site(context.inputs.at(0).result, slot);
   if (!found.skipped.empty()) {
     context.log(fmt::format("shear cell {} skipped: {}", slot_site_id(slot), found.skipped));
-    return engine::TaskOutcome::with_result(
-        method::CellResult{.slot = slot,
-                           .powder_load = powder_load,
-                           .skipped = found.skipped,
-                           .stiffness_factor = stiffness_factor(context.params)});
+    return engine::TaskOutcome::with_result(method::CellResult{.slot = slot,
+                                                               .powder_load = powder_load,
+                                                               .skipped = found.skipped,
+                                                               .stiffness_factor = factor});
   }
   std::filesystem::create_directories(
       context.work_dir);  // the engine leaves its creation to the task
@@ -192,7 +192,7 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   const std::vector<dem::PairStiffness> stiffness = apply_stiffness_policy(context.params, setup);
   dem::ShearCellRun run =
       resume_or_start(setup, shear_cell_protocol(context.params), checkpoint, context);
-  context.log(stiffness_log(stiffness, setup, stiffness_factor(context.params)));
+  context.log(stiffness_log(stiffness, setup, factor));
   CheckpointCadence cadence(cell_params.at("checkpoint_interval_s").get<double>());
   while (!run.done()) {
     if (context.stop.stop_requested() || cadence.due()) {
@@ -218,7 +218,7 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
   result.powder_count = cell.powder_count();
   result.wall_ball_count = cell.wall_ball_count();
   result.stiffness = stiffness;
-  result.stiffness_factor = stiffness_factor(context.params);
+  result.stiffness_factor = factor;
   result.neighbor_skin_fraction = cell.neighbor_skin_fraction();
   // Timings go to the log, not the result: a result must not depend on the machine's load.
   context.log(fmt::format(

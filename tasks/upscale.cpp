@@ -78,11 +78,12 @@ UsableCells usable_cells(const engine::TaskContext& context, double load, bool i
                       .counted = include_unsteady});
       if (!include_unsteady) continue;
     }
-    if (cell.stiffness_factor)
+    if (cell.stiffness_factor) {
       cells.stiff[id] = cell;
-    else if (cell_load == load)
-      cells.loaded[id] = cell;
-    if (!cell.stiffness_factor && cell_load == 0.0) cells.baseline[id] = cell;
+      continue;
+    }
+    if (cell_load == load) cells.loaded[id] = cell;
+    if (cell_load == 0.0) cells.baseline[id] = cell;
   }
   return cells;
 }
