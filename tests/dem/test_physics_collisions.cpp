@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <numeric>
+#include <tuple>
 
 #include "dem/system.hpp"
 #include "tests/dem/scenes.hpp"
@@ -182,12 +183,10 @@ TEST(Collisions, ContactVirialSplitsByCategoryOfMaterials) {
   MaterialTable table;
   const MaterialId steel = table.add({"steel", 7800.0});
   const MaterialId powder = table.add({"powder", 3000.0});
-  table.set_interaction(steel, steel,
-                        {.restitution = 1.0, .friction = 0.0, .normal_stiffness = 1e6});
-  table.set_interaction(steel, powder,
-                        {.restitution = 1.0, .friction = 0.0, .normal_stiffness = 4e5});
-  table.set_interaction(powder, powder,
-                        {.restitution = 1.0, .friction = 0.0, .normal_stiffness = 2e5});
+  for (const auto& [a, b, stiffness] :
+       {std::tuple{steel, steel, 1e6}, {steel, powder, 4e5}, {powder, powder, 2e5}})
+    table.set_interaction(a, b,
+                          {.restitution = 1.0, .friction = 0.0, .normal_stiffness = stiffness});
   System system(table, open_box(0.1), Vec3::Zero());
   system.add_particle({.position = Vec3::Zero(), .radius = 0.01, .material = steel});
   system.add_particle({.position = Vec3(0.019, 0, 0), .radius = 0.01, .material = steel});
