@@ -67,6 +67,7 @@
 
 #include "bench/lammps_export.hpp"
 #include "bench/process_measures.hpp"
+#include "dem/contact_categories.hpp"
 #include "dem/shear_cell.hpp"
 #include "dem/stiffness_policy.hpp"
 #include "method/sites.hpp"
@@ -825,7 +826,7 @@ std::array<double, 6> stress_tensor(const dem::System& s, double shear_rate) {
 // their mean overlap / smaller diameter and their stress (contact_stress).
 std::string contacts_by_pair_type(std::uint64_t step, const dem::System& s,
                                   dem::MaterialId powder) {
-  const std::vector<dem::CategoryContacts> sums = s.contacts_by_category();
+  const std::vector<dem::CategoryContacts> sums = dem::contacts_by_category(s);
   const double volume = s.domain().length().prod();
   std::string line = fmt::format("{}", step);
   for (const std::uint32_t category :

@@ -1220,22 +1220,6 @@ std::vector<ActiveContact> System::active_contacts() const {
   return contacts;
 }
 
-std::vector<CategoryContacts> System::contacts_by_category() const {
-  std::vector<CategoryContacts> sums(materials_.size() * materials_.size());
-  const auto& pairs = neighbors_.pairs();
-  for (std::size_t k = 0; k < pair_touching_.size(); ++k) {
-    if (!pair_touching_[k]) continue;
-    const auto [i, j] = pairs[k];
-    const Vec3 branch = domain_.separation(position_[i], position_[j]);
-    CategoryContacts& c = sums[pair_category(material_[i], material_[j])];
-    c.contacts += 1;
-    c.virial += pair_force(k) * branch.transpose();
-    c.overlap_fraction +=
-        (radius_[i] + radius_[j] - branch.norm()) / (2.0 * std::min(radius_[i], radius_[j]));
-  }
-  return sums;
-}
-
 std::vector<Dissipation> System::dissipation_by_category() const {
   std::vector<Dissipation> total = finished_dissipation_;
   const auto& pairs = neighbors_.pairs();

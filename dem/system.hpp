@@ -122,14 +122,6 @@ struct ActiveContact {
                                    // from a's centre to the contact point
 };
 
-// The pair contacts in force of one contact category, summed (System::contacts_by_category).
-struct CategoryContacts {
-  std::size_t contacts = 0;
-  // Sum of F b^T as in System::contact_virial(): -V sigma of these contacts alone.
-  Eigen::Matrix3d virial = Eigen::Matrix3d::Zero();
-  double overlap_fraction = 0.0;  // sum of overlap / smaller diameter
-};
-
 // The energy budget. For a closed system:
 //   wall_work = (kinetic + potential + elastic) - (same at start) + dissipated.
 struct EnergyBudget {
@@ -294,10 +286,6 @@ class System {
   const Eigen::Matrix3d& contact_virial() const { return contact_virial_; }
   // Every contact in force, pairs first (in (i, j) order), then wall contacts by particle.
   std::vector<ActiveContact> active_contacts() const;
-  // The pair contacts in force split by category (index pair_category(a, b); the other
-  // categories' entries stay empty), to tell which pairs of materials carry the stress. Their
-  // virials add up to contact_virial() (to rounding: another order of summation).
-  std::vector<CategoryContacts> contacts_by_category() const;
 
   // Contact categories: one per unordered material pair, and one per (wall, material).
   std::size_t category_count() const;

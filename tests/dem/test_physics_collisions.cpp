@@ -6,6 +6,7 @@
 #include <numeric>
 #include <tuple>
 
+#include "dem/contact_categories.hpp"
 #include "dem/system.hpp"
 #include "tests/dem/scenes.hpp"
 
@@ -202,7 +203,7 @@ TEST(Collisions, ContactVirialSplitsByCategoryOfMaterials) {
   };
   const Eigen::Matrix3d ball_virial = expected(0, 1, 1e6, 0.02);
   const Eigen::Matrix3d grain_virial = expected(0, 2, 4e5, 0.015);
-  const std::vector<CategoryContacts> sums = system.contacts_by_category();
+  const std::vector<CategoryContacts> sums = contacts_by_category(system);
   ASSERT_EQ(sums.size(), 4u);
   const CategoryContacts& balls = sums[system.pair_category(steel, steel)];
   const CategoryContacts& mixed = sums[system.pair_category(steel, powder)];
