@@ -15,11 +15,11 @@
 # contact parameters per pair of types, LAMMPS's pair_style granular through
 # bench/lammps/in.cell_physics_mixture). First, per pair of types, a head-on collision in LAMMPS
 # (in.restitution_pair) against the restitution millflow's material table gives the pair, at the
-# cell's dt and at a tenth of it. Then, as
-# above, and from contacts sampled every CONTACT_EVERY steps in both codes (millflow's own, LAMMPS's
-# compute pair/local rows reduced below) each pair type's share of tau and of p (its contact
-# stress over all contacts'), its contacts per particle (2 x contacts / all particles) and its mean
-# overlap / smaller diameter, batch-reduced by the same code.
+# cell's dt and at a tenth of it. Then as above, and from contacts sampled every CONTACT_EVERY
+# steps in both codes (millflow's own, LAMMPS's compute pair/local rows reduced below) each pair
+# type's share of tau and of p (its contact stress over all contacts'), its contacts per particle
+# (2 x contacts / all particles) and its mean overlap / smaller diameter, batch-reduced by the
+# same code; the shares pass within 2 combined standard errors.
 # Builds nothing: build the bench_cell_physics target first. docs/cell_validation.md has runs.
 #
 # Usage: bench/run_cell_physics_comparison.sh [BUILD_DIR] [WORK_DIR]
@@ -87,10 +87,12 @@ run_both() {
       done
     done
   fi
-  start=$(awk '{print $16 + $17}' /proc/$$/stat)
-  OMP_NUM_THREADS=1 "$lmp" -in "$input" -var dir "$work" -var lammps "$here/lammps" \
-    -log "$work/lammps.log" -screen none -nocite
-  lammps_cpu=$(awk -v s="$start" -v hz="$(getconf CLK_TCK)" '{print ($16 + $17 - s) / hz}' /proc/$$/stat)
+  # LAMMPS's CPU time: its subshell's children's (the bench, a child of this shell, is not one).
+  lammps_cpu=$(
+    OMP_NUM_THREADS=1 "$lmp" -in "$input" -var dir "$work" -var lammps "$here/lammps" \
+      -log "$work/lammps.log" -screen none -nocite
+    awk -v hz="$(getconf CLK_TCK)" '{print ($16 + $17) / hz}' "/proc/$BASHPID/stat"
+  )
   echo "LAMMPS: $lammps_cpu CPU s ($(awk '/^Loop time of/ {print $4, "s loop wall"}' "$work/lammps.log"))"
   if ((overlap)); then
     wait "$bench_pid"
