@@ -24,7 +24,7 @@
 #
 # Usage: bench/run_cell_physics_comparison.sh [BUILD_DIR] [WORK_DIR]
 #        env: SIZE="8 8 8" INERTIAL=0.1 STRAIN=10 DISCARD=1 BATCHES=10 LMP=lmp
-#             LOAD=0 (media only) POWDER_RATIO=0.5 CONTACT_EVERY=500
+#             LOAD=0 (media only) POWDER_RATIO=0.5 CONTACT_EVERY=500 SEED=1 (the cell's /dem/seed)
 #             OVERLAP=1: millflow's fixed-volume run beside LAMMPS's (two cores; the same results)
 #             REDUCE_ONLY=1: only the reduction, of the files an earlier run left in WORK_DIR
 set -euo pipefail
@@ -42,6 +42,7 @@ load=${LOAD:-0}
 powder_ratio=${POWDER_RATIO:-0.5}
 contact_every=${CONTACT_EVERY:-500}
 overlap=${OVERLAP:-0}
+seed=${SEED:-1}
 reduce_only=${REDUCE_ONLY:-0}
 with_powder=$(awk -v l="$load" 'BEGIN {print (l > 0) ? 1 : 0}')
 bench=$build/bench/bench_cell_physics
@@ -61,7 +62,7 @@ run_both() {
   fi
   # shellcheck disable=SC2086  # SIZE is three numbers
   bench_args=(--tables 6 --size $size --lammps_dir "$work" --lammps_inertial_number "$inertial"
-              --lammps_strain "$strain" "${powder_args[@]}")
+              --lammps_strain "$strain" --seed "$seed" "${powder_args[@]}")
   if ((overlap)); then
     # millflow's fixed-volume run beside LAMMPS's: LAMMPS starts once the state is written (the bench
     # opens millflow_stress.txt after it), millflow's log comes when it ends.
