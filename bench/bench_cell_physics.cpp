@@ -32,7 +32,11 @@
 //                at --lammps_inertial_number, its state and contact parameters written for
 //                bench/lammps/in.cell_physics, then sheared on at FIXED volume for
 //                --lammps_strain, the stress tensor written every --lammps_sample_every steps
-//                (bench/run_cell_physics_comparison.sh runs both and compares).
+//                (bench/run_cell_physics_comparison.sh runs both and compares). With
+//                --lammps_load > 0 the cell holds powder (--powder_ratio d at that load, as
+//                table 1's), its parameters are written per pair of types for
+//                bench/lammps/in.cell_physics_mixture, and every --lammps_contact_every steps the
+//                contact stress, contacts and mean overlap by pair type are written as well.
 //
 // The scene is campaigns/cement_ball_mill.json's cell (50 mm steel balls, clinker powder, steel
 // 7800 and clinker 3150 kg/m^3, Lees-Edwards, stiffness policy "overlap_bound") at a site of
@@ -63,6 +67,7 @@
 
 #include "bench/lammps_export.hpp"
 #include "bench/process_measures.hpp"
+#include "dem/contact_categories.hpp"
 #include "dem/shear_cell.hpp"
 #include "dem/stiffness_policy.hpp"
 #include "method/sites.hpp"
@@ -115,8 +120,10 @@ struct Options {
   double lammps_inertial_number = 0.1;
   double lammps_strain = 10.0;
   int lammps_sample_every = 50;
-  double wall_speed = 0.0;        // table 4 open loop: > 0 holds the walls at this speed, m/s
-  double open_loop_strain = 8.0;  // table 4 open loop: strain after compaction
+  double lammps_load = 0.0;        // table 6's powder load (0: media only)
+  int lammps_contact_every = 500;  // table 6 with powder: contacts by pair type, every this
+  double wall_speed = 0.0;         // table 4 open loop: > 0 holds the walls at this speed, m/s
+  double open_loop_strain = 8.0;   // table 4 open loop: strain after compaction
   // Table 4: both cells run the rough walls' protocol (dem::kRoughWallStrains) unless a strain
   // flag was given, and at 8 x 10 x 8 d unless --size was given (at 5 x 6 x 5 the wall cell's
   // tau / p_yy sits about 5% below its own at 8 x 10 x 8 and 12 x 10 x 12, the Lees-Edwards
@@ -781,39 +788,96 @@ void overlap_table(const Options& o) {
                .strain_factor = o.overlap_strain_factor});
 }
 
-// Stress tensor of an LE system now, compression positive (xx yy zz xy xz yz, LAMMPS's order of
-// its pressure vector): the contacts' virial plus the kinetic part of the motion relative to the
-// linear profile (zero at mid-height), over the box volume.
-std::array<double, 6> stress_tensor(const dem::System& s, double shear_rate) {
-  static constexpr std::array<std::array<int, 2>, 6> kComponents{
-      {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}}};
-  const dem::Domain& d = s.domain();
-  const double y_mid = d.lo.y() + 0.5 * d.length().y();
-  std::array<double, 6> sum{};
+// Components of a stress tensor in LAMMPS's order of its pressure vector: xx yy zz xy xz yz.
+constexpr std::array<std::array<int, 2>, 6> kComponents{
+    {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}}};
+
+// The stress of contacts whose virial (sum of F b^T, System::contact_virial's) is `virial`, in a
+// volume, compression positive, symmetrised, in kComponents' order.
+std::array<double, 6> contact_stress(const Eigen::Matrix3d& virial, double volume) {
+  std::array<double, 6> stress{};
   for (std::size_t k = 0; k < 6; ++k) {
     const auto [a, b] = kComponents[k];
-    sum[k] = -0.5 * (s.contact_virial()(a, b) + s.contact_virial()(b, a));
+    stress[k] = -0.5 * (virial(a, b) + virial(b, a)) / volume;
   }
+  return stress;
+}
+
+// Stress tensor of an LE system now, compression positive (kComponents' order): the contacts'
+// virial plus the kinetic part of the motion relative to the linear profile (zero at
+// mid-height), over the box volume.
+std::array<double, 6> stress_tensor(const dem::System& s, double shear_rate) {
+  const dem::Domain& d = s.domain();
+  const double y_mid = d.lo.y() + 0.5 * d.length().y(), volume = d.length().prod();
+  std::array<double, 6> stress = contact_stress(s.contact_virial(), volume);
   for (std::size_t p = 0; p < s.size(); ++p) {
     const dem::Vec3 c =
         s.velocities()[p] - dem::Vec3(shear_rate * (s.positions()[p].y() - y_mid), 0.0, 0.0);
     for (std::size_t k = 0; k < 6; ++k) {
       const auto [a, b] = kComponents[k];
-      sum[k] += s.masses()[p] * c[a] * c[b];
+      stress[k] += s.masses()[p] * c[a] * c[b] / volume;
     }
   }
-  for (double& v : sum) v /= d.length().prod();
-  return sum;
+  return stress;
+}
+
+// A line of table 6's contacts file (millflow_contacts.txt; the LAMMPS side writes the same
+// columns): the step, then per pair type, media-media, media-powder, powder-powder: its contacts,
+// their mean overlap / smaller diameter and their stress (contact_stress).
+std::string contacts_by_pair_type(std::uint64_t step, const dem::System& s,
+                                  dem::MaterialId powder) {
+  const std::vector<dem::CategoryContacts> sums = dem::contacts_by_category(s);
+  const double volume = s.domain().length().prod();
+  std::string line = fmt::format("{}", step);
+  for (const std::uint32_t category :
+       {s.pair_category(0, 0), s.pair_category(0, powder), s.pair_category(powder, powder)}) {
+    const dem::CategoryContacts& c = sums[category];
+    line +=
+        fmt::format(" {} {:.8g}", c.contacts,
+                    c.contacts > 0 ? c.overlap_fraction / static_cast<double>(c.contacts) : 0.0);
+    for (const double v : contact_stress(c.virial, volume)) line += fmt::format(" {:.10g}", v);
+  }
+  return line + "\n";
+}
+
+// Restitution of a head-on collision at 1 m/s of a particle like `a` of `cell` with one like `b`
+// (their radii and materials), at the cell's time step: what the run's integrator gives the
+// pair's material table value (in.restitution_pair runs the same collision in LAMMPS).
+double discrete_restitution(const dem::System& cell, std::size_t a, std::size_t b) {
+  const double ra = cell.radii()[a], rb = cell.radii()[b];
+  dem::Domain box;
+  box.lo = dem::Vec3::Constant(-2.0 * (ra + rb));
+  box.hi = dem::Vec3::Constant(2.0 * (ra + rb));
+  dem::System pair(cell.materials(), box, dem::Vec3::Zero());
+  pair.add_particle(
+      {.velocity = dem::Vec3(0.5, 0, 0), .radius = ra, .material = cell.particle_materials()[a]});
+  pair.add_particle({.position = dem::Vec3(ra + rb, 0, 0),
+                     .velocity = dem::Vec3(-0.5, 0, 0),
+                     .radius = rb,
+                     .material = cell.particle_materials()[b]});
+  pair.set_time_step(cell.time_step());
+  do {
+    pair.step();
+  } while (pair.active_contact_count() > 0 && pair.step_count() < 100000);
+  return pair.velocities()[1].x() - pair.velocities()[0].x();
 }
 
 void lammps_table(const Options& o) {
   if (!o.lammps_dir) throw std::invalid_argument("table 6 needs --lammps_dir");
+  if (o.lammps_contact_every <= 0 || o.lammps_contact_every % o.lammps_sample_every != 0)
+    throw std::invalid_argument(
+        "--lammps_contact_every must be a multiple of --lammps_sample_every");
   const std::filesystem::path& dir = *o.lammps_dir;
   std::filesystem::create_directories(dir);
-  const Cell c{.shear_rate = shear_rate_for(o, o.lammps_inertial_number)};
+  const bool with_powder = o.lammps_load > 0.0;
+  const Cell c{.powder_load = o.lammps_load,
+               .shear_rate = shear_rate_for(o, o.lammps_inertial_number)};
   fmt::print(
-      "\nTable 6: fixed-volume media cell for LAMMPS (I {:g}, {:.4g} 1/s, {:g} Pa, {:g} strains, "
+      "\nTable 6: fixed-volume {} for LAMMPS (I {:g}, {:.4g} 1/s, {:g} Pa, {:g} strains, "
       "files in {})\n",
+      with_powder
+          ? fmt::format("cell with powder {:g} d at load {:g}", o.powder_ratio, o.lammps_load)
+          : std::string("media cell"),
       o.lammps_inertial_number, c.shear_rate, o.normal_stress, o.lammps_strain, dir.string());
   const json campaign = campaign_for(o, c);
   const dem::ShearCellSetup setup = setup_for(o, c, campaign);
@@ -839,23 +903,68 @@ void lammps_table(const Options& o) {
   const auto steps = static_cast<std::uint64_t>(
       std::ceil(o.lammps_strain / (c.shear_rate * system.time_step()) / o.lammps_sample_every) *
       o.lammps_sample_every);
+  const auto materials = system.particle_materials();
+  const auto powder_count = static_cast<std::size_t>(
+      std::count_if(materials.begin(), materials.end(), [](dem::MaterialId m) { return m != 0; }));
+  const dem::MaterialId powder = powder_count > 0
+                                     ? *std::find_if(materials.begin(), materials.end(),
+                                                     [](dem::MaterialId m) { return m != 0; })
+                                     : dem::MaterialId{0};
+  if (with_powder && powder_count == 0)
+    throw std::runtime_error("table 6: the cell with powder holds no powder");
   bench::LammpsParams params;
-  bench::add_contact_params(params, "", setup.media_media, 0.5 * system.masses()[0]);
+  if (with_powder) {
+    bench::add_pair_type_params(params, system);
+    // What the cell's material table holds per pair (the policy's k_n, gamma_n for each m_eff).
+    fmt::print("    exported per pair of types:");
+    for (const auto& [name, value] : params.values) fmt::print(" {} {:.5g}", name, value);
+    fmt::print("\n");
+    const auto ball = static_cast<std::size_t>(
+        std::find(materials.begin(), materials.end(), dem::MaterialId{0}) - materials.begin());
+    const auto grain = static_cast<std::size_t>(
+        std::find(materials.begin(), materials.end(), powder) - materials.begin());
+    fmt::print(
+        "    restitution of a head-on collision at 1 m/s at this dt (material table's): mm "
+        "{:.6f} ({:g}), mp {:.6f} ({:g}), pp {:.6f} ({:g})\n",
+        discrete_restitution(system, ball, ball), system.materials().interaction(0, 0).restitution,
+        discrete_restitution(system, ball, grain),
+        system.materials().interaction(0, powder).restitution,
+        discrete_restitution(system, grain, grain),
+        system.materials().interaction(powder, powder).restitution);
+    params.set("contact_every", o.lammps_contact_every);
+    params.set("media_count", static_cast<double>(system.size() - powder_count));
+    params.set("powder_count", static_cast<double>(powder_count));
+    params.set("volume", system.domain().length().prod());
+    params.notes.push_back(
+        "bench_cell_physics table 6 with powder: fixed volume; pair_style granular per pair of "
+        "types, mass_velocity damping exact for each (one size per type)");
+  } else {
+    bench::add_contact_params(params, "", setup.media_media, 0.5 * system.masses()[0]);
+    params.notes.push_back(
+        "bench_cell_physics table 6: fixed volume; one pair type, so gran/hooke/history's "
+        "gamma_n is exact");
+  }
   params.set("dt", system.time_step());
-  params.set("skin", 0.6 * system.radii()[0]);  // System's default: 0.6 x smallest radius
+  // System's default skin: 0.6 x the smallest radius.
+  params.set("skin", 0.6 * *std::min_element(system.radii().begin(), system.radii().end()));
   params.set("shear_rate", c.shear_rate);
   params.set("nsteps", static_cast<double>(steps));
   params.set("sample_every", o.lammps_sample_every);
   params.set("solid_fraction", solid_fraction);
-  params.notes.push_back(
-      "bench_cell_physics table 6: fixed volume; one pair type, so gran/hooke/history's gamma_n "
-      "is exact");
   bench::write_lammps_data(shifted, "cell_physics", dir / "cell_physics.data");
-  bench::write_lammps_params("cell_physics", "bench_cell_physics, media-only LE cell", params,
-                             dir / "cell_physics.params");
+  bench::write_lammps_params("cell_physics",
+                             with_powder ? "bench_cell_physics, media + powder LE cell"
+                                         : "bench_cell_physics, media-only LE cell",
+                             params, dir / "cell_physics.params");
   // Our side: the same state sheared on at fixed volume (the System alone: no barostat).
   std::ofstream out(dir / "millflow_stress.txt");
   out << "# step pxx pyy pzz pxy pxz pyz (Pa, compression positive)\n";
+  std::ofstream contacts;
+  if (with_powder) {
+    contacts.open(dir / "millflow_contacts.txt");
+    contacts << "# step, then per pair type (media-media, media-powder, powder-powder): contacts, "
+                "mean overlap / smaller diameter, contact stress xx yy zz xy xz yz (Pa)\n";
+  }
   const double cpu_start = process_cpu_seconds();
   arena.execute([&] {
     for (std::uint64_t step = 0; step <= steps; step += o.lammps_sample_every) {
@@ -863,16 +972,26 @@ void lammps_table(const Options& o) {
       const auto t = stress_tensor(system, c.shear_rate);
       out << fmt::format("{} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g}\n", step, t[0], t[1],
                          t[2], t[3], t[4], t[5]);
+      if (with_powder && step % static_cast<std::uint64_t>(o.lammps_contact_every) == 0)
+        contacts << contacts_by_pair_type(step, system, powder);
     }
   });
   if (!out) throw std::runtime_error("could not write millflow_stress.txt");
+  if (with_powder && !contacts) throw std::runtime_error("could not write millflow_contacts.txt");
   const double cpu = process_cpu_seconds() - cpu_start;
+  const double media_kappa =
+      setup.media_media.normal_stiffness / (setup.normal_stress * setup.media_diameter);
+  if (with_powder)
+    fmt::print("  {} particles ({} balls, {} powder grains of {:.4g} m), ", system.size(),
+               system.size() - powder_count, powder_count,
+               2.0 * *std::min_element(system.radii().begin(), system.radii().end()));
+  else
+    fmt::print("  {} balls, ", system.size());
   fmt::print(
-      "  {} balls, solid fraction {:.4f}, media k_n/(p d) {:.3g}, dt {:.4g} s, {} steps "
-      "at fixed volume in {:.1f} CPU s ({:.3g} particle-steps per CPU s)\n",
-      system.size(), solid_fraction,
-      setup.media_media.normal_stiffness / (setup.normal_stress * setup.media_diameter),
-      system.time_step(), steps, cpu, static_cast<double>(system.size() * steps) / cpu);
+      "solid fraction {:.4f}, media k_n/(p d) {:.3g}, dt {:.4g} s, {} steps at fixed volume in "
+      "{:.1f} CPU s ({:.3g} particle-steps per CPU s)\n",
+      solid_fraction, media_kappa, system.time_step(), steps, cpu,
+      static_cast<double>(system.size() * steps) / cpu);
 }
 
 }  // namespace
@@ -924,6 +1043,11 @@ int main(int argc, char** argv) {
   app.add_option("--lammps_inertial_number", o.lammps_inertial_number, "table 6's I");
   app.add_option("--lammps_strain", o.lammps_strain, "table 6's fixed-volume strain");
   app.add_option("--lammps_sample_every", o.lammps_sample_every, "table 6's sample interval");
+  app.add_option("--lammps_load", o.lammps_load,
+                 "table 6's powder load (powder of --powder_ratio d; 0: media only)");
+  app.add_option("--lammps_contact_every", o.lammps_contact_every,
+                 "table 6 with powder: contact stress by pair type every this many steps (a "
+                 "multiple of --lammps_sample_every)");
   app.add_option("--wall_speed", o.wall_speed,
                  "table 4 open loop: hold the rough walls at this relative speed, m/s (no "
                  "wall-speed controller, no Lees-Edwards cell)");

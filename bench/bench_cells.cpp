@@ -445,28 +445,16 @@ void export_for_lammps(const CellCase& c, const dem::ShearCellRun& run) {
   const dem::System& system = run.cell().system();
   const dem::ShearCellSetup& setup = run.cell().setup();
   bench::LammpsParams params;
-  // Type 1: material 0 (the media); type 2: the powder (bench::write_lammps_data's rule). The
-  // cell renumbers its particles along a space-filling curve: look the kinds up, not index 0.
-  const auto materials = system.particle_materials();
-  const auto first_of = [&](auto is_kind) {
-    return static_cast<std::size_t>(std::find_if(materials.begin(), materials.end(), is_kind) -
-                                    materials.begin());
-  };
-  const std::size_t ball = first_of([](dem::MaterialId m) { return m == 0; });
-  const std::size_t p = first_of([](dem::MaterialId m) { return m != 0; });
-  if (ball == materials.size()) return;
-  const double ball_mass = system.masses()[ball];
   if (c.media_only_small_balls) {
-    bench::add_contact_params(params, "", setup.media_media, 0.5 * ball_mass);
-  } else {
-    if (p == materials.size()) return;  // no powder: nothing for in.cell_mixture
-    const double powder_mass = system.masses()[p];
-    const dem::MaterialTable& table = system.materials();
-    bench::add_contact_params(params, "mm_", table.interaction(0, 0), 0.5 * ball_mass);
-    bench::add_contact_params(params, "mp_", table.interaction(0, materials[p]),
-                              dem::effective_mass(ball_mass, powder_mass));
-    bench::add_contact_params(params, "pp_", table.interaction(materials[p], materials[p]),
-                              0.5 * powder_mass);
+    // Type 1: material 0 (the media); the cell renumbers its particles, so look a ball up.
+    const auto materials = system.particle_materials();
+    const auto ball = std::find(materials.begin(), materials.end(), dem::MaterialId{0});
+    if (ball == materials.end()) return;
+    bench::add_contact_params(
+        params, "", setup.media_media,
+        0.5 * system.masses()[static_cast<std::size_t>(ball - materials.begin())]);
+  } else if (!bench::add_pair_type_params(params, system)) {
+    return;  // no powder: nothing for in.cell_mixture
   }
   params.set("dt", system.time_step());
   params.set("skin", 0.6 * *std::min_element(system.radii().begin(), system.radii().end()));

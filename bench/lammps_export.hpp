@@ -3,6 +3,8 @@
 // file (type 1 media, i.e. material 0; type 2 everything else) and a file of `variable` lines.
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -40,6 +42,43 @@ inline void add_contact_params(LammpsParams& out, const std::string& prefix,
   out.set(prefix + "gamman", gamma_n);
   out.set(prefix + "gammat", spec.tangential_damping_ratio * gamma_n);
   out.set(prefix + "xmu", spec.friction);
+}
+
+// A media + powder system's contact parameters per pair of LAMMPS types (write_lammps_data's:
+// type 1 material 0, the media; type 2 the powder), prefixed mm_, mp_ and pp_, each pair's
+// gamma_n for the effective mass of its two particles: with one size per type, pair_style
+// granular's mass_velocity damping (m_eff gamma_n v_n) is then millflow's C_n v_n for every pair.
+// Also each pair's restitution (mm_e, mp_e, pp_e) and media_ and powder_ diameter and density.
+// False (nothing set) without media or without powder.
+inline bool add_pair_type_params(LammpsParams& out, const dem::System& system) {
+  // The cells renumber their particles along a space-filling curve: look the kinds up.
+  const auto materials = system.particle_materials();
+  const auto ball = static_cast<std::size_t>(
+      std::find(materials.begin(), materials.end(), dem::MaterialId{0}) - materials.begin());
+  const auto grain = static_cast<std::size_t>(
+      std::find_if(materials.begin(), materials.end(), [](dem::MaterialId m) { return m != 0; }) -
+      materials.begin());
+  if (ball == materials.size() || grain == materials.size()) return false;
+  const double ball_mass = system.masses()[ball], grain_mass = system.masses()[grain];
+  const dem::MaterialTable& table = system.materials();
+  const dem::MaterialId powder = materials[grain];
+  const std::array<std::pair<std::string, const dem::InteractionSpec*>, 3> pairs{
+      {{"mm_", &table.interaction(0, 0)},
+       {"mp_", &table.interaction(0, powder)},
+       {"pp_", &table.interaction(powder, powder)}}};
+  const std::array<double, 3> effective_masses{
+      0.5 * ball_mass, dem::effective_mass(ball_mass, grain_mass), 0.5 * grain_mass};
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    add_contact_params(out, pairs[k].first, *pairs[k].second, effective_masses[k]);
+    out.set(pairs[k].first + "e", pairs[k].second->restitution);
+  }
+  for (const auto& [kind, p] : {std::pair{std::string("media_"), ball}, {"powder_", grain}}) {
+    const double diameter = 2.0 * system.radii()[p];
+    out.set(kind + "diameter", diameter);
+    out.set(kind + "density",
+            system.masses()[p] / (std::numbers::pi * diameter * diameter * diameter / 6.0));
+  }
+  return true;
 }
 
 inline void write_lammps_data(const dem::System& s, const std::string& name,

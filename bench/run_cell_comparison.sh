@@ -53,7 +53,7 @@ for ((r = 0; r < reps; ++r)); do
       >"$work/millflow.$scene.$r.log" 2>&1
     keep_fastest "m_$scene" 4 "$(awk -v s="$scene" '$1 == "RESULT" && $2 == s && $3 == 1 {print $4, $5, $6, $7}' "$work/millflow.$scene.$r.log" | tail -1)"
     log=$work/lammps.$scene.$r.log
-    OMP_NUM_THREADS=1 "$lmp" -in "$(input_of "$scene")" -var dir "$work" -var scene "$scene" \
+    OMP_NUM_THREADS=1 "$lmp" -in "$(input_of "$scene")" -var dir "$work" -var scene "$scene" -var lammps "$here/lammps" \
       -var nsteps "$steps" -log none -screen "$log" -nocite
     # Loop time (wall) and the CPU share LAMMPS reports: CPU seconds = wall x share.
     keep_fastest "l_$scene" 2 "$(awk '/^Loop time of/ {t = $4} /% CPU use/ {c = $1; sub("%", "", c)} END {print t, t * c / 100}' "$log")"

@@ -10,10 +10,23 @@
 # BATCHES batches, each batch's tau = -p_xy, p_yy and p = trace / 3 averaged, the frictions
 # tau / p_yy and tau / p formed per batch; mean and standard error over the batches. At fixed
 # volume the solid fraction is the same by construction (printed), so the stresses are compared.
-# Builds nothing: build the bench_cell_physics target first. docs/cell_validation.md has a run.
+#
+# With LOAD > 0 the cell holds powder of POWDER_RATIO ball diameters at that load (type 2; the
+# contact parameters per pair of types, LAMMPS's pair_style granular through
+# bench/lammps/in.cell_physics_mixture). First, per pair of types, a head-on collision in LAMMPS
+# (in.restitution_pair) against the restitution millflow's material table gives the pair, at the
+# cell's dt and at a tenth of it. Then as above, and from contacts sampled every CONTACT_EVERY
+# steps in both codes (millflow's own, LAMMPS's compute pair/local rows reduced below) each pair
+# type's share of tau and of p (its contact stress over all contacts'), its contacts per particle
+# (2 x contacts / all particles) and its mean overlap / smaller diameter, batch-reduced by the
+# same code; the shares pass within 2 combined standard errors.
+# Builds nothing: build the bench_cell_physics target first. docs/cell_validation.md has runs.
 #
 # Usage: bench/run_cell_physics_comparison.sh [BUILD_DIR] [WORK_DIR]
 #        env: SIZE="8 8 8" INERTIAL=0.1 STRAIN=10 DISCARD=1 BATCHES=10 LMP=lmp
+#             LOAD=0 (media only) POWDER_RATIO=0.5 CONTACT_EVERY=500 SEED=1 (the cell's /dem/seed)
+#             OVERLAP=1: millflow's fixed-volume run beside LAMMPS's (two cores; the same results)
+#             REDUCE_ONLY=1: only the reduction, of the files an earlier run left in WORK_DIR
 set -euo pipefail
 
 here=$(cd "$(dirname "$0")" && pwd)
@@ -25,20 +38,69 @@ strain=${STRAIN:-10}
 discard=${DISCARD:-1}
 batches=${BATCHES:-10}
 lmp=${LMP:-lmp}
+load=${LOAD:-0}
+powder_ratio=${POWDER_RATIO:-0.5}
+contact_every=${CONTACT_EVERY:-500}
+overlap=${OVERLAP:-0}
+seed=${SEED:-1}
+reduce_only=${REDUCE_ONLY:-0}
+with_powder=$(awk -v l="$load" 'BEGIN {print (l > 0) ? 1 : 0}')
 bench=$build/bench/bench_cell_physics
 [[ -x $bench ]] || { echo "no $bench: build the bench_cell_physics target first" >&2; exit 1; }
 command -v "$lmp" >/dev/null || { echo "no LAMMPS binary '$lmp': apt-get install -y lammps" >&2; exit 1; }
 mkdir -p "$work"
 
-echo "load before: $(cut -d' ' -f1-3 /proc/loadavg); $(nproc) cores; work dir $work"
-# shellcheck disable=SC2086  # SIZE is three numbers
-"$bench" --tables 6 --size $size --lammps_dir "$work" --lammps_inertial_number "$inertial" \
-  --lammps_strain "$strain" | tee "$work/millflow.log"
-start=$(awk '{print $16 + $17}' /proc/$$/stat)
-OMP_NUM_THREADS=1 "$lmp" -in "$here/lammps/in.cell_physics" -var dir "$work" \
-  -log "$work/lammps.log" -screen none -nocite
-lammps_cpu=$(awk -v s="$start" -v hz="$(getconf CLK_TCK)" '{print ($16 + $17 - s) / hz}' /proc/$$/stat)
-echo "LAMMPS: $lammps_cpu CPU s ($(awk '/^Loop time of/ {print $4, "s loop wall"}' "$work/lammps.log"))"
+# Both codes on one cell (REDUCE_ONLY=1 skips this and reduces what WORK_DIR holds).
+run_both() {
+  echo "load before: $(cut -d' ' -f1-3 /proc/loadavg); $(nproc) cores; work dir $work"
+  powder_args=()
+  input=$here/lammps/in.cell_physics
+  if ((with_powder)); then
+    powder_args=(--lammps_load "$load" --powder_ratio "$powder_ratio"
+                 --lammps_contact_every "$contact_every")
+    input=$here/lammps/in.cell_physics_mixture
+  fi
+  # shellcheck disable=SC2086  # SIZE is three numbers
+  bench_args=(--tables 6 --size $size --lammps_dir "$work" --lammps_inertial_number "$inertial"
+              --lammps_strain "$strain" --seed "$seed" "${powder_args[@]}")
+  if ((overlap)); then
+    # millflow's fixed-volume run beside LAMMPS's: LAMMPS starts once the state is written (the bench
+    # opens millflow_stress.txt after it), millflow's log comes when it ends.
+    rm -f "$work/millflow_stress.txt"
+    "$bench" "${bench_args[@]}" >"$work/millflow.log" &
+    bench_pid=$!
+    until [[ -e $work/millflow_stress.txt ]]; do
+      kill -0 "$bench_pid" 2>/dev/null || { cat "$work/millflow.log"; wait "$bench_pid"; exit 1; }
+      sleep 2
+    done
+  else
+    "$bench" "${bench_args[@]}" | tee "$work/millflow.log"
+  fi
+  if ((with_powder)); then
+    # At the cell's dt and at a tenth of it (what is left there is the integrator's).
+    for refine in 1 10; do
+      for types in "1 1" "1 2" "2 2"; do
+        read -r ta tb <<<"$types"
+        "$lmp" -in "$here/lammps/in.restitution_pair" -var dir "$work" -var lammps "$here/lammps" \
+          -var ta "$ta" -var tb "$tb" -var refine "$refine" -var out "$work/restitution.txt" \
+          -log none -screen none -nocite
+        cat "$work/restitution.txt"
+      done
+    done
+  fi
+  # LAMMPS's CPU time: its subshell's children's (the bench, a child of this shell, is not one).
+  lammps_cpu=$(
+    OMP_NUM_THREADS=1 "$lmp" -in "$input" -var dir "$work" -var lammps "$here/lammps" \
+      -log "$work/lammps.log" -screen none -nocite
+    awk -v hz="$(getconf CLK_TCK)" '{print ($16 + $17) / hz}' "/proc/$BASHPID/stat"
+  )
+  echo "LAMMPS: $lammps_cpu CPU s ($(awk '/^Loop time of/ {print $4, "s loop wall"}' "$work/lammps.log"))"
+  if ((overlap)); then
+    wait "$bench_pid"
+    cat "$work/millflow.log"
+  fi
+}
+((reduce_only)) || run_both
 
 param() { awk -v n="$1" '$1 == "variable" && $2 == n {print $4}' "$work/cell_physics.params"; }
 dt=$(param dt)
@@ -84,4 +146,86 @@ awk -v m="$m" -v l="$l" -v discard="$discard" -v nb="$batches" 'BEGIN {
   }
   print (pass ? "friction within 3%: PASS" : "friction within 3%: FAIL")
 }'
+
+if ((with_powder)); then
+  # LAMMPS's contact rows (types, r, F_n, F_t on the first atom, x_1 - x_2) reduced per dump to
+  # millflow_contacts.txt's columns: per pair type (1-1, 1-2, 2-2) contacts, mean overlap /
+  # smaller diameter, and (1/V) sum of F (x) (x_1 - x_2) symmetrised (xx yy zz xy xz yz).
+  [[ -e $work/lammps_contacts.dump ]] && awk -v d1="$(param media_diameter)" -v d2="$(param powder_diameter)" -v vol="$(param volume)" '
+    function flush(  t, k) {
+      if (step == "") return
+      printf "%s", step
+      for (t = 0; t < 3; t++) {
+        printf " %d %.8g", n[t], (n[t] > 0 ? ov[t] / n[t] : 0)
+        for (k = 1; k <= 6; k++) printf " %.10g", s[t, k] / vol
+      }
+      printf "\n"
+      for (t = 0; t < 3; t++) {n[t] = 0; ov[t] = 0; for (k = 1; k <= 6; k++) s[t, k] = 0}
+    }
+    /^ITEM: TIMESTEP/ {flush(); rows = 0; getline; step = $1; next}
+    /^ITEM: ENTRIES/ {rows = 1; next}
+    /^ITEM:/ {rows = 0; next}
+    rows {
+      t = $1 + $2 - 2; da = ($1 == 1) ? d1 : d2; db = ($2 == 1) ? d1 : d2
+      r = $3; fx = $4 * $8 / r + $5; fy = $4 * $9 / r + $6; fz = $4 * $10 / r + $7
+      n[t]++; ov[t] += (0.5 * (da + db) - r) / (da < db ? da : db)
+      s[t, 1] += fx * $8; s[t, 2] += fy * $9; s[t, 3] += fz * $10
+      s[t, 4] += 0.5 * (fx * $9 + fy * $8); s[t, 5] += 0.5 * (fx * $10 + fz * $8)
+      s[t, 6] += 0.5 * (fy * $10 + fz * $9)
+    }
+    END {flush()}' "$work/lammps_contacts.dump" >"$work/lammps_contacts.txt"
+  rm -f "$work/lammps_contacts.dump"
+  particles=$(awk -v m="$(param media_count)" -v p="$(param powder_count)" 'BEGIN {print m + p}')
+  # Per batch, from the batch means: each type's share of the contacts' tau and p, its contacts per
+  # particle and mean overlap; mean and standard error over the batches.
+  reduce_contacts() {
+    awk -v dt="$dt" -v rate="$rate" -v discard="$discard" -v nb="$batches" -v np="$particles" '
+      /^#/ {next}
+      NF >= 25 && $1 * dt * rate > discard {
+        c++
+        for (t = 0; t < 3; t++) {b = 2 + 8 * t; z[c, t] = $b; o[c, t] = $(b + 1); xy[c, t] = $(b + 5)
+                                  tr[c, t] = ($(b + 2) + $(b + 3) + $(b + 4)) / 3}
+      }
+      END {
+        per = int(c / nb)
+        for (q = 0; q < 12; q++) for (k = 0; k < nb; k++) v[q, k] = 0
+        for (k = 0; k < nb; k++) {
+          sxy = 0; str = 0
+          for (t = 0; t < 3; t++) {
+            a = 0; p = 0; zz = 0; oo = 0
+            for (i = k * per + 1; i <= (k + 1) * per; i++) {a += xy[i, t]; p += tr[i, t]; zz += z[i, t]; oo += o[i, t]}
+            txy[t] = a; ttr[t] = p; sxy += a; str += p
+            v[6 + t, k] = 2 * zz / per / np; v[9 + t, k] = oo / per
+          }
+          for (t = 0; t < 3; t++) {v[t, k] = txy[t] / sxy; v[3 + t, k] = ttr[t] / str}
+        }
+        for (q = 0; q < 12; q++) {
+          m = 0; for (k = 0; k < nb; k++) m += v[q, k]; m /= nb
+          s = 0; for (k = 0; k < nb; k++) s += (v[q, k] - m) ^ 2
+          printf " %.6g %.6g", m, sqrt(s / (nb - 1) / nb)
+        }
+        printf " %d\n", c
+      }' "$1"
+  }
+  mc=$(reduce_contacts "$work/millflow_contacts.txt")
+  lc=$(reduce_contacts "$work/lammps_contacts.txt")
+  awk -v m="$mc" -v l="$lc" 'BEGIN {
+    split(m, a); split(l, b)
+    split("mm mp pp", types)
+    for (t = 1; t <= 3; t++) {
+      names[t] = "tau share " types[t]; names[3 + t] = "p share " types[t]
+      names[6 + t] = "z " types[t]; names[9 + t] = "overlap " types[t]
+    }
+    printf "contacts: %d and %d samples; shares of the contact stress, contacts per particle z, mean overlap / d_min\n", a[25], b[25]
+    pass = 1
+    for (q = 1; q <= 12; q++) {
+      mm = a[2 * q - 1]; ms = a[2 * q]; lm = b[2 * q - 1]; ls = b[2 * q]
+      d = lm != 0 ? 100 * (mm - lm) / lm : 0; se = sqrt(ms ^ 2 + ls ^ 2)
+      sep = se > 0 ? (mm - lm) / se : 0
+      printf "%-14s %12.6g +- %-9.3g %12.6g +- %-9.3g %+8.2f %+8.1f\n", names[q], mm, ms, lm, ls, d, sep
+      if (q <= 6 && (sep > 2 || sep < -2)) pass = 0
+    }
+    print (pass ? "stress shares within 2 se: PASS" : "stress shares within 2 se: FAIL")
+  }'
+fi
 echo "load after: $(cut -d' ' -f1-3 /proc/loadavg)"

@@ -4,7 +4,9 @@
 
 #include <cmath>
 #include <numeric>
+#include <tuple>
 
+#include "dem/contact_categories.hpp"
 #include "dem/system.hpp"
 #include "tests/dem/scenes.hpp"
 
@@ -173,6 +175,48 @@ TEST(ElasticGas, EnergyIsConservedOverHundredThousandSteps) {
   EXPECT_LT(drift, 1e-4) << "relative energy drift over 1e5 steps";
   EXPECT_LT(worst, 1e-3) << "largest relative excursion within contacts";
   EXPECT_GT(system.step_count(), 100000u);
+}
+
+// Two steel balls pressed together along x and a powder grain pressed on the first along y, from
+// rest, elastic (no dashpot) and frictionless: each contact's virial is -k delta |b| n n^T, its
+// category the pair of materials, and the categories add up to the whole contact virial.
+TEST(Collisions, ContactVirialSplitsByCategoryOfMaterials) {
+  MaterialTable table;
+  const MaterialId steel = table.add({"steel", 7800.0});
+  const MaterialId powder = table.add({"powder", 3000.0});
+  for (const auto& [a, b, stiffness] :
+       {std::tuple{steel, steel, 1e6}, {steel, powder, 4e5}, {powder, powder, 2e5}})
+    table.set_interaction(a, b,
+                          {.restitution = 1.0, .friction = 0.0, .normal_stiffness = stiffness});
+  System system(table, open_box(0.1), Vec3::Zero());
+  system.add_particle({.position = Vec3::Zero(), .radius = 0.01, .material = steel});
+  system.add_particle({.position = Vec3(0.019, 0, 0), .radius = 0.01, .material = steel});
+  system.add_particle({.position = Vec3(0, 0.0145, 0), .radius = 0.005, .material = powder});
+  system.set_time_step(1e-7);
+  system.step();
+  // A contact of stiffness k between centres b apart with overlap delta: -k delta b b^T / |b|.
+  const auto x = system.positions();
+  const auto expected = [&](std::size_t a, std::size_t b, double k, double touching) {
+    const Vec3 branch = x[b] - x[a];
+    return Eigen::Matrix3d(-k * (touching - branch.norm()) * branch * branch.transpose() /
+                           branch.norm());
+  };
+  const Eigen::Matrix3d ball_virial = expected(0, 1, 1e6, 0.02);
+  const Eigen::Matrix3d grain_virial = expected(0, 2, 4e5, 0.015);
+  const std::vector<CategoryContacts> sums = contacts_by_category(system);
+  ASSERT_EQ(sums.size(), 4u);
+  const CategoryContacts& balls = sums[system.pair_category(steel, steel)];
+  const CategoryContacts& mixed = sums[system.pair_category(steel, powder)];
+  const CategoryContacts& grains = sums[system.pair_category(powder, powder)];
+  EXPECT_EQ(balls.contacts, 1u);
+  EXPECT_EQ(mixed.contacts, 1u);
+  EXPECT_EQ(grains.contacts, 0u);
+  EXPECT_LT((balls.virial - ball_virial).norm(), 1e-9 * ball_virial.norm());
+  EXPECT_LT((mixed.virial - grain_virial).norm(), 1e-9 * grain_virial.norm());
+  EXPECT_NEAR(balls.overlap_fraction, (0.02 - (x[1] - x[0]).norm()) / 0.02, 1e-12);
+  EXPECT_NEAR(mixed.overlap_fraction, (0.015 - (x[2] - x[0]).norm()) / 0.01, 1e-12);
+  EXPECT_LT((balls.virial + mixed.virial - system.contact_virial()).norm(),
+            1e-12 * system.contact_virial().norm());
 }
 
 }  // namespace
