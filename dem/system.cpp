@@ -414,9 +414,10 @@ bool System::kick_and_drift() {
   // maximum, so any split of the range gives the same answer).
   const double max_displacement_sq = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), 0.0,
-      [&](const tbb::blocked_range<std::size_t>& range, double running) {
+      [&](const tbb::blocked_range<std::size_t>& range, double running_before) {
         const PeriodicImages images(domain_);
         // Copies, held in registers (the stores below may alias what a reference points to).
+        double running = running_before;
         const double half_step = half_dt, step = dt, image_sq = image_test_sq;
         const std::array<double, 3> limit = no_image_limit;
         const bool track = track_displacement, free_of_groups = groups_.empty();
@@ -431,7 +432,7 @@ bool System::kick_and_drift() {
         const double* const inv_inertia = inv_inertia_.data();
         const GroupId* const group = group_.data();
         const Vec3* const reference_position = reference.data();
-        for (std::size_t p = range.begin(); p != range.end(); ++p) {
+        for (std::size_t p = range.begin(), end = range.end(); p != end; ++p) {
           Vec3 v = velocity[p];
           Vec3 w = angular_velocity[p];
           v += force[p] * (inv_mass[p] * half_step);
