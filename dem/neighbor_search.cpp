@@ -55,11 +55,12 @@ constexpr int kMaxLevels = 8;
 constexpr std::size_t kChunkSize = 256;
 
 // The pair criterion shared by the search and the reference; a has the smaller index, so both
-// evaluate exactly the same floating-point expression.
-bool within_cutoff(const Domain& domain, const Vec3& xa, double ra, const Vec3& xb, double rb,
-                   double skin) {
+// evaluate exactly the same floating-point expression. `images` is the domain's, built once per
+// pass (Domain::separation builds one per call, with the same bits).
+bool within_cutoff(const PeriodicImages& images, const Vec3& xa, double ra, const Vec3& xb,
+                   double rb, double skin) {
   const double cutoff = ra + rb + skin;
-  return domain.separation(xa, xb).squaredNorm() < cutoff * cutoff;
+  return images.separation(xa, xb).squaredNorm() < cutoff * cutoff;
 }
 
 void validate_particles(std::span<const Vec3> positions, std::span<const double> radii) {
@@ -200,6 +201,7 @@ void NeighborSearch::search_chunk(const Domain& domain, const SeparationBound& b
                                   std::span<const Vec3> positions, std::span<const double> radii,
                                   std::size_t chunk_index, double reach_padding) {
   Chunk& chunk = build_.chunks[chunk_index];
+  const PeriodicImages images(domain);
   chunk.partners.clear();
   chunk.cells_visited = 0;
   chunk.candidates_tested = 0;
@@ -222,8 +224,8 @@ void NeighborSearch::search_chunk(const Domain& domain, const SeparationBound& b
             const double cutoff = rq + m.radius + options_.skin;
             if (bound.squared(xq, m.position) > kBoundMargin * cutoff * cutoff) return;
             const bool found =
-                m.index > q ? within_cutoff(domain, xq, rq, m.position, m.radius, options_.skin)
-                            : within_cutoff(domain, m.position, m.radius, xq, rq, options_.skin);
+                m.index > q ? within_cutoff(images, xq, rq, m.position, m.radius, options_.skin)
+                            : within_cutoff(images, m.position, m.radius, xq, rq, options_.skin);
             if (found) chunk.partners.push_back(m.index);
           });
     }
@@ -332,10 +334,11 @@ std::vector<NeighborPair> brute_force_pairs(const Domain& domain, std::span<cons
   validate_skin(skin);
   domain.validate();
   validate_particles(positions, radii);
+  const PeriodicImages images(domain);
   std::vector<NeighborPair> pairs;
   for (std::uint32_t i = 0; i < positions.size(); ++i) {
     for (std::uint32_t j = i + 1; j < positions.size(); ++j) {
-      if (within_cutoff(domain, positions[i], radii[i], positions[j], radii[j], skin))
+      if (within_cutoff(images, positions[i], radii[i], positions[j], radii[j], skin))
         pairs.push_back({i, j});
     }
   }
