@@ -217,17 +217,23 @@ void NeighborSearch::search_chunk(const Domain& domain, const SeparationBound& b
       // Within its own level a pair is found by its smaller index; across levels by the finer one.
       const bool same_level = level == own_level;
       const double reach = rq + build_.level_max_radius[level] + options_.skin + reach_padding;
-      chunk.cells_visited +=
-          build_.grids[level].visit_near(xq, reach, [&](const CellGrid::Member& m) {
+      // What the visitor reads for every member, held by value (one load each, not a reference
+      // and its target) and the count kept in the visitor until the level is done.
+      std::size_t tested = 0;
+      chunk.cells_visited += build_.grids[level].visit_near(
+          xq, reach,
+          [&chunk, &images, &tested, bound, same_level, q, xq = Vec3(xq), rq,
+           skin = options_.skin](const CellGrid::Member& m) {
             if (same_level && m.index <= q) return;
-            ++chunk.candidates_tested;
-            const double cutoff = rq + m.radius + options_.skin;
+            ++tested;
+            const double cutoff = rq + m.radius + skin;
             if (bound.squared(xq, m.position) > kBoundMargin * cutoff * cutoff) return;
-            const bool found =
-                m.index > q ? within_cutoff(images, xq, rq, m.position, m.radius, options_.skin)
-                            : within_cutoff(images, m.position, m.radius, xq, rq, options_.skin);
+            const bool found = m.index > q
+                                   ? within_cutoff(images, xq, rq, m.position, m.radius, skin)
+                                   : within_cutoff(images, m.position, m.radius, xq, rq, skin);
             if (found) chunk.partners.push_back(m.index);
           });
+      chunk.candidates_tested += tested;
     }
     // Cells visited twice (tiny Lees-Edwards boxes) repeat partners: sort and drop repeats.
     const auto found_begin = chunk.partners.begin() + static_cast<std::ptrdiff_t>(begin);
