@@ -439,7 +439,13 @@ bool System::kick_and_drift() {
           w += torque[p] * (inv_inertia[p] * half_step);
           if (!free_of_groups && group[p] != kFreeParticle) v = groups_[group[p] - 1].velocity;
           Vec3 x = position[p] + v * step;
-          images.wrap(x, v);
+          if (!images.inside(x)) {
+            // Through copies: the compiler keeps x and v in registers unless wrap() runs.
+            Vec3 x_wrapped = x, v_wrapped = v;
+            images.wrap(x_wrapped, v_wrapped);
+            x = x_wrapped;
+            v = v_wrapped;
+          }
           // Dashpots act on the velocity at the end of the step, predicted from the last forces.
           predicted_velocity[p] = v + force[p] * (inv_mass[p] * half_step);
           predicted_angular_velocity[p] = w + torque[p] * (inv_inertia[p] * half_step);
