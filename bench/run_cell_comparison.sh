@@ -16,7 +16,9 @@
 #
 # Usage: bench/run_cell_comparison.sh [BUILD_DIR] [WORK_DIR]
 #   env: REPS=3, SCENES="le_media_2000 cement_load05", STEPS=2000 (media cell),
-#        MIX_STEPS=100 (mixture), CELLS_CACHE=WORK_DIR/cache, LMP=lmp
+#        MIX_STEPS=100 (mixture), CELLS_CACHE=WORK_DIR/cache, LMP=lmp,
+#        WARMUP_STRAIN (passed as --cells_warmup_strain, to time a state prepared with a
+#        shorter warm-up than bench_cells' default; unset: the default)
 set -euo pipefail
 
 here=$(cd "$(dirname "$0")" && pwd)
@@ -26,6 +28,8 @@ reps=${REPS:-3}
 scenes=${SCENES:-le_media_2000 cement_load05}
 lmp=${LMP:-lmp}
 cache=${CELLS_CACHE:-$work/cache}
+warmup=()
+[[ -n ${WARMUP_STRAIN:-} ]] && warmup=(--cells_warmup_strain="$WARMUP_STRAIN")
 bench_cells=$build/bench/bench_cells
 [[ -x $bench_cells ]] || { echo "no $bench_cells: build the bench_cells target first" >&2; exit 1; }
 command -v "$lmp" >/dev/null || { echo "no LAMMPS binary '$lmp': apt-get install -y lammps" >&2; exit 1; }
@@ -49,7 +53,7 @@ for ((r = 0; r < reps; ++r)); do
     steps=$(steps_of "$scene")
     # RESULT scene threads particles steps wall-s cpu-s state HASH
     "$bench_cells" --benchmark_filter="^$scene/threads:1" --cells_steps="$steps" \
-      --cells_cache="$cache" --cells_lammps_dir="$work" --benchmark_min_time=0 \
+      --cells_cache="$cache" --cells_lammps_dir="$work" --benchmark_min_time=0 "${warmup[@]}" \
       >"$work/millflow.$scene.$r.log" 2>&1
     keep_fastest "m_$scene" 4 "$(awk -v s="$scene" '$1 == "RESULT" && $2 == s && $3 == 1 {print $4, $5, $6, $7}' "$work/millflow.$scene.$r.log" | tail -1)"
     log=$work/lammps.$scene.$r.log

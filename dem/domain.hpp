@@ -120,8 +120,16 @@ class PeriodicImages {
     return shift;
   }
 
+  // Whether a position lies in [lo, hi) on every axis, where wrap() changes nothing (periodic
+  // axis or not): the common case, in six comparisons.
+  bool inside(const Vec3& position) const {
+    return position[0] >= lo_[0] && position[0] < hi_[0] && position[1] >= lo_[1] &&
+           position[1] < hi_[1] && position[2] >= lo_[2] && position[2] < hi_[2];
+  }
+
   // Domain::wrap.
   bool wrap(Vec3& position, Vec3& velocity) const {
+    if (inside(position)) return false;
     bool changed = false;
     if (lees_edwards_ &&
         !(position[gradient_] >= lo_[gradient_] && position[gradient_] < hi_[gradient_])) {

@@ -55,11 +55,12 @@ constexpr int kMaxLevels = 8;
 constexpr std::size_t kChunkSize = 256;
 
 // The pair criterion shared by the search and the reference; a has the smaller index, so both
-// evaluate exactly the same floating-point expression.
-bool within_cutoff(const Domain& domain, const Vec3& xa, double ra, const Vec3& xb, double rb,
-                   double skin) {
+// evaluate exactly the same floating-point expression. `images` is the domain's, built once per
+// pass (Domain::separation builds one per call, with the same bits).
+bool within_cutoff(const PeriodicImages& images, const Vec3& xa, double ra, const Vec3& xb,
+                   double rb, double skin) {
   const double cutoff = ra + rb + skin;
-  return domain.separation(xa, xb).squaredNorm() < cutoff * cutoff;
+  return images.separation(xa, xb).squaredNorm() < cutoff * cutoff;
 }
 
 void validate_particles(std::span<const Vec3> positions, std::span<const double> radii) {
@@ -200,6 +201,7 @@ void NeighborSearch::search_chunk(const Domain& domain, const SeparationBound& b
                                   std::span<const Vec3> positions, std::span<const double> radii,
                                   std::size_t chunk_index, double reach_padding) {
   Chunk& chunk = build_.chunks[chunk_index];
+  const PeriodicImages images(domain);
   chunk.partners.clear();
   chunk.cells_visited = 0;
   chunk.candidates_tested = 0;
@@ -215,17 +217,23 @@ void NeighborSearch::search_chunk(const Domain& domain, const SeparationBound& b
       // Within its own level a pair is found by its smaller index; across levels by the finer one.
       const bool same_level = level == own_level;
       const double reach = rq + build_.level_max_radius[level] + options_.skin + reach_padding;
-      chunk.cells_visited +=
-          build_.grids[level].visit_near(xq, reach, [&](const CellGrid::Member& m) {
+      // What the visitor reads for every member, held by value (one load each, not a reference
+      // and its target) and the count kept in the visitor until the level is done.
+      std::size_t tested = 0;
+      chunk.cells_visited += build_.grids[level].visit_near(
+          xq, reach,
+          [&chunk, &images, &tested, bound, same_level, q, xq = Vec3(xq), rq,
+           skin = options_.skin](const CellGrid::Member& m) {
             if (same_level && m.index <= q) return;
-            ++chunk.candidates_tested;
-            const double cutoff = rq + m.radius + options_.skin;
+            ++tested;
+            const double cutoff = rq + m.radius + skin;
             if (bound.squared(xq, m.position) > kBoundMargin * cutoff * cutoff) return;
-            const bool found =
-                m.index > q ? within_cutoff(domain, xq, rq, m.position, m.radius, options_.skin)
-                            : within_cutoff(domain, m.position, m.radius, xq, rq, options_.skin);
+            const bool found = m.index > q
+                                   ? within_cutoff(images, xq, rq, m.position, m.radius, skin)
+                                   : within_cutoff(images, m.position, m.radius, xq, rq, skin);
             if (found) chunk.partners.push_back(m.index);
           });
+      chunk.candidates_tested += tested;
     }
     // Cells visited twice (tiny Lees-Edwards boxes) repeat partners: sort and drop repeats.
     const auto found_begin = chunk.partners.begin() + static_cast<std::ptrdiff_t>(begin);
@@ -332,10 +340,11 @@ std::vector<NeighborPair> brute_force_pairs(const Domain& domain, std::span<cons
   validate_skin(skin);
   domain.validate();
   validate_particles(positions, radii);
+  const PeriodicImages images(domain);
   std::vector<NeighborPair> pairs;
   for (std::uint32_t i = 0; i < positions.size(); ++i) {
     for (std::uint32_t j = i + 1; j < positions.size(); ++j) {
-      if (within_cutoff(domain, positions[i], radii[i], positions[j], radii[j], skin))
+      if (within_cutoff(images, positions[i], radii[i], positions[j], radii[j], skin))
         pairs.push_back({i, j});
     }
   }

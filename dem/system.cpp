@@ -414,8 +414,13 @@ bool System::kick_and_drift() {
   // maximum, so any split of the range gives the same answer).
   const double max_displacement_sq = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), 0.0,
-      [&](const tbb::blocked_range<std::size_t>& range, double running) {
+      [&](const tbb::blocked_range<std::size_t>& range, double running_before) {
         const PeriodicImages images(domain_);
+        // Copies, held in registers (the stores below may alias what a reference points to).
+        double running = running_before;
+        const double half_step = half_dt, step = dt, image_sq = image_test_sq;
+        const std::array<double, 3> limit = no_image_limit;
+        const bool track = track_displacement, free_of_groups = groups_.empty();
         Vec3* const position = position_.data();
         Vec3* const velocity = velocity_.data();
         Vec3* const angular_velocity = angular_velocity_.data();
@@ -427,27 +432,32 @@ bool System::kick_and_drift() {
         const double* const inv_inertia = inv_inertia_.data();
         const GroupId* const group = group_.data();
         const Vec3* const reference_position = reference.data();
-        for (std::size_t p = range.begin(); p != range.end(); ++p) {
+        for (std::size_t p = range.begin(), end = range.end(); p != end; ++p) {
           Vec3 v = velocity[p];
           Vec3 w = angular_velocity[p];
-          v += force[p] * (inv_mass[p] * half_dt);
-          w += torque[p] * (inv_inertia[p] * half_dt);
-          if (group[p] != kFreeParticle) v = groups_[group[p] - 1].velocity;
-          Vec3 x = position[p] + v * dt;
-          images.wrap(x, v);
+          v += force[p] * (inv_mass[p] * half_step);
+          w += torque[p] * (inv_inertia[p] * half_step);
+          if (!free_of_groups && group[p] != kFreeParticle) v = groups_[group[p] - 1].velocity;
+          Vec3 x = position[p] + v * step;
+          if (!images.inside(x)) {
+            // Through copies: the compiler keeps x and v in registers unless wrap() runs.
+            Vec3 x_wrapped = x, v_wrapped = v;
+            images.wrap(x_wrapped, v_wrapped);
+            x = x_wrapped;
+            v = v_wrapped;
+          }
           // Dashpots act on the velocity at the end of the step, predicted from the last forces.
-          predicted_velocity[p] = v + force[p] * (inv_mass[p] * half_dt);
-          predicted_angular_velocity[p] = w + torque[p] * (inv_inertia[p] * half_dt);
+          predicted_velocity[p] = v + force[p] * (inv_mass[p] * half_step);
+          predicted_angular_velocity[p] = w + torque[p] * (inv_inertia[p] * half_step);
           position[p] = x;
           velocity[p] = v;
           angular_velocity[p] = w;
-          if (track_displacement) {
+          if (track) {
             Vec3 moved = x - reference_position[p];
             double moved_sq = moved.squaredNorm();
-            if (!(moved_sq < image_test_sq) &&  // below it, no axis can reach its limit
-                !(std::abs(moved[0]) < no_image_limit[0] &&
-                  std::abs(moved[1]) < no_image_limit[1] &&
-                  std::abs(moved[2]) < no_image_limit[2])) {
+            if (!(moved_sq < image_sq) &&  // below it, no axis can reach its limit
+                !(std::abs(moved[0]) < limit[0] && std::abs(moved[1]) < limit[1] &&
+                  std::abs(moved[2]) < limit[2])) {
               double gradient_images;
               moved = images.separation(reference_position[p], x, gradient_images);
               moved_sq = moved.squaredNorm();
@@ -955,8 +965,20 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
       tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), Eigen::Matrix3d::Zero().eval(),
       [&](const tbb::blocked_range<std::size_t>& range,
           const Eigen::Matrix3d& virial_before) -> Eigen::Matrix3d {
-        // A local sum, which the stores below to the particle arrays cannot alias.
-        Eigen::Matrix3d virial = virial_before;
+        // A local sum, which the stores below to the particle arrays cannot alias, in three
+        // columns: the compiler keeps a column in registers (a whole matrix it keeps in memory,
+        // loaded and stored for every contact). virial.col(c) += F b_c is what Eigen's outer
+        // product does, element by element: the same bits.
+        Vec3 virial_x = virial_before.col(0), virial_y = virial_before.col(1),
+             virial_z = virial_before.col(2);
+        const auto virial = [&] {
+          Eigen::Matrix3d sum;
+          sum << virial_x, virial_y, virial_z;
+          return sum;
+        };
+        const bool free_of_groups = groups_.empty();
+        const Vec3 gravity = gravity_;
+        const double* const mass = mass_.data();
         const std::uint32_t* const entry_offset = particle_pair_offset_.data();
         const std::uint32_t* const entries = particle_pair_entry_.data();
         std::uint8_t* const entry_in_force = entry_in_force_.data();
@@ -965,7 +987,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
         std::uint8_t* const in_contact = particle_in_contact_.data();
         // Gravity plus the pairs in force on p, in pair order.
         const auto pair_sum = [&](std::size_t p, Vec3& force, Vec3& torque) {
-          force = is_free(p) ? Vec3(mass_[p] * gravity_) : Vec3::Zero();
+          force = free_of_groups || is_free(p) ? Vec3(mass[p] * gravity) : Vec3::Zero();
           torque = Vec3::Zero();
           if (!in_contact[p]) return;  // only particles with a pair in force have anything to sum
           in_contact[p] = 0;
@@ -981,7 +1003,9 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
               if ((entry & 1) == 0) {
                 force += c.force;
                 torque += c.torque_a;
-                virial.noalias() += c.force * c.branch.transpose();
+                virial_x += c.force * c.branch[0];
+                virial_y += c.force * c.branch[1];
+                virial_z += c.force * c.branch[2];
               } else {
                 force -= c.force;
                 torque += c.torque_b;
@@ -997,12 +1021,15 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
         Vec3* const angular_velocity = angular_velocity_.data();
         const double* const inv_mass = inv_mass_.data();
         const double* const inv_inertia = inv_inertia_.data();
+        // Copies, held in registers (the stores may alias what a reference points to).
+        const bool kick = closing_kick;
+        const double kick_dt = half_dt;
         const auto store = [&](std::size_t p, const Vec3& force, const Vec3& torque) {
           force_of[p] = force;
           torque_of[p] = torque;
-          if (closing_kick) {
-            velocity[p] += force * (inv_mass[p] * half_dt);
-            angular_velocity[p] += torque * (inv_inertia[p] * half_dt);
+          if (kick) {
+            velocity[p] += force * (inv_mass[p] * kick_dt);
+            angular_velocity[p] += torque * (inv_inertia[p] * kick_dt);
           }
         };
         if (walls_.empty()) {  // a loop of its own: without the wall code it keeps its values in
@@ -1012,7 +1039,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
             pair_sum(p, force, torque);
             store(p, force, torque);
           }
-          return virial;
+          return virial();
         }
         std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
         for (std::size_t p = range.begin(); p != range.end(); ++p) {
@@ -1080,7 +1107,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
           finished_wall_mask_[p] = static_cast<std::uint8_t>(~matched & ((1u << old_count) - 1u));
           store(p, force, torque);
         }
-        return virial;
+        return virial();
       },
       [](const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) -> Eigen::Matrix3d { return a + b; });
   wall_current_ = 1 - wall_current_;
