@@ -906,10 +906,8 @@ void lammps_table(const Options& o) {
   const auto materials = system.particle_materials();
   const auto powder_count = static_cast<std::size_t>(
       std::count_if(materials.begin(), materials.end(), [](dem::MaterialId m) { return m != 0; }));
-  const dem::MaterialId powder = powder_count > 0
-                                     ? *std::find_if(materials.begin(), materials.end(),
-                                                     [](dem::MaterialId m) { return m != 0; })
-                                     : dem::MaterialId{0};
+  const auto [ball, grain] = bench::first_of_kinds(system);
+  const dem::MaterialId powder = grain < system.size() ? materials[grain] : dem::MaterialId{0};
   if (with_powder && powder_count == 0)
     throw std::runtime_error("table 6: the cell with powder holds no powder");
   bench::LammpsParams params;
@@ -919,10 +917,6 @@ void lammps_table(const Options& o) {
     fmt::print("    exported per pair of types:");
     for (const auto& [name, value] : params.values) fmt::print(" {} {:.5g}", name, value);
     fmt::print("\n");
-    const auto ball = static_cast<std::size_t>(
-        std::find(materials.begin(), materials.end(), dem::MaterialId{0}) - materials.begin());
-    const auto grain = static_cast<std::size_t>(
-        std::find(materials.begin(), materials.end(), powder) - materials.begin());
     fmt::print(
         "    restitution of a head-on collision at 1 m/s at this dt (material table's): mm "
         "{:.6f} ({:g}), mp {:.6f} ({:g}), pp {:.6f} ({:g})\n",

@@ -446,13 +446,9 @@ void export_for_lammps(const CellCase& c, const dem::ShearCellRun& run) {
   const dem::ShearCellSetup& setup = run.cell().setup();
   bench::LammpsParams params;
   if (c.media_only_small_balls) {
-    // Type 1: material 0 (the media); the cell renumbers its particles, so look a ball up.
-    const auto materials = system.particle_materials();
-    const auto ball = std::find(materials.begin(), materials.end(), dem::MaterialId{0});
-    if (ball == materials.end()) return;
-    bench::add_contact_params(
-        params, "", setup.media_media,
-        0.5 * system.masses()[static_cast<std::size_t>(ball - materials.begin())]);
+    const std::size_t ball = bench::first_of_kinds(system).ball;  // type 1: the media
+    if (ball == system.size()) return;
+    bench::add_contact_params(params, "", setup.media_media, 0.5 * system.masses()[ball]);
   } else if (!bench::add_pair_type_params(params, system)) {
     return;  // no powder: nothing for in.cell_mixture
   }

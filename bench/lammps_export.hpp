@@ -44,6 +44,21 @@ inline void add_contact_params(LammpsParams& out, const std::string& prefix,
   out.set(prefix + "xmu", spec.friction);
 }
 
+// The first ball (material 0, LAMMPS type 1) and the first powder grain (any other material, type
+// 2) of a system; system.size() for a kind it lacks. The cells renumber their particles along a
+// space-filling curve, so the kinds are looked up, not taken at index 0.
+struct FirstOfKinds {
+  std::size_t ball;
+  std::size_t grain;
+};
+inline FirstOfKinds first_of_kinds(const dem::System& system) {
+  const auto materials = system.particle_materials();
+  const auto index_of = [&](auto it) { return static_cast<std::size_t>(it - materials.begin()); };
+  return {index_of(std::find(materials.begin(), materials.end(), dem::MaterialId{0})),
+          index_of(std::find_if(materials.begin(), materials.end(),
+                                [](dem::MaterialId m) { return m != 0; }))};
+}
+
 // A media + powder system's contact parameters per pair of LAMMPS types (write_lammps_data's:
 // type 1 material 0, the media; type 2 the powder), prefixed mm_, mp_ and pp_, each pair's
 // gamma_n for the effective mass of its two particles: with one size per type, pair_style
@@ -51,17 +66,11 @@ inline void add_contact_params(LammpsParams& out, const std::string& prefix,
 // Also each pair's restitution (mm_e, mp_e, pp_e) and media_ and powder_ diameter and density.
 // False (nothing set) without media or without powder.
 inline bool add_pair_type_params(LammpsParams& out, const dem::System& system) {
-  // The cells renumber their particles along a space-filling curve: look the kinds up.
-  const auto materials = system.particle_materials();
-  const auto ball = static_cast<std::size_t>(
-      std::find(materials.begin(), materials.end(), dem::MaterialId{0}) - materials.begin());
-  const auto grain = static_cast<std::size_t>(
-      std::find_if(materials.begin(), materials.end(), [](dem::MaterialId m) { return m != 0; }) -
-      materials.begin());
-  if (ball == materials.size() || grain == materials.size()) return false;
+  const auto [ball, grain] = first_of_kinds(system);
+  if (ball == system.size() || grain == system.size()) return false;
   const double ball_mass = system.masses()[ball], grain_mass = system.masses()[grain];
   const dem::MaterialTable& table = system.materials();
-  const dem::MaterialId powder = materials[grain];
+  const dem::MaterialId powder = system.particle_materials()[grain];
   const std::array<std::pair<std::string, const dem::InteractionSpec*>, 3> pairs{
       {{"mm_", &table.interaction(0, 0)},
        {"mp_", &table.interaction(0, powder)},
