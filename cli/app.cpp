@@ -10,6 +10,7 @@
 #include "cli/commands.hpp"
 #include "cli/demo.hpp"
 #include "cli/estimate.hpp"
+#include "millflow_build_info.hpp"
 #include "tasks/millflow.hpp"
 
 namespace millflow::cli {
@@ -20,7 +21,8 @@ int run(int argc, char** argv, const std::function<void(engine::Registry&)>& ext
   // Log lines go to stderr; stdout carries only what a command answers (tables, paths, CSV).
   spdlog::set_default_logger(spdlog::stderr_color_mt("millflow"));
   app.set_version_flag("--version",
-                       fmt::format("millflow {} (git {})", MILLFLOW_VERSION, MILLFLOW_GIT_VERSION));
+                       fmt::format("millflow {} (git {}, instruction set {})", MILLFLOW_VERSION,
+                                   MILLFLOW_GIT_VERSION, MILLFLOW_INSTRUCTION_SET));
   engine::Registry registry;
   tasks::register_millflow(registry);
   if (extend) extend(registry);

@@ -1,6 +1,8 @@
 // The engine's code version and host, recorded in every task's provenance.
 #include "engine/version.hpp"
 
+#include "millflow_build_info.hpp"
+
 #include <unistd.h>
 
 #include <array>

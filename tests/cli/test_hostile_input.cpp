@@ -2,6 +2,7 @@
 // input"): unusable database paths, a second name for the database (symbolic and hard links), a
 // coordinator that died, damaged databases, values no run can use, and the exit codes and
 // messages of each. Every refusal is exit 2 with the offending path and a fix, and writes nothing.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 
@@ -11,6 +12,7 @@
 #include <thread>
 
 #include "engine/store.hpp"
+#include "millflow_build_info.hpp"
 #include "tests/common/child_process.hpp"
 #include "tests/common/running_tasks.hpp"
 #include "tests/common/scratch_dir.hpp"
@@ -239,11 +241,11 @@ TEST_F(HostileInput, ValuesNoRunCanUseAreExitTwoWithThePathAndAFix) {
                          "\" is not a directory; pass a directory (it is created when missing)\n");
 }
 
-TEST_F(HostileInput, VersionNamesTheReleaseAndTheCommit) {
+TEST_F(HostileInput, VersionNamesTheReleaseTheCommitAndTheInstructionSet) {
   const auto version = millflow({"--version"});
   EXPECT_EQ(version.exit_code, 0);
-  EXPECT_TRUE(version.out.starts_with(std::string("millflow ") + MILLFLOW_VERSION + " (git "))
-      << version.out;
+  EXPECT_EQ(version.out, fmt::format("millflow {} (git {}, instruction set {})\n", MILLFLOW_VERSION,
+                                     MILLFLOW_GIT_VERSION, MILLFLOW_INSTRUCTION_SET));
 }
 
 }  // namespace
