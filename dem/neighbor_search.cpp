@@ -214,25 +214,24 @@ void NeighborSearch::search_chunk(const Domain& domain, const SeparationBound& b
     const Vec3& xq = positions[q];
     const double rq = radii[q];
     for (std::size_t level = 0; level <= own_level; ++level) {
-      // Within its own level a pair is found by its smaller index; across levels by the finer one.
-      const bool same_level = level == own_level;
       const double reach = rq + build_.level_max_radius[level] + options_.skin + reach_padding;
       // What the visitor reads for every member, held by value (one load each, not a reference
       // and its target) and the count kept in the visitor until the level is done.
       std::size_t tested = 0;
-      chunk.cells_visited += build_.grids[level].visit_near(
-          xq, reach,
-          [&chunk, &images, &tested, bound, same_level, q, xq = Vec3(xq), rq,
-           skin = options_.skin](const CellGrid::Member& m) {
-            if (same_level && m.index <= q) return;
-            ++tested;
-            const double cutoff = rq + m.radius + skin;
-            if (bound.squared(xq, m.position) > kBoundMargin * cutoff * cutoff) return;
-            const bool found = m.index > q
-                                   ? within_cutoff(images, xq, rq, m.position, m.radius, skin)
-                                   : within_cutoff(images, m.position, m.radius, xq, rq, skin);
-            if (found) chunk.partners.push_back(m.index);
-          });
+      const auto test = [&chunk, &images, &tested, bound, q, xq = Vec3(xq), rq,
+                         skin = options_.skin](const CellGrid::Member& m) {
+        ++tested;
+        const double cutoff = rq + m.radius + skin;
+        if (bound.squared(xq, m.position) > kBoundMargin * cutoff * cutoff) return;
+        const bool found = m.index > q ? within_cutoff(images, xq, rq, m.position, m.radius, skin)
+                                       : within_cutoff(images, m.position, m.radius, xq, rq, skin);
+        if (found) chunk.partners.push_back(m.index);
+      };
+      // Across levels the finer particle finds the pair; within its own level, one of the two
+      // (CellGrid::visit_after), and assemble_pairs files it in the row of the smaller index.
+      const CellGrid& grid = build_.grids[level];
+      chunk.cells_visited += level == own_level ? grid.visit_after(xq, reach, q, test)
+                                                : grid.visit_near(xq, reach, test);
       chunk.candidates_tested += tested;
     }
     // Cells visited twice (tiny Lees-Edwards boxes) repeat partners: sort and drop repeats.
@@ -252,8 +251,8 @@ std::span<const std::uint32_t> NeighborSearch::partners_of(std::uint32_t q) cons
 }
 
 void NeighborSearch::assemble_pairs(std::size_t particle_count) {
-  // Candidates q found for a lower p (from a finer level) belong to row p: counting sort them by
-  // p, in increasing q, so each row is the merge of two sorted lists.
+  // Candidates q found for a lower p (from a finer level or an earlier cell) belong to row p:
+  // counting sort them by p, in increasing q, so each row is the merge of two sorted lists.
   build_.incoming_begin.assign(particle_count + 1, 0);
   for (std::uint32_t q = 0; q < particle_count; ++q) {
     for (const std::uint32_t p : partners_of(q).first(build_.lower_count[q]))
