@@ -21,10 +21,12 @@ class SeparationBound {
  public:
   explicit SeparationBound(const Domain& domain) {
     for (int a = 0; a < 3; ++a) {
-      // An infinite length makes the periodic formula return |b - a| on open axes.
-      period_[a] =
-          domain.periodic[a] ? domain.length()[a] : std::numeric_limits<double>::infinity();
-      weight_[a] = domain.lees_edwards.enabled && a == domain.lees_edwards.flow_axis ? 0.0 : 1.0;
+      // An infinite length makes the periodic formula return |b - a| on open axes, a zero one
+      // returns 0 (the Lees-Edwards flow axis) without a weight to multiply by per candidate.
+      const bool flow = domain.lees_edwards.enabled && a == domain.lees_edwards.flow_axis;
+      period_[a] = flow                 ? 0.0
+                   : domain.periodic[a] ? domain.length()[a]
+                                        : std::numeric_limits<double>::infinity();
     }
   }
 
@@ -33,14 +35,13 @@ class SeparationBound {
     for (int axis = 0; axis < 3; ++axis) {
       double d = std::abs(b[axis] - a[axis]);
       d = d <= period_[axis] ? std::min(d, period_[axis] - d) : 0.0;
-      sum += weight_[axis] * d * d;
+      sum += d * d;
     }
     return sum;
   }
 
  private:
   std::array<double, 3> period_{};
-  std::array<double, 3> weight_{};
 };
 
 namespace {
