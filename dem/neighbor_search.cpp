@@ -168,7 +168,14 @@ void NeighborSearch::bin_levels(const Domain& domain, std::span<const Vec3> posi
     for (std::uint32_t i = 0; i < build_.level_of.size(); ++i) {
       if (build_.level_of[i] == level) build_.level_members.push_back(i);
     }
-    build_.grids[level].configure(domain, 2.0 * build_.level_max_radius[level] + options_.skin,
+    // Cells as wide as the reach of the next finer level's particles into this one (2 r_max +
+    // skin on the finest): the finer particles' queries, the most numerous, then scan a few
+    // cells of about their reach, not the cells of twice this level's radius (the pairs within
+    // this level span a few more cells, whatever their width).
+    const double finer_radius = level + 1 < build_.grids.size() ? build_.level_max_radius[level + 1]
+                                                                : build_.level_max_radius[level];
+    build_.grids[level].configure(domain,
+                                  build_.level_max_radius[level] + finer_radius + options_.skin,
                                   max_cells_for(build_.level_members.size()));
     build_.grids[level].bin(positions, radii, build_.level_members);
   }

@@ -2,7 +2,8 @@
 // Candidate contact pairs by multi-level cell lists with a Verlet skin.
 //
 // Particles are binned into size levels whose cell sizes halve from level to level (each level's
-// cells are at least 2 * its largest radius + skin wide). A particle queries the grids of its own
+// cells are at least its largest radius + the next finer level's largest radius + skin wide, the
+// finest level's 2 * its largest radius + skin). A particle queries the grids of its own
 // level and of the coarser ones only, so the fine particle of a media/powder pair does the
 // cross-level query and scans a few big cells, and a media ball never scans the powder grid. In
 // its own level a particle visits only the cells after its own (CellGrid::visit_after), so each

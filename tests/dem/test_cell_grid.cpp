@@ -89,7 +89,8 @@ TEST(CellGridVisitAfter, PeriodicBoxesOfTwoThreeFourAndMoreCellsPerAxis) {
     SCOPED_TRACE(::testing::Message() << "box " << length.transpose());
     const Domain d = box(length, {true, true, true});
     expect_each_close_pair_visited_once(d, cell, 0.95 * cell, 1);
-    expect_each_close_pair_visited_once(d, cell, cell, 2);  // reach as wide as a cell
+    expect_each_close_pair_visited_once(d, cell, cell, 2);        // reach as wide as a cell
+    expect_each_close_pair_visited_once(d, cell, 1.7 * cell, 5);  // wider: up to 5 cells per axis
   }
 }
 
