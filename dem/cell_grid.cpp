@@ -47,13 +47,18 @@ std::pair<int, double> CellGrid::wrap_cell(int axis, double u) const {
   return {static_cast<int>(u - images * n), images};
 }
 
-std::size_t CellGrid::cell_of(const Vec3& x) const {
+std::array<int, 3> CellGrid::cell_indices(const Vec3& x) const {
   const auto [c0, images] = wrap_cell(order_[0], unwrapped_cell(order_[0], x[order_[0]]));
   // A particle `images` boxes up the gradient axis is the image of one inside the box whose flow
   // coordinate is smaller by images * shift.
   const double x1 = x[order_[1]] - images * image_shift_;
   const int c1 = wrap_cell(order_[1], unwrapped_cell(order_[1], x1)).first;
   const int c2 = wrap_cell(order_[2], unwrapped_cell(order_[2], x[order_[2]])).first;
+  return {c0, c1, c2};
+}
+
+std::size_t CellGrid::cell_of(const Vec3& x) const {
+  const auto [c0, c1, c2] = cell_indices(x);
   return cell_id(c0, c1, c2);
 }
 
@@ -71,6 +76,23 @@ CellGrid::AxisRuns CellGrid::axis_runs(int axis, double x, double reach) const {
   const int end = begin + static_cast<int>(last - first) + 1;
   if (end <= n) return {{{{begin, end}, {0, 0}}}, 1};
   return {{{{begin, n}, {0, end - n}}}, 2};
+}
+
+CellGrid::AxisRuns CellGrid::after_in(const AxisRuns& runs, int axis, int own) const {
+  // The runs are at most two intervals and the cells after `own` at most two (a cyclic
+  // interval), so their intersection is at most three.
+  AxisRuns kept{{}, 0};
+  for (int r = 0; r < runs.count; ++r) {
+    for (int c = runs.runs[r].first; c < runs.runs[r].second; ++c) {
+      if (!after(axis, own, c)) continue;
+      if (kept.count > 0 && kept.runs[kept.count - 1].second == c) {
+        ++kept.runs[kept.count - 1].second;
+      } else {
+        kept.runs[kept.count++] = {c, c + 1};
+      }
+    }
+  }
+  return kept;
 }
 
 void CellGrid::bin(std::span<const Vec3> positions, std::span<const double> radii,

@@ -21,10 +21,12 @@ class SeparationBound {
  public:
   explicit SeparationBound(const Domain& domain) {
     for (int a = 0; a < 3; ++a) {
-      // An infinite length makes the periodic formula return |b - a| on open axes.
-      period_[a] =
-          domain.periodic[a] ? domain.length()[a] : std::numeric_limits<double>::infinity();
-      weight_[a] = domain.lees_edwards.enabled && a == domain.lees_edwards.flow_axis ? 0.0 : 1.0;
+      // An infinite length makes the periodic formula return |b - a| on open axes, a zero one
+      // returns 0 (the Lees-Edwards flow axis) without a weight to multiply by per candidate.
+      const bool flow = domain.lees_edwards.enabled && a == domain.lees_edwards.flow_axis;
+      period_[a] = flow                 ? 0.0
+                   : domain.periodic[a] ? domain.length()[a]
+                                        : std::numeric_limits<double>::infinity();
     }
   }
 
@@ -33,14 +35,13 @@ class SeparationBound {
     for (int axis = 0; axis < 3; ++axis) {
       double d = std::abs(b[axis] - a[axis]);
       d = d <= period_[axis] ? std::min(d, period_[axis] - d) : 0.0;
-      sum += weight_[axis] * d * d;
+      sum += d * d;
     }
     return sum;
   }
 
  private:
   std::array<double, 3> period_{};
-  std::array<double, 3> weight_{};
 };
 
 namespace {
@@ -167,7 +168,14 @@ void NeighborSearch::bin_levels(const Domain& domain, std::span<const Vec3> posi
     for (std::uint32_t i = 0; i < build_.level_of.size(); ++i) {
       if (build_.level_of[i] == level) build_.level_members.push_back(i);
     }
-    build_.grids[level].configure(domain, 2.0 * build_.level_max_radius[level] + options_.skin,
+    // Cells as wide as the reach of the next finer level's particles into this one (2 r_max +
+    // skin on the finest): the finer particles' queries, the most numerous, then scan a few
+    // cells of about their reach, not the cells of twice this level's radius (the pairs within
+    // this level span a few more cells, whatever their width).
+    const double finer_radius = level + 1 < build_.grids.size() ? build_.level_max_radius[level + 1]
+                                                                : build_.level_max_radius[level];
+    build_.grids[level].configure(domain,
+                                  build_.level_max_radius[level] + finer_radius + options_.skin,
                                   max_cells_for(build_.level_members.size()));
     build_.grids[level].bin(positions, radii, build_.level_members);
   }
@@ -214,25 +222,24 @@ void NeighborSearch::search_chunk(const Domain& domain, const SeparationBound& b
     const Vec3& xq = positions[q];
     const double rq = radii[q];
     for (std::size_t level = 0; level <= own_level; ++level) {
-      // Within its own level a pair is found by its smaller index; across levels by the finer one.
-      const bool same_level = level == own_level;
       const double reach = rq + build_.level_max_radius[level] + options_.skin + reach_padding;
       // What the visitor reads for every member, held by value (one load each, not a reference
       // and its target) and the count kept in the visitor until the level is done.
       std::size_t tested = 0;
-      chunk.cells_visited += build_.grids[level].visit_near(
-          xq, reach,
-          [&chunk, &images, &tested, bound, same_level, q, xq = Vec3(xq), rq,
-           skin = options_.skin](const CellGrid::Member& m) {
-            if (same_level && m.index <= q) return;
-            ++tested;
-            const double cutoff = rq + m.radius + skin;
-            if (bound.squared(xq, m.position) > kBoundMargin * cutoff * cutoff) return;
-            const bool found = m.index > q
-                                   ? within_cutoff(images, xq, rq, m.position, m.radius, skin)
-                                   : within_cutoff(images, m.position, m.radius, xq, rq, skin);
-            if (found) chunk.partners.push_back(m.index);
-          });
+      const auto test = [&chunk, &images, &tested, bound, q, xq = Vec3(xq), rq,
+                         skin = options_.skin](const CellGrid::Member& m) {
+        ++tested;
+        const double cutoff = rq + m.radius + skin;
+        if (bound.squared(xq, m.position) > kBoundMargin * cutoff * cutoff) return;
+        const bool found = m.index > q ? within_cutoff(images, xq, rq, m.position, m.radius, skin)
+                                       : within_cutoff(images, m.position, m.radius, xq, rq, skin);
+        if (found) chunk.partners.push_back(m.index);
+      };
+      // Across levels the finer particle finds the pair; within its own level, one of the two
+      // (CellGrid::visit_after), and assemble_pairs files it in the row of the smaller index.
+      const CellGrid& grid = build_.grids[level];
+      chunk.cells_visited += level == own_level ? grid.visit_after(xq, reach, q, test)
+                                                : grid.visit_near(xq, reach, test);
       chunk.candidates_tested += tested;
     }
     // Cells visited twice (tiny Lees-Edwards boxes) repeat partners: sort and drop repeats.
@@ -252,8 +259,8 @@ std::span<const std::uint32_t> NeighborSearch::partners_of(std::uint32_t q) cons
 }
 
 void NeighborSearch::assemble_pairs(std::size_t particle_count) {
-  // Candidates q found for a lower p (from a finer level) belong to row p: counting sort them by
-  // p, in increasing q, so each row is the merge of two sorted lists.
+  // Candidates q found for a lower p (from a finer level or an earlier cell) belong to row p:
+  // counting sort them by p, in increasing q, so each row is the merge of two sorted lists.
   build_.incoming_begin.assign(particle_count + 1, 0);
   for (std::uint32_t q = 0; q < particle_count; ++q) {
     for (const std::uint32_t p : partners_of(q).first(build_.lower_count[q]))

@@ -2,9 +2,12 @@
 // Candidate contact pairs by multi-level cell lists with a Verlet skin.
 //
 // Particles are binned into size levels whose cell sizes halve from level to level (each level's
-// cells are at least 2 * its largest radius + skin wide). A particle queries the grids of its own
+// cells are at least its largest radius + the next finer level's largest radius + skin wide, the
+// finest level's 2 * its largest radius + skin). A particle queries the grids of its own
 // level and of the coarser ones only, so the fine particle of a media/powder pair does the
-// cross-level query and scans a few big cells, and a media ball never scans the powder grid.
+// cross-level query and scans a few big cells, and a media ball never scans the powder grid. In
+// its own level a particle visits only the cells after its own (CellGrid::visit_after), so each
+// pair there is seen once, not twice.
 // Periodic axes use the minimum image, Lees-Edwards images included (Domain::separation).
 #include <cstddef>
 #include <cstdint>
@@ -101,7 +104,8 @@ class NeighborSearch {
     // Per particle q: its candidates (sorted, unique) are chunks[q / kChunk].partners
     // [partner_begin[q], + partner_count[q]); the first lower_count[q] of them are < q.
     std::vector<std::uint32_t> partner_begin, partner_count, lower_count;
-    // Per particle p: the particles q > p that found p from a finer level, in increasing order:
+    // Per particle p: the particles q > p that found p (from a finer level, or from a cell before
+    // p's in its own level), in increasing order:
     // incoming[incoming_begin[p], incoming_begin[p + 1]).
     std::vector<std::size_t> incoming_begin;
     std::vector<std::uint32_t> incoming;
