@@ -45,10 +45,11 @@ class CellGrid {
   // Half of visit_near for a member's own grid, so that each pair of members is visited once
   // instead of twice: x must be the position of the member with index `self`. Visits the cells
   // that come after its own cell in a fixed order of cells (the first axis of order_ on which
-  // two cells differ decides; along a periodic axis the cells up to half the box ahead come
-  // after), and in its own cell the members with a larger index. Of two members within reach of
-  // each other, exactly one is visited by the other's call (twice at most on a tiny Lees-Edwards
-  // gradient axis, as with visit_near). Returns the number of cells visited.
+  // two cells differ decides; along a periodic axis of n cells those less than n / 2 ahead come
+  // after, and the one exactly n / 2 ahead if its index is the larger: see after()), and in its own
+  // cell the members with a larger index. Of two members within reach of each other, exactly one is
+  // visited by the other's call (twice at most on a tiny Lees-Edwards gradient axis, as with
+  // visit_near). Returns the number of cells visited.
   template <class Visit>
   std::size_t visit_after(const Vec3& x, double reach, std::uint32_t self, Visit&& visit) const;
 
@@ -79,6 +80,12 @@ class CellGrid {
   std::array<int, 3> cell_indices(const Vec3& x) const;
   std::size_t cell_of(const Vec3& x) const;
   AxisRuns axis_runs(int axis, double x, double reach) const;
+  // axis_runs along the flow axis a1 for a row reached through `images` Lees-Edwards images
+  // (`runs`, those of the query's own image, when 0): the query's flow coordinate less the shift.
+  AxisRuns runs_in_image(int a1, const Vec3& x, double reach, const AxisRuns& runs,
+                         double images) const {
+    return images == 0.0 ? runs : axis_runs(a1, x[a1] - images * image_shift_, reach);
+  }
   // Whether cell c comes after cell `own` along the axis (see visit_after): ahead of it on an
   // open axis; on a periodic one of n cells, less than n / 2 cells ahead cyclically, or exactly
   // n / 2 ahead with the larger index, so that of two different cells exactly one comes after
@@ -150,9 +157,7 @@ std::size_t CellGrid::visit_near(const Vec3& x, double reach, Visit&& visit) con
   // Members of the image `images` boxes up are displaced by images * image_shift_ along the flow
   // axis: look for them at the query's flow coordinate minus that shift.
   for_each_row(x, reach, [&](int c0, double images) {
-    visited +=
-        visit_row(c0, images == 0.0 ? runs1 : axis_runs(a1, x[a1] - images * image_shift_, reach),
-                  runs2, visit);
+    visited += visit_row(c0, runs_in_image(a1, x, reach, runs1, images), runs2, visit);
   });
   return visited;
 }
@@ -169,8 +174,7 @@ std::size_t CellGrid::visit_after(const Vec3& x, double reach, std::uint32_t sel
   std::size_t visited = 0;
   for_each_row(x, reach, [&](int c0, double images) {
     if (c0 != own[0] && !after(a0, own[0], c0)) return;
-    const AxisRuns row_runs1 =
-        images == 0.0 ? runs1 : axis_runs(a1, x[a1] - images * image_shift_, reach);
+    const AxisRuns row_runs1 = runs_in_image(a1, x, reach, runs1, images);
     if (c0 != own[0]) {
       visited += visit_row(c0, row_runs1, runs2, visit);
       return;
