@@ -1296,21 +1296,26 @@ std::size_t bytes_of(const std::vector<T>& v) {
 
 }  // namespace
 
-std::size_t System::memory_bytes() const {
-  std::size_t bytes = neighbors_.memory_bytes();
+System::MemoryUse System::memory_use() const {
+  MemoryUse use;
+  use.particles = neighbors_.reference_bytes() + bytes_of(material_) + bytes_of(group_) +
+                  bytes_of(particle_pair_offset_) + bytes_of(particle_first_entry_shift_) +
+                  bytes_of(particle_in_contact_) + bytes_of(finished_wall_mask_);
   for (const auto* array : {&position_, &velocity_, &angular_velocity_, &force_, &torque_,
                             &predicted_velocity_, &predicted_angular_velocity_})
-    bytes += bytes_of(*array);
-  for (const auto* array : {&radius_, &mass_, &inv_mass_, &inv_inertia_}) bytes += bytes_of(*array);
-  bytes += bytes_of(material_) + bytes_of(group_) + bytes_of(pair_slot_) +
-           bytes_of(pair_touching_) + bytes_of(entry_in_force_) + bytes_of(pair_second_entry_) +
-           bytes_of(particle_first_entry_shift_) + bytes_of(pair_finished_) +
-           bytes_of(contact_history_) + bytes_of(contact_force_) + bytes_of(free_contact_slots_) +
-           bytes_of(particle_pair_offset_) + bytes_of(particle_pair_entry_) +
-           bytes_of(particle_in_contact_) + bytes_of(finished_wall_mask_);
+    use.particles += bytes_of(*array);
+  for (const auto* array : {&radius_, &mass_, &inv_mass_, &inv_inertia_})
+    use.particles += bytes_of(*array);
+  use.candidate_pairs = neighbors_.pair_bytes() + bytes_of(pair_slot_) + bytes_of(pair_touching_) +
+                        bytes_of(pair_finished_) + bytes_of(pair_second_entry_) +
+                        bytes_of(particle_pair_entry_) + bytes_of(entry_in_force_);
+  use.contacts =
+      bytes_of(contact_history_) + bytes_of(contact_force_) + bytes_of(free_contact_slots_);
   for (const WallSlots& buffer : wall_slots_)
-    bytes += bytes_of(buffer.slot) + bytes_of(buffer.count);
-  return bytes;
+    use.wall_contacts += bytes_of(buffer.slot) + bytes_of(buffer.count);
+  use.step_queues = bytes_of(starting_by_chunk_) + bytes_of(starting_) + bytes_of(events_);
+  for (const auto& queue : starting_by_chunk_) use.step_queues += bytes_of(queue);
+  return use;
 }
 
 std::vector<CollisionEvent> System::take_collision_events() {

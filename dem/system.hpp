@@ -303,9 +303,23 @@ class System {
 
   Rng& rng() { return rng_; }
 
-  // Bytes held by the particle, contact and neighbour-list arrays (their capacities), the memory
-  // a step works on.
-  std::size_t memory_bytes() const;
+  // Bytes held between steps by the arrays a step works on (their capacities), by what they grow
+  // with. The neighbour search's build scratch is freed when a build ends and not counted.
+  struct MemoryUse {
+    std::size_t particles = 0;  // per particle: state, the list's reference positions, the start
+                                // of its pair list and its flags
+    std::size_t candidate_pairs = 0;  // per candidate pair: the list, the pair's slot and flags,
+                                      // its two entries in the particles' pair lists (padding
+                                      // included)
+    std::size_t contacts = 0;         // per pair contact in force: the contact store
+    std::size_t wall_contacts = 0;    // the wall contact slots (none without walls)
+    std::size_t step_queues = 0;  // contacts starting in a step, collision events not yet taken
+    std::size_t total() const {
+      return particles + candidate_pairs + contacts + wall_contacts + step_queues;
+    }
+  };
+  MemoryUse memory_use() const;
+  std::size_t memory_bytes() const { return memory_use().total(); }
 
  private:
   friend class CheckpointAccess;
