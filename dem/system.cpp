@@ -71,9 +71,9 @@ std::vector<double> lightest_mass_per_material(std::size_t material_count,
 
 // The contact store's free room beyond `contacts`: a rebuild leaves this much for the contacts that
 // start before the next one, and a full store grows by as much again (by push_back alone it
-// doubled: a dense cell's store held up to twice its contacts' bytes). A sheared cell's contacts in
-// force change by less than 1/16 between rebuilds; a compaction, whose contacts grow, copies its
-// store at most 16 times per contact.
+// doubled: a dense cell's store held up to twice its contacts' bytes). In the sheared cells of
+// bench_cells the store never grew between rebuilds; while contacts grow (a compaction) each is
+// copied about 16 times.
 std::size_t contact_store_room(std::size_t contacts) {
   return contacts / 16;
 }
