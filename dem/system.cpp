@@ -1322,8 +1322,8 @@ System::MemoryUse System::memory_use() const {
   for (const auto* array : {&radius_, &mass_, &inv_mass_, &inv_inertia_})
     use.particles += bytes_of(*array);
   use.candidate_pairs = neighbors_.pair_bytes() + bytes_of(pair_slot_) + bytes_of(pair_touching_) +
-                        bytes_of(pair_second_entry_) +
-                        bytes_of(particle_pair_entry_) + bytes_of(entry_in_force_);
+                        bytes_of(pair_second_entry_) + bytes_of(particle_pair_entry_) +
+                        bytes_of(entry_in_force_);
   use.contacts =
       bytes_of(contact_history_) + bytes_of(contact_force_) + bytes_of(free_contact_slots_);
   use.wall_contacts = bytes_of(finished_wall_mask_);

@@ -308,11 +308,11 @@ class System {
   struct MemoryUse {
     std::size_t particles = 0;  // per particle: state, the list's reference positions, the start
                                 // of its pair list and its in-contact flag
-    std::size_t candidate_pairs = 0;  // per candidate pair: the list, the pair's slot and flags,
-                                      // its two entries in the particles' pair lists (padding
-                                      // included)
-    std::size_t contacts = 0;         // per pair contact in force: the contact store
-    std::size_t wall_contacts = 0;    // the wall contact slots and flags (none without walls)
+    std::size_t candidate_pairs = 0;   // per candidate pair: the list, the pair's slot and flags,
+                                       // its two entries in the particles' pair lists (padding
+                                       // included)
+    std::size_t contacts = 0;          // per pair contact in force: the contact store
+    std::size_t wall_contacts = 0;     // the wall contact slots and flags (none without walls)
     std::size_t step_queues = 0;       // the pairs that start and stop touching in a step
     std::size_t collision_events = 0;  // finished contacts recorded and not yet taken
     std::size_t total() const {
