@@ -20,7 +20,10 @@
 //
 // Counters: pts_per_cpu_s (particle-steps per CPU-second of the process, every thread),
 // pts_per_s (wall), contacts_per_particle (pair and wall contacts in force), bytes_per_particle
-// (System::memory_bytes() / particles).
+// (System::memory_bytes() / particles) and its parts (System::MemoryUse): bytes_particles,
+// bytes_pairs (candidate pairs), bytes_contacts (pair and wall contacts), bytes_queues (the
+// step's queues of starting and finishing contacts), bytes_events (collision events not yet
+// taken).
 //
 // Extra flags (before Google Benchmark's own):
 //   --cells_steps=N           steps per timed iteration (default: per scene)
@@ -513,8 +516,17 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
       static_cast<double>(system.active_contact_count()) / static_cast<double>(particles);
   state.counters["pairs_per_particle"] =
       static_cast<double>(system.candidate_pairs().size()) / static_cast<double>(particles);
-  state.counters["bytes_per_particle"] =
-      static_cast<double>(system.memory_bytes()) / static_cast<double>(particles);
+  // The bytes per particle, and by what they grow with (System::MemoryUse).
+  const dem::System::MemoryUse memory = system.memory_use();
+  const auto per_particle = [&](std::size_t bytes) {
+    return static_cast<double>(bytes) / static_cast<double>(particles);
+  };
+  state.counters["bytes_per_particle"] = per_particle(memory.total());
+  state.counters["bytes_particles"] = per_particle(memory.particles);
+  state.counters["bytes_pairs"] = per_particle(memory.candidate_pairs);
+  state.counters["bytes_contacts"] = per_particle(memory.contacts + memory.wall_contacts);
+  state.counters["bytes_queues"] = per_particle(memory.step_queues);
+  state.counters["bytes_events"] = per_particle(memory.collision_events);
 }
 
 // Strips "--name=value" for our flags out of argv; returns the value of each one given.

@@ -46,7 +46,7 @@ void put(BinaryWriter& out, const ContactHistory& h) {
   out.put(h.dissipated.tangential);
   out.put(h.dissipated.friction);
   put(out, h.point);
-  out.put<std::uint8_t>(h.touching);
+  out.put<std::uint8_t>(1);  // touching: every history written is of a contact in force
 }
 
 ContactHistory get_history(BinaryReader& in) {
@@ -60,7 +60,7 @@ ContactHistory get_history(BinaryReader& in) {
   h.dissipated.tangential = in.get<double>();
   h.dissipated.friction = in.get<double>();
   h.point = get_vec3(in);
-  h.touching = in.get<std::uint8_t>() != 0;
+  if (in.get<std::uint8_t>() != 1) throw CorruptData("checkpoint: a contact history not in force");
   return h;
 }
 
@@ -281,7 +281,7 @@ class CheckpointAccess {
         out.put(slot.feature);
         put(out, slot.history);
         put(out, slot.force_on_particle);
-        put(out, slot.point);
+        put(out, slot.history.point);  // the contact point, again
       }
     }
     out.put<std::uint64_t>(s.finished_dissipation_.size());
@@ -356,9 +356,9 @@ class CheckpointAccess {
     }
     if (!s.walls_.empty()) {
       for (System::WallSlots& buffer : s.wall_slots_) buffer.resize(n);
+      s.finished_wall_mask_.assign(n, 0);
     }
     s.wall_current_ = 0;
-    s.finished_wall_mask_.assign(n, 0);
     System::WallSlots& current = s.wall_slots_[0];
     for (std::size_t p = 0; p < n; ++p) {
       const auto count = in.get<std::uint8_t>();
@@ -372,7 +372,7 @@ class CheckpointAccess {
         slot.feature = in.get<std::int32_t>();
         slot.history = get_history(in);
         slot.force_on_particle = get_vec3(in);
-        slot.point = get_vec3(in);
+        get_vec3(in);  // the history's contact point, again
       }
     }
     s.finished_dissipation_.resize(in.get<std::uint64_t>());

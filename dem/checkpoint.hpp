@@ -25,13 +25,14 @@
 //                           (the force since version 2: version 1 files restore it as zero, so
 //                           a stress read before the next step misses the pair contacts)
 //   wall contacts: per particle count (uint8) and, per contact, wall, feature (int32), history,
-//                  force on the particle, contact point
+//                  force on the particle, contact point (the history's again)
 //   dissipation of finished contacts per category: count; normal, tangential, friction each
 //   since version 3: the contact virial (System::contact_virial), 9 doubles row by row (older
 //   files sum it again from the pair forces, in another order, so its last bits may differ),
 //   and the reorder interval (uint64; 0 in older files)
 // A history is: spring, start time, impact speed, impact energy, elastic energy, dissipated
-// (normal, tangential, friction), contact point, touching (uint8).
+// (normal, tangential, friction), contact point, touching (uint8, 1: only contacts in force are
+// written).
 // Collision events not yet taken are not saved: take them before checkpointing.
 #include <cstdint>
 #include <filesystem>

@@ -338,10 +338,6 @@ double NeighborSearch::travel(const Domain& domain, double max_displacement_sq) 
   return 2.0 * max_displacement + std::abs(offset_change);
 }
 
-std::size_t NeighborSearch::memory_bytes() const {
-  return pairs_.capacity() * sizeof(NeighborPair) + reference_positions_.capacity() * sizeof(Vec3);
-}
-
 std::vector<NeighborPair> brute_force_pairs(const Domain& domain, std::span<const Vec3> positions,
                                             std::span<const double> radii, double skin) {
   validate_skin(skin);

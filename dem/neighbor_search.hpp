@@ -71,8 +71,9 @@ class NeighborSearch {
   std::size_t build_count() const { return build_count_; }
   const Stats& last_build_stats() const { return stats_; }
   const NeighborSearchOptions& options() const { return options_; }
-  // Bytes held between builds: the candidate list and reference positions (their capacities).
-  std::size_t memory_bytes() const;
+  // Bytes held between builds (capacities): the candidate list, and the reference positions.
+  std::size_t pair_bytes() const { return pairs_.capacity() * sizeof(NeighborPair); }
+  std::size_t reference_bytes() const { return reference_positions_.capacity() * sizeof(Vec3); }
 
  private:
   // Candidates of a block of consecutive particles, found by one task.

@@ -69,6 +69,15 @@ std::vector<double> lightest_mass_per_material(std::size_t material_count,
   return lightest;
 }
 
+// The contact store's free room beyond `contacts`: a rebuild leaves this much for the contacts that
+// start before the next one, and a full store grows by as much again (by push_back alone it
+// doubled: a dense cell's store held up to twice its contacts' bytes). In the sheared cells of
+// bench_cells the store never grew between rebuilds; while contacts grow (a compaction) each is
+// copied about 16 times.
+std::size_t contact_store_room(std::size_t contacts) {
+  return contacts / 16;
+}
+
 double restitution_of(double damping_ratio) {
   return std::exp(-damping_ratio * std::numbers::pi /
                   std::sqrt(1.0 - damping_ratio * damping_ratio));
@@ -125,8 +134,8 @@ ParticleId System::add_particle(const ParticleSpec& spec) {
   group_.push_back(spec.group);
   if (!walls_.empty()) {
     for (WallSlots& buffer : wall_slots_) buffer.resize(size());
+    finished_wall_mask_.push_back(0);
   }
-  finished_wall_mask_.push_back(0);
   prepared_ = false;
   return static_cast<ParticleId>(id);
 }
@@ -148,6 +157,7 @@ std::size_t System::add_wall(const Wall& wall) {
   walls_.push_back(wall);
   wall_loads_.emplace_back();
   for (WallSlots& buffer : wall_slots_) buffer.resize(size());
+  finished_wall_mask_.resize(size(), 0);
   finished_dissipation_.resize(category_count());
   prepared_ = false;
   return walls_.size() - 1;
@@ -568,10 +578,8 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
                                std::vector<ContactHistory> old_history) {
   contact_history_ = std::move(old_history);
   contact_force_.assign(contact_history_.size(), ContactForce{});
-  std::vector<std::uint32_t> slot(contact_history_.size(), kNoContact);
-  for (std::size_t c = 0; c < slot.size(); ++c) {
-    if (contact_history_[c].touching) slot[c] = static_cast<std::uint32_t>(c);
-  }
+  std::vector<std::uint32_t> slot(contact_history_.size());
+  for (std::size_t c = 0; c < slot.size(); ++c) slot[c] = static_cast<std::uint32_t>(c);
   rebuild_neighbors(old_pairs, slot);
 }
 
@@ -584,15 +592,14 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   // Carry the contacts over to the new list (both lists are sorted by (i, j)), into a store laid
   // out in the new pairs' order.
   auto key = [](const NeighborPair& p) { return (std::uint64_t{p.i} << 32) | p.j; };
-  // At most the contacts in force now are carried over; the store keeps 1/8 room beyond them for
-  // those that start before the next rebuild (grown by push_back alone it held up to twice their
-  // bytes).
+  // At most the contacts in force now are carried over; the store keeps room beyond them for
+  // those that start before the next rebuild (contact_store_room).
   const auto carried = static_cast<std::size_t>(std::count_if(
       old_slot.begin(), old_slot.end(), [](std::uint32_t s) { return s != kNoContact; }));
   std::vector<ContactHistory> history;
   std::vector<ContactForce> force;
-  history.reserve(carried + carried / 8);
-  force.reserve(carried + carried / 8);
+  history.reserve(carried + contact_store_room(carried));
+  force.reserve(carried + contact_store_room(carried));
   pair_slot_.assign(pairs.size(), kNoContact);
   pair_touching_.assign(pairs.size(), 0);
   std::size_t o = 0;
@@ -608,7 +615,6 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   contact_history_ = std::move(history);
   contact_force_ = std::move(force);
   free_contact_slots_.clear();
-  pair_finished_.assign(pairs.size(), 0);
   particle_in_contact_.assign(size(), 0);
 
   // Per-particle pair lists in pair order, so force sums run in a fixed order; each particle's
@@ -660,6 +666,11 @@ std::uint32_t System::allocate_contact() {
     contact_history_[slot] = ContactHistory{};
   } else {
     slot = static_cast<std::uint32_t>(contact_history_.size());
+    if (contact_history_.size() == contact_history_.capacity()) {
+      const std::size_t grown = slot + std::max<std::size_t>(contact_store_room(slot), 1);
+      contact_history_.reserve(grown);
+      contact_force_.reserve(grown);
+    }
     contact_history_.emplace_back();
     contact_force_.emplace_back();
   }
@@ -796,8 +807,7 @@ struct System::PairContactKernel {
     const ContactGeometry geometry{normal, overlap, contact_velocity_i - contact_velocity_j};
     const std::uint32_t slot = slot_of[k];
     ContactHistory& history = history_of[slot];
-    if (!history.touching) [[unlikely]] {
-      history.touching = true;
+    if (!touching_flag[k]) [[unlikely]] {  // the contact starts
       touching_flag[k] = 1;
       history.start_time = time;
       history.normal_damping = system.pair_normal_damping(i, j);
@@ -855,10 +865,10 @@ void System::compute_pair_forces(double dt) {
   const bool has_groups = !groups_.empty();
   const std::array<double, 3> no_image_limit = no_image_limits();
   // The pairs in fixed chunks; each chunk queues the pairs that start touching this step (they get
-  // a contact slot after the pass, in pair order: chunk by chunk). The queues keep their capacity
-  // from step to step.
+  // a contact slot after the pass, in pair order: chunk by chunk) and those that stop (collected
+  // after the step, in pair order too). The queues keep their capacity from step to step.
   const std::size_t chunk_count = (pairs.size() + kPairGrain - 1) / kPairGrain;
-  if (starting_by_chunk_.size() < chunk_count) starting_by_chunk_.resize(chunk_count);
+  if (queues_by_chunk_.size() < chunk_count) queues_by_chunk_.resize(chunk_count);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunk_count, 1), [&](const auto& chunks) {
     const PeriodicImages images(domain_);
     const PairContactKernel contact(*this, dt);
@@ -867,18 +877,19 @@ void System::compute_pair_forces(double dt) {
     // runs after; each pair writes only its own slots, so the order does not matter.
     constexpr std::size_t kBlock = 256;
     std::array<TouchingPair, kBlock> touching;
+    std::array<std::uint32_t, kBlock> finishing;
     const NeighborPair* const pair = pairs.data();
     const Vec3* const x = position_.data();
     const double* const radius = radius_.data();
     const GroupId* const group = group_.data();
     const std::uint8_t* const was_touching = pair_touching_.data();
-    std::uint8_t* const finished = pair_finished_.data();
     const bool skip_wall_balls = has_groups;
     const double limit_x = no_image_limit[0], limit_y = no_image_limit[1],
                  limit_z = no_image_limit[2];
     const double image_test_sq = square(std::min({limit_x, limit_y, limit_z}));
     for (std::size_t chunk = chunks.begin(); chunk != chunks.end(); ++chunk) {
-      std::vector<TouchingPair>& starting_here = starting_by_chunk_[chunk];
+      std::vector<TouchingPair>& starting_here = queues_by_chunk_[chunk].starting;
+      std::vector<std::uint32_t>& finishing_here = queues_by_chunk_[chunk].finishing;
       starting_here.clear();
       const std::size_t chunk_end = std::min((chunk + 1) * kPairGrain, pairs.size());
       for (std::size_t block = chunk * kPairGrain; block < chunk_end; block += kBlock) {
@@ -886,7 +897,7 @@ void System::compute_pair_forces(double dt) {
         // The loop twice, with and without the kinematic groups' test (the compiler keeps the
         // test in the loop otherwise).
         const auto screen = [&](auto skip_wall_balls) {
-          std::size_t touching_count = 0;
+          std::size_t touching_count = 0, finishing_count = 0;
           for (std::size_t k = block; k != block_end; ++k) {
             const auto [i, j] = pair[k];
             if (skip_wall_balls() && group[i] != kFreeParticle && group[j] != kFreeParticle)
@@ -907,14 +918,16 @@ void System::compute_pair_forces(double dt) {
               touching[touching_count++] =
                   TouchingPair{d, distance_sq, gradient_images, static_cast<std::uint32_t>(k)};
             } else if (was_touching[k]) {
-              finished[k] =
-                  1;  // collect_finished_contacts() records the event and clears the history
+              // Apart now: collect_finished_contacts() records the event and clears the history.
+              finishing[finishing_count++] = static_cast<std::uint32_t>(k);
             }
           }
-          return touching_count;
+          return std::pair{touching_count, finishing_count};
         };
-        const std::size_t touching_count =
+        const auto [touching_count, finishing_count] =
             skip_wall_balls ? screen(std::true_type{}) : screen(std::false_type{});
+        finishing_here.insert(finishing_here.end(), finishing.begin(),
+                              finishing.begin() + static_cast<std::ptrdiff_t>(finishing_count));
         for (std::size_t t = 0; t < touching_count; ++t) {
           if (was_touching[touching[t].k])
             contact(touching[t]);
@@ -928,7 +941,7 @@ void System::compute_pair_forces(double dt) {
   // every sum runs in pair order), then their contact law, each writing only its own slots.
   starting_.clear();
   for (std::size_t chunk = 0; chunk < chunk_count; ++chunk) {
-    const std::vector<TouchingPair>& here = starting_by_chunk_[chunk];
+    const std::vector<TouchingPair>& here = queues_by_chunk_[chunk].starting;
     starting_.insert(starting_.end(), here.begin(), here.end());
   }
   if (starting_.empty()) return;
@@ -1067,11 +1080,13 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
               slot.wall = static_cast<std::int32_t>(w);
               slot.feature = contact.feature;
               slot.history = ContactHistory{};
+              bool continues = false;
               for (int o = 0; o < old_count; ++o) {
                 if (!(matched & (1u << o)) && old_slots[o].wall == slot.wall &&
                     old_slots[o].feature == slot.feature) {
                   slot.history = old_slots[o].history;
                   matched |= static_cast<std::uint8_t>(1u << o);
+                  continues = true;
                   break;
                 }
               }
@@ -1084,8 +1099,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
                   linear_spring_dashpot(materials_.pair(material_[p], walls_[w].material), mass_[p],
                                         geometry, slot.history.spring, dt);
               ContactHistory& history = slot.history;
-              if (!history.touching) {
-                history.touching = true;
+              if (!continues) {
                 history.start_time = time_;
                 const double v_n = relative_velocity.dot(contact.normal);
                 history.impact_speed = std::max(-v_n, 0.0);
@@ -1098,7 +1112,6 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
                               response.dissipated_friction};
               history.point = contact.point;
               slot.force_on_particle = response.force_on_a;
-              slot.point = contact.point;
               force += response.force_on_a;
               torque += arm.cross(response.force_on_a);
             }
@@ -1135,7 +1148,7 @@ void System::reduce_loads(double dt) {
             const WallContactHistory& slot = slots[s];
             WallLoad& load = loads[slot.wall];
             load.force -= slot.force_on_particle;
-            load.torque += slot.point.cross(-slot.force_on_particle);
+            load.torque += slot.history.point.cross(-slot.force_on_particle);
           }
         }
         return loads;
@@ -1189,15 +1202,17 @@ void System::collect_finished_contacts() {
     history = ContactHistory{};
   };
   const auto& pairs = neighbors_.pairs();
-  for_each_nonzero(pair_finished_, [&](std::size_t k) {
-    const auto [i, j] = pairs[k];
-    finish(contact_history_[pair_slot_[k]], pair_category(material_[i], material_[j]), i, j, false,
-           materials_.pair(material_[i], material_[j]).tangential_stiffness);
-    free_contact_slots_.push_back(pair_slot_[k]);
-    pair_slot_[k] = kNoContact;
-    pair_touching_[k] = 0;
-    pair_finished_[k] = 0;
-  });
+  for (ChunkQueues& queues : queues_by_chunk_) {  // in chunk order: in pair order
+    for (const std::uint32_t k : queues.finishing) {
+      const auto [i, j] = pairs[k];
+      finish(contact_history_[pair_slot_[k]], pair_category(material_[i], material_[j]), i, j,
+             false, materials_.pair(material_[i], material_[j]).tangential_stiffness);
+      free_contact_slots_.push_back(pair_slot_[k]);
+      pair_slot_[k] = kNoContact;
+      pair_touching_[k] = 0;
+    }
+    queues.finishing.clear();
+  }
   if (walls_.empty()) return;
   WallSlots& previous = wall_slots_[1 - wall_current_];
   for_each_nonzero(finished_wall_mask_, [&](std::size_t p) {
@@ -1239,9 +1254,9 @@ std::vector<ActiveContact> System::active_contacts() const {
       contacts.push_back(ActiveContact{.a = static_cast<ParticleId>(p),
                                        .b = static_cast<std::uint32_t>(slots[s].wall),
                                        .with_wall = true,
-                                       .point = slots[s].point,
+                                       .point = slots[s].history.point,
                                        .force_on_a = slots[s].force_on_particle,
-                                       .branch = slots[s].point - position_[p]});
+                                       .branch = slots[s].history.point - position_[p]});
     }
   }
   return contacts;
@@ -1296,21 +1311,29 @@ std::size_t bytes_of(const std::vector<T>& v) {
 
 }  // namespace
 
-std::size_t System::memory_bytes() const {
-  std::size_t bytes = neighbors_.memory_bytes();
+System::MemoryUse System::memory_use() const {
+  MemoryUse use;
+  use.particles = neighbors_.reference_bytes() + bytes_of(material_) + bytes_of(group_) +
+                  bytes_of(particle_pair_offset_) + bytes_of(particle_first_entry_shift_) +
+                  bytes_of(particle_in_contact_);
   for (const auto* array : {&position_, &velocity_, &angular_velocity_, &force_, &torque_,
                             &predicted_velocity_, &predicted_angular_velocity_})
-    bytes += bytes_of(*array);
-  for (const auto* array : {&radius_, &mass_, &inv_mass_, &inv_inertia_}) bytes += bytes_of(*array);
-  bytes += bytes_of(material_) + bytes_of(group_) + bytes_of(pair_slot_) +
-           bytes_of(pair_touching_) + bytes_of(entry_in_force_) + bytes_of(pair_second_entry_) +
-           bytes_of(particle_first_entry_shift_) + bytes_of(pair_finished_) +
-           bytes_of(contact_history_) + bytes_of(contact_force_) + bytes_of(free_contact_slots_) +
-           bytes_of(particle_pair_offset_) + bytes_of(particle_pair_entry_) +
-           bytes_of(particle_in_contact_) + bytes_of(finished_wall_mask_);
+    use.particles += bytes_of(*array);
+  for (const auto* array : {&radius_, &mass_, &inv_mass_, &inv_inertia_})
+    use.particles += bytes_of(*array);
+  use.candidate_pairs = neighbors_.pair_bytes() + bytes_of(pair_slot_) + bytes_of(pair_touching_) +
+                        bytes_of(pair_second_entry_) + bytes_of(particle_pair_entry_) +
+                        bytes_of(entry_in_force_);
+  use.contacts =
+      bytes_of(contact_history_) + bytes_of(contact_force_) + bytes_of(free_contact_slots_);
+  use.wall_contacts = bytes_of(finished_wall_mask_);
   for (const WallSlots& buffer : wall_slots_)
-    bytes += bytes_of(buffer.slot) + bytes_of(buffer.count);
-  return bytes;
+    use.wall_contacts += bytes_of(buffer.slot) + bytes_of(buffer.count);
+  use.step_queues = bytes_of(queues_by_chunk_) + bytes_of(starting_);
+  for (const ChunkQueues& queues : queues_by_chunk_)
+    use.step_queues += bytes_of(queues.starting) + bytes_of(queues.finishing);
+  use.collision_events = bytes_of(events_);
+  return use;
 }
 
 std::vector<CollisionEvent> System::take_collision_events() {

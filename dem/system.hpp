@@ -133,7 +133,9 @@ struct EnergyBudget {
   double mechanical() const { return kinetic + potential + elastic; }
 };
 
-// The contact history of one particle pair (or particle-wall contact), kept while touching.
+// The contact history of one particle pair (or particle-wall contact), kept while touching: a
+// history exists only for a contact in force (whether a pair's contact is new this step is its
+// pair's touching flag, a wall contact's match with the last step's).
 struct ContactHistory {
   Vec3 spring = Vec3::Zero();
   double start_time = 0.0;
@@ -145,15 +147,13 @@ struct ContactHistory {
   // C_n of the normal dashpot (normal_damping_coefficient of the pair's effective mass), set at
   // first touch. Derived: checkpoints do not hold it, loading works it out again.
   double normal_damping = 0.0;
-  bool touching = false;
 };
 
 struct WallContactHistory {
-  ContactHistory history;
+  ContactHistory history;  // its point is this step's contact point
   std::int32_t wall = -1;
   std::int32_t feature = 0;
   Vec3 force_on_particle = Vec3::Zero();  // this step
-  Vec3 point = Vec3::Zero();              // this step
 };
 
 inline constexpr int kMaxWallContactsPerParticle = 4;
@@ -303,9 +303,25 @@ class System {
 
   Rng& rng() { return rng_; }
 
-  // Bytes held by the particle, contact and neighbour-list arrays (their capacities), the memory
-  // a step works on.
-  std::size_t memory_bytes() const;
+  // Bytes held between steps by the arrays a step works on (their capacities), by what they grow
+  // with. The neighbour search's build scratch is freed when a build ends and not counted.
+  struct MemoryUse {
+    std::size_t particles = 0;  // per particle: state, the list's reference positions, the start
+                                // of its pair list and its in-contact flag
+    std::size_t candidate_pairs = 0;   // per candidate pair: the list, the pair's slot and flags,
+                                       // its two entries in the particles' pair lists (padding
+                                       // included)
+    std::size_t contacts = 0;          // per pair contact in force: the contact store
+    std::size_t wall_contacts = 0;     // the wall contact slots and flags (none without walls)
+    std::size_t step_queues = 0;       // the pairs that start and stop touching in a step
+    std::size_t collision_events = 0;  // finished contacts recorded and not yet taken
+    std::size_t total() const {
+      return particles + candidate_pairs + contacts + wall_contacts + step_queues +
+             collision_events;
+    }
+  };
+  MemoryUse memory_use() const;
+  std::size_t memory_bytes() const { return memory_use().total(); }
 
  private:
   friend class CheckpointAccess;
@@ -353,9 +369,14 @@ class System {
     double gradient_images;  // PeriodicImages::separation's
     std::uint32_t k;         // the pair's index
   };
-  // Pairs that start touching in a step, per chunk of kPairGrain pairs of the screening pass, then
-  // all in pair order (kept, so that a step allocates nothing once they have grown).
-  std::vector<std::vector<TouchingPair>> starting_by_chunk_;
+  // Per chunk of kPairGrain pairs of the screening pass, the pairs that start touching in a step
+  // and those that stop (their indices), each in pair order; then all the starting ones (kept, so
+  // that a step allocates nothing once they have grown).
+  struct ChunkQueues {
+    std::vector<TouchingPair> starting;
+    std::vector<std::uint32_t> finishing;
+  };
+  std::vector<ChunkQueues> queues_by_chunk_;
   std::vector<TouchingPair> starting_;
   // The contact law of a candidate pair that touches (it has a contact slot).
   struct PairContactKernel;
@@ -414,7 +435,6 @@ class System {
   // apart, reads no more.
   std::vector<std::uint8_t> pair_touching_;
 
-  std::vector<std::uint8_t> pair_finished_;  // the pair separated this step
   // The contact store: one slot per pair that touches, in the pairs' order after each neighbour
   // rebuild, new contacts in the slots finished ones freed (or at the end). Split in what the
   // force gather reads (ContactForce, 96 bytes) and what the contact law keeps (the history).
@@ -460,7 +480,8 @@ class System {
   }
   std::array<WallSlots, 2> wall_slots_;
   int wall_current_ = 0;
-  std::vector<std::uint8_t> finished_wall_mask_;  // bit s: slot s of the other buffer separated
+  // Per particle (once the system has a wall), bit s: slot s of the other buffer separated.
+  std::vector<std::uint8_t> finished_wall_mask_;
 
   std::vector<Dissipation> finished_dissipation_;  // per category
   std::vector<CollisionEvent> events_;
