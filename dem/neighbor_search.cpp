@@ -11,6 +11,8 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include "dem/array_growth.hpp"
+
 namespace millflow::dem {
 
 // A lower bound of |domain.separation(a, b)|^2 for a cheap first test of each candidate. Per axis
@@ -284,7 +286,7 @@ void NeighborSearch::assemble_pairs(std::size_t particle_count) {
     build_.row_begin[p + 1] =
         build_.row_begin[p] + (build_.partner_count[p] - build_.lower_count[p]) + incoming;
   }
-  pairs_.resize(build_.row_begin[particle_count]);
+  resize_with_room(pairs_, build_.row_begin[particle_count]);
   tbb::parallel_for(
       tbb::blocked_range<std::uint32_t>(0, static_cast<std::uint32_t>(particle_count)),
       [&](const tbb::blocked_range<std::uint32_t>& range) {

@@ -17,6 +17,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include "dem/array_growth.hpp"
 #include "dem/contact_law.hpp"
 
 namespace millflow::dem {
@@ -67,15 +68,6 @@ std::vector<double> lightest_mass_per_material(std::size_t material_count,
     if (group[p] == kFreeParticle) lightest[material[p]] = std::min(lightest[material[p]], mass[p]);
   }
   return lightest;
-}
-
-// The contact store's free room beyond `contacts`: a rebuild leaves this much for the contacts that
-// start before the next one, and a full store grows by as much again (by push_back alone it
-// doubled: a dense cell's store held up to twice its contacts' bytes). In the sheared cells of
-// bench_cells the store never grew between rebuilds; while contacts grow (a compaction) each is
-// copied about 16 times.
-std::size_t contact_store_room(std::size_t contacts) {
-  return contacts / 16;
 }
 
 double restitution_of(double damping_ratio) {
@@ -593,13 +585,15 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   // out in the new pairs' order.
   auto key = [](const NeighborPair& p) { return (std::uint64_t{p.i} << 32) | p.j; };
   // At most the contacts in force now are carried over; the store keeps room beyond them for
-  // those that start before the next rebuild (contact_store_room).
+  // those that start before the next rebuild (growth_room; in the sheared cells of bench_cells
+  // the store never grew between rebuilds, and while contacts grow, in a compaction, each is
+  // copied about 16 times).
   const auto carried = static_cast<std::size_t>(std::count_if(
       old_slot.begin(), old_slot.end(), [](std::uint32_t s) { return s != kNoContact; }));
   std::vector<ContactHistory> history;
   std::vector<ContactForce> force;
-  history.reserve(carried + contact_store_room(carried));
-  force.reserve(carried + contact_store_room(carried));
+  history.reserve(carried + growth_room(carried));
+  force.reserve(carried + growth_room(carried));
   pair_slot_.assign(pairs.size(), kNoContact);
   pair_touching_.assign(pairs.size(), 0);
   std::size_t o = 0;
@@ -629,9 +623,9 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
     particle_pair_offset_[p + 1] =
         particle_pair_offset_[p] + ((particle_pair_offset_[p + 1] + 7u) & ~7u);
   }
-  particle_pair_entry_.resize(particle_pair_offset_[size()]);
+  resize_with_room(particle_pair_entry_, particle_pair_offset_[size()]);
   entry_in_force_.assign(particle_pair_offset_[size()], 0);
-  pair_second_entry_.resize(pairs.size());
+  resize_with_room(pair_second_entry_, pairs.size());
   particle_first_entry_shift_.resize(size());
   std::vector<std::uint32_t> fill(particle_pair_offset_.begin(), particle_pair_offset_.end() - 1);
   for (std::uint32_t k = 0; k < pairs.size(); ++k) {
@@ -667,7 +661,7 @@ std::uint32_t System::allocate_contact() {
   } else {
     slot = static_cast<std::uint32_t>(contact_history_.size());
     if (contact_history_.size() == contact_history_.capacity()) {
-      const std::size_t grown = slot + std::max<std::size_t>(contact_store_room(slot), 1);
+      const std::size_t grown = slot + std::max<std::size_t>(growth_room(slot), 1);
       contact_history_.reserve(grown);
       contact_force_.reserve(grown);
     }
