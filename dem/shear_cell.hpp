@@ -393,7 +393,8 @@ class ShearCell {
   bool stationary(std::span<const WindowMeans> windows) const;
   Measurement start_measurement(double strain, const MeasureOptions& options);
   void advance_measurement(Measurement& measurement, std::uint64_t max_steps);
-  // Hands the collisions finished so far to the measurement (before a checkpoint, and at samples).
+  // Hands the measurement the collisions buffered while it records outside advance_measurement
+  // (a relief's steps): before a checkpoint, which holds the tally and no events.
   void tally_collisions(Measurement& measurement);
   // Profile, stress tensor and overlaps at a sample; the block bookkeeping at a block's end.
   void sample_measurement(Measurement& measurement);
@@ -524,7 +525,9 @@ struct ShearCellProtocol {
 //        kOverlapBins; the counts, sum, max), per contact type the collision count and
 //        dissipated-energy histogram (dem/spectrum.hpp), wall seconds measured so far,
 //        converged (uint8))
-// Collision events finished before a save are tallied into the measurement first.
+// The system buffers no collision events while the cell measures: its recording flag is on and
+// each finished contact goes to the measurement's tally as it finishes (those of a relief's steps
+// are buffered, and tallied before a save).
 inline constexpr std::uint32_t kShearCellCheckpointVersion = 5;
 
 class ShearCellRun {

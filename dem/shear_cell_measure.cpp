@@ -17,14 +17,22 @@ namespace {
 const std::size_t kMeasuredControlBlocks = static_cast<std::size_t>(
     std::lround(WallSpeedController::kMeasuredControlStrain / kBlockStrain));
 
-void tally(const std::vector<CollisionEvent>& events, const ShearCell& cell,
-           std::array<CollisionStats, kContactTypeCount>& stats) {
-  for (const CollisionEvent& event : events) {
-    CollisionStats& s = stats[static_cast<std::size_t>(cell.contact_type(event.category))];
+// Tallies a measurement's collisions by contact type as they finish: the count and the spectrum
+// of the energy each dissipated.
+class CollisionTally final : public CollisionSink {
+ public:
+  CollisionTally(const ShearCell& cell, std::array<CollisionStats, kContactTypeCount>& stats)
+      : cell_(cell), stats_(stats) {}
+  void add(const CollisionEvent& event) override {
+    CollisionStats& s = stats_[static_cast<std::size_t>(cell_.contact_type(event.category))];
     s.count += 1.0;
     s.dissipated_energy.add(event.dissipated);
   }
-}
+
+ private:
+  const ShearCell& cell_;
+  std::array<CollisionStats, kContactTypeCount>& stats_;
+};
 
 CollisionStats merged(const std::array<CollisionStats, kContactTypeCount>& stats,
                       std::initializer_list<ContactType> types) {
@@ -145,6 +153,9 @@ void ShearCell::close_block(Measurement& m) {
 
 void ShearCell::advance_measurement(Measurement& m, std::uint64_t max_steps) {
   const auto started = std::chrono::steady_clock::now();
+  // The window's collisions are tallied as they finish (while it records them): none is kept.
+  CollisionTally tally(*this, m.collisions);
+  const ScopedCollisionSink tallying(system_, tally);
   const std::uint64_t end = std::min(m.steps, m.done + max_steps);
   while (m.done < end && !m.converged) {
     // The steps up to the next sample or block end in one call: each call works out the LE
@@ -186,7 +197,6 @@ void ShearCell::control_measured_wall_speed(const Measurement& m) {
 
 void ShearCell::sample_measurement(Measurement& m) {
   sample_profile(m.profile);
-  tally_collisions(m);
   const std::array<double, 6> tensor = stress_tensor_now();
   for (std::size_t k = 0; k < 6; ++k) m.tensor_sum[k] += tensor[k];
   m.tensor_samples += 1.0;
@@ -241,7 +251,8 @@ std::array<double, 6> ShearCell::stress_tensor_now() const {
 }
 
 void ShearCell::tally_collisions(Measurement& m) {
-  if (m.options.record_collisions) tally(system_.take_collision_events(), *this, m.collisions);
+  CollisionTally tally(*this, m.collisions);
+  const ScopedCollisionSink draining(system_, tally);  // installing it hands it what is buffered
 }
 
 namespace {
@@ -313,7 +324,6 @@ void ShearCell::fill_standard_errors(const Measurement& in, ShearCellMeasurement
 }
 
 ShearCellMeasurements ShearCell::finish_measurement(Measurement& in) {
-  tally_collisions(in);
   if (in.options.record_collisions) system_.set_record_collisions(false);
   ShearCellMeasurements m;
   m.collisions = in.collisions;

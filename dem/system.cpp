@@ -1182,16 +1182,20 @@ void System::collect_finished_contacts() {
     history.dissipated.friction += 0.5 * tangential_stiffness * history.spring.squaredNorm();
     finished_dissipation_[category] += history.dissipated;
     if (record_collisions_) {
-      events_.push_back(CollisionEvent{.category = category,
-                                       .a = a,
-                                       .b = b,
-                                       .with_wall = with_wall,
-                                       .start_time = history.start_time,
-                                       .duration = time_ - history.start_time,
-                                       .impact_speed = history.impact_speed,
-                                       .impact_energy = history.impact_energy,
-                                       .dissipated = history.dissipated.total(),
-                                       .point = history.point});
+      const CollisionEvent event{.category = category,
+                                 .a = a,
+                                 .b = b,
+                                 .with_wall = with_wall,
+                                 .start_time = history.start_time,
+                                 .duration = time_ - history.start_time,
+                                 .impact_speed = history.impact_speed,
+                                 .impact_energy = history.impact_energy,
+                                 .dissipated = history.dissipated.total(),
+                                 .point = history.point};
+      if (collision_sink_)
+        collision_sink_->add(event);
+      else
+        events_.push_back(event);
     }
     history = ContactHistory{};
   };
@@ -1332,6 +1336,12 @@ System::MemoryUse System::memory_use() const {
 
 std::vector<CollisionEvent> System::take_collision_events() {
   return std::exchange(events_, {});
+}
+
+void System::set_collision_sink(CollisionSink* sink) {
+  collision_sink_ = sink;
+  if (!sink) return;
+  for (const CollisionEvent& event : take_collision_events()) sink->add(event);
 }
 
 }  // namespace millflow::dem

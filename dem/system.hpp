@@ -111,6 +111,16 @@ struct CollisionEvent {
   Vec3 point = Vec3::Zero();   // where the contact was last touching
 };
 
+// Takes each finished contact as it finishes (System::set_collision_sink): an owner that only
+// tallies the contacts holds no buffer of them.
+class CollisionSink {
+ public:
+  virtual void add(const CollisionEvent& event) = 0;
+
+ protected:
+  ~CollisionSink() = default;
+};
+
 // A contact in force now, for coarse-graining the stress.
 struct ActiveContact {
   ParticleId a = 0;
@@ -297,9 +307,16 @@ class System {
   std::vector<Dissipation> dissipation_by_category() const;
   EnergyBudget energy() const;
 
-  // Collision events finished since the last call, in a deterministic order.
+  // Collision events finished since the last call, in a deterministic order: by step, then the
+  // pair contacts in pair order, then the wall contacts by particle and slot.
   std::vector<CollisionEvent> take_collision_events();
   void set_record_collisions(bool on) { record_collisions_ = on; }
+  // While recording, each finished contact goes to `sink` as it finishes, in the order above,
+  // instead of into the buffer of take_collision_events; installing a sink first hands it the
+  // events buffered so far. nullptr: back to the buffer. The pointer is no part of the state
+  // (checkpoints) but copies of the System hold it: install it only around the steps that feed
+  // it (ScopedCollisionSink).
+  void set_collision_sink(CollisionSink* sink);
 
   Rng& rng() { return rng_; }
 
@@ -314,7 +331,7 @@ class System {
     std::size_t contacts = 0;          // per pair contact in force: the contact store
     std::size_t wall_contacts = 0;     // the wall contact slots and flags (none without walls)
     std::size_t step_queues = 0;       // the pairs that start and stop touching in a step
-    std::size_t collision_events = 0;  // finished contacts recorded and not yet taken
+    std::size_t collision_events = 0;  // finished contacts buffered and not yet taken
     std::size_t total() const {
       return particles + candidate_pairs + contacts + wall_contacts + step_queues +
              collision_events;
@@ -412,6 +429,7 @@ class System {
   void finish_skin_choice();
   bool prepared_ = false;
   bool record_collisions_ = false;
+  CollisionSink* collision_sink_ = nullptr;
   std::uint64_t reorder_every_ = 0;
   Rng rng_;
 
@@ -485,6 +503,20 @@ class System {
 
   std::vector<Dissipation> finished_dissipation_;  // per category
   std::vector<CollisionEvent> events_;
+};
+
+// Installs a collision sink on a System for its own lifetime (System::set_collision_sink).
+class ScopedCollisionSink {
+ public:
+  ScopedCollisionSink(System& system, CollisionSink& sink) : system_(system) {
+    system_.set_collision_sink(&sink);
+  }
+  ~ScopedCollisionSink() { system_.set_collision_sink(nullptr); }
+  ScopedCollisionSink(const ScopedCollisionSink&) = delete;
+  ScopedCollisionSink& operator=(const ScopedCollisionSink&) = delete;
+
+ private:
+  System& system_;
 };
 
 }  // namespace millflow::dem

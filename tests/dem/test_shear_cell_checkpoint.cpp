@@ -118,6 +118,8 @@ TEST_P(ShearCellCheckpoint, StoppingAnywhereAndContinuingGivesTheSameBits) {
   while (!uninterrupted.advance(1000)) {
   }
   ASSERT_GT(uninterrupted.measurements().work_in, 0.0);
+  // The window finishes collisions, which a stop inside it must carry over.
+  ASSERT_GT(uninterrupted.measurements().media_collisions.count, 0.0);
 
   // Stop before compaction, then after every few chunks of an odd size, through both warm-up
   // windows and the measurement; each stop saves, and a new run continues from the file.
