@@ -92,9 +92,10 @@ LogHistogram::LogHistogram(const Grid& grid)
 }
 
 void LogHistogram::add(double value, double weight) {
-  require_histogram(!std::isnan(value), "add: value is NaN");
-  require_histogram(std::isfinite(weight) && weight >= 0.0,
-                    fmt::format("add: weight = {} must be finite and >= 0", weight));
+  // Once per collision of a shear cell's measured window: a message is made only for a bad value.
+  if (std::isnan(value)) require_histogram(false, "add: value is NaN");
+  if (!(std::isfinite(weight) && weight >= 0.0))
+    require_histogram(false, fmt::format("add: weight = {} must be finite and >= 0", weight));
   // The first edge above the value: a value on an edge belongs to the bin starting there.
   const auto above = std::upper_bound(edges_.begin(), edges_.end(), value);
   if (above == edges_.begin()) {

@@ -1182,20 +1182,16 @@ void System::collect_finished_contacts() {
     history.dissipated.friction += 0.5 * tangential_stiffness * history.spring.squaredNorm();
     finished_dissipation_[category] += history.dissipated;
     if (record_collisions_) {
-      const CollisionEvent event{.category = category,
-                                 .a = a,
-                                 .b = b,
-                                 .with_wall = with_wall,
-                                 .start_time = history.start_time,
-                                 .duration = time_ - history.start_time,
-                                 .impact_speed = history.impact_speed,
-                                 .impact_energy = history.impact_energy,
-                                 .dissipated = history.dissipated.total(),
-                                 .point = history.point};
-      if (collision_sink_)
-        collision_sink_->add(event);
-      else
-        events_.push_back(event);
+      record_collision(CollisionEvent{.category = category,
+                                      .a = a,
+                                      .b = b,
+                                      .with_wall = with_wall,
+                                      .start_time = history.start_time,
+                                      .duration = time_ - history.start_time,
+                                      .impact_speed = history.impact_speed,
+                                      .impact_energy = history.impact_energy,
+                                      .dissipated = history.dissipated.total(),
+                                      .point = history.point});
     }
     history = ContactHistory{};
   };
@@ -1332,16 +1328,6 @@ System::MemoryUse System::memory_use() const {
     use.step_queues += bytes_of(queues.starting) + bytes_of(queues.finishing);
   use.collision_events = bytes_of(events_);
   return use;
-}
-
-std::vector<CollisionEvent> System::take_collision_events() {
-  return std::exchange(events_, {});
-}
-
-void System::set_collision_sink(CollisionSink* sink) {
-  collision_sink_ = sink;
-  if (!sink) return;
-  for (const CollisionEvent& event : take_collision_events()) sink->add(event);
 }
 
 }  // namespace millflow::dem
