@@ -29,9 +29,9 @@ void expect_same_events(const std::vector<CollisionEvent>& a,
     EXPECT_EQ(a[k].a, b[k].a) << "event " << k;
     EXPECT_EQ(a[k].b, b[k].b) << "event " << k;
     EXPECT_EQ(a[k].with_wall, b[k].with_wall) << "event " << k;
-    for (const auto field : {&CollisionEvent::start_time, &CollisionEvent::duration,
-                             &CollisionEvent::impact_speed, &CollisionEvent::impact_energy,
-                             &CollisionEvent::dissipated})
+    for (const auto field :
+         {&CollisionEvent::start_time, &CollisionEvent::duration, &CollisionEvent::impact_speed,
+          &CollisionEvent::impact_energy, &CollisionEvent::dissipated})
       EXPECT_TRUE(same_bits(a[k].*field, b[k].*field)) << "event " << k;
     for (int axis = 0; axis < 3; ++axis)
       EXPECT_TRUE(same_bits(a[k].point[axis], b[k].point[axis])) << "event " << k;
@@ -55,8 +55,7 @@ TEST(CollisionSink, TakesTheEventsTheBufferWouldHoldInItsOrderAndNothingIsBuffer
       std::vector<CollisionEvent> taken;
       for (int chunk = 0; chunk < 4; ++chunk) {
         buffered.step(100);
-        for (const CollisionEvent& event : buffered.take_collision_events())
-          taken.push_back(event);
+        for (const CollisionEvent& event : buffered.take_collision_events()) taken.push_back(event);
         const ScopedCollisionSink installed(sunk, sink);
         sunk.step(100);
         EXPECT_EQ(sunk.memory_use().collision_events, 0u);
