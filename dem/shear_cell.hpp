@@ -394,7 +394,8 @@ class ShearCell {
   Measurement start_measurement(double strain, const MeasureOptions& options);
   void advance_measurement(Measurement& measurement, std::uint64_t max_steps);
   // Hands the measurement the collisions buffered while it records outside advance_measurement
-  // (a relief's steps): before a checkpoint, which holds the tally and no events.
+  // (a relief's steps): before a checkpoint, which holds the tally and no events, and at the
+  // window's end.
   void tally_collisions(Measurement& measurement);
   // Profile, stress tensor and overlaps at a sample; the block bookkeeping at a block's end.
   void sample_measurement(Measurement& measurement);

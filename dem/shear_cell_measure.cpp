@@ -324,6 +324,7 @@ void ShearCell::fill_standard_errors(const Measurement& in, ShearCellMeasurement
 }
 
 ShearCellMeasurements ShearCell::finish_measurement(Measurement& in) {
+  tally_collisions(in);  // a relief's, if one ran after the last steps of the window
   if (in.options.record_collisions) system_.set_record_collisions(false);
   ShearCellMeasurements m;
   m.collisions = in.collisions;
