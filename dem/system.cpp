@@ -660,13 +660,8 @@ std::uint32_t System::allocate_contact() {
     contact_history_[slot] = ContactHistory{};
   } else {
     slot = static_cast<std::uint32_t>(contact_history_.size());
-    if (contact_history_.size() == contact_history_.capacity()) {
-      const std::size_t grown = slot + std::max<std::size_t>(growth_room(slot), 1);
-      contact_history_.reserve(grown);
-      contact_force_.reserve(grown);
-    }
-    contact_history_.emplace_back();
-    contact_force_.emplace_back();
+    resize_with_room(contact_history_, slot + 1);
+    resize_with_room(contact_force_, slot + 1);
   }
   return slot;
 }
