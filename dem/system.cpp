@@ -903,13 +903,17 @@ void System::compute_pair_forces(double dt) {
               distance_sq = d.squaredNorm();
             }
             const double reach = radius[i] + radius[j];
-            if (distance_sq < reach * reach) {
-              touching[touching_count++] =
-                  TouchingPair{d, distance_sq, gradient_images, static_cast<std::uint32_t>(k)};
-            } else if (was_touching[k]) {
-              // Apart now: collect_finished_contacts() records the event and clears the history.
-              finishing[finishing_count++] = static_cast<std::uint32_t>(k);
-            }
+            // Without a branch: in a dense cell whether a pair touches is close to a coin toss,
+            // which the predictor misses about a third of the time. Every pair writes the next
+            // slot of both queues; only those that belong there are counted (docs/benchmarks.md,
+            // "Branch-free screening").
+            const bool touches = distance_sq < reach * reach;
+            touching[touching_count] =
+                TouchingPair{d, distance_sq, gradient_images, static_cast<std::uint32_t>(k)};
+            touching_count += touches;
+            // Apart now: collect_finished_contacts() records the event and clears the history.
+            finishing[finishing_count] = static_cast<std::uint32_t>(k);
+            finishing_count += !touches & (was_touching[k] != 0);
           }
           return std::pair{touching_count, finishing_count};
         };
