@@ -611,31 +611,32 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   free_contact_slots_.clear();
   particle_in_contact_.assign(size(), 0);
 
-  // Per-particle pair lists in pair order, so force sums run in a fixed order; each particle's
-  // list starts at a multiple of 8 entries, so that the force gather reads its entries' in-force
-  // bytes 8 at a time without reading another particle's.
-  particle_pair_offset_.assign(size() + 1, 0);
+  // Per-particle pair lists in pair order, so force sums run in a fixed order; each list starts at
+  // a multiple of 8 slots, so that the force gather reads its in-force bytes 8 at a time without
+  // reading another particle's.
+  const auto padded_offsets = [n = size()](std::vector<std::uint32_t>& offset) {
+    for (std::size_t p = 0; p < n; ++p) offset[p + 1] = offset[p] + ((offset[p + 1] + 7u) & ~7u);
+  };
+  second_offset_.assign(size() + 1, 0);
+  first_offset_.assign(size() + 1, 0);
   for (const auto& pair : pairs) {
-    ++particle_pair_offset_[pair.i + 1];
-    ++particle_pair_offset_[pair.j + 1];
+    ++first_offset_[pair.i + 1];
+    ++second_offset_[pair.j + 1];
   }
-  for (std::size_t p = 0; p < size(); ++p) {
-    particle_pair_offset_[p + 1] =
-        particle_pair_offset_[p] + ((particle_pair_offset_[p + 1] + 7u) & ~7u);
-  }
-  resize_with_room(particle_pair_entry_, particle_pair_offset_[size()]);
-  entry_in_force_.assign(particle_pair_offset_[size()], 0);
-  resize_with_room(pair_second_entry_, pairs.size());
-  particle_first_entry_shift_.resize(size());
-  std::vector<std::uint32_t> fill(particle_pair_offset_.begin(), particle_pair_offset_.end() - 1);
+  padded_offsets(second_offset_);
+  padded_offsets(first_offset_);
+  resize_with_room(second_pair_, second_offset_[size()]);
+  second_in_force_.assign(second_offset_[size()], 0);
+  first_in_force_.assign(first_offset_[size()], 0);
+  resize_with_room(pair_second_slot_, pairs.size());
+  particle_first_shift_.resize(size());
+  std::vector<std::uint32_t> second_fill(second_offset_.begin(), second_offset_.end() - 1);
   for (std::uint32_t k = 0; k < pairs.size(); ++k) {
     const auto [i, j] = pairs[k];
-    // Pair k's entry in i's list is k + the shift, the same for every pair of row i: the pairs
-    // (h, i) with h < i, which fill i's list first, all come before row i.
-    particle_first_entry_shift_[i] = fill[i] - k;
-    particle_pair_entry_[fill[i]++] = 2 * k;
-    pair_second_entry_[k] = fill[j];
-    particle_pair_entry_[fill[j]++] = 2 * k + 1;
+    // Row i's pairs are consecutive: pair k's slot in i's row list is k + the same shift for all.
+    if (k == 0 || pairs[k - 1].i != i) particle_first_shift_[i] = first_offset_[i] - k;
+    pair_second_slot_[k] = second_fill[j];
+    second_pair_[second_fill[j]++] = k;
   }
 }
 
@@ -770,9 +771,10 @@ struct System::PairContactKernel {
         history_of(s.contact_history_.data()),
         force_of(s.contact_force_.data()),
         touching_flag(s.pair_touching_.data()),
-        first_entry_shift(s.particle_first_entry_shift_.data()),
-        second_entry(s.pair_second_entry_.data()),
-        entry_in_force(s.entry_in_force_.data()),
+        first_shift(s.particle_first_shift_.data()),
+        second_slot(s.pair_second_slot_.data()),
+        first_in_force(s.first_in_force_.data()),
+        second_in_force(s.second_in_force_.data()),
         in_contact(s.particle_in_contact_.data()),
         time(s.time_),
         dt(step_dt) {}
@@ -812,9 +814,9 @@ struct System::PairContactKernel {
     history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
                                       response.dissipated_friction};
     history.point = position[i] + arm_i;
-    // Each entry belongs to one pair: no other task writes it.
-    entry_in_force[k + first_entry_shift[i]] = 1;
-    entry_in_force[second_entry[k]] = 1;
+    // Each slot belongs to one pair: no other task writes it.
+    first_in_force[k + first_shift[i]] = 1;
+    second_in_force[second_slot[k]] = 1;
     // Another task may mark the same particle: both store 1, so the order does not matter.
     std::atomic_ref<std::uint8_t>(in_contact[i]).store(1, std::memory_order_relaxed);
     std::atomic_ref<std::uint8_t>(in_contact[j]).store(1, std::memory_order_relaxed);
@@ -841,9 +843,10 @@ struct System::PairContactKernel {
   ContactHistory* const history_of;
   ContactForce* const force_of;
   std::uint8_t* const touching_flag;
-  const std::uint32_t* const first_entry_shift;
-  const std::uint32_t* const second_entry;
-  std::uint8_t* const entry_in_force;
+  const std::uint32_t* const first_shift;
+  const std::uint32_t* const second_slot;
+  std::uint8_t* const first_in_force;
+  std::uint8_t* const second_in_force;
   std::uint8_t* const in_contact;
   const double time;
   const double dt;
@@ -958,6 +961,25 @@ double System::pair_normal_damping(ParticleId i, ParticleId j) const {
                                     params.damping_ratio);
 }
 
+namespace {
+
+// Calls add(slot) for the slots of [begin, end) in force, in order, 8 in-force bytes at a time
+// (each 0 or 1), clearing them as read. Inlined by force, like the callers' add: this file is at
+// GCC's inlining limit, and the force gather runs it twice per particle and step.
+template <class Add>
+[[gnu::always_inline]] inline void for_each_in_force(std::uint8_t* in_force, std::uint32_t begin,
+                                                     std::uint32_t end, Add&& add) {
+  for (std::uint32_t base = begin; base < end; base += 8) {
+    std::uint64_t word;
+    std::memcpy(&word, in_force + base, sizeof word);
+    if (word == 0) continue;
+    std::memset(in_force + base, 0, sizeof word);
+    for (; word != 0; word &= word - 1) add(base + (std::countr_zero(word) >> 3));
+  }
+}
+
+}  // namespace
+
 void System::compute_particle_forces(double dt, bool closing_kick) {
   const double half_dt = 0.5 * dt_;
   const WallSlots& before = wall_slots_[wall_current_];
@@ -985,39 +1007,43 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
         const bool free_of_groups = groups_.empty();
         const Vec3 gravity = gravity_;
         const double* const mass = mass_.data();
-        const std::uint32_t* const entry_offset = particle_pair_offset_.data();
-        const std::uint32_t* const entries = particle_pair_entry_.data();
-        std::uint8_t* const entry_in_force = entry_in_force_.data();
+        const std::uint32_t* const second_offset = second_offset_.data();
+        const std::uint32_t* const second_pair = second_pair_.data();
+        const std::uint32_t* const first_offset = first_offset_.data();
+        const std::uint32_t* const first_shift = particle_first_shift_.data();
+        std::uint8_t* const second_in_force = second_in_force_.data();
+        std::uint8_t* const first_in_force = first_in_force_.data();
         const std::uint32_t* const slot_of = pair_slot_.data();
         const ContactForce* const contact = contact_force_.data();
         std::uint8_t* const in_contact = particle_in_contact_.data();
-        // Gravity plus the pairs in force on p, in pair order.
-        const auto pair_sum = [&](std::size_t p, Vec3& force, Vec3& torque) {
-          force = free_of_groups || is_free(p) ? Vec3(mass[p] * gravity) : Vec3::Zero();
-          torque = Vec3::Zero();
-          if (!in_contact[p]) return;  // only particles with a pair in force have anything to sum
+        // Gravity plus the pairs in force on p, in pair order: those p is second of, then its row.
+        struct ForceAndTorque {
+          Vec3 force, torque;
+        };
+        const auto pair_sum = [&](std::size_t p) __attribute__((always_inline)) {
+          ForceAndTorque sum{free_of_groups || is_free(p) ? Vec3(mass[p] * gravity) : Vec3::Zero(),
+                             Vec3::Zero()};
+          if (!in_contact[p]) return sum;  // no pair in force: nothing to add
           in_contact[p] = 0;
-          // The entries in force, 8 in-force bytes at a time (each 0 or 1), cleared as read.
-          for (std::uint32_t base = entry_offset[p]; base < entry_offset[p + 1]; base += 8) {
-            std::uint64_t word;
-            std::memcpy(&word, entry_in_force + base, sizeof word);
-            if (word == 0) continue;
-            std::memset(entry_in_force + base, 0, sizeof word);
-            for (; word != 0; word &= word - 1) {
-              const std::uint32_t entry = entries[base + (std::countr_zero(word) >> 3)];
-              const ContactForce& c = contact[slot_of[entry >> 1]];
-              if ((entry & 1) == 0) {
-                force += c.force;
-                torque += c.torque_a;
+          for_each_in_force(
+              second_in_force, second_offset[p],
+              second_offset[p + 1], [&](std::uint32_t s) __attribute__((always_inline)) {
+                const ContactForce& c = contact[slot_of[second_pair[s]]];
+                sum.force -= c.force;
+                sum.torque += c.torque_b;
+              });
+          const std::uint32_t shift = first_shift[p];
+          for_each_in_force(
+              first_in_force, first_offset[p],
+              first_offset[p + 1], [&](std::uint32_t s) __attribute__((always_inline)) {
+                const ContactForce& c = contact[slot_of[s - shift]];
+                sum.force += c.force;
+                sum.torque += c.torque_a;
                 virial_x += c.force * c.branch[0];
                 virial_y += c.force * c.branch[1];
                 virial_z += c.force * c.branch[2];
-              } else {
-                force -= c.force;
-                torque += c.torque_b;
-              }
-            }
-          }
+              });
+          return sum;
         };
         // The sums, and the closing half kick with them (as a pass of its own would: every
         // particle).
@@ -1041,16 +1067,14 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
         if (walls_.empty()) {  // a loop of its own: without the wall code it keeps its values in
                                // registers
           for (std::size_t p = range.begin(); p != range.end(); ++p) {
-            Vec3 force, torque;
-            pair_sum(p, force, torque);
+            const auto [force, torque] = pair_sum(p);
             store(p, force, torque);
           }
           return virial();
         }
         std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
         for (std::size_t p = range.begin(); p != range.end(); ++p) {
-          Vec3 force, torque;
-          pair_sum(p, force, torque);
+          auto [force, torque] = pair_sum(p);
           if (!is_free(p)) {  // no wall slots in use, in either buffer
             store(p, force, torque);
             continue;
@@ -1307,16 +1331,16 @@ std::size_t bytes_of(const std::vector<T>& v) {
 System::MemoryUse System::memory_use() const {
   MemoryUse use;
   use.particles = neighbors_.reference_bytes() + bytes_of(material_) + bytes_of(group_) +
-                  bytes_of(particle_pair_offset_) + bytes_of(particle_first_entry_shift_) +
-                  bytes_of(particle_in_contact_);
+                  bytes_of(second_offset_) + bytes_of(first_offset_) +
+                  bytes_of(particle_first_shift_) + bytes_of(particle_in_contact_);
   for (const auto* array : {&position_, &velocity_, &angular_velocity_, &force_, &torque_,
                             &predicted_velocity_, &predicted_angular_velocity_})
     use.particles += bytes_of(*array);
   for (const auto* array : {&radius_, &mass_, &inv_mass_, &inv_inertia_})
     use.particles += bytes_of(*array);
   use.candidate_pairs = neighbors_.pair_bytes() + bytes_of(pair_slot_) + bytes_of(pair_touching_) +
-                        bytes_of(pair_second_entry_) + bytes_of(particle_pair_entry_) +
-                        bytes_of(entry_in_force_);
+                        bytes_of(pair_second_slot_) + bytes_of(second_pair_) +
+                        bytes_of(second_in_force_) + bytes_of(first_in_force_);
   use.contacts =
       bytes_of(contact_history_) + bytes_of(contact_force_) + bytes_of(free_contact_slots_);
   use.wall_contacts = bytes_of(finished_wall_mask_);

@@ -471,14 +471,16 @@ class System {
   std::vector<ContactForce> contact_force_;
   std::vector<std::uint32_t> free_contact_slots_;
   Eigen::Matrix3d contact_virial_ = Eigen::Matrix3d::Zero();
-  // Per particle, the pairs it belongs to (CSR): entry = pair index * 2 + (0: first, 1: second).
-  // Each particle's list starts at a multiple of 8 (unused entries pad it).
-  std::vector<std::uint32_t> particle_pair_offset_, particle_pair_entry_;
-  // Per entry, whether its pair is in force this step (set by the contact law, cleared by the
-  // force gather), so that the gather visits only those; where the contact law finds a pair's two
-  // entries: k + particle_first_entry_shift_[i] and pair_second_entry_[k].
-  std::vector<std::uint8_t> entry_in_force_;
-  std::vector<std::uint32_t> pair_second_entry_, particle_first_entry_shift_;
+  // Per particle, its pairs in two lists, each starting at a multiple of 8 (unused slots pad
+  // them): those it is second of (CSR: the pair's index), then its own row, those it is first of
+  // (no index kept: the row's pairs are consecutive, slot - particle_first_shift_[p]). In pair
+  // order every pair of the first list comes before the row, so the gather sums in pair order.
+  std::vector<std::uint32_t> second_offset_, second_pair_, first_offset_;
+  // Per slot of either list, whether its pair is in force this step (set by the contact law,
+  // cleared by the force gather), so that the gather visits only those; where the contact law
+  // finds a pair's two slots: k + particle_first_shift_[i] and pair_second_slot_[k].
+  std::vector<std::uint8_t> second_in_force_, first_in_force_;
+  std::vector<std::uint32_t> pair_second_slot_, particle_first_shift_;
   std::vector<std::uint8_t>
       particle_in_contact_;  // has a pair in force this step (reset when summed)
 
