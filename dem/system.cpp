@@ -633,7 +633,8 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   std::vector<std::uint32_t> second_fill(second_offset_.begin(), second_offset_.end() - 1);
   for (std::uint32_t k = 0; k < pairs.size(); ++k) {
     const auto [i, j] = pairs[k];
-    // Row i's pairs are consecutive: pair k's slot in i's row list is k + the same shift for all.
+    // Row i's pairs are consecutive: pair k's slot in i's row list is k + the same shift for all
+    // (never negative: the row lists before i's hold at least the k pairs of earlier rows).
     if (k == 0 || pairs[k - 1].i != i) particle_first_shift_[i] = first_offset_[i] - k;
     pair_second_slot_[k] = second_fill[j];
     second_pair_[second_fill[j]++] = k;
