@@ -114,10 +114,19 @@ SlotRange reachable_lifter_slots(const MillShell& mill, const LifterPolygon& pol
   const double reach = lifter_half_angle + sphere_half_angle + 1e-9;
   if (reach >= kPi) return {0, n - 1};
   const double spacing = 2.0 * kPi / static_cast<double>(n);
-  const double alpha = std::atan2(centre.y(), centre.x()) - theta;
-  const long first = static_cast<long>(std::ceil((alpha - reach) / spacing));
-  const long last = static_cast<long>(std::floor((alpha + reach) / spacing));
-  return {first, std::min(last, first + n - 1)};
+  const auto slots_within = [spacing](double alpha, double reach) {
+    return SlotRange{static_cast<long>(std::ceil((alpha - reach) / spacing)),
+                     static_cast<long>(std::floor((alpha + reach) / spacing))};
+  };
+  // The cheap angle, its reach widened by twice its bound: the slots hold those of std::atan2's
+  // angle (rounding keeps the order of the ends), numbered the same (the same half-plane). The
+  // extra slots at either end lie beyond the reach, where the exact test finds nothing. Where
+  // the slots could go round the mill, those of std::atan2 (one visit per lifter).
+  const SlotRange wide = slots_within(angle_within_bound(centre.y(), centre.x()) - theta,
+                                      reach + 2.0 * kAngleWithinBound);
+  if (wide.last - wide.first < n) return wide;
+  const SlotRange exact = slots_within(std::atan2(centre.y(), centre.x()) - theta, reach);
+  return {exact.first, std::min(exact.last, exact.first + n - 1)};
 }
 
 double face_angle(const MillShell& mill) {
@@ -142,6 +151,7 @@ Vec3 slot_direction(const MillShell& mill, double reduced_theta, long slot) {
 template <class Visit>
 bool visit_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec3& centre,
                          double radius, Visit&& visit) {
+  if (sphere_in_mill_interior(mill, centre, radius)) return true;
   if (mill.end_walls) {
     for (int end = 0; end < 2; ++end) {
       const Vec3 origin(0.0, 0.0, end == 0 ? 0.0 : mill.length);
@@ -152,13 +162,10 @@ bool visit_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec3
       }
     }
   }
-  const double rho2 = centre.x() * centre.x() + centre.y() * centre.y();
   // Lifter tops are the innermost wall surface: a sphere well inside them touches nothing more.
-  const double innermost = mill.radius - (mill.lifter_count > 0 ? mill.lifter.height : 0.0);
-  const double clear = innermost - radius;
-  if (clear > 0.0 && rho2 < clear * clear) return true;
+  if (sphere_within_lifter_tops(mill, centre, radius)) return true;
 
-  const double rho = std::sqrt(rho2);
+  const double rho = std::sqrt(centre.x() * centre.x() + centre.y() * centre.y());
   if (auto c = shell_contact(mill, centre, rho, radius)) {
     if (!visit(*c)) return false;
   }
@@ -219,6 +226,29 @@ void require(bool ok, const std::string& message) {
 }
 
 }  // namespace
+
+double angle_within_bound(double y, double x) {
+  const double ax = std::abs(x), ay = std::abs(y);
+  const double larger = std::max(ax, ay), smaller = std::min(ax, ay);
+  // The signed zeros, infinities and NaNs, and sums that could overflow: the library's.
+  if (!(ax < 1e300 && ay < 1e300) || larger == 0.0) return std::atan2(y, x);
+  // atan(a) for a = smaller / larger in [0, 1], through atan(a) = pi/4 + atan((a - 1) / (a + 1))
+  // above tan(pi/8): the series' argument u stays within tan(pi/8) = 0.4142, where its terms up
+  // to u^13 leave an error below u^15 / 15 = 1.3e-7. One division either way.
+  const bool upper = smaller > 0.41421356237309503 * larger;
+  const double u = upper ? (smaller - larger) / (smaller + larger) : smaller / larger;
+  const double u2 = u * u;
+  const double series =
+      ((((((1.0 / 13.0) * u2 - 1.0 / 11.0) * u2 + 1.0 / 9.0) * u2 - 1.0 / 7.0) * u2 + 1.0 / 5.0) *
+           u2 -
+       1.0 / 3.0) *
+          u2 +
+      1.0;
+  double angle = (upper ? 0.25 * kPi : 0.0) + u * series;
+  if (ay > ax) angle = 0.5 * kPi - angle;
+  if (x < 0.0) angle = kPi - angle;
+  return std::signbit(y) ? -angle : angle;
+}
 
 std::optional<SurfaceContact> sphere_plane_contact(const Vec3& centre, double radius,
                                                    const Vec3& plane_origin,

@@ -84,6 +84,14 @@ inline int end_wall_feature(const MillShell& mill, int end /*0: z = 0, 1: z = le
 void sphere_mill_contacts(const MillShell& mill, double theta, const Vec3& centre, double radius,
                           std::vector<SurfaceContact>& out);
 
+// atan2(y, x) in [-pi, pi] without the library call (about 145 instructions there), within
+// kAngleWithinBound of std::atan2 (the lifter search widens its angular reach by the bound, so
+// that the slots it visits hold every slot std::atan2 would give: the same contacts in the same
+// order). The sign of y picks the half-plane as std::atan2 does, signed zeros included; zeros,
+// infinities, NaNs and coordinates beyond 1e300 get std::atan2's own answer.
+inline constexpr double kAngleWithinBound = 1e-6;
+double angle_within_bound(double y, double x);
+
 // A mill at one rotation angle with what every sphere's query needs worked out once: the angle
 // reduced to one turn, the lifters' face angle and the directions of the lifter slots a sphere
 // can reach. For the many spheres of one time step; the same bits as passing theta.
@@ -100,6 +108,22 @@ void sphere_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec
 // Free area of the mill's cross-section: the disk of the shell minus the exposed lifter areas
 // (m^2). Times the length, the volume available to the charge.
 double mill_free_cross_section_area(const MillShell& mill);
+
+// A sphere nearer the axis than the lifter tops (the shell's, without lifters) by its radius
+// touches neither the shell nor a lifter.
+inline bool sphere_within_lifter_tops(const MillShell& mill, const Vec3& centre, double radius) {
+  const double innermost = mill.radius - (mill.lifter_count > 0 ? mill.lifter.height : 0.0);
+  const double clear = innermost - radius;
+  return clear > 0.0 && centre.x() * centre.x() + centre.y() * centre.y() < clear * clear;
+}
+
+// The cheap first test of a mill query, inline for callers that meet every sphere of a charge at
+// every step: one within the lifter tops and farther than its radius from the end walls (if any)
+// touches nothing.
+inline bool sphere_in_mill_interior(const MillShell& mill, const Vec3& centre, double radius) {
+  return sphere_within_lifter_tops(mill, centre, radius) &&
+         (!mill.end_walls || (centre.z() > radius && mill.length - centre.z() > radius));
+}
 
 // True when a sphere at `centre` lies inside the mill without touching the shell, the lifters or
 // the end walls (used when filling the mill).

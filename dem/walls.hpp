@@ -60,6 +60,14 @@ WallPose wall_pose(const Wall& wall);
 void wall_contacts(const Wall& wall, const WallPose& pose, const Vec3& centre, double radius,
                    std::vector<SurfaceContact>& out);
 
+// True when the sphere certainly touches nothing of the wall, by a test cheaper than
+// wall_contacts: a mill's interior (most of a charge). False says nothing (planes: always false,
+// their own test is as cheap).
+inline bool sphere_certainly_clear_of(const Wall& wall, const Vec3& centre, double radius) {
+  const MillWall* mill = std::get_if<MillWall>(&wall.shape);
+  return mill != nullptr && sphere_in_mill_interior(mill->shell, centre, radius);
+}
+
 // Velocity of the wall's surface at a point on it.
 Vec3 wall_surface_velocity(const Wall& wall, const Vec3& point);
 

@@ -1,7 +1,9 @@
 #include "dem/wall_geometry.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -235,6 +237,36 @@ TEST(LifterContact, MatchesBruteForceDistanceForSpheresClearOfTheShell) {
     }
     EXPECT_GT(checked, 100);
   }
+}
+
+// The lifter search's cheap angle: within its bound of std::atan2 everywhere, on the same
+// half-plane (its slots are numbered from it), signed zeros and the axes included.
+TEST(AngleWithinBound, WithinItsBoundOfStdAtan2) {
+  double worst = 0.0;
+  const double scales[] = {1e-300, 1e-9, 0.37, 1.0, 4.5e7, 1.7e308};
+  for (int i = 0; i < 240000; ++i) {
+    const double phi = -kPi + 2.0 * kPi * (i + 0.5) / 240000.0;
+    const double scale = scales[i % 6];
+    const double y = scale * std::sin(phi), x = scale * std::cos(phi);
+    const double exact = std::atan2(y, x), cheap = angle_within_bound(y, x);
+    ASSERT_EQ(std::signbit(exact), std::signbit(cheap)) << y << ", " << x;
+    worst = std::max(worst, std::abs(cheap - exact));
+  }
+  EXPECT_LT(worst, 0.25 * kAngleWithinBound);
+  EXPECT_GT(worst, 0.0);  // an approximation: the bound is what makes it safe
+  for (const double y : {0.0, -0.0, 1.0, -1.0, 3e-310, -3e-310}) {
+    for (const double x : {0.0, -0.0, 1.0, -1.0, 3e-310, -3e-310}) {
+      EXPECT_NEAR(angle_within_bound(y, x), std::atan2(y, x), kAngleWithinBound) << y << ", " << x;
+      EXPECT_EQ(std::signbit(angle_within_bound(y, x)), std::signbit(std::atan2(y, x)))
+          << y << ", " << x;
+    }
+  }
+  EXPECT_EQ(angle_within_bound(0.0, -1.0), kPi);
+  EXPECT_EQ(angle_within_bound(-0.0, -1.0), -kPi);
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(angle_within_bound(inf, -inf), std::atan2(inf, -inf));
+  EXPECT_EQ(angle_within_bound(-1.0, inf), std::atan2(-1.0, inf));
+  EXPECT_TRUE(std::isnan(angle_within_bound(std::numeric_limits<double>::quiet_NaN(), 1.0)));
 }
 
 TEST(LifterContact, BuriedBaseIsNeverTouchedFromInsideTheMill) {
