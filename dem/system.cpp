@@ -1109,9 +1109,8 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
           std::uint8_t matched = 0;
           int count = 0;
           for (std::size_t w = 0; w < wall_count; ++w) {
-            if (sphere_certainly_clear_of(walls[w], position[p], radius[p])) continue;
             surface.clear();
-            wall_contacts(walls_[w], poses[w], position_[p], radius_[p], surface);
+            wall_contacts(walls[w], poses[w], position[p], radius[p], surface);
             for (const SurfaceContact& contact : surface) {
               if (count == kMaxWallContactsPerParticle) {
                 throw std::runtime_error(fmt::format(
@@ -1132,13 +1131,13 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
                   break;
                 }
               }
-              const Vec3 arm = -(radius_[p] - 0.5 * contact.overlap) * contact.normal;
+              const Vec3 arm = -(radius[p] - 0.5 * contact.overlap) * contact.normal;
               const Vec3 relative_velocity = predicted_velocity_[p] +
                                              predicted_angular_velocity_[p].cross(arm) -
-                                             wall_surface_velocity(walls_[w], contact.point);
+                                             wall_surface_velocity(walls[w], contact.point);
               const ContactGeometry geometry{contact.normal, contact.overlap, relative_velocity};
               const ContactResponse response =
-                  linear_spring_dashpot(materials_.pair(material_[p], walls_[w].material), mass_[p],
+                  linear_spring_dashpot(materials_.pair(material_[p], walls[w].material), mass_[p],
                                         geometry, slot.history.spring, dt);
               ContactHistory& history = slot.history;
               if (!continues) {

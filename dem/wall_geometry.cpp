@@ -151,7 +151,6 @@ Vec3 slot_direction(const MillShell& mill, double reduced_theta, long slot) {
 template <class Visit>
 bool visit_mill_contacts(const MillShell& mill, const MillPose& pose, const Vec3& centre,
                          double radius, Visit&& visit) {
-  if (sphere_in_mill_interior(mill, centre, radius)) return true;
   if (mill.end_walls) {
     for (int end = 0; end < 2; ++end) {
       const Vec3 origin(0.0, 0.0, end == 0 ? 0.0 : mill.length);

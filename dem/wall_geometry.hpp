@@ -117,8 +117,8 @@ inline bool sphere_within_lifter_tops(const MillShell& mill, const Vec3& centre,
   return clear > 0.0 && centre.x() * centre.x() + centre.y() * centre.y() < clear * clear;
 }
 
-// The cheap first test of a mill query, inline for callers that meet every sphere of a charge at
-// every step: one within the lifter tops and farther than its radius from the end walls (if any)
+// A test cheaper than a mill query, inline for callers that meet every sphere of a charge at every
+// step: one within the lifter tops and farther than its radius from the end walls (if any)
 // touches nothing.
 inline bool sphere_in_mill_interior(const MillShell& mill, const Vec3& centre, double radius) {
   return sphere_within_lifter_tops(mill, centre, radius) &&
