@@ -2,7 +2,8 @@
 // How the arrays a step works on grow: by 1/16 beyond what they must hold, not by doubling.
 // std::vector's push_back and resize double a full array, so a dense cell's per-pair and contact
 // arrays held up to twice their bytes (the neighbour list of cement_load15: 55 bytes per candidate
-// pair where 27 are used).
+// pair where 27 are used). And where they live: the large ones on huge pages, where the system
+// offers them (docs/benchmarks.md, "The pair pass asks for its particles ahead").
 #include <cstddef>
 #include <iterator>
 #include <vector>
