@@ -18,7 +18,8 @@ inline std::size_t growth_room(std::size_t n) {
 // Asks the kernel to back the whole 2 MiB pages within [data, data + bytes) with transparent
 // huge pages (Linux's madvise(MADV_HUGEPAGE), where the system leaves that choice to the program;
 // nothing elsewhere). A dense cell's arrays (100 MB for 114,000 particles) outrun the address
-// cache's reach on 4 KiB pages. Only pages not touched yet are affected.
+// cache's reach on 4 KiB pages. Pages touched before the advice stay small until the kernel's
+// background collapse, if ever: hence the callers below advise a buffer before filling it.
 void advise_huge_pages(const void* data, std::size_t bytes);
 
 // Moves v into a new buffer of the given capacity, advised as above before anything touches it
