@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "dem/deterministic_sum.hpp"
 #include "dem/skin_choice.hpp"
 #include "dem/touching_pairs.hpp"
 
@@ -25,6 +26,9 @@ namespace {
 double contact_virial(const System& system, int row, int col) {
   return system.contact_virial()(row, col);
 }
+
+// Per-particle sums run in blocks of this many particles (deterministic_sum).
+constexpr std::size_t kParticleSumGrain = 2048;
 
 // The particles are renumbered along a space-filling curve this often (System::
 // reorder_particles): inserted at random, then mixed by the shear, a dense cell's contacts
@@ -274,15 +278,15 @@ double ShearCell::lees_edwards_power() const {
   // P = gdot V tau, V tau = sum over contacts of F_x (on i) b_y (i to j) - sum m c_x c_y: the
   // exact rate at which the sheared images feed (peculiar kinetic + elastic) energy and
   // dissipation.
-  double shear = contact_virial(system_, 0, 1);
   const auto x = system_.positions();
   const auto v = system_.velocities();
   const auto m = system_.masses();
   const double y_mid = system_.domain().lo.y() + 0.5 * system_.domain().length().y();
-  for (std::size_t p = 0; p < system_.size(); ++p) {
-    shear -= m[p] * (v[p].x() - setup_.shear_rate * (x[p].y() - y_mid)) * v[p].y();
-  }
-  return setup_.shear_rate * shear;
+  // Summed by all the cell's threads: it runs every step.
+  const double momentum_flux = deterministic_sum(system_.size(), kParticleSumGrain, [&](auto p) {
+    return m[p] * (v[p].x() - setup_.shear_rate * (x[p].y() - y_mid)) * v[p].y();
+  });
+  return setup_.shear_rate * (contact_virial(system_, 0, 1) - momentum_flux);
 }
 
 double ShearCell::peculiar_kinetic_energy() const {

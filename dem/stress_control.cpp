@@ -4,6 +4,8 @@
 #include <cmath>
 #include <vector>
 
+#include "dem/deterministic_sum.hpp"
+
 namespace millflow::dem {
 namespace {
 
@@ -15,21 +17,23 @@ constexpr std::uint64_t kBarostatSamplesEvery = 4;
 // jams for a moment (its modulus far above 10 p) cannot throw the barostat into oscillation.
 constexpr double kBarostatMaxDilation = 0.05;
 
-// Elastic energy of the normal springs of the pairs in contact, J.
+// Elastic energy of the normal springs of the pairs in contact, J. Summed by both threads of a
+// 2-thread cell (a serial pass was 1.7% of cement_load15's step, docs/benchmarks.md).
+constexpr std::size_t kPairSumGrain = 4096;
 double normal_spring_energy(const System& system) {
   const auto x = system.positions();
   const auto r = system.radii();
   const auto materials = system.particle_materials();
+  const auto pairs = system.candidate_pairs();
   // The box's constants once per pass, not per pair (Domain::separation's own, same bits).
   const PeriodicImages images(system.domain());
-  double energy = 0.0;
-  for (const NeighborPair& pair : system.candidate_pairs()) {
-    const double overlap = r[pair.i] + r[pair.j] - images.separation(x[pair.i], x[pair.j]).norm();
-    if (overlap <= 0.0) continue;
-    energy += 0.5 * system.materials().pair(materials[pair.i], materials[pair.j]).normal_stiffness *
-              overlap * overlap;
-  }
-  return energy;
+  return deterministic_sum(pairs.size(), kPairSumGrain, [&](std::size_t k) {
+    const auto [i, j] = pairs[k];
+    const double overlap = r[i] + r[j] - images.separation(x[i], x[j]).norm();
+    if (overlap <= 0.0) return 0.0;
+    return 0.5 * system.materials().pair(materials[i], materials[j]).normal_stiffness * overlap *
+           overlap;
+  });
 }
 
 }  // namespace

@@ -5,6 +5,8 @@
 
 #include <numbers>
 
+#include <tbb/task_arena.h>
+
 #include "dem/shear_cell.hpp"
 #include "tests/dem/shear_cells.hpp"
 
@@ -104,6 +106,33 @@ TEST(ShearCell, LeesEdwardsCellIsPeriodicWithTheImposedProfile) {
   }
   EXPECT_GT(largest_z_speed, 0.0);
   EXPECT_LT(momentum.norm(), 1e-12 * agitation * static_cast<double>(cell.system().size()));
+}
+
+TEST(ShearCell, LeesEdwardsMeasurementHasTheSameBitsAtOneAndTwoThreads) {
+  // The boundary's power and the barostat's spring energies are sums over all particles and
+  // pairs, taken by every thread of the cell (deterministic_sum): the same bits at any count.
+  const auto measured = [](int threads) {
+    tbb::task_arena arena(threads);
+    ShearCellMeasurements m;
+    arena.execute([&] {
+      // Over 2,048 particles and 4,096 candidate pairs: both sums run in several blocks.
+      ShearCellSetup setup = small_shear_cell(0.05, 1.0, 0.25);
+      setup.boundary = ShearCellSetup::Boundary::LeesEdwards;
+      ShearCell cell(setup);
+      cell.compact();
+      EXPECT_GT(cell.system().size(), 2048u);
+      EXPECT_GT(cell.system().candidate_pairs().size(), 4096u);
+      m = cell.measure(0.05, MeasureOptions{.samples = 20, .record_collisions = false});
+    });
+    return m;
+  };
+  const ShearCellMeasurements one = measured(1), two = measured(2);
+  ASSERT_GT(one.work_in, 0.0);
+  ASSERT_NE(one.stress_control_work, 0.0) << "the barostat stretched the box";
+  EXPECT_EQ(one.power_density, two.power_density);
+  EXPECT_EQ(one.work_in, two.work_in);
+  EXPECT_EQ(one.stress_control_work, two.stress_control_work);
+  EXPECT_EQ(one.shear_stress, two.shear_stress);
 }
 
 TEST(ShearCell, ServoConstantsFollowTheDocumentedLaw) {
