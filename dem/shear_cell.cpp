@@ -28,7 +28,7 @@ double contact_virial(const System& system, int row, int col) {
 }
 
 // Per-particle sums run in blocks of this many particles (deterministic_sum).
-constexpr std::size_t kParticleSumGrain = 2048;
+constexpr std::size_t kParticleSumGrain = 512;
 
 // The particles are renumbered along a space-filling curve this often (System::
 // reorder_particles): inserted at random, then mixed by the shear, a dense cell's contacts

@@ -19,7 +19,7 @@ constexpr double kBarostatMaxDilation = 0.05;
 
 // Elastic energy of the normal springs of the pairs in contact, J. Summed by both threads of a
 // 2-thread cell (a serial pass was 1.7% of cement_load15's step, docs/benchmarks.md).
-constexpr std::size_t kPairSumGrain = 4096;
+constexpr std::size_t kPairSumGrain = 2048;
 double normal_spring_energy(const System& system) {
   const auto x = system.positions();
   const auto r = system.radii();

@@ -115,13 +115,13 @@ TEST(ShearCell, LeesEdwardsMeasurementHasTheSameBitsAtOneAndTwoThreads) {
     tbb::task_arena arena(threads);
     ShearCellMeasurements m;
     arena.execute([&] {
-      // Over 2,048 particles and 4,096 candidate pairs: both sums run in several blocks.
+      // Both sums in several blocks (of 512 particles, of 2,048 candidate pairs).
       ShearCellSetup setup = small_shear_cell(0.05, 1.0, 0.25);
       setup.boundary = ShearCellSetup::Boundary::LeesEdwards;
       ShearCell cell(setup);
       cell.compact();
-      EXPECT_GT(cell.system().size(), 2048u);
-      EXPECT_GT(cell.system().candidate_pairs().size(), 4096u);
+      EXPECT_GT(cell.system().size(), 4 * 512u);
+      EXPECT_GT(cell.system().candidate_pairs().size(), 4 * 2048u);
       m = cell.measure(0.05, MeasureOptions{.samples = 20, .record_collisions = false});
     });
     return m;
