@@ -17,9 +17,11 @@ constexpr std::uint64_t kBarostatSamplesEvery = 4;
 // jams for a moment (its modulus far above 10 p) cannot throw the barostat into oscillation.
 constexpr double kBarostatMaxDilation = 0.05;
 
-// Elastic energy of the normal springs of the pairs in contact, J. Summed by both threads of a
-// 2-thread cell (a serial pass was 1.7% of cement_load15's step, docs/benchmarks.md).
+// normal_spring_energy sums in blocks of this many candidate pairs, on every thread of the cell
+// (deterministic_sum): as one serial pass it was 1.7% of cement_load15's step (docs/benchmarks.md).
 constexpr std::size_t kPairSumGrain = 2048;
+
+// Elastic energy of the normal springs of the pairs in contact, J.
 double normal_spring_energy(const System& system) {
   const auto x = system.positions();
   const auto r = system.radii();
