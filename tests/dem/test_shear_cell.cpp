@@ -122,7 +122,7 @@ TEST(ShearCell, LeesEdwardsMeasurementHasTheSameBitsAtOneAndTwoThreads) {
       cell.compact();
       EXPECT_GT(cell.system().size(), 4 * 512u);
       EXPECT_GT(cell.system().candidate_pairs().size(), 4 * 2048u);
-      m = cell.measure(0.05, MeasureOptions{.samples = 20, .record_collisions = false});
+      m = cell.measure(0.02, MeasureOptions{.samples = 20, .record_collisions = false});
     });
     return m;
   };
