@@ -44,7 +44,8 @@ PairParams derive_pair_params(const InteractionSpec& spec, const std::string& pa
     fail(fmt::format("friction = {} must be a finite number >= 0", spec.friction));
   }
   if (!(spec.normal_stiffness > 0.0) || !std::isfinite(spec.normal_stiffness)) {
-    fail(fmt::format("normal stiffness = {} N/m must be > 0", spec.normal_stiffness));
+    fail(fmt::format("normal stiffness = {} N/m must be a finite number > 0",
+                     spec.normal_stiffness));
   }
   if (!(spec.tangential_stiffness_ratio > 0.0 && spec.tangential_stiffness_ratio <= 1.0)) {
     fail(fmt::format("tangential stiffness ratio = {} is outside (0, 1]; 2/7 is usual for spheres",

@@ -27,6 +27,9 @@ double contact_virial(const System& system, int row, int col) {
   return system.contact_virial()(row, col);
 }
 
+// The most steps a strain may take (steps_for_strain): 2^53, where doubles stop counting exactly.
+constexpr double kMostStepsForAStrain = 9007199254740992.0;
+
 // Per-particle sums run in blocks of this many particles (deterministic_sum).
 constexpr std::size_t kParticleSumGrain = 512;
 
@@ -258,7 +261,16 @@ std::size_t ShearCell::steps_for_strain(double strain) const {
   if (!(strain >= 0.0) || !std::isfinite(strain)) {
     throw std::invalid_argument(fmt::format("shear cell: strain = {} must be >= 0", strain));
   }
-  return static_cast<std::size_t>(std::ceil(strain / (setup_.shear_rate * system_.time_step())));
+  const double steps = std::ceil(strain / (setup_.shear_rate * system_.time_step()));
+  // Beyond 2^53 steps a count is no longer exact (and beyond 2^64 not even a number of steps): a
+  // shear rate or time step far off, not a run anyone could wait for.
+  if (!(steps <= kMostStepsForAStrain)) {
+    throw std::invalid_argument(fmt::format(
+        "shear cell: strain = {} at {} 1/s is {:.3g} steps of {:.3g} s, more than {:.3g}; "
+        "raise the shear rate or lower the strain",
+        strain, setup_.shear_rate, steps, system_.time_step(), kMostStepsForAStrain));
+  }
+  return static_cast<std::size_t>(steps);
 }
 
 double ShearCell::shear_stress_now() const {

@@ -274,11 +274,14 @@ void System::set_time_step(double dt) {
     throw std::invalid_argument(fmt::format("time step dt = {} s must be > 0", dt));
   }
   if (dt > limit) {
-    throw std::invalid_argument(
-        fmt::format("time step dt = {:.4g} s is above the stability limit {:.4g} s of the "
-                    "stiffest, lightest contact; "
-                    "use dt <= {:.4g} s (e.g. t_c / 20 = {:.4g} s)",
-                    dt, limit, limit, min_collision_duration() / 20.0));
+    // In steps per collision, which a user gives: a contact damped near the critical (restitution
+    // near 0) has a long duration but a short limit, so 20 steps may not do.
+    const double t_c = min_collision_duration();
+    throw std::invalid_argument(fmt::format(
+        "time step dt = {:.4g} s is above the stability limit {:.4g} s of the stiffest, lightest "
+        "contact; use dt <= {:.4g} s: {:.0f} or more steps per collision of the shortest contact "
+        "(t_c = {:.4g} s)",
+        dt, limit, limit, std::ceil(t_c / limit), t_c));
   }
   dt_ = dt;
 }

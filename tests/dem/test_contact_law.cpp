@@ -112,7 +112,7 @@ TEST(DerivePairParams, RejectsOutOfRangeValuesNamingThem) {
   EXPECT_EQ(message({.restitution = 0.5, .friction = -0.1, .normal_stiffness = 1e6}),
             "interaction steel-steel: friction = -0.1 must be a finite number >= 0");
   EXPECT_EQ(message({.restitution = 0.5, .friction = 0.5, .normal_stiffness = -1.0}),
-            "interaction steel-steel: normal stiffness = -1 N/m must be > 0");
+            "interaction steel-steel: normal stiffness = -1 N/m must be a finite number > 0");
 }
 
 }  // namespace

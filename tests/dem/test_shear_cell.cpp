@@ -183,5 +183,21 @@ TEST(ShearCell, RejectsBadSettingsNamingThem) {
             std::string::npos);
 }
 
+TEST(ShearCell, AStrainOfMoreStepsThanACountHoldsIsRefused) {
+  ShearCellSetup setup = small_shear_cell(0.05);
+  setup.shear_rate = 1e-300;  // accepted (> 0), but no strain can be reached
+  ShearCell cell(setup);
+  try {
+    cell.measure(0.5);
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    const std::string message = e.what();
+    EXPECT_EQ(message.rfind("shear cell: strain = 0.5 at 1e-300 1/s is ", 0), 0u) << message;
+    EXPECT_NE(message.find(", more than 9.01e+15; raise the shear rate or lower the strain"),
+              std::string::npos)
+        << message;
+  }
+}
+
 }  // namespace
 }  // namespace millflow::dem

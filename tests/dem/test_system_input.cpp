@@ -1,5 +1,8 @@
 // Bad input to the DEM library gets a clear error naming the value, never a silent NaN.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include "dem/system.hpp"
 #include "tests/dem/scenes.hpp"
@@ -75,6 +78,23 @@ TEST(SystemInput, TimeStepAboveStabilityLimitIsRefused) {
   const std::string message = error_of([&] { system.set_time_step(2.0 * limit); });
   EXPECT_NE(message.find("is above the stability limit"), std::string::npos) << message;
   EXPECT_EQ(error_of([&] { system.set_time_step(0.5 * limit); }), "no error");
+}
+
+TEST(SystemInput, ACriticallyDampedContactIsToldHowManyStepsPerCollisionItNeeds) {
+  // Restitution near 0: the contact lasts long, but its dashpot limits the step far below t_c /
+  // 20. The message gives a count of steps per collision that works.
+  System system(steel_table(1e-9, 0.5, 1e6), open_box(1.0), Vec3::Zero());
+  system.add_particle({.position = Vec3::Zero(), .radius = 0.005});
+  const double t_c = system.min_collision_duration(), limit = system.stable_time_step();
+  const double needed = std::ceil(t_c / limit);
+  ASSERT_GT(needed, 20.0);
+  EXPECT_EQ(error_of([&] { system.set_time_step_from_collisions(20); }),
+            fmt::format("time step dt = {:.4g} s is above the stability limit {:.4g} s of the "
+                        "stiffest, lightest contact; use dt <= {:.4g} s: {:.0f} or more steps per "
+                        "collision of the shortest contact (t_c = {:.4g} s)",
+                        t_c / 20.0, limit, limit, needed, t_c));
+  EXPECT_EQ(error_of([&] { system.set_time_step_from_collisions(static_cast<int>(needed)); }),
+            "no error");
 }
 
 TEST(SystemInput, MissingInteractionIsNamedWhenDerivingTheTimeStep) {
