@@ -24,6 +24,11 @@ using engine::FieldType;
 using engine::ValidationError;
 using nlohmann::json;
 
+// The most strain a cell's warm-up or measurement may be given. The defaults are 2-8 strains; a
+// bound keeps a mistyped strain (1e308) from reaching the cell, whose step count would overflow
+// (dem::ShearCell refuses more than 2^53 steps).
+constexpr double kMostCellStrain = 1000.0;
+
 const char* const material_name = "[a-z][a-z0-9_]*";
 const std::vector<std::string> flow_regions = {"bulk", "shoulder",    "cascading",
                                                "toe",  "cataracting", "near_liner"};
@@ -361,16 +366,16 @@ std::vector<engine::FieldRule> micro_fields() {
           .defaults(false),
       Field("/shear_cell/warmup_strain", FieldType::number, "shear strain before measuring")
           .defaults(2.0)
-          .range(at_least(0), {}),
+          .range(at_least(0), at_most(kMostCellStrain)),
       Field("/shear_cell/max_warmup_strain", FieldType::number,
             "cap on the warm-up's strain: a cell that is not stationary by then is measured and "
             "reported steady = false (docs/shear_cells.md)")
           .defaults(6.0)
-          .range(at_least(0), {}),
+          .range(at_least(0), at_most(kMostCellStrain)),
       Field("/shear_cell/measure_strain", FieldType::number,
             "shear strain measured at least (the cell goes on to convergence)")
           .defaults(4.0)
-          .range(above(0), {}),
+          .range(above(0), at_most(kMostCellStrain)),
       Field("/shear_cell/convergence", FieldType::object,
             "measure until the standard errors of friction and powder dissipation reach a target")
           .defaults(json::object()),
@@ -381,7 +386,7 @@ std::vector<engine::FieldRule> micro_fields() {
       Field("/shear_cell/convergence/max_strain", FieldType::number,
             "cap on the measured strain; an unconverged cell is reported converged = false")
           .defaults(8.0)
-          .range(above(0), {}),
+          .range(above(0), at_most(kMostCellStrain)),
       Field("/shear_cell/stiffness", FieldType::object,
             "stiffness policy of the shear cells (docs/shear_cells.md)")
           .defaults(json::object()),
