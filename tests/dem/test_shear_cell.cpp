@@ -5,9 +5,8 @@
 
 #include <numbers>
 
-#include <tbb/task_arena.h>
-
 #include "dem/shear_cell.hpp"
+#include "tests/dem/scenes.hpp"
 #include "tests/dem/shear_cells.hpp"
 
 namespace millflow::dem {
@@ -112,9 +111,8 @@ TEST(ShearCell, LeesEdwardsMeasurementHasTheSameBitsAtOneAndTwoThreads) {
   // The boundary's power and the barostat's spring energies are sums over all particles and
   // pairs, taken by every thread of the cell (deterministic_sum): the same bits at any count.
   const auto measured = [](int threads) {
-    tbb::task_arena arena(threads);
     ShearCellMeasurements m;
-    arena.execute([&] {
+    testing::with_threads(threads, [&] {
       // Both sums in several blocks (of 512 particles, of 2,048 candidate pairs).
       ShearCellSetup setup = small_shear_cell(0.05, 1.0, 0.25);
       setup.boundary = ShearCellSetup::Boundary::LeesEdwards;
