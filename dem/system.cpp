@@ -635,7 +635,7 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   }
   padded_offsets(second_offset_);
   padded_offsets(first_offset_);
-  resize_with_room(second_pair_, second_offset_[size()]);
+  resize_with_room(second_contact_slot_, second_offset_[size()]);
   assign_on_huge_pages(second_in_force_, second_offset_[size()], std::uint8_t{0});
   assign_on_huge_pages(first_in_force_, first_offset_[size()], std::uint8_t{0});
   resize_with_room(pair_second_slot_, pairs.size());
@@ -647,7 +647,7 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
     // (never negative: the row lists before i's hold at least the k pairs of earlier rows).
     if (k == 0 || pairs[k - 1].i != i) particle_first_shift_[i] = first_offset_[i] - k;
     pair_second_slot_[k] = second_fill[j];
-    second_pair_[second_fill[j]++] = k;
+    second_contact_slot_[second_fill[j]++] = pair_slot_[k];
   }
 }
 
@@ -962,7 +962,10 @@ void System::compute_pair_forces(double dt) {
     starting_.insert(starting_.end(), here.begin(), here.end());
   }
   if (starting_.empty()) return;
-  for (const TouchingPair& t : starting_) pair_slot_[t.k] = allocate_contact();
+  for (const TouchingPair& t : starting_) {
+    pair_slot_[t.k] = allocate_contact();
+    second_contact_slot_[pair_second_slot_[t.k]] = pair_slot_[t.k];
+  }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, starting_.size(), kParticleGrain),
                     [&](const auto& range) {
                       const PairContactKernel contact(*this, dt);
@@ -1029,7 +1032,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
         const Vec3 gravity = gravity_;
         const double* const mass = mass_.data();
         const std::uint32_t* const second_offset = second_offset_.data();
-        const std::uint32_t* const second_pair = second_pair_.data();
+        const std::uint32_t* const second_contact_slot = second_contact_slot_.data();
         const std::uint32_t* const first_offset = first_offset_.data();
         const std::uint32_t* const first_shift = particle_first_shift_.data();
         std::uint8_t* const second_in_force = second_in_force_.data();
@@ -1049,7 +1052,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
           for_each_in_force(
               second_in_force, second_offset[p],
               second_offset[p + 1], [&](std::uint32_t s) __attribute__((always_inline)) {
-                const ContactForce& c = contact[slot_of[second_pair[s]]];
+                const ContactForce& c = contact[second_contact_slot[s]];
                 sum.force -= c.force;
                 sum.torque += c.torque_b;
               });
@@ -1383,7 +1386,7 @@ System::MemoryUse System::memory_use() const {
   for (const auto* array : {&radius_, &mass_, &inv_mass_, &inv_inertia_})
     use.particles += bytes_of(*array);
   use.candidate_pairs = neighbors_.pair_bytes() + bytes_of(pair_slot_) + bytes_of(pair_touching_) +
-                        bytes_of(pair_second_slot_) + bytes_of(second_pair_) +
+                        bytes_of(pair_second_slot_) + bytes_of(second_contact_slot_) +
                         bytes_of(second_in_force_) + bytes_of(first_in_force_);
   use.contacts =
       bytes_of(contact_history_) + bytes_of(contact_force_) + bytes_of(free_contact_slots_);

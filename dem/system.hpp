@@ -472,11 +472,12 @@ class System {
   std::vector<std::uint32_t> free_contact_slots_;
   Eigen::Matrix3d contact_virial_ = Eigen::Matrix3d::Zero();
   // Per particle, its pairs in two lists, each starting at a multiple of 8 (unused slots pad
-  // them): those it is second of (CSR: the pair's index), then its own row, those it is first of
-  // (no index kept: the row's pairs are consecutive, slot - particle_first_shift_[p]). In pair
-  // order every pair a particle is second of comes before its row, so the gather, reading the
-  // two lists in turn, sums in pair order.
-  std::vector<std::uint32_t> second_offset_, second_pair_, first_offset_;
+  // them): those it is second of (CSR: the pair's contact slot, valid while the pair is in
+  // force, so that the gather reads the contact without going through the pair), then its own
+  // row, those it is first of (no index kept: the row's pairs are consecutive, slot -
+  // particle_first_shift_[p]). In pair order every pair a particle is second of comes before its
+  // row, so the gather, reading the two lists in turn, sums in pair order.
+  std::vector<std::uint32_t> second_offset_, second_contact_slot_, first_offset_;
   // Per slot of either list, whether its pair is in force this step (set by the contact law,
   // cleared by the force gather), so that the gather visits only those; where the contact law
   // finds a pair's two slots: k + particle_first_shift_[i] and pair_second_slot_[k].
