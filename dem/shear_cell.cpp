@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -28,7 +30,8 @@ double contact_virial(const System& system, int row, int col) {
 }
 
 // The most steps a strain may take (steps_for_strain): 2^53, where doubles stop counting exactly.
-constexpr double kMostStepsForAStrain = 9007199254740992.0;
+constexpr double kMostStepsForAStrain =
+    static_cast<double>(std::uint64_t{1} << std::numeric_limits<double>::digits);
 
 // Per-particle sums run in blocks of this many particles (deterministic_sum).
 constexpr std::size_t kParticleSumGrain = 512;
