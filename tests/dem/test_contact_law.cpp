@@ -94,6 +94,24 @@ TEST(LinearSpringDashpot, RotatedSpringKeepsLengthAndLiesInTangentPlane) {
   EXPECT_NEAR(rotated.dot(normal), 0.0, 1e-18);
 }
 
+// The small turns of a step take the series, larger ones the exact rescale: on both sides of
+// kSpringTurnSeriesLimit the length is kept to rounding (a series one term shorter would be off
+// by 3e-13 near the limit).
+TEST(LinearSpringDashpot, TurnedSpringKeepsLengthToRoundingOnBothSidesOfTheSeriesLimit) {
+  const Vec3 spring(1e-3, 4e-4, 0);  // tangent to the old normal, z
+  int series = 0, exact = 0;
+  for (double angle = 1e-8; angle < 0.3; angle *= 1.25) {
+    const Vec3 normal(std::sin(angle), 0, std::cos(angle));
+    const double along = spring.dot(normal);
+    (along * along / spring.squaredNorm() < kSpringTurnSeriesLimit ? series : exact) += 1;
+    const Vec3 rotated = rotate_spring_into_tangent_plane(spring, normal);
+    EXPECT_NEAR(rotated.norm() / spring.norm(), 1.0, 1e-15) << "turned by " << angle << " rad";
+    EXPECT_NEAR(rotated.dot(normal), 0.0, 1e-18) << "turned by " << angle << " rad";
+  }
+  EXPECT_GT(series, 10);
+  EXPECT_GT(exact, 10);
+}
+
 TEST(DerivePairParams, RejectsOutOfRangeValuesNamingThem) {
   auto message = [](InteractionSpec spec) {
     try {

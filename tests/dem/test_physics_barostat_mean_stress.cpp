@@ -49,9 +49,16 @@ TEST(BarostatMeanStress, CollisionalCellHoldsTheMeanNormalStress) {
 }
 
 TEST(BarostatMeanStress, DenseCellHoldsTheMeanNormalStress) {
-  // (Its window means scatter too much for the stationarity test within a short warm-up.)
-  const ShearCellMeasurements m = lees_edwards_cell(0.01, 1e4, 1, 1.0, 1.0, 2.0);
-  EXPECT_NEAR(m.normal_stress, 1000.0, 50.0);
+  // (Its window means scatter too much for the stationarity test within a short warm-up.) One
+  // seed's 2-strain mean has a standard error of 4-7%, so one seed alone would pass or fail by its
+  // trajectory's last bits: seed 1 gave 977 and 1058 Pa from two contact laws that differ in the
+  // last place of the spring's rescale. The mean of 4 seeds has a standard error of about 2.5%:
+  // 1008 Pa (997 before that change).
+  constexpr int kSeeds = 4;
+  double sum = 0.0;
+  for (std::uint64_t seed = 1; seed <= kSeeds; ++seed)
+    sum += lees_edwards_cell(0.01, 1e4, seed, 1.0, 1.0, 2.0).normal_stress;
+  EXPECT_NEAR(sum / kSeeds, 1000.0, 50.0);
 }
 
 }  // namespace
