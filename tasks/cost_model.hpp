@@ -43,12 +43,13 @@ namespace millflow::tasks {
 //
 // A mill charge: quick.json's own run (its 1 m slices of 415-726 balls, the loaded figure 7.9 M
 // x 687 / 1158, docs/cost_model.md; bench_dem's mill_1m, 746 balls from a steady charge, 13.0 M,
-// agrees within 3%), and bench_dem's mill_4m (17,000 balls, 16 lifters, steady charge: 8.06 M):
-// a larger charge walks more memory per step. Between the two ball counts the cost per
+// agrees within 3%; 12.39 M on 5 December), and bench_dem's mill_4m (17,000 balls, 16 lifters,
+// steady charge: 9.40 M on 5 December, 8.06 M on 2 December before the mills' wall queries were
+// trimmed): a larger charge walks more memory per step. Between the two ball counts the cost per
 // particle-step is interpolated in log(balls); below and above, the nearer figure.
 inline constexpr double kMacroThroughput = 12.6e6;
 inline constexpr double kMacroBalls = 746.0;
-inline constexpr double kLargeMillThroughput = 8.06e6;
+inline constexpr double kLargeMillThroughput = 9.40e6;
 inline constexpr double kLargeMillBalls = 17000.0;
 // A shear cell of balls only: quick.json's own run (its 131-ball cell, 7.3 M loaded x 687 /
 // 1158). bench_cells' le_media_2000 (2,002 balls in a dense bed, 1.87 contacts per particle)
@@ -62,9 +63,11 @@ inline constexpr double kMediaCellThroughput = 12.3e6;
 inline constexpr double kPowderCellThroughput = 12.5e6;
 inline constexpr double kPowderVoidsFilledLoad = 1.0;
 // At U = kDensePowderLoad (the powder overfilling the voids, a dense powder network):
-// bench_cells' cement_load15 (114,359 particles, steady, 1 thread). Between the two loads the
-// cost per particle-step is interpolated linearly in U; above, this figure.
-inline constexpr double kDensePowderCellThroughput = 3.62e6;
+// bench_cells' cement_load15 (114,359 particles, steady, 1 thread; 4.18 M on 5 December, 3.62 M
+// on 2 December before the pair pass asked for its particles ahead and the spring's turn became
+// a series). Between the two loads the cost per particle-step is interpolated linearly in U;
+// above, this figure.
+inline constexpr double kDensePowderCellThroughput = 4.18e6;
 inline constexpr double kDensePowderLoad = 1.5;
 // A cell's compaction: a loose fill, few contacts (the constant also absorbs the model's error
 // in its steps, the bed carrying half the target before it is as dense as assumed).
