@@ -4,6 +4,7 @@
 //                   placement), no powder; steel-steel contacts of 0.1 ms (k_n / (p d) ~ 1e4)
 //   cement_load05   the cement campaign's cell (campaigns/cement_ball_mill.json: 50 mm balls,
 //                   clinker powder of 0.125 d, 6 x 8 x 6 d, Lees-Edwards) at powder load 0.5
+//   cement_load10   the same at powder load 1 (the powder just filling the media's voids)
 //   cement_load15   the same at powder load 1.5
 // All at a site of shear rate 2 1/s (a few per second is what the cement mill's sites see) and
 // normal stress 100 kPa (the lower part of its charge); at 20 kPa, and at 10 1/s, compaction
@@ -13,10 +14,10 @@
 // then the measurement phase, which is what is timed (the cell's per-step measurement included).
 // The prepared state is regenerated deterministically, or read from --cells_cache (a ShearCellRun
 // checkpoint per scene; a checkpoint of another setup is refused and regenerated).
-// cement_load15 is prepared in stages (prepare_staged): soft powder contacts, then the real ones
-// with the soft overlaps let out by a stretch of the box (dem::ShearCell::relieve_normal_stress),
-// then windows of the measurement phase until a steady test passes; its cache file says
-// "_steady" only then ("_NOTSTEADY" otherwise, never read back).
+// cement_load10 and cement_load15 are prepared in stages (prepare_staged): soft powder contacts,
+// then the real ones with the soft overlaps let out by a stretch of the box
+// (dem::ShearCell::relieve_normal_stress), then windows of the measurement phase until a steady
+// test passes; the cache file says "_steady" only then ("_NOTSTEADY" otherwise, never read back).
 //
 // Counters: pts_per_cpu_s (particle-steps per CPU-second of the process, every thread),
 // pts_per_s (wall), contacts_per_particle (pair and wall contacts in force), bytes_per_particle
@@ -97,7 +98,7 @@ struct CellCase {
   bool media_only_small_balls = false;  // le_media_2000
   std::size_t default_steps = 0;
   double warmup_strain = 0.05;  // the media cell, cheap, runs to a denser state
-  // Preparation with soft powder contacts (cement_load15; see prepare_staged): the powder's
+  // Preparation with soft powder contacts (cement_load10 and 15; see prepare_staged): the powder's
   // contacts (media-powder, powder-powder) at t_c x powder_softening (k_n / softening^2, a power
   // of two so that stiffening back is exact) through placement, compaction and the protocol's
   // warm-up, then at each of stiffening_stages for stage_strain, then the real contacts until
@@ -118,6 +119,7 @@ const std::vector<CellCase>& cases() {
        .default_steps = 400,
        .warmup_strain = 1.0},
       {.name = "cement_load05", .powder_load = 0.5, .default_steps = 40},
+      {.name = "cement_load10", .powder_load = 1.0, .default_steps = 20, .powder_softening = 4.0},
       {.name = "cement_load15", .powder_load = 1.5, .default_steps = 20, .powder_softening = 4.0},
   };
   return all;
@@ -158,7 +160,7 @@ dem::ShearCellProtocol protocol(const CellCase& c) {
           .measure = {}};
 }
 
-// --- The staged preparation (cement_load15) ---------------------------------------------------
+// --- The staged preparation (cement_load10, cement_load15) -------------------------------------
 // A soft run goes on at the next stiffness through dem::ShearCellRun::with_interactions (the
 // same state, every contact's dashpot and the time step worked out again from the new contacts).
 

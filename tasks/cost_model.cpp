@@ -55,7 +55,8 @@ TaskCost cell_task_cost(const ShearCellSize& size) {
   cost.particles = static_cast<double>(size.media + size.powder + size.wall_balls);
   cost.steps = size.compaction_steps + size.shear_steps;
   cost.steps_at_caps = size.compaction_steps + size.shear_steps_at_caps;
-  const double throughput = cell_throughput(size.powder > 0 ? size.powder_load : 0.0);
+  const double throughput =
+      cell_throughput(size.powder > 0 ? size.powder_load : 0.0, size.powder_diameter_ratio);
   const double compaction = cost.particles * size.compaction_steps / kCompactionThroughput;
   cost.core_seconds = compaction + cost.particles * size.shear_steps / throughput;
   cost.core_seconds_at_caps = compaction + cost.particles * size.shear_steps_at_caps / throughput;
@@ -120,11 +121,21 @@ double macro_throughput(double balls) {
                             kMacroThroughput, kLargeMillThroughput);
 }
 
-double cell_throughput(double powder_load) {
+double cell_throughput(double powder_load, double powder_diameter_ratio) {
   if (powder_load <= 0.0) return kMediaCellThroughput;
-  return throughput_between(
-      (powder_load - kPowderVoidsFilledLoad) / (kDensePowderLoad - kPowderVoidsFilledLoad),
-      kPowderCellThroughput, kDensePowderCellThroughput);
+  const auto fraction = [](double x, double from, double to) { return (x - from) / (to - from); };
+  const double above_voids_filled = fraction(powder_load, kPowderVoidsFilledLoad, kDensePowderLoad);
+  const double fine =
+      powder_load <= kPowderVoidsFilledLoad
+          ? throughput_between(fraction(powder_load, kPowderCellLoad, kPowderVoidsFilledLoad),
+                               kPowderCellThroughput, kFilledVoidsFinePowderThroughput)
+          : throughput_between(above_voids_filled, kFilledVoidsFinePowderThroughput,
+                               kDensePowderCellThroughput);
+  const double coarse =
+      throughput_between(above_voids_filled, kPowderCellThroughput, kDensePowderCellThroughput);
+  return throughput_between(fraction(std::log(powder_diameter_ratio), std::log(kFinePowderRatio),
+                                     std::log(kCoarsePowderRatio)),
+                            fine, coarse);
 }
 
 MacroRunSize macro_run_size(const json& macro_params) {
@@ -183,6 +194,7 @@ ShearCellSize shear_cell_size(const json& cell_params, const json& site) {
   size.media = population.media;
   size.powder = population.powder;
   size.powder_load = setup.powder_load;
+  size.powder_diameter_ratio = setup.powder_diameter_ratio;
   size.wall_balls = population.wall_balls;
   const bool walls = setup.boundary == dem::ShearCellSetup::Boundary::RoughWalls;
   const double media_mass = setup.media.density * util::sphere_volume_of_diameter(d);

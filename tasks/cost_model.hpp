@@ -56,19 +56,28 @@ inline constexpr double kLargeMillBalls = 17000.0;
 // runs 4.97 M; the campaigns' media cells are small (131-303 balls) and mostly collisional, so
 // quick's figure stays (docs/cost_model.md says what the dense figure would add).
 inline constexpr double kMediaCellThroughput = 12.3e6;
-// A shear cell of balls and powder at a powder load U <= kPowderVoidsFilledLoad (the powder in
-// the media's voids): bench_cells' cement_load05 (38,322 particles, 0.30 contacts per particle,
-// steady, quiet machine: 12.5 M; quick.json's own 647-particle cell at load 1, 7.6 M loaded x 687
-// / 1158 = 12.8 M, agrees within 3%).
+// A shear cell of balls and powder: a step costs more as the powder's contacts grow, with the
+// powder load U and with how fine the powder is (d_p / d). Two measured families:
+// - fine powder, d_p / d = kFinePowderRatio (the cement campaign's cells in bench_cells, steady,
+//   quiet machine, 1 thread): kPowderCellThroughput at U = kPowderCellLoad (cement_load05, 38,322
+//   particles, 0.30 contacts per particle), kFilledVoidsFinePowderThroughput at U =
+//   kPowderVoidsFilledLoad (cement_load10, 76,340 particles, 1.56 contacts per particle: 5.28 M on
+//   5 December) and kDensePowderCellThroughput at U = kDensePowderLoad (cement_load15, 114,359
+//   particles, 2.22 contacts per particle: 4.18 M on 5 December, 3.62 M on 2 December before the
+//   pair pass asked for its particles ahead and the spring's turn became a series);
+// - coarse powder, d_p / d = kCoarsePowderRatio (quick.json's cells): kPowderCellThroughput up to
+//   U = kPowderVoidsFilledLoad (its own 647-particle cell at load 1 ran at 7.6 M loaded x 687 /
+//   1158 = 12.8 M), then toward kDensePowderCellThroughput at kDensePowderLoad (not measured).
+// Between the loads, and between the two ratios in log(d_p / d), the cost per particle-step is
+// interpolated; outside them, the nearer figure.
 inline constexpr double kPowderCellThroughput = 12.5e6;
-inline constexpr double kPowderVoidsFilledLoad = 1.0;
-// At U = kDensePowderLoad (the powder overfilling the voids, a dense powder network):
-// bench_cells' cement_load15 (114,359 particles, steady, 1 thread; 4.18 M on 5 December, 3.62 M
-// on 2 December before the pair pass asked for its particles ahead and the spring's turn became
-// a series). Between the two loads the cost per particle-step is interpolated linearly in U;
-// above, this figure.
+inline constexpr double kPowderCellLoad = 0.5;
+inline constexpr double kFilledVoidsFinePowderThroughput = 5.28e6;
+inline constexpr double kPowderVoidsFilledLoad = 1.0;  // the powder just fills the media's voids
 inline constexpr double kDensePowderCellThroughput = 4.18e6;
 inline constexpr double kDensePowderLoad = 1.5;
+inline constexpr double kFinePowderRatio = 0.125;
+inline constexpr double kCoarsePowderRatio = 0.5;
 // A cell's compaction: a loose fill, few contacts (the constant also absorbs the model's error
 // in its steps, the bed carrying half the target before it is as dense as assumed).
 inline constexpr double kCompactionThroughput = 56.0e6;
@@ -76,9 +85,9 @@ inline constexpr double kCompactionThroughput = 56.0e6;
 inline constexpr double kCompactedSolidFraction = 0.64;
 
 // The throughputs above as the model uses them: a macro run of `balls`, a cell of balls only
-// (powder_load 0) or with powder at `powder_load`.
+// (powder_load 0) or with powder at `powder_load` of `powder_diameter_ratio` (d_p / d).
 double macro_throughput(double balls);
-double cell_throughput(double powder_load);
+double cell_throughput(double powder_load, double powder_diameter_ratio);
 
 struct TaskCost {
   double particles = 0.0;
@@ -104,7 +113,8 @@ nlohmann::json typical_site(const nlohmann::json& macro_params, const std::strin
 // A shear cell of shear_cell-task parameters at a site ({shear_rate_per_s, normal_stress_pa}).
 struct ShearCellSize {
   std::size_t media = 0, powder = 0, wall_balls = 0;
-  double powder_load = 0.0;  // U of the setup (the throughput's key)
+  double powder_load = 0.0;            // U of the setup (the throughput's keys:
+  double powder_diameter_ratio = 0.0;  // U and d_p / d)
   double time_step_s = 0.0;
   double compaction_steps = 0.0;
   double shear_steps = 0.0, shear_steps_at_caps = 0.0;

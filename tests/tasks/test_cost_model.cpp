@@ -45,6 +45,7 @@ void expect_cell_inputs_match(const json& params, const json& site) {
   EXPECT_EQ(size.powder, cell.powder_count());
   EXPECT_EQ(size.wall_balls, cell.wall_ball_count());
   EXPECT_EQ(size.powder_load, cell.setup().powder_load);
+  EXPECT_EQ(size.powder_diameter_ratio, cell.setup().powder_diameter_ratio);
   EXPECT_DOUBLE_EQ(size.time_step_s, cell.system().time_step());
   EXPECT_GT(size.compaction_steps, 0.0);
   EXPECT_GT(size.shear_steps_at_caps, size.shear_steps);
@@ -112,23 +113,42 @@ TEST(CostModel, AStiffCellPaysForItsShorterContacts) {
               0.5 * tasks::shear_cell_size(plain, site).time_step_s, 1e-12);
 }
 
-// The throughputs are the benches' at the loads and ball counts they were measured at, and the
-// cost per particle-step lies between them elsewhere.
+// The throughputs are the benches' at the loads, powder sizes and ball counts they were measured
+// at, and the cost per particle-step lies between them elsewhere.
 TEST(CostModel, ThroughputsAreTheMeasuredOnesAtTheirScenes) {
-  EXPECT_EQ(tasks::cell_throughput(0.0), tasks::kMediaCellThroughput);
-  EXPECT_DOUBLE_EQ(tasks::cell_throughput(0.5), tasks::kPowderCellThroughput);
-  EXPECT_DOUBLE_EQ(tasks::cell_throughput(tasks::kPowderVoidsFilledLoad),
-                   tasks::kPowderCellThroughput);
-  EXPECT_DOUBLE_EQ(tasks::cell_throughput(tasks::kDensePowderLoad),
-                   tasks::kDensePowderCellThroughput);
-  const double mid = 0.5 * (tasks::kPowderVoidsFilledLoad + tasks::kDensePowderLoad);
-  EXPECT_DOUBLE_EQ(1.0 / tasks::cell_throughput(mid),
-                   0.5 / tasks::kPowderCellThroughput + 0.5 / tasks::kDensePowderCellThroughput);
-  EXPECT_DOUBLE_EQ(tasks::macro_throughput(415.0), tasks::kMacroThroughput);
-  EXPECT_DOUBLE_EQ(tasks::macro_throughput(tasks::kLargeMillBalls), tasks::kLargeMillThroughput);
+  using namespace tasks;
+  EXPECT_EQ(cell_throughput(0.0, kFinePowderRatio), kMediaCellThroughput);
+  // The fine powder's three cells (bench_cells' cement_load05, 10 and 15).
+  EXPECT_DOUBLE_EQ(cell_throughput(kPowderCellLoad, kFinePowderRatio), kPowderCellThroughput);
+  EXPECT_DOUBLE_EQ(cell_throughput(kPowderVoidsFilledLoad, kFinePowderRatio),
+                   kFilledVoidsFinePowderThroughput);
+  EXPECT_DOUBLE_EQ(cell_throughput(kDensePowderLoad, kFinePowderRatio), kDensePowderCellThroughput);
+  EXPECT_DOUBLE_EQ(1.0 / cell_throughput(0.75, kFinePowderRatio),
+                   0.5 / kPowderCellThroughput + 0.5 / kFilledVoidsFinePowderThroughput);
+  // The coarse powder's cell at load 1 (quick.json's own run), and finer than the fine family.
+  EXPECT_DOUBLE_EQ(cell_throughput(kPowderVoidsFilledLoad, kCoarsePowderRatio),
+                   kPowderCellThroughput);
+  EXPECT_DOUBLE_EQ(cell_throughput(kDensePowderLoad, kCoarsePowderRatio),
+                   kDensePowderCellThroughput);
+  EXPECT_DOUBLE_EQ(cell_throughput(kPowderVoidsFilledLoad, 0.05), kFilledVoidsFinePowderThroughput);
+  // Between the two powder sizes, in log(d_p / d): d_p / d = 0.25 is half way.
+  EXPECT_DOUBLE_EQ(1.0 / cell_throughput(kPowderVoidsFilledLoad, 0.25),
+                   0.5 / kFilledVoidsFinePowderThroughput + 0.5 / kPowderCellThroughput);
+  EXPECT_DOUBLE_EQ(macro_throughput(415.0), kMacroThroughput);
+  EXPECT_DOUBLE_EQ(macro_throughput(kLargeMillBalls), kLargeMillThroughput);
   const double balls = 8454.0;  // the cement campaign's smallest charge
-  EXPECT_LT(tasks::macro_throughput(balls), tasks::kMacroThroughput);
-  EXPECT_GT(tasks::macro_throughput(balls), tasks::kLargeMillThroughput);
+  EXPECT_LT(macro_throughput(balls), kMacroThroughput);
+  EXPECT_GT(macro_throughput(balls), kLargeMillThroughput);
+}
+
+// The two powder families are the example campaigns' own powders.
+TEST(CostModel, PowderFamiliesAreTheCampaignsPowders) {
+  const auto ratio = [](const char* file) {
+    return first_point(file)["shear_cell"]["powder"]["diameter_ratio"].get<double>();
+  };
+  EXPECT_EQ(ratio("campaigns/cement_ball_mill.json"), tasks::kFinePowderRatio);
+  EXPECT_EQ(ratio("campaigns/paper_demo.json"), tasks::kFinePowderRatio);
+  EXPECT_EQ(ratio("campaigns/quick.json"), tasks::kCoarsePowderRatio);
 }
 
 TEST(CostModel, ShearStepsAreTheStrainsOverTheStrainPerStep) {
