@@ -113,8 +113,9 @@ nlohmann::json typical_site(const nlohmann::json& macro_params, const std::strin
 // A shear cell of shear_cell-task parameters at a site ({shear_rate_per_s, normal_stress_pa}).
 struct ShearCellSize {
   std::size_t media = 0, powder = 0, wall_balls = 0;
-  double powder_load = 0.0;            // U of the setup (the throughput's keys:
-  double powder_diameter_ratio = 0.0;  // U and d_p / d)
+  // The setup's U and d_p / d: the throughput's keys.
+  double powder_load = 0.0;
+  double powder_diameter_ratio = 0.0;
   double time_step_s = 0.0;
   double compaction_steps = 0.0;
   double shear_steps = 0.0, shear_steps_at_caps = 0.0;
