@@ -107,6 +107,15 @@ std::string range(double low, double high) {
   return engineering(low) + " - " + engineering(high);
 }
 
+// How far x lies of the way from `from` to `to` (0 at from, 1 at to; not clamped), in x and in
+// log(x).
+double fraction(double x, double from, double to) {
+  return (x - from) / (to - from);
+}
+double log_fraction(double x, double from, double to) {
+  return std::log(x / from) / std::log(to / from);
+}
+
 // The throughput a fraction t (clamped to [0, 1]) of the way from `from` to `to`, interpolating
 // the cost per particle-step (1 / throughput), not the throughput.
 double throughput_between(double t, double from, double to) {
@@ -117,13 +126,12 @@ double throughput_between(double t, double from, double to) {
 }  // namespace
 
 double macro_throughput(double balls) {
-  return throughput_between(std::log(balls / kMacroBalls) / std::log(kLargeMillBalls / kMacroBalls),
-                            kMacroThroughput, kLargeMillThroughput);
+  return throughput_between(log_fraction(balls, kMacroBalls, kLargeMillBalls), kMacroThroughput,
+                            kLargeMillThroughput);
 }
 
 double cell_throughput(double powder_load, double powder_diameter_ratio) {
   if (powder_load <= 0.0) return kMediaCellThroughput;
-  const auto fraction = [](double x, double from, double to) { return (x - from) / (to - from); };
   const double above_voids_filled = fraction(powder_load, kPowderVoidsFilledLoad, kDensePowderLoad);
   const double fine =
       powder_load <= kPowderVoidsFilledLoad
@@ -133,9 +141,8 @@ double cell_throughput(double powder_load, double powder_diameter_ratio) {
                                kDensePowderCellThroughput);
   const double coarse =
       throughput_between(above_voids_filled, kPowderCellThroughput, kDensePowderCellThroughput);
-  return throughput_between(fraction(std::log(powder_diameter_ratio), std::log(kFinePowderRatio),
-                                     std::log(kCoarsePowderRatio)),
-                            fine, coarse);
+  return throughput_between(
+      log_fraction(powder_diameter_ratio, kFinePowderRatio, kCoarsePowderRatio), fine, coarse);
 }
 
 MacroRunSize macro_run_size(const json& macro_params) {
