@@ -6,6 +6,9 @@
 //                   clinker powder of 0.125 d, 6 x 8 x 6 d, Lees-Edwards) at powder load 0.5
 //   cement_load10   the same at powder load 1 (the powder just filling the media's voids)
 //   cement_load15   the same at powder load 1.5
+//   cement_load05_d025 ... cement_load15_d05
+//                   the same with a coarser powder, 0.25 d or 0.5 d (quick.json's size), at each
+//                   load: with the three above, the grid of the cost model (tasks/cost_model.hpp)
 // All at a site of shear rate 2 1/s (a few per second is what the cement mill's sites see) and
 // normal stress 100 kPa (the lower part of its charge); at 20 kPa, and at 10 1/s, compaction
 // stops in a hot dilute state that the barostat takes strains to close. Every scene is built by the
@@ -95,6 +98,7 @@ Options g_options;
 struct CellCase {
   std::string name;
   double powder_load = 0.0;
+  double powder_diameter_ratio = 0.0;   // d_p / d; 0: the campaign's (kCampaignPowderRatio)
   bool media_only_small_balls = false;  // le_media_2000
   std::size_t default_steps = 0;
   double warmup_strain = 0.05;  // the media cell, cheap, runs to a denser state
@@ -116,22 +120,44 @@ struct CellCase {
   double max_real_strain = 0.3;
 };
 
+// The campaign's powder, d_p / d; the coarser scenes' steps scale with its particle volume.
+constexpr double kCampaignPowderRatio = 0.125;
+
 const std::vector<CellCase>& cases() {
-  static const std::vector<CellCase> all{
-      {.name = "le_media_2000",
-       .media_only_small_balls = true,
-       .default_steps = 400,
-       .warmup_strain = 1.0},
-      {.name = "cement_load05", .powder_load = 0.5, .default_steps = 40},
-      // Its shear stress wanders with a period of about 0.1 strain (docs/benchmarks.md).
-      {.name = "cement_load10",
-       .powder_load = 1.0,
-       .default_steps = 20,
-       .powder_softening = 4.0,
-       .steady_window_strain = 0.03,
-       .max_real_strain = 0.6},
-      {.name = "cement_load15", .powder_load = 1.5, .default_steps = 20, .powder_softening = 4.0},
-  };
+  static const std::vector<CellCase> all = [] {
+    std::vector<CellCase> scenes{
+        {.name = "le_media_2000",
+         .media_only_small_balls = true,
+         .default_steps = 400,
+         .warmup_strain = 1.0},
+        {.name = "cement_load05", .powder_load = 0.5, .default_steps = 40},
+        // Its shear stress wanders with a period of about 0.1 strain (docs/benchmarks.md).
+        {.name = "cement_load10",
+         .powder_load = 1.0,
+         .default_steps = 20,
+         .powder_softening = 4.0,
+         .steady_window_strain = 0.03,
+         .max_real_strain = 0.6},
+        {.name = "cement_load15", .powder_load = 1.5, .default_steps = 20, .powder_softening = 4.0},
+    };
+    // The cement cells again with coarser powders, 0.25 d and 0.5 d (quick.json's size), each
+    // prepared as the fine powder's scene at its load: the cost model's grid
+    // (tasks/cost_model.hpp). Named by the ratio's digits: cement_load10_d025.
+    const std::vector<CellCase> fine(scenes.begin() + 1, scenes.end());
+    for (const double ratio : {0.25, 0.5}) {
+      for (const CellCase& c : fine) {
+        CellCase coarser = c;
+        std::string digits = fmt::format("{}", ratio);
+        std::erase(digits, '.');
+        coarser.name += "_d" + digits;
+        coarser.powder_diameter_ratio = ratio;
+        coarser.default_steps *=
+            static_cast<std::size_t>(std::lround(std::pow(ratio / kCampaignPowderRatio, 3)));
+        scenes.push_back(std::move(coarser));
+      }
+    }
+    return scenes;
+  }();
   return all;
 }
 
@@ -142,6 +168,7 @@ dem::ShearCellSetup setup_of(const CellCase& c) {
   campaign.erase("sweep");
   json& cell = campaign["shear_cell"];
   cell["powder"]["load"] = c.powder_load;
+  if (c.powder_diameter_ratio > 0.0) cell["powder"]["diameter_ratio"] = c.powder_diameter_ratio;
   if (c.media_only_small_balls) {
     // 2000 balls of 10 mm at phi = 0.58: a cube of (2000 pi / 6 / 0.58)^(1/3) = 12.18 d.
     campaign["media"]["diameter"] = 0.01;

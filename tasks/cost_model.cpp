@@ -130,19 +130,30 @@ double macro_throughput(double balls) {
                             kLargeMillThroughput);
 }
 
+namespace {
+
+// The throughput of values[k] measured at grid[k] (ascending), at x: the cost per particle-step
+// interpolated in position(x, from, to) between the two points around x; outside, the nearer.
+template <class Values, class Position>
+double throughput_on_grid(double x, const std::array<double, 3>& grid, const Values& values,
+                          Position position) {
+  std::size_t k = 1;
+  while (k + 1 < grid.size() && x > grid[k]) ++k;
+  return throughput_between(position(x, grid[k - 1], grid[k]), values(k - 1), values(k));
+}
+
+}  // namespace
+
 double cell_throughput(double powder_load, double powder_diameter_ratio) {
   if (powder_load <= 0.0) return kMediaCellThroughput;
-  const double above_voids_filled = fraction(powder_load, kPowderVoidsFilledLoad, kDensePowderLoad);
-  const double fine =
-      powder_load <= kPowderVoidsFilledLoad
-          ? throughput_between(fraction(powder_load, kPowderCellLoad, kPowderVoidsFilledLoad),
-                               kPowderCellThroughput, kFilledVoidsFinePowderThroughput)
-          : throughput_between(above_voids_filled, kFilledVoidsFinePowderThroughput,
-                               kDensePowderCellThroughput);
-  const double coarse =
-      throughput_between(above_voids_filled, kPowderCellThroughput, kDensePowderCellThroughput);
-  return throughput_between(
-      log_fraction(powder_diameter_ratio, kFinePowderRatio, kCoarsePowderRatio), fine, coarse);
+  const auto at_load = [&](std::size_t family) {
+    const std::array<double, 3>& measured = kPowderFamilies[family].throughput;
+    return throughput_on_grid(
+        powder_load, kPowderLoads, [&](std::size_t k) { return measured[k]; }, fraction);
+  };
+  std::array<double, 3> ratios{};
+  for (std::size_t f = 0; f < ratios.size(); ++f) ratios[f] = kPowderFamilies[f].diameter_ratio;
+  return throughput_on_grid(powder_diameter_ratio, ratios, at_load, log_fraction);
 }
 
 MacroRunSize macro_run_size(const json& macro_params) {

@@ -26,6 +26,7 @@
 // stress = b x rho_media x g x D x J, a and b per region measured on quick.json's sites.
 // average, sites, upscale and report have no model (seconds each; the ETA takes their kind's
 // mean task time).
+#include <array>
 #include <functional>
 #include <map>
 #include <optional>
@@ -57,27 +58,29 @@ inline constexpr double kLargeMillBalls = 17000.0;
 // quick's figure stays (docs/cost_model.md says what the dense figure would add).
 inline constexpr double kMediaCellThroughput = 12.3e6;
 // A shear cell of balls and powder: a step costs more as the powder's contacts grow, with the
-// powder load U and with how fine the powder is (d_p / d). Two measured families:
-// - fine powder, d_p / d = kFinePowderRatio (the cement campaign's cells in bench_cells, steady,
-//   quiet machine, 1 thread): kPowderCellThroughput at U = kPowderCellLoad (cement_load05, 38,322
-//   particles, 0.30 contacts per particle), kFilledVoidsFinePowderThroughput at U =
-//   kPowderVoidsFilledLoad (cement_load10, 76,340 particles, 1.56 contacts per particle: 5.28 M on
-//   5 December) and kDensePowderCellThroughput at U = kDensePowderLoad (cement_load15, 114,359
-//   particles, 2.22 contacts per particle: 4.18 M on 5 December, 3.62 M on 2 December before the
-//   pair pass asked for its particles ahead and the spring's turn became a series);
-// - coarse powder, d_p / d = kCoarsePowderRatio (quick.json's cells): kPowderCellThroughput up to
-//   U = kPowderVoidsFilledLoad (its own 647-particle cell at load 1 ran at 7.6 M loaded x 687 /
-//   1158 = 12.8 M), then toward kDensePowderCellThroughput at kDensePowderLoad (not measured).
-// Between the loads, and between the two ratios in log(d_p / d), the cost per particle-step is
+// powder load U and with how fine the powder is (d_p / d). Three families of powder size, each at
+// the loads kPowderLoads (docs/cost_model.md gives every figure's run):
+// - fine, 0.125 d (the cement campaign's): bench_cells' cement_load05, cement_load10 and
+//   cement_load15 (38,322 to 114,359 particles, 0.30 to 2.22 contacts per particle), steady, quiet
+//   machine;
+// - 0.25 d: bench_cells' cement_load05_d025, 10_d025 and 15_d025 (5,055 to 14,560 particles): the
+//   fine family's figure at each load times the median ratio of the two cells' throughputs timed
+//   in the same rounds (the host's speed varies from hour to hour);
+// - coarse, 0.5 d (quick.json's): quick.json's own 647-particle cell at load 1 (7.6 M loaded x
+//   687 / 1158 = 12.8 M) and cement_load05 agree at 12.5 M, taken up to load 1; at 1.5 the figure
+//   at 1 times what bench_cells' cement_load15_d05 and 10_d05 gave in the same rounds.
+// Between the loads, and between the families in log(d_p / d), the cost per particle-step is
 // interpolated; outside them, the nearer figure.
-inline constexpr double kPowderCellThroughput = 12.5e6;
-inline constexpr double kPowderCellLoad = 0.5;
-inline constexpr double kFilledVoidsFinePowderThroughput = 5.28e6;
-inline constexpr double kPowderVoidsFilledLoad = 1.0;  // the powder just fills the media's voids
-inline constexpr double kDensePowderCellThroughput = 4.18e6;
-inline constexpr double kDensePowderLoad = 1.5;
-inline constexpr double kFinePowderRatio = 0.125;
-inline constexpr double kCoarsePowderRatio = 0.5;
+inline constexpr std::array<double, 3> kPowderLoads = {0.5, 1.0, 1.5};
+struct PowderFamily {
+  double diameter_ratio = 0.0;            // d_p / d
+  std::array<double, 3> throughput = {};  // at kPowderLoads
+};
+inline constexpr std::array<PowderFamily, 3> kPowderFamilies = {{
+    {.diameter_ratio = 0.125, .throughput = {12.5e6, 5.28e6, 4.18e6}},
+    {.diameter_ratio = 0.25, .throughput = {15.0e6, 11.3e6, 6.60e6}},
+    {.diameter_ratio = 0.5, .throughput = {12.5e6, 12.5e6, 11.4e6}},
+}};
 // A cell's compaction: a loose fill, few contacts (the constant also absorbs the model's error
 // in its steps, the bed carrying half the target before it is as dense as assumed).
 inline constexpr double kCompactionThroughput = 56.0e6;

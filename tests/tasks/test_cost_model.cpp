@@ -3,6 +3,7 @@
 // cells' own code at a site), and the per-kind estimate of a plan.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 
 #include "dem/mill_setup.hpp"
@@ -117,23 +118,31 @@ TEST(CostModel, AStiffCellPaysForItsShorterContacts) {
 // at, and the cost per particle-step lies between them elsewhere.
 TEST(CostModel, ThroughputsAreTheMeasuredOnesAtTheirScenes) {
   using namespace tasks;
-  EXPECT_EQ(cell_throughput(0.0, kFinePowderRatio), kMediaCellThroughput);
-  // The fine powder's three cells (bench_cells' cement_load05, 10 and 15).
-  EXPECT_DOUBLE_EQ(cell_throughput(kPowderCellLoad, kFinePowderRatio), kPowderCellThroughput);
-  EXPECT_DOUBLE_EQ(cell_throughput(kPowderVoidsFilledLoad, kFinePowderRatio),
-                   kFilledVoidsFinePowderThroughput);
-  EXPECT_DOUBLE_EQ(cell_throughput(kDensePowderLoad, kFinePowderRatio), kDensePowderCellThroughput);
-  EXPECT_DOUBLE_EQ(1.0 / cell_throughput(0.75, kFinePowderRatio),
-                   0.5 / kPowderCellThroughput + 0.5 / kFilledVoidsFinePowderThroughput);
-  // The coarse powder's cell at load 1 (quick.json's own run), and finer than the fine family.
-  EXPECT_DOUBLE_EQ(cell_throughput(kPowderVoidsFilledLoad, kCoarsePowderRatio),
-                   kPowderCellThroughput);
-  EXPECT_DOUBLE_EQ(cell_throughput(kDensePowderLoad, kCoarsePowderRatio),
-                   kDensePowderCellThroughput);
-  EXPECT_DOUBLE_EQ(cell_throughput(kPowderVoidsFilledLoad, 0.05), kFilledVoidsFinePowderThroughput);
-  // Between the two powder sizes, in log(d_p / d): d_p / d = 0.25 is half way.
-  EXPECT_DOUBLE_EQ(1.0 / cell_throughput(kPowderVoidsFilledLoad, 0.25),
-                   0.5 / kFilledVoidsFinePowderThroughput + 0.5 / kPowderCellThroughput);
+  const PowderFamily& fine = kPowderFamilies.front();
+  const PowderFamily& coarse = kPowderFamilies.back();
+  EXPECT_EQ(cell_throughput(0.0, fine.diameter_ratio), kMediaCellThroughput);
+  // Each family's cells (bench_cells' cement_load05 ... cement_load15_d05).
+  for (const PowderFamily& family : kPowderFamilies) {
+    for (std::size_t k = 0; k < kPowderLoads.size(); ++k) {
+      EXPECT_DOUBLE_EQ(cell_throughput(kPowderLoads[k], family.diameter_ratio),
+                       family.throughput[k])
+          << family.diameter_ratio << " at " << kPowderLoads[k];
+    }
+  }
+  // Between two loads, linear in the load; outside them, the nearer figure.
+  EXPECT_DOUBLE_EQ(1.0 / cell_throughput(0.75, fine.diameter_ratio),
+                   0.5 / fine.throughput[0] + 0.5 / fine.throughput[1]);
+  EXPECT_DOUBLE_EQ(1.0 / cell_throughput(1.25, coarse.diameter_ratio),
+                   0.5 / coarse.throughput[1] + 0.5 / coarse.throughput[2]);
+  EXPECT_DOUBLE_EQ(cell_throughput(0.2, fine.diameter_ratio), fine.throughput[0]);
+  EXPECT_DOUBLE_EQ(cell_throughput(2.0, coarse.diameter_ratio), coarse.throughput[2]);
+  // Between two sizes, linear in log(d_p / d); outside them, the nearer family.
+  const PowderFamily& middle = kPowderFamilies[1];
+  EXPECT_DOUBLE_EQ(
+      1.0 / cell_throughput(1.0, std::sqrt(middle.diameter_ratio * coarse.diameter_ratio)),
+      0.5 / middle.throughput[1] + 0.5 / coarse.throughput[1]);
+  EXPECT_DOUBLE_EQ(cell_throughput(1.5, 0.05), fine.throughput[2]);
+  EXPECT_DOUBLE_EQ(cell_throughput(0.5, 0.9), coarse.throughput[0]);
   EXPECT_DOUBLE_EQ(macro_throughput(415.0), kMacroThroughput);
   EXPECT_DOUBLE_EQ(macro_throughput(kLargeMillBalls), kLargeMillThroughput);
   const double balls = 8454.0;  // the cement campaign's smallest charge
@@ -141,14 +150,15 @@ TEST(CostModel, ThroughputsAreTheMeasuredOnesAtTheirScenes) {
   EXPECT_GT(macro_throughput(balls), kLargeMillThroughput);
 }
 
-// The two powder families are the example campaigns' own powders.
+// The fine and the coarse families are the example campaigns' own powders.
 TEST(CostModel, PowderFamiliesAreTheCampaignsPowders) {
   const auto ratio = [](const char* file) {
     return first_point(file)["shear_cell"]["powder"]["diameter_ratio"].get<double>();
   };
-  EXPECT_EQ(ratio("campaigns/cement_ball_mill.json"), tasks::kFinePowderRatio);
-  EXPECT_EQ(ratio("campaigns/paper_demo.json"), tasks::kFinePowderRatio);
-  EXPECT_EQ(ratio("campaigns/quick.json"), tasks::kCoarsePowderRatio);
+  EXPECT_EQ(ratio("campaigns/cement_ball_mill.json"),
+            tasks::kPowderFamilies.front().diameter_ratio);
+  EXPECT_EQ(ratio("campaigns/paper_demo.json"), tasks::kPowderFamilies.front().diameter_ratio);
+  EXPECT_EQ(ratio("campaigns/quick.json"), tasks::kPowderFamilies.back().diameter_ratio);
 }
 
 TEST(CostModel, ShearStepsAreTheStrainsOverTheStrainPerStep) {
