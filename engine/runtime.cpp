@@ -27,8 +27,9 @@ struct Node {
   int waiting_on = 0;  // upstream tasks not done yet
   std::vector<std::string> downstream;
   int attempts_this_run = 0;
-  bool held = false;                                     // beyond --until: stays pending
-  std::optional<nlohmann::json> result;                  // loaded when a downstream task needs it
+  bool held = false;                     // beyond --until: stays pending
+  std::optional<nlohmann::json> result;  // loaded when a downstream task needs it
+  bool skipped_its_work = false;         // done or cached, and its result says so (RunSummary)
   std::optional<std::vector<StoredArtifact>> artifacts;  // likewise
   std::optional<double> cost_s;  // its kind's cost model (engine/task.hpp), for the ETA
 };
@@ -268,6 +269,7 @@ class Coordinator {
     const CacheDecision decision = judge_.decide(node.spec, stored);
     if (decision.cached()) {
       node.state = State::cached;
+      node.skipped_its_work = stored->skipped_its_work;
       for (const auto& child : stored->children) admit_stored(child);
       return;
     }
@@ -530,6 +532,7 @@ class Coordinator {
                            event.duration_s);
     node.state = State::done;
     node.result = std::move(event.outcome.result);
+    node.skipped_its_work = node.result->is_object() && node.result->contains("skipped");
     node.artifacts = std::move(event.stored);
     ++done_;
     report(event.key, skipped_its_work(node)
@@ -658,11 +661,9 @@ class Coordinator {
     return snapshot;
   }
 
-  // Done (or cached), but its result says it skipped its work (RunSummary). Cached tasks are
-  // known only once their result was read (as the input of a task that ran).
+  // Done (or cached), but its result says it skipped its work (RunSummary).
   static bool skipped_its_work(const Node& node) {
-    return (node.state == State::done || node.state == State::cached) && node.result &&
-           node.result->is_object() && node.result->contains("skipped");
+    return (node.state == State::done || node.state == State::cached) && node.skipped_its_work;
   }
 
   RunSummary summarize() const {

@@ -315,18 +315,40 @@ std::optional<StoredCampaign> find_campaign(sql::Connection& db, const std::stri
   return StoredCampaign{row.text(0), row.text(1), nlohmann::json::parse(row.text(2))};
 }
 
+namespace {
+
+// A task's status as shown (t: tasks, r: results): "skipped" for a done task whose result says
+// it skipped its work.
+constexpr std::string_view kShownStatus =
+    "CASE WHEN t.status = 'done' AND json_extract(r.result, '$.skipped') IS NOT NULL THEN "
+    "'skipped' ELSE t.status END";
+
+// A stored task's columns (t: tasks, r: results), from column `first` on: what StoredTask holds
+// but its artifacts and children.
+constexpr std::string_view kStoredTaskColumns =
+    "t.status, t.attempts, coalesce(t.error, ''), r.task_key IS NOT NULL, "
+    "json_extract(r.result, '$.skipped') IS NOT NULL";
+StoredTask stored_task_from(sql::Statement& row, int first) {
+  return StoredTask{.status = task_status_from(row.text(first)),
+                    .attempts = static_cast<int>(row.integer(first + 1)),
+                    .error = row.text(first + 2),
+                    .has_result = row.integer(first + 3) != 0,
+                    .skipped_its_work = row.integer(first + 4) != 0,
+                    .artifacts = {},
+                    .children = {}};
+}
+
+}  // namespace
+
 std::optional<StoredTask> find_stored_task(sql::Connection& db, const std::string& key) {
-  auto row = db.prepare(
-      "SELECT t.status, t.attempts, coalesce(t.error, ''), r.task_key IS NOT NULL FROM tasks t "
-      "LEFT JOIN results r ON r.task_key = t.key WHERE t.key = ?");
+  auto row = db.prepare(fmt::format(
+      "SELECT {} FROM tasks t LEFT JOIN results r ON r.task_key = t.key WHERE t.key = ?",
+      kStoredTaskColumns));
   row.bind_all(key);
   if (!row.step()) return std::nullopt;
-  StoredTask task{.status = task_status_from(row.text(0)),
-                  .attempts = static_cast<int>(row.integer(1)),
-                  .error = row.text(2),
-                  .has_result = row.integer(3) != 0,
-                  .artifacts = find_artifacts(db, key),
-                  .children = child_keys(db, key)};
+  StoredTask task = stored_task_from(row, 0);
+  task.artifacts = find_artifacts(db, key);
+  task.children = child_keys(db, key);
   return task;
 }
 
@@ -334,18 +356,11 @@ std::unordered_map<std::string, StoredTask> find_campaign_tasks(sql::Connection&
                                                                 std::int64_t campaign) {
   std::unordered_map<std::string, StoredTask> tasks;
   auto rows = db.prepare(
-      "SELECT t.key, t.status, t.attempts, coalesce(t.error, ''), r.task_key IS NOT NULL "
-      "FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
-      "LEFT JOIN results r ON r.task_key = t.key WHERE ct.campaign_id = ?");
+      fmt::format("SELECT t.key, {} FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
+                  "LEFT JOIN results r ON r.task_key = t.key WHERE ct.campaign_id = ?",
+                  kStoredTaskColumns));
   rows.bind_all(campaign);
-  while (rows.step()) {
-    tasks.emplace(rows.text(0), StoredTask{.status = task_status_from(rows.text(1)),
-                                           .attempts = static_cast<int>(rows.integer(2)),
-                                           .error = rows.text(3),
-                                           .has_result = rows.integer(4) != 0,
-                                           .artifacts = {},
-                                           .children = {}});
-  }
+  while (rows.step()) tasks.emplace(rows.text(0), stored_task_from(rows, 1));
   auto artifacts = db.prepare(
       "SELECT a.task_key, a.name, a.sha256, a.size FROM campaign_tasks ct JOIN artifacts a ON "
       "a.task_key = ct.task_key WHERE ct.campaign_id = ? ORDER BY a.task_key, a.name");
@@ -598,12 +613,6 @@ void Store::clear_coordinator() {
 }
 
 namespace {
-
-// A task's status as shown (t: tasks, r: results): "skipped" for a done task whose result says
-// it skipped its work.
-constexpr std::string_view kShownStatus =
-    "CASE WHEN t.status = 'done' AND json_extract(r.result, '$.skipped') IS NOT NULL THEN "
-    "'skipped' ELSE t.status END";
 
 TextTable read_text_table(sql::Statement& statement) {
   TextTable table;

@@ -122,6 +122,7 @@ struct StoredTask {
   int attempts = 0;
   std::string error;
   bool has_result = false;
+  bool skipped_its_work = false;  // its result says it skipped its work (RunSummary)
   std::vector<StoredArtifact> artifacts;
   std::vector<std::string> children;  // declared by its result, in declaration order
 };

@@ -136,6 +136,19 @@ TEST(SkippedWork, ATaskWhoseResultSaysSkippedIsShownAsSkipped) {
   EXPECT_NE(dag.str().find("fillcolor=palegreen"), std::string::npos) << dag.str();
 }
 
+// Submitted again, every task cached: the one that skipped its work is counted as skipped,
+// though nothing that runs reads its result.
+TEST(SkippedWork, ACachedTaskThatSkippedItsWorkIsStillCountedAsSkipped) {
+  ScratchDir dir;
+  const json tasks = json::array(
+      {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}}}},
+       {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}, {"skipped", "no usable site"}}}}});
+  submit(test_campaign("skipping", tasks), dir.db());
+  const RunSummary again = submit(test_campaign("skipping", tasks), dir.db());
+  EXPECT_EQ(again.exit_code(), 0);
+  EXPECT_EQ(again.describe(), "2 tasks: 0 done, 1 cached, 0 failed, 1 skipped");
+}
+
 TEST(TaskLog, HoldsEachFailedAttemptWithItsTimeAndLevel) {
   ScratchDir dir;
   const json tasks = json::array({{{"id", "f"}, {"kind", "fail"}, {"params", {{"failures", 2}}}}});
