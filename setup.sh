@@ -48,11 +48,14 @@ case "$mode" in
         round(power_kw_per_t_balls, 2) AS kw_per_t, round(torque_arm_power_kw, 3) AS torque_arm_kw,
         round(toe_angle_deg) AS toe_deg, round(shoulder_angle_deg) AS shoulder_deg, n_balls
         FROM macro_results WHERE campaign = 'quick' ORDER BY fill, speed_fraction"
-    "$build_dir/millflow" query "SELECT fill, speed_fraction, powder_load, round(power_draw_with_powder_w) AS
-        draw_with_powder_w, round(mill_powder_power_w, 1) AS powder_w, dominant_region,
-        round(coupling_median_ratio, 2) AS coupling, group_concat(region || ' ' || round(cushioning, 2), ', ')
-        AS cushioning_by_region FROM upscaled_results WHERE campaign = 'quick'
-        GROUP BY task_key ORDER BY fill, speed_fraction, powder_load"
+    # A row per sweep point and upscaling (the cells' own power, or anchored to the macro run's
+    # dissipation): their powder power, dominant region and cushioning differ.
+    "$build_dir/millflow" query "SELECT fill, speed_fraction, powder_load, method,
+        round(power_draw_with_powder_w) AS draw_with_powder_w, round(mill_powder_power_w, 1) AS
+        powder_w, dominant_region, round(coupling_median_ratio, 2) AS coupling,
+        group_concat(region || ' ' || round(cushioning, 2), ', ') AS cushioning_by_region
+        FROM upscaled_results WHERE campaign = 'quick'
+        GROUP BY task_key, method ORDER BY fill, speed_fraction, powder_load, method"
     "$build_dir/millflow" report quick --out millflow-report
     ;;
   test)
