@@ -27,11 +27,11 @@ struct Node {
   int waiting_on = 0;  // upstream tasks not done yet
   std::vector<std::string> downstream;
   int attempts_this_run = 0;
-  bool held = false;                     // beyond --until: stays pending
-  std::optional<nlohmann::json> result;  // loaded when a downstream task needs it
-  bool skipped_its_work = false;         // done or cached, and its result says so (RunSummary)
+  bool held = false;                                     // beyond --until: stays pending
+  std::optional<nlohmann::json> result;                  // loaded when a downstream task needs it
   std::optional<std::vector<StoredArtifact>> artifacts;  // likewise
-  std::optional<double> cost_s;  // its kind's cost model (engine/task.hpp), for the ETA
+  bool skipped_its_work = false;  // done or cached, and its result says so (RunSummary)
+  std::optional<double> cost_s;   // its kind's cost model (engine/task.hpp), for the ETA
 };
 
 // What a worker reports back to the coordinating thread.
