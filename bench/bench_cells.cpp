@@ -6,6 +6,7 @@
 //                   clinker powder of 0.125 d, 6 x 8 x 6 d, Lees-Edwards) at powder load 0.5
 //   cement_load10   the same at powder load 1 (the powder just filling the media's voids)
 //   cement_load15   the same at powder load 1.5
+//   cement_load00   the same without powder (the campaign's load-0 cells)
 //   cement_load05_d025 ... cement_load15_d05
 //                   the same with a coarser powder, 0.25 d or 0.5 d (quick.json's size), at each
 //                   load: with the three above, the grid of the cost model (tasks/cost_model.hpp)
@@ -53,6 +54,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <optional>
@@ -139,11 +141,15 @@ const std::vector<CellCase>& cases() {
          .steady_window_strain = 0.03,
          .max_real_strain = 0.6},
         {.name = "cement_load15", .powder_load = 1.5, .default_steps = 20, .powder_softening = 4.0},
+        // The cement cell without powder: its balls at the cement site (a dense bed).
+        {.name = "cement_load00", .default_steps = 2000},
     };
     // The cement cells again with coarser powders, 0.25 d and 0.5 d (quick.json's size), each
     // prepared as the fine powder's scene at its load: the cost model's grid
     // (tasks/cost_model.hpp). Named by the ratio's digits: cement_load10_d025.
-    const std::vector<CellCase> fine(scenes.begin() + 1, scenes.end());
+    std::vector<CellCase> fine;
+    std::copy_if(scenes.begin(), scenes.end(), std::back_inserter(fine),
+                 [](const CellCase& c) { return c.powder_load > 0.0; });
     for (const double ratio : {0.25, 0.5}) {
       for (const CellCase& c : fine) {
         CellCase coarser = c;

@@ -53,9 +53,9 @@ inline constexpr double kMacroBalls = 746.0;
 inline constexpr double kLargeMillThroughput = 9.40e6;
 inline constexpr double kLargeMillBalls = 17000.0;
 // A shear cell of balls only: quick.json's own run (its 131-ball cell, 7.3 M loaded x 687 /
-// 1158). bench_cells' le_media_2000 (2,002 balls in a dense bed, 1.87 contacts per particle)
-// runs 4.97 M; the campaigns' media cells are small (131-303 balls) and mostly collisional, so
-// quick's figure stays (docs/cost_model.md says what the dense figure would add).
+// 1158). The cement campaign's 303-ball cell at the bench's dense site (bench_cells'
+// cement_load00, 1.77 contacts per particle) runs 7.8 M once scaled: its 180 load-0 cells cost
+// about 1.6 times what this figure gives them, 0.3-0.75 core-hours of its 7,561-17,612.
 inline constexpr double kMediaCellThroughput = 12.3e6;
 // A shear cell of balls and powder: a step costs more as the powder's contacts grow, with the
 // powder load U and with how fine the powder is (d_p / d). Three families of powder size, each at
