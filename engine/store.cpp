@@ -317,17 +317,25 @@ std::optional<StoredCampaign> find_campaign(sql::Connection& db, const std::stri
 
 namespace {
 
+// A task's result says it skipped its work (r: results; RunSummary::skipped_their_work).
+constexpr std::string_view kResultSaysSkipped = "json_extract(r.result, '$.skipped') IS NOT NULL";
+
 // A task's status as shown (t: tasks, r: results): "skipped" for a done task whose result says
 // it skipped its work.
-constexpr std::string_view kShownStatus =
-    "CASE WHEN t.status = 'done' AND json_extract(r.result, '$.skipped') IS NOT NULL THEN "
-    "'skipped' ELSE t.status END";
+const std::string& shown_status() {
+  static const std::string status = fmt::format(
+      "CASE WHEN t.status = 'done' AND {} THEN 'skipped' ELSE t.status END", kResultSaysSkipped);
+  return status;
+}
 
 // A stored task's columns (t: tasks, r: results), from column `first` on: what StoredTask holds
 // but its artifacts and children.
-constexpr std::string_view kStoredTaskColumns =
-    "t.status, t.attempts, coalesce(t.error, ''), r.task_key IS NOT NULL, "
-    "json_extract(r.result, '$.skipped') IS NOT NULL";
+const std::string& stored_task_columns() {
+  static const std::string columns =
+      fmt::format("t.status, t.attempts, coalesce(t.error, ''), r.task_key IS NOT NULL, {}",
+                  kResultSaysSkipped);
+  return columns;
+}
 StoredTask stored_task_from(sql::Statement& row, int first) {
   return StoredTask{.status = task_status_from(row.text(first)),
                     .attempts = static_cast<int>(row.integer(first + 1)),
@@ -343,7 +351,7 @@ StoredTask stored_task_from(sql::Statement& row, int first) {
 std::optional<StoredTask> find_stored_task(sql::Connection& db, const std::string& key) {
   auto row = db.prepare(fmt::format(
       "SELECT {} FROM tasks t LEFT JOIN results r ON r.task_key = t.key WHERE t.key = ?",
-      kStoredTaskColumns));
+      stored_task_columns()));
   row.bind_all(key);
   if (!row.step()) return std::nullopt;
   StoredTask task = stored_task_from(row, 0);
@@ -358,7 +366,7 @@ std::unordered_map<std::string, StoredTask> find_campaign_tasks(sql::Connection&
   auto rows = db.prepare(
       fmt::format("SELECT t.key, {} FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
                   "LEFT JOIN results r ON r.task_key = t.key WHERE ct.campaign_id = ?",
-                  kStoredTaskColumns));
+                  stored_task_columns()));
   rows.bind_all(campaign);
   while (rows.step()) tasks.emplace(rows.text(0), stored_task_from(rows, 1));
   auto artifacts = db.prepare(
@@ -717,7 +725,7 @@ TextTable campaign_status_counts(sql::Connection& db, std::int64_t campaign) {
       "SELECT t.kind, {} AS status, count(*) AS tasks FROM campaign_tasks ct JOIN tasks t ON "
       "t.key = ct.task_key LEFT JOIN results r ON r.task_key = t.key "
       "WHERE ct.campaign_id = ? GROUP BY t.kind, 2 ORDER BY t.kind, 2",
-      kShownStatus));
+      shown_status()));
   rows.bind_all(campaign);
   return read_text_table(rows);
 }
@@ -738,7 +746,7 @@ std::vector<TaskNode> find_campaign_task_nodes(sql::Connection& db, std::int64_t
   auto rows = db.prepare(fmt::format(
       "SELECT t.key, t.kind, {} FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key LEFT "
       "JOIN results r ON r.task_key = t.key WHERE ct.campaign_id = ? ORDER BY t.rowid",
-      kShownStatus));
+      shown_status()));
   rows.bind_all(campaign);
   std::vector<TaskNode> nodes;
   while (rows.step()) nodes.push_back({rows.text(0), rows.text(1), rows.text(2)});
@@ -762,7 +770,7 @@ std::vector<KindStatusCount> count_campaign_tasks_by_kind(sql::Connection& db,
       "SELECT t.kind, {} AS shown, count(*), min(t.rowid) FROM campaign_tasks ct JOIN tasks t ON "
       "t.key = ct.task_key LEFT JOIN results r ON r.task_key = t.key WHERE ct.campaign_id = ? "
       "GROUP BY t.kind, shown",
-      kShownStatus));
+      shown_status()));
   rows.bind_all(campaign);
   std::vector<KindStatusCount> counts;
   while (rows.step())
