@@ -123,15 +123,6 @@ double throughput_between(double t, double from, double to) {
   return 1.0 / ((1.0 - t) / from + t / to);
 }
 
-}  // namespace
-
-double macro_throughput(double balls) {
-  return throughput_between(log_fraction(balls, kMacroBalls, kLargeMillBalls), kMacroThroughput,
-                            kLargeMillThroughput);
-}
-
-namespace {
-
 // The throughput of values[k] measured at grid[k] (ascending), at x: the cost per particle-step
 // interpolated in position(x, from, to) between the two points around x; outside, the nearer.
 template <class Values, class Position>
@@ -142,7 +133,19 @@ double throughput_on_grid(double x, const std::array<double, 3>& grid, const Val
   return throughput_between(position(x, grid[k - 1], grid[k]), values(k - 1), values(k));
 }
 
+// The powder families' sizes, d_p / d: the grid across them.
+constexpr std::array<double, 3> kPowderRatios = [] {
+  std::array<double, 3> ratios{};
+  for (std::size_t f = 0; f < ratios.size(); ++f) ratios[f] = kPowderFamilies[f].diameter_ratio;
+  return ratios;
+}();
+
 }  // namespace
+
+double macro_throughput(double balls) {
+  return throughput_between(log_fraction(balls, kMacroBalls, kLargeMillBalls), kMacroThroughput,
+                            kLargeMillThroughput);
+}
 
 double cell_throughput(double powder_load, double powder_diameter_ratio) {
   if (powder_load <= 0.0) return kMediaCellThroughput;
@@ -151,9 +154,7 @@ double cell_throughput(double powder_load, double powder_diameter_ratio) {
     return throughput_on_grid(
         powder_load, kPowderLoads, [&](std::size_t k) { return measured[k]; }, fraction);
   };
-  std::array<double, 3> ratios{};
-  for (std::size_t f = 0; f < ratios.size(); ++f) ratios[f] = kPowderFamilies[f].diameter_ratio;
-  return throughput_on_grid(powder_diameter_ratio, ratios, at_load, log_fraction);
+  return throughput_on_grid(powder_diameter_ratio, kPowderRatios, at_load, log_fraction);
 }
 
 MacroRunSize macro_run_size(const json& macro_params) {
