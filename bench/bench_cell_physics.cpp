@@ -37,6 +37,9 @@
 //                table 1's), its parameters are written per pair of types for
 //                bench/lammps/in.cell_physics_mixture, and every --lammps_contact_every steps the
 //                contact stress, contacts and mean overlap by pair type are written as well.
+//                --lammps_pairs_only: only the pair collisions (head-on and oblique) of the
+//                cell's pair types and the parameters in.restitution_pair needs, from the cell
+//                as placed (seconds instead of the preparation's minutes).
 //
 // The scene is campaigns/cement_ball_mill.json's cell (50 mm steel balls, clinker powder, steel
 // 7800 and clinker 3150 kg/m^3, Lees-Edwards, stiffness policy "overlap_bound") at a site of
@@ -122,6 +125,7 @@ struct Options {
   int lammps_sample_every = 50;
   double lammps_load = 0.0;        // table 6's powder load (0: media only)
   int lammps_contact_every = 500;  // table 6 with powder: contacts by pair type, every this
+  bool lammps_pairs_only = false;  // table 6 with powder: the pair collisions alone
   double wall_speed = 0.0;         // table 4 open loop: > 0 holds the walls at this speed, m/s
   double open_loop_strain = 8.0;   // table 4 open loop: strain after compaction
   // Table 4: both cells run the rough walls' protocol (dem::kRoughWallStrains) unless a strain
@@ -840,26 +844,82 @@ std::string contacts_by_pair_type(std::uint64_t step, const dem::System& s,
   return line + "\n";
 }
 
-// Restitution of a head-on collision at 1 m/s of a particle like `a` of `cell` with one like `b`
-// (their radii and materials), at the cell's time step: what the run's integrator gives the
-// pair's material table value (in.restitution_pair runs the same collision in LAMMPS).
-double discrete_restitution(const dem::System& cell, std::size_t a, std::size_t b) {
+// A particle like `a` of `cell` meeting one like `b` (their radii and materials) at the cell's
+// time step, at 1 m/s along the line of centres and `tangential` m/s across it (no spin): the
+// relative velocity of b to a along the line and of their contact points across it once the
+// contact is over, over the same before it. The first is the restitution the integrator gives the
+// pair's material table value; the second, negative where the contact's spring turned the motion
+// back, shows the tangential law, sticking, sliding and an unloading contact's damped tail
+// (in.restitution_pair runs the same collisions in LAMMPS).
+struct Rebound {
+  double normal = 0.0;
+  double tangential = 0.0;
+};
+Rebound pair_rebound(const dem::System& cell, std::size_t a, std::size_t b, double tangential) {
   const double ra = cell.radii()[a], rb = cell.radii()[b];
   dem::Domain box;
   box.lo = dem::Vec3::Constant(-2.0 * (ra + rb));
   box.hi = dem::Vec3::Constant(2.0 * (ra + rb));
   dem::System pair(cell.materials(), box, dem::Vec3::Zero());
-  pair.add_particle(
-      {.velocity = dem::Vec3(0.5, 0, 0), .radius = ra, .material = cell.particle_materials()[a]});
+  pair.add_particle({.velocity = dem::Vec3(0.5, -0.5 * tangential, 0),
+                     .radius = ra,
+                     .material = cell.particle_materials()[a]});
   pair.add_particle({.position = dem::Vec3(ra + rb, 0, 0),
-                     .velocity = dem::Vec3(-0.5, 0, 0),
+                     .velocity = dem::Vec3(-0.5, 0.5 * tangential, 0),
                      .radius = rb,
                      .material = cell.particle_materials()[b]});
   pair.set_time_step(cell.time_step());
   do {
     pair.step();
   } while (pair.active_contact_count() > 0 && pair.step_count() < 100000);
-  return pair.velocities()[1].x() - pair.velocities()[0].x();
+  const auto v = pair.velocities();
+  const auto w = pair.angular_velocities();
+  // Contact points: +ra x on a, -rb x on b; (w x r)_y = w_z r_x.
+  const double across = (v[1].y() - rb * w[1].z()) - (v[0].y() + ra * w[0].z());
+  return {.normal = v[1].x() - v[0].x(),
+          .tangential = tangential > 0.0 ? across / tangential : 0.0};
+}
+
+// System's default skin: 0.6 x the smallest radius.
+double default_skin(const dem::System& system) {
+  return 0.6 * *std::min_element(system.radii().begin(), system.radii().end());
+}
+
+// The tangential speeds of the oblique collisions: one where the contact sticks and its spring
+// turns the contact points' motion back, one where it slides throughout (a sliding contact takes
+// mu (1 + e) 7/2 of the normal speed off the tangential one: 2.5-3.4 m/s at this cell's friction
+// 0.6-0.75 and restitution 0.2-0.3).
+constexpr std::array kObliqueSpeeds{1.0, 5.0};
+
+// Per pair of types, the contact parameters the cell's material table holds (exported for
+// LAMMPS) and the pair's collisions at the cell's dt: head-on, then oblique.
+void add_and_check_pair_types(const dem::System& system, bench::LammpsParams& params) {
+  bench::add_pair_type_params(params, system);
+  fmt::print("    exported per pair of types:");
+  for (const auto& [name, value] : params.values) fmt::print(" {} {:.5g}", name, value);
+  fmt::print("\n");
+  const auto materials = system.particle_materials();
+  const auto [ball, grain] = bench::first_of_kinds(system);
+  const dem::MaterialId powder = materials[grain];
+  const std::array<std::pair<const char*, std::array<std::size_t, 2>>, 3> pairs{
+      {{"mm", {ball, ball}}, {"mp", {ball, grain}}, {"pp", {grain, grain}}}};
+  const std::array<double, 3> table{system.materials().interaction(0, 0).restitution,
+                                    system.materials().interaction(0, powder).restitution,
+                                    system.materials().interaction(powder, powder).restitution};
+  fmt::print("    restitution of a head-on collision at 1 m/s at this dt (material table's):");
+  for (std::size_t k = 0; k < pairs.size(); ++k)
+    fmt::print(" {} {:.6f} ({:g})", pairs[k].first,
+               pair_rebound(system, pairs[k].second[0], pairs[k].second[1], 0.0).normal, table[k]);
+  fmt::print("\n");
+  for (const double tangential : kObliqueSpeeds) {
+    fmt::print("    oblique, 1 m/s normal and {:g} m/s tangential (rebound normal, tangential):",
+               tangential);
+    for (const auto& [name, ab] : pairs) {
+      const Rebound r = pair_rebound(system, ab[0], ab[1], tangential);
+      fmt::print(" {} {:.6f} {:.6f}", name, r.normal, r.tangential);
+    }
+    fmt::print("\n");
+  }
 }
 
 void lammps_table(const Options& o) {
@@ -882,6 +942,17 @@ void lammps_table(const Options& o) {
   const json campaign = campaign_for(o, c);
   const dem::ShearCellSetup setup = setup_for(o, c, campaign);
   dem::ShearCellRun run(setup, tasks::shear_cell_protocol(campaign));
+  if (o.lammps_pairs_only) {
+    if (!with_powder) throw std::invalid_argument("--lammps_pairs_only needs --lammps_load > 0");
+    const dem::System& placed = run.cell().system();
+    bench::LammpsParams params;
+    add_and_check_pair_types(placed, params);
+    params.set("dt", placed.time_step());
+    params.set("skin", default_skin(placed));
+    bench::write_lammps_params("cell_physics", "bench_cell_physics, pair types of a cell", params,
+                               dir / "cell_physics.params");
+    return;
+  }
   tbb::task_arena arena(o.threads);
   arena.execute([&] {
     while (run.phase_name() != "measuring") run.advance(1000);
@@ -912,19 +983,7 @@ void lammps_table(const Options& o) {
     throw std::runtime_error("table 6: the cell with powder holds no powder");
   bench::LammpsParams params;
   if (with_powder) {
-    bench::add_pair_type_params(params, system);
-    // What the cell's material table holds per pair (the policy's k_n, gamma_n for each m_eff).
-    fmt::print("    exported per pair of types:");
-    for (const auto& [name, value] : params.values) fmt::print(" {} {:.5g}", name, value);
-    fmt::print("\n");
-    fmt::print(
-        "    restitution of a head-on collision at 1 m/s at this dt (material table's): mm "
-        "{:.6f} ({:g}), mp {:.6f} ({:g}), pp {:.6f} ({:g})\n",
-        discrete_restitution(system, ball, ball), system.materials().interaction(0, 0).restitution,
-        discrete_restitution(system, ball, grain),
-        system.materials().interaction(0, powder).restitution,
-        discrete_restitution(system, grain, grain),
-        system.materials().interaction(powder, powder).restitution);
+    add_and_check_pair_types(system, params);
     params.set("contact_every", o.lammps_contact_every);
     params.set("media_count", static_cast<double>(system.size() - powder_count));
     params.set("powder_count", static_cast<double>(powder_count));
@@ -939,8 +998,7 @@ void lammps_table(const Options& o) {
         "gamma_n is exact");
   }
   params.set("dt", system.time_step());
-  // System's default skin: 0.6 x the smallest radius.
-  params.set("skin", 0.6 * *std::min_element(system.radii().begin(), system.radii().end()));
+  params.set("skin", default_skin(system));
   params.set("shear_rate", c.shear_rate);
   params.set("nsteps", static_cast<double>(steps));
   params.set("sample_every", o.lammps_sample_every);
@@ -1039,6 +1097,8 @@ int main(int argc, char** argv) {
   app.add_option("--lammps_sample_every", o.lammps_sample_every, "table 6's sample interval");
   app.add_option("--lammps_load", o.lammps_load,
                  "table 6's powder load (powder of --powder_ratio d; 0: media only)");
+  app.add_flag("--lammps_pairs_only", o.lammps_pairs_only,
+               "table 6 with powder: only the pair types' collisions and their parameters");
   app.add_option("--lammps_contact_every", o.lammps_contact_every,
                  "table 6 with powder: contact stress by pair type every this many steps (a "
                  "multiple of --lammps_sample_every)");

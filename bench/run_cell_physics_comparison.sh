@@ -15,7 +15,9 @@
 # contact parameters per pair of types, LAMMPS's pair_style granular through
 # bench/lammps/in.cell_physics_mixture). First, per pair of types, a head-on collision in LAMMPS
 # (in.restitution_pair) against the restitution millflow's material table gives the pair, at the
-# cell's dt and at a tenth of it. Then as above, and from contacts sampled every CONTACT_EVERY
+# cell's dt and at a tenth of it, and two oblique collisions (1 m/s along the line of centres, 1
+# and 5 m/s across it: sticking, then sliding throughout), whose rebounds millflow's log prints
+# for the same pairs at the cell's dt. Then as above, and from contacts sampled every CONTACT_EVERY
 # steps in both codes (millflow's own, LAMMPS's compute pair/local rows reduced below) each pair
 # type's share of tau and of p (its contact stress over all contacts'), its contacts per particle
 # (2 x contacts / all particles) and its mean overlap / smaller diameter, batch-reduced by the
@@ -27,6 +29,7 @@
 #             LOAD=0 (media only) POWDER_RATIO=0.5 CONTACT_EVERY=500 SEED=1 (the cell's /dem/seed)
 #             OVERLAP=1: millflow's fixed-volume run beside LAMMPS's (two cores; the same results)
 #             REDUCE_ONLY=1: only the reduction, of the files an earlier run left in WORK_DIR
+#             PAIRS_ONLY=1 (with LOAD > 0): only the pair collisions, of the cell as placed (seconds)
 set -euo pipefail
 
 here=$(cd "$(dirname "$0")" && pwd)
@@ -44,11 +47,37 @@ contact_every=${CONTACT_EVERY:-500}
 overlap=${OVERLAP:-0}
 seed=${SEED:-1}
 reduce_only=${REDUCE_ONLY:-0}
+pairs_only=${PAIRS_ONLY:-0}
 with_powder=$(awk -v l="$load" 'BEGIN {print (l > 0) ? 1 : 0}')
 bench=$build/bench/bench_cell_physics
 [[ -x $bench ]] || { echo "no $bench: build the bench_cell_physics target first" >&2; exit 1; }
 command -v "$lmp" >/dev/null || { echo "no LAMMPS binary '$lmp': apt-get install -y lammps" >&2; exit 1; }
 mkdir -p "$work"
+
+# LAMMPS's pair collisions on the .params file in WORK_DIR: head-on and oblique (bench_cell_physics's
+# kObliqueSpeeds), at the cell's dt and at a tenth of it (what is left there is the integrator's).
+pair_collisions() {
+  for refine in 1 10; do
+    for vt in 0 1 5; do
+      for types in "1 1" "1 2" "2 2"; do
+        read -r ta tb <<<"$types"
+        "$lmp" -in "$here/lammps/in.restitution_pair" -var dir "$work" -var lammps "$here/lammps" \
+          -var ta "$ta" -var tb "$tb" -var refine "$refine" -var vt "$vt" \
+          -var out "$work/restitution.txt" -log none -screen none -nocite
+        cat "$work/restitution.txt"
+      done
+    done
+  done
+}
+
+if ((pairs_only)); then
+  ((with_powder)) || { echo "PAIRS_ONLY=1 needs LOAD > 0" >&2; exit 1; }
+  # shellcheck disable=SC2086  # SIZE is three numbers
+  "$bench" --tables 6 --size $size --lammps_dir "$work" --lammps_load "$load" \
+    --powder_ratio "$powder_ratio" --seed "$seed" --lammps_pairs_only | grep -E 'restitution|oblique'
+  pair_collisions
+  exit 0
+fi
 
 # Both codes on one cell (REDUCE_ONLY=1 skips this and reduces what WORK_DIR holds).
 run_both() {
@@ -76,18 +105,7 @@ run_both() {
   else
     "$bench" "${bench_args[@]}" | tee "$work/millflow.log"
   fi
-  if ((with_powder)); then
-    # At the cell's dt and at a tenth of it (what is left there is the integrator's).
-    for refine in 1 10; do
-      for types in "1 1" "1 2" "2 2"; do
-        read -r ta tb <<<"$types"
-        "$lmp" -in "$here/lammps/in.restitution_pair" -var dir "$work" -var lammps "$here/lammps" \
-          -var ta "$ta" -var tb "$tb" -var refine "$refine" -var out "$work/restitution.txt" \
-          -log none -screen none -nocite
-        cat "$work/restitution.txt"
-      done
-    done
-  fi
+  if ((with_powder)); then pair_collisions; fi
   # LAMMPS's CPU time: its subshell's children's (the bench, a child of this shell, is not one).
   lammps_cpu=$(
     OMP_NUM_THREADS=1 "$lmp" -in "$input" -var dir "$work" -var lammps "$here/lammps" \
