@@ -65,16 +65,42 @@ TEST(LinearSpringDashpot, SpringGrowsWithTangentialMotionWhileSticking) {
   EXPECT_FALSE(r.sliding);
 }
 
-TEST(LinearSpringDashpot, SlidingCapsForceAtCoulombLimitAndTruncatesSpring) {
+// A sliding contact's spring is reset so that spring and dashpot together sit on the limit,
+// F_t = -(k_t s + C_t v_t), as LAMMPS and MercuryDPM reset theirs.
+TEST(LinearSpringDashpot, SlidingCapsForceAtCoulombLimitAndResetsSpringWithItsDashpot) {
   const PairParams p = params(0.5, 0.2);
-  const ContactGeometry g{Vec3::UnitZ(), 1e-3, Vec3(1.0, 0, 0)};
+  const Vec3 v_t(0.01, 0, 0);
+  const ContactGeometry g{Vec3::UnitZ(), 1e-3, v_t};
   const ContactResponse r = linear_spring_dashpot(p, 0.1, g, Vec3(5e-3, 0, 0), 1e-4);
   ASSERT_TRUE(r.sliding);
   const Vec3 tangential = r.force_on_a - r.normal_force * Vec3::UnitZ();
   EXPECT_NEAR(tangential.norm(), 0.2 * r.normal_force, 1e-12);
   EXPECT_LT(tangential.x(), 0.0);  // opposes the sliding
-  EXPECT_NEAR(r.spring.norm() * p.tangential_stiffness, 0.2 * r.normal_force, 1e-12);
+  const double c_t =
+      p.tangential_damping_ratio * normal_damping_coefficient(1000.0, 0.1, p.damping_ratio);
+  EXPECT_NEAR((p.tangential_stiffness * r.spring + c_t * v_t + tangential).norm(), 0.0, 1e-12);
+  EXPECT_LT(r.spring.norm(), 5e-3);  // the spring let go of what it held above the limit
   EXPECT_GT(r.dissipated_friction, 0.0);
+}
+
+// In the damped tail of an unloading contact the dashpot pulls harder than the spring pushes
+// (F_n < 0); the Coulomb limit takes |F_n| there, as LAMMPS's and MercuryDPM's laws do, so the
+// contact still resists sliding (a limit of mu max(F_n, 0) would leave no tangential force).
+TEST(LinearSpringDashpot, UnloadingTailPullsAndHoldsUpToMuTimesThePull) {
+  const PairParams p = params(0.3, 0.5);
+  const double c_n = normal_damping_coefficient(1000.0, 0.1, p.damping_ratio);
+  const double separating = 0.5;  // m/s: C_n v_n > k_n overlap
+  const ContactGeometry g{Vec3::UnitZ(), 1e-5, Vec3(1.0, 0, separating)};
+  const ContactResponse r = linear_spring_dashpot(p, 0.1, g, Vec3::Zero(), 1e-4);
+  EXPECT_NEAR(r.normal_force, 1000.0 * 1e-5 - c_n * separating, 1e-12);
+  ASSERT_LT(r.normal_force, 0.0);
+  ASSERT_TRUE(r.sliding);
+  const Vec3 tangential = r.force_on_a - r.normal_force * Vec3::UnitZ();
+  EXPECT_NEAR(tangential.norm(), 0.5 * std::abs(r.normal_force), 1e-12);
+  EXPECT_LT(tangential.x(), 0.0);  // opposes the sliding
+  const double c_t = p.tangential_damping_ratio * c_n;
+  EXPECT_NEAR((p.tangential_stiffness * r.spring + c_t * Vec3(1.0, 0, 0) + tangential).norm(), 0.0,
+              1e-12);
 }
 
 TEST(LinearSpringDashpot, FrictionlessContactStoresAndDissipatesNothingTangential) {

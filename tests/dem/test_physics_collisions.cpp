@@ -115,6 +115,41 @@ TEST(Sliding, DeceleratesAtMuGThenRollsAtFiveSeventhsOfInitialSpeed) {
 // used, an O(dt^2) estimate of the kinetic energy the collision removes: the gap must shrink about
 // four-fold per halving of dt and be under 0.5% at 40 steps per collision. (A dense shear cell's
 // imbalance has a first-order part too, from the tangential springs: ShearCellPhysics.)
+// Two of the cement campaign's balls (50 mm steel, e 0.3, mu 0.75, its cell's k_n and dt: 1,415
+// steps per contact) meet at 1 m/s along the line of centres and at 1 or 5 m/s across it (a
+// contact that sticks and turns its contact points back, one that slides throughout). LAMMPS
+// (29 Sep 2021, pair granular hooke / linear_history, bench/lammps/in.restitution_pair with
+// -var vt) gives, after the contact over before it, the relative velocity along the line and
+// that of the contact points across it: 0.296636 and -0.179400 at 1 m/s, 0.176880 and 0.284962
+// at 5 m/s. millflow's sliding follows LAMMPS's (the limit mu |F_n|, the spring reset with its
+// dashpot); the law before 5 December 2026 gave -0.2309 and 0.3387 across.
+TEST(ObliqueCollision, ReboundsAsInLammpsWhenSticksAndWhenSliding) {
+  constexpr double kBallRadius = 0.025;
+  struct Case {
+    double tangential, normal_rebound, tangential_rebound;
+  };
+  for (const Case c : {Case{1.0, 0.296636, -0.179400}, Case{5.0, 0.176880, 0.284962}}) {
+    System system(steel_table(0.3, 0.75, 11557056.525526233), open_box(0.2), Vec3::Zero());
+    system.add_particle({.velocity = Vec3(0.5, -0.5 * c.tangential, 0), .radius = kBallRadius});
+    system.add_particle({.position = Vec3(2 * kBallRadius, 0, 0),
+                         .velocity = Vec3(-0.5, 0.5 * c.tangential, 0),
+                         .radius = kBallRadius});
+    system.set_time_step(9.8991252958675462e-07);
+    do {
+      system.step();
+    } while (system.active_contact_count() > 0 && system.step_count() < 10000);
+    ASSERT_EQ(system.active_contact_count(), 0u);
+    const auto v = system.velocities();
+    const auto w = system.angular_velocities();
+    // Contact points: +r x on the first ball, -r x on the second; (w x r)_y = w_z r_x.
+    const double across = (v[1].y() - kBallRadius * w[1].z()) - (v[0].y() + kBallRadius * w[0].z());
+    EXPECT_NEAR(v[1].x() - v[0].x(), c.normal_rebound, 0.01 * c.normal_rebound)
+        << c.tangential << " m/s across";
+    EXPECT_NEAR(across / c.tangential, c.tangential_rebound, 0.01 * std::abs(c.tangential_rebound))
+        << c.tangential << " m/s across";
+  }
+}
+
 TEST(DissipationAccounting, ConvergesAtSecondOrderInTheTimeStep) {
   auto accounting_error = [](int steps_per_collision) {
     System system(steel_table(0.3, 0.5, kStiffness), open_box(0.1), Vec3::Zero());
