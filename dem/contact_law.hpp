@@ -40,8 +40,9 @@ struct ContactResponse {
   // Energy dissipated during this step, J. The dashpots' >= 0. Friction's is the work the sliding
   // contact absorbs less the change of its spring energy: it can be negative in a step where the
   // tangential dashpot alone exceeds the Coulomb limit (an oblique impact's first steps, an
-  // unloading contact's tail), as the spring then takes up the limit force; that energy is given
-  // back or dissipated later (a spring left when a contact ends counts as friction).
+  // unloading contact's tail), as the spring is then reset to the limit force less the dashpot's,
+  // which may point back; that energy is given back or dissipated later (a spring left when a
+  // contact ends counts as friction).
   double dissipated_normal = 0.0;
   double dissipated_tangential = 0.0;
   double dissipated_friction = 0.0;
