@@ -39,7 +39,8 @@
 //                contact stress, contacts and mean overlap by pair type are written as well.
 //                --lammps_pairs_only: only the pair collisions (head-on and oblique) of the
 //                cell's pair types and the parameters in.restitution_pair needs, from the cell
-//                as placed (seconds instead of the preparation's minutes).
+//                as placed (seconds instead of the preparation's minutes), at the cell's dt
+//                over --lammps_pair_refine (the integrators' share of a difference).
 //
 // The scene is campaigns/cement_ball_mill.json's cell (50 mm steel balls, clinker powder, steel
 // 7800 and clinker 3150 kg/m^3, Lees-Edwards, stiffness policy "overlap_bound") at a site of
@@ -123,11 +124,12 @@ struct Options {
   double lammps_inertial_number = 0.1;
   double lammps_strain = 10.0;
   int lammps_sample_every = 50;
-  double lammps_load = 0.0;        // table 6's powder load (0: media only)
-  int lammps_contact_every = 500;  // table 6 with powder: contacts by pair type, every this
-  bool lammps_pairs_only = false;  // table 6 with powder: the pair collisions alone
-  double wall_speed = 0.0;         // table 4 open loop: > 0 holds the walls at this speed, m/s
-  double open_loop_strain = 8.0;   // table 4 open loop: strain after compaction
+  double lammps_load = 0.0;         // table 6's powder load (0: media only)
+  int lammps_contact_every = 500;   // table 6 with powder: contacts by pair type, every this
+  bool lammps_pairs_only = false;   // table 6 with powder: the pair collisions alone
+  double lammps_pair_refine = 1.0;  // ... at the cell's dt over this
+  double wall_speed = 0.0;          // table 4 open loop: > 0 holds the walls at this speed, m/s
+  double open_loop_strain = 8.0;    // table 4 open loop: strain after compaction
   // Table 4: both cells run the rough walls' protocol (dem::kRoughWallStrains) unless a strain
   // flag was given, and at 8 x 10 x 8 d unless --size was given (at 5 x 6 x 5 the wall cell's
   // tau / p_yy sits about 5% below its own at 8 x 10 x 8 and 12 x 10 x 12, the Lees-Edwards
@@ -845,17 +847,18 @@ std::string contacts_by_pair_type(std::uint64_t step, const dem::System& s,
 }
 
 // A particle like `a` of `cell` meeting one like `b` (their radii and materials) at the cell's
-// time step, at 1 m/s along the line of centres and `tangential` m/s across it (no spin): the
-// relative velocity of b to a along the line and of their contact points across it once the
-// contact is over, over the same before it. The first is the restitution the integrator gives the
-// pair's material table value; the second, negative where the contact's spring turned the motion
-// back, shows the tangential law, sticking, sliding and an unloading contact's damped tail
+// time step over `refine`, at 1 m/s along the line of centres and `tangential` m/s across it (no
+// spin): the relative velocity of b to a along the line and of their contact points across it once
+// the contact is over, over the same before it. The first is the restitution the integrator gives
+// the pair's material table value; the second, negative where the contact's spring turned the
+// motion back, shows the tangential law, sticking, sliding and an unloading contact's damped tail
 // (in.restitution_pair runs the same collisions in LAMMPS).
 struct Rebound {
   double normal = 0.0;
   double tangential = 0.0;
 };
-Rebound pair_rebound(const dem::System& cell, std::size_t a, std::size_t b, double tangential) {
+Rebound pair_rebound(const dem::System& cell, std::size_t a, std::size_t b, double tangential,
+                     double refine) {
   const double ra = cell.radii()[a], rb = cell.radii()[b];
   dem::Domain box;
   box.lo = dem::Vec3::Constant(-2.0 * (ra + rb));
@@ -868,10 +871,10 @@ Rebound pair_rebound(const dem::System& cell, std::size_t a, std::size_t b, doub
                      .velocity = dem::Vec3(-0.5, 0.5 * tangential, 0),
                      .radius = rb,
                      .material = cell.particle_materials()[b]});
-  pair.set_time_step(cell.time_step());
+  pair.set_time_step(cell.time_step() / refine);
   do {
     pair.step();
-  } while (pair.active_contact_count() > 0 && pair.step_count() < 100000);
+  } while (pair.active_contact_count() > 0 && pair.step_count() < 1000000);
   const auto v = pair.velocities();
   const auto w = pair.angular_velocities();
   // Contact points: +ra x on a, -rb x on b; (w x r)_y = w_z r_x.
@@ -892,8 +895,9 @@ double default_skin(const dem::System& system) {
 constexpr std::array kObliqueSpeeds{1.0, 5.0};
 
 // Per pair of types, the contact parameters the cell's material table holds (exported for
-// LAMMPS) and the pair's collisions at the cell's dt: head-on, then oblique.
-void add_and_check_pair_types(const dem::System& system, bench::LammpsParams& params) {
+// LAMMPS) and the pair's collisions at the cell's dt over `refine`: head-on, then oblique.
+void add_and_check_pair_types(const dem::System& system, bench::LammpsParams& params,
+                              double refine) {
   bench::add_pair_type_params(params, system);
   fmt::print("    exported per pair of types:");
   for (const auto& [name, value] : params.values) fmt::print(" {} {:.5g}", name, value);
@@ -906,16 +910,19 @@ void add_and_check_pair_types(const dem::System& system, bench::LammpsParams& pa
   const std::array<double, 3> table{system.materials().interaction(0, 0).restitution,
                                     system.materials().interaction(0, powder).restitution,
                                     system.materials().interaction(powder, powder).restitution};
-  fmt::print("    restitution of a head-on collision at 1 m/s at this dt (material table's):");
+  fmt::print(
+      "    restitution of a head-on collision at 1 m/s at this dt / {:g} (material table's):",
+      refine);
   for (std::size_t k = 0; k < pairs.size(); ++k)
     fmt::print(" {} {:.6f} ({:g})", pairs[k].first,
-               pair_rebound(system, pairs[k].second[0], pairs[k].second[1], 0.0).normal, table[k]);
+               pair_rebound(system, pairs[k].second[0], pairs[k].second[1], 0.0, refine).normal,
+               table[k]);
   fmt::print("\n");
   for (const double tangential : kObliqueSpeeds) {
     fmt::print("    oblique, 1 m/s normal and {:g} m/s tangential (rebound normal, tangential):",
                tangential);
     for (const auto& [name, ab] : pairs) {
-      const Rebound r = pair_rebound(system, ab[0], ab[1], tangential);
+      const Rebound r = pair_rebound(system, ab[0], ab[1], tangential, refine);
       fmt::print(" {} {:.6f} {:.6f}", name, r.normal, r.tangential);
     }
     fmt::print("\n");
@@ -946,7 +953,7 @@ void lammps_table(const Options& o) {
     if (!with_powder) throw std::invalid_argument("--lammps_pairs_only needs --lammps_load > 0");
     const dem::System& placed = run.cell().system();
     bench::LammpsParams params;
-    add_and_check_pair_types(placed, params);
+    add_and_check_pair_types(placed, params, o.lammps_pair_refine);
     params.set("dt", placed.time_step());
     params.set("skin", default_skin(placed));
     bench::write_lammps_params("cell_physics", "bench_cell_physics, pair types of a cell", params,
@@ -983,7 +990,7 @@ void lammps_table(const Options& o) {
     throw std::runtime_error("table 6: the cell with powder holds no powder");
   bench::LammpsParams params;
   if (with_powder) {
-    add_and_check_pair_types(system, params);
+    add_and_check_pair_types(system, params, 1.0);
     params.set("contact_every", o.lammps_contact_every);
     params.set("media_count", static_cast<double>(system.size() - powder_count));
     params.set("powder_count", static_cast<double>(powder_count));
@@ -1099,6 +1106,9 @@ int main(int argc, char** argv) {
                  "table 6's powder load (powder of --powder_ratio d; 0: media only)");
   app.add_flag("--lammps_pairs_only", o.lammps_pairs_only,
                "table 6 with powder: only the pair types' collisions and their parameters");
+  app.add_option("--lammps_pair_refine", o.lammps_pair_refine,
+                 "with --lammps_pairs_only: the collisions at the cell's dt over this (> 0)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--lammps_contact_every", o.lammps_contact_every,
                  "table 6 with powder: contact stress by pair type every this many steps (a "
                  "multiple of --lammps_sample_every)");

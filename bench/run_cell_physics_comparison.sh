@@ -29,7 +29,8 @@
 #             LOAD=0 (media only) POWDER_RATIO=0.5 CONTACT_EVERY=500 SEED=1 (the cell's /dem/seed)
 #             OVERLAP=1: millflow's fixed-volume run beside LAMMPS's (two cores; the same results)
 #             REDUCE_ONLY=1: only the reduction, of the files an earlier run left in WORK_DIR
-#             PAIRS_ONLY=1 (with LOAD > 0): only the pair collisions, of the cell as placed (seconds)
+#             PAIRS_ONLY=1 (with LOAD > 0): only the pair collisions, of the cell as placed, in both
+#                codes at the cell's dt and a tenth of it (seconds)
 set -euo pipefail
 
 here=$(cd "$(dirname "$0")" && pwd)
@@ -72,9 +73,13 @@ pair_collisions() {
 
 if ((pairs_only)); then
   ((with_powder)) || { echo "PAIRS_ONLY=1 needs LOAD > 0" >&2; exit 1; }
-  # shellcheck disable=SC2086  # SIZE is three numbers
-  "$bench" --tables 6 --size $size --lammps_dir "$work" --lammps_load "$load" \
-    --powder_ratio "$powder_ratio" --seed "$seed" --lammps_pairs_only | grep -E 'restitution|oblique'
+  # millflow's at the cell's dt and a tenth of it, as LAMMPS's below.
+  for refine in 1 10; do
+    # shellcheck disable=SC2086  # SIZE is three numbers
+    "$bench" --tables 6 --size $size --lammps_dir "$work" --lammps_load "$load" \
+      --powder_ratio "$powder_ratio" --seed "$seed" --lammps_pairs_only \
+      --lammps_pair_refine "$refine" | grep -E 'restitution|oblique'
+  done
   pair_collisions
   exit 0
 fi
