@@ -72,6 +72,7 @@
 #include "bench/lammps_export.hpp"
 #include "bench/process_measures.hpp"
 #include "dem/contact_categories.hpp"
+#include "dem/pair_collision.hpp"
 #include "dem/shear_cell.hpp"
 #include "dem/stiffness_policy.hpp"
 #include "method/sites.hpp"
@@ -847,40 +848,15 @@ std::string contacts_by_pair_type(std::uint64_t step, const dem::System& s,
 }
 
 // A particle like `a` of `cell` meeting one like `b` (their radii and materials) at the cell's
-// time step over `refine`, at 1 m/s along the line of centres and `tangential` m/s across it (no
-// spin): the relative velocity of b to a along the line and of their contact points across it once
-// the contact is over, over the same before it. The first is the restitution the integrator gives
-// the pair's material table value; the second, negative where the contact's spring turned the
-// motion back, shows the tangential law, sticking, sliding and an unloading contact's damped tail
-// (in.restitution_pair runs the same collisions in LAMMPS).
-struct Rebound {
-  double normal = 0.0;
-  double tangential = 0.0;
-};
-Rebound pair_rebound(const dem::System& cell, std::size_t a, std::size_t b, double tangential,
-                     double refine) {
-  const double ra = cell.radii()[a], rb = cell.radii()[b];
-  dem::Domain box;
-  box.lo = dem::Vec3::Constant(-2.0 * (ra + rb));
-  box.hi = dem::Vec3::Constant(2.0 * (ra + rb));
-  dem::System pair(cell.materials(), box, dem::Vec3::Zero());
-  pair.add_particle({.velocity = dem::Vec3(0.5, -0.5 * tangential, 0),
-                     .radius = ra,
-                     .material = cell.particle_materials()[a]});
-  pair.add_particle({.position = dem::Vec3(ra + rb, 0, 0),
-                     .velocity = dem::Vec3(-0.5, 0.5 * tangential, 0),
-                     .radius = rb,
-                     .material = cell.particle_materials()[b]});
-  pair.set_time_step(cell.time_step() / refine);
-  do {
-    pair.step();
-  } while (pair.active_contact_count() > 0 && pair.step_count() < 1000000);
-  const auto v = pair.velocities();
-  const auto w = pair.angular_velocities();
-  // Contact points: +ra x on a, -rb x on b; (w x r)_y = w_z r_x.
-  const double across = (v[1].y() - rb * w[1].z()) - (v[0].y() + ra * w[0].z());
-  return {.normal = v[1].x() - v[0].x(),
-          .tangential = tangential > 0.0 ? across / tangential : 0.0};
+// time step over `refine`, `tangential` m/s across the line of centres (dem/pair_collision.hpp).
+dem::Rebound pair_rebound(const dem::System& cell, std::size_t a, std::size_t b, double tangential,
+                          double refine) {
+  return dem::pair_rebound(cell.materials(), {.radius_a = cell.radii()[a],
+                                              .radius_b = cell.radii()[b],
+                                              .material_a = cell.particle_materials()[a],
+                                              .material_b = cell.particle_materials()[b],
+                                              .tangential_speed = tangential,
+                                              .time_step = cell.time_step() / refine});
 }
 
 // System's default skin: 0.6 x the smallest radius.
@@ -922,7 +898,7 @@ void add_and_check_pair_types(const dem::System& system, bench::LammpsParams& pa
     fmt::print("    oblique, 1 m/s normal and {:g} m/s tangential (rebound normal, tangential):",
                tangential);
     for (const auto& [name, ab] : pairs) {
-      const Rebound r = pair_rebound(system, ab[0], ab[1], tangential, refine);
+      const dem::Rebound r = pair_rebound(system, ab[0], ab[1], tangential, refine);
       fmt::print(" {} {:.6f} {:.6f}", name, r.normal, r.tangential);
     }
     fmt::print("\n");
@@ -984,7 +960,7 @@ void lammps_table(const Options& o) {
   const auto materials = system.particle_materials();
   const auto powder_count = static_cast<std::size_t>(
       std::count_if(materials.begin(), materials.end(), [](dem::MaterialId m) { return m != 0; }));
-  const auto [ball, grain] = bench::first_of_kinds(system);
+  const std::size_t grain = bench::first_of_kinds(system).grain;
   const dem::MaterialId powder = grain < system.size() ? materials[grain] : dem::MaterialId{0};
   if (with_powder && powder_count == 0)
     throw std::runtime_error("table 6: the cell with powder holds no powder");
