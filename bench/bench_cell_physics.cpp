@@ -41,6 +41,8 @@
 //                cell's pair types and the parameters in.restitution_pair needs, from the cell
 //                as placed (seconds instead of the preparation's minutes), at the cell's dt
 //                over --lammps_pair_refine (the integrators' share of a difference).
+//                --lammps_dt_refine R: millflow's fixed-volume run at the cell's dt / R (LAMMPS's
+//                stays at the cell's dt), its rows still numbered in the cell's steps.
 //
 // The scene is campaigns/cement_ball_mill.json's cell (50 mm steel balls, clinker powder, steel
 // 7800 and clinker 3150 kg/m^3, Lees-Edwards, stiffness policy "overlap_bound") at a site of
@@ -129,6 +131,7 @@ struct Options {
   int lammps_contact_every = 500;   // table 6 with powder: contacts by pair type, every this
   bool lammps_pairs_only = false;   // table 6 with powder: the pair collisions alone
   double lammps_pair_refine = 1.0;  // ... at the cell's dt over this
+  int lammps_dt_refine = 1;         // table 6: millflow's fixed-volume run at dt over this
   double wall_speed = 0.0;          // table 4 open loop: > 0 holds the walls at this speed, m/s
   double open_loop_strain = 8.0;    // table 4 open loop: strain after compaction
   // Table 4: both cells run the rough walls' protocol (dem::kRoughWallStrains) unless a strain
@@ -1000,10 +1003,14 @@ void lammps_table(const Options& o) {
     contacts << "# step, then per pair type (media-media, media-powder, powder-powder): contacts, "
                 "mean overlap / smaller diameter, contact stress xx yy zz xy xz yz (Pa)\n";
   }
+  // At a fraction of the cell's dt (the integrator's share of a difference), the same strain and
+  // samples: the rows keep the cell's step numbers, which the reduction turns into strain.
+  const auto refine = static_cast<std::uint64_t>(o.lammps_dt_refine);
+  system.set_time_step(system.time_step() / static_cast<double>(refine));
   const double cpu_start = process_cpu_seconds();
   arena.execute([&] {
     for (std::uint64_t step = 0; step <= steps; step += o.lammps_sample_every) {
-      if (step > 0) system.step(o.lammps_sample_every);
+      if (step > 0) system.step(o.lammps_sample_every * refine);
       const auto t = stress_tensor(system, c.shear_rate);
       out << fmt::format("{} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g}\n", step, t[0], t[1],
                          t[2], t[3], t[4], t[5]);
@@ -1025,8 +1032,8 @@ void lammps_table(const Options& o) {
   fmt::print(
       "solid fraction {:.4f}, media k_n/(p d) {:.3g}, dt {:.4g} s, {} steps at fixed volume in "
       "{:.1f} CPU s ({:.3g} particle-steps per CPU s)\n",
-      solid_fraction, media_kappa, system.time_step(), steps, cpu,
-      static_cast<double>(system.size() * steps) / cpu);
+      solid_fraction, media_kappa, system.time_step(), steps * refine, cpu,
+      static_cast<double>(system.size() * steps * refine) / cpu);
 }
 
 }  // namespace
@@ -1084,6 +1091,9 @@ int main(int argc, char** argv) {
                "table 6 with powder: only the pair types' collisions and their parameters");
   app.add_option("--lammps_pair_refine", o.lammps_pair_refine,
                  "with --lammps_pairs_only: the collisions at the cell's dt over this (> 0)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--lammps_dt_refine", o.lammps_dt_refine,
+                 "table 6: millflow's fixed-volume run at the cell's dt over this")
       ->check(CLI::PositiveNumber);
   app.add_option("--lammps_contact_every", o.lammps_contact_every,
                  "table 6 with powder: contact stress by pair type every this many steps (a "

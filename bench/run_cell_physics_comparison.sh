@@ -29,6 +29,8 @@
 #             LOAD=0 (media only) POWDER_RATIO=0.5 CONTACT_EVERY=500 SEED=1 (the cell's /dem/seed)
 #             OVERLAP=1: millflow's fixed-volume run beside LAMMPS's (two cores; the same results)
 #             REDUCE_ONLY=1: only the reduction, of the files an earlier run left in WORK_DIR
+#             DT_REFINE=1: millflow's fixed-volume run at the cell's dt / DT_REFINE (an integer;
+#                LAMMPS's stays at the cell's dt), the integrator's share of a difference
 #             PAIRS_ONLY=1 (with LOAD > 0): only the pair collisions, of the cell as placed, in both
 #                codes at the cell's dt and a tenth of it (seconds)
 set -euo pipefail
@@ -49,6 +51,7 @@ overlap=${OVERLAP:-0}
 seed=${SEED:-1}
 reduce_only=${REDUCE_ONLY:-0}
 pairs_only=${PAIRS_ONLY:-0}
+dt_refine=${DT_REFINE:-1}
 with_powder=$(awk -v l="$load" 'BEGIN {print (l > 0) ? 1 : 0}')
 bench=$build/bench/bench_cell_physics
 [[ -x $bench ]] || { echo "no $bench: build the bench_cell_physics target first" >&2; exit 1; }
@@ -96,7 +99,8 @@ run_both() {
   fi
   # shellcheck disable=SC2086  # SIZE is three numbers
   bench_args=(--tables 6 --size $size --lammps_dir "$work" --lammps_inertial_number "$inertial"
-              --lammps_strain "$strain" --seed "$seed" "${powder_args[@]}")
+              --lammps_strain "$strain" --seed "$seed" --lammps_dt_refine "$dt_refine"
+              "${powder_args[@]}")
   if ((overlap)); then
     # millflow's fixed-volume run beside LAMMPS's: LAMMPS starts once the state is written (the bench
     # opens millflow_stress.txt after it), millflow's log comes when it ends.
