@@ -131,6 +131,7 @@ struct Options {
   int lammps_contact_every = 500;   // table 6 with powder: contacts by pair type, every this
   bool lammps_pairs_only = false;   // table 6 with powder: the pair collisions alone
   double lammps_pair_refine = 1.0;  // ... at the cell's dt over this
+  int steps_per_collision = 0;      // every cell's /shear_cell/steps_per_collision (0: default)
   int lammps_dt_refine = 1;         // table 6: millflow's fixed-volume run at dt over this
   double wall_speed = 0.0;          // table 4 open loop: > 0 holds the walls at this speed, m/s
   double open_loop_strain = 8.0;    // table 4 open loop: strain after compaction
@@ -314,6 +315,7 @@ json campaign_for(const Options& o, const Cell& c) {
   cell["max_warmup_strain"] = f * o.max_warmup_strain;
   cell["measure_strain"] = f * o.measure_strain;
   cell["convergence"] = {{"standard_error", o.standard_error}, {"max_strain", f * o.max_strain}};
+  if (o.steps_per_collision > 0) cell["steps_per_collision"] = o.steps_per_collision;
   return tasks::validate_campaign(campaign);
 }
 
@@ -1092,6 +1094,9 @@ int main(int argc, char** argv) {
   app.add_option("--lammps_pair_refine", o.lammps_pair_refine,
                  "with --lammps_pairs_only: the collisions at the cell's dt over this (> 0)")
       ->check(CLI::PositiveNumber);
+  app.add_option("--steps_per_collision", o.steps_per_collision,
+                 "every cell's /shear_cell/steps_per_collision (its time step; default: the "
+                 "campaign's)");
   app.add_option("--lammps_dt_refine", o.lammps_dt_refine,
                  "table 6: millflow's fixed-volume run at the cell's dt over this")
       ->check(CLI::PositiveNumber);
