@@ -213,6 +213,39 @@ BENCHMARK(Tiny_PowerVsFill)
     ->Arg(50)
     ->Arg(60);
 
+// The time step's share of the power: the same mills at dem.steps_per_collision 20 (the
+// campaigns'), 40, 80 and 160 (the tiny mill, seeds 7 and 8) and 20, 40, 80 (quick.json's at J =
+// 0.35, seeds 1 and 2). A collision's restitution carries a first-order error with where its end
+// falls between steps (tests/dem/test_physics_collisions.cpp), and the power is dissipation.
+void Tiny_PowerVsResolution(benchmark::State& state) {
+  json params = tiny_sweep_params(0.3, 0.75);
+  params["dem"]["steps_per_collision"] = state.range(0);
+  params["dem"]["seed"] = state.range(1);
+  run_and_report(state, params);
+}
+BENCHMARK(Tiny_PowerVsResolution)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->ArgsProduct({{20, 40, 80, 160}, {7, 8}});
+
+void Quick_PowerVsResolution(benchmark::State& state) {
+  json params = first_point_params("quick.json");
+  params["macro"].update({{"fill", 0.35},
+                          {"speed_fraction", 0.75},
+                          {"warmup_revolutions", 1.0},
+                          {"measure_revolutions", 3.0},
+                          {"vtk_interval", 100.0}});
+  params["dem"]["steps_per_collision"] = state.range(0);
+  params["dem"]["seed"] = state.range(1);
+  run_and_report(state, params);
+}
+BENCHMARK(Quick_PowerVsResolution)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->ArgsProduct({{20, 40, 80}, {1, 2}});
+
 }  // namespace
 }  // namespace millflow::tasks
 
