@@ -430,9 +430,7 @@ std::vector<engine::FieldRule> micro_fields() {
           .choices(flow_regions),
       Field("/shear_cell/steps_per_collision", FieldType::integer,
             "time steps per collision time in the shear cells (dt = t_c / N; the macro runs' is "
-            "/dem/steps_per_collision; their energy balance error falls as 1/N, and 80 remove most "
-            "of the time-step error of 40 in the powder's share and cushioning: "
-            "docs/shear_cells.md)")
+            "/dem/steps_per_collision; the cells' energy balance error falls as 1/N)")
           .defaults(40)
           .range(at_least(20), {}),
       Field("/shear_cell/checkpoint_interval_s", FieldType::number,
