@@ -120,13 +120,18 @@ BENCHMARK(Quick_Macro)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime()->
 // Power against fill at 75% of critical on quick.json's mill: one revolution of warm-up, three
 // measured. Arguments: J in %, dem.seed (quick.json's is 1; a second seed repeats the fills around
 // the peak with another bed).
-void Quick_PowerVsFill(benchmark::State& state) {
+json quick_power_params(double fill) {
   json params = first_point_params("quick.json");
-  params["macro"].update({{"fill", static_cast<double>(state.range(0)) / 100.0},
+  params["macro"].update({{"fill", fill},
                           {"speed_fraction", 0.75},
                           {"warmup_revolutions", 1.0},
                           {"measure_revolutions", 3.0},
                           {"vtk_interval", 100.0}});
+  return params;
+}
+
+void Quick_PowerVsFill(benchmark::State& state) {
+  json params = quick_power_params(static_cast<double>(state.range(0)) / 100.0);
   params["dem"]["seed"] = state.range(1);
   run_and_report(state, params);
 }
@@ -217,11 +222,15 @@ BENCHMARK(Tiny_PowerVsFill)
 // campaigns'), 40, 80 and 160 (the tiny mill, seeds 7 and 8) and 20, 40, 80 (quick.json's at J =
 // 0.35, seeds 1 and 2). A collision's restitution carries a first-order error with where its end
 // falls between steps (tests/dem/test_physics_collisions.cpp), and the power is dissipation.
-void Tiny_PowerVsResolution(benchmark::State& state) {
-  json params = tiny_sweep_params(0.3, 0.75);
+// Arguments: dem.steps_per_collision, dem.seed.
+void run_at_resolution(benchmark::State& state, json params) {
   params["dem"]["steps_per_collision"] = state.range(0);
   params["dem"]["seed"] = state.range(1);
   run_and_report(state, params);
+}
+
+void Tiny_PowerVsResolution(benchmark::State& state) {
+  run_at_resolution(state, tiny_sweep_params(0.3, 0.75));
 }
 BENCHMARK(Tiny_PowerVsResolution)
     ->Iterations(1)
@@ -230,15 +239,7 @@ BENCHMARK(Tiny_PowerVsResolution)
     ->ArgsProduct({{20, 40, 80, 160}, {7, 8}});
 
 void Quick_PowerVsResolution(benchmark::State& state) {
-  json params = first_point_params("quick.json");
-  params["macro"].update({{"fill", 0.35},
-                          {"speed_fraction", 0.75},
-                          {"warmup_revolutions", 1.0},
-                          {"measure_revolutions", 3.0},
-                          {"vtk_interval", 100.0}});
-  params["dem"]["steps_per_collision"] = state.range(0);
-  params["dem"]["seed"] = state.range(1);
-  run_and_report(state, params);
+  run_at_resolution(state, quick_power_params(0.35));
 }
 BENCHMARK(Quick_PowerVsResolution)
     ->Iterations(1)
