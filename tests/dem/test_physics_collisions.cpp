@@ -181,10 +181,11 @@ TEST(ObliqueCollision, ReboundsAsInLammpsWhenSticksAndWhenSliding) {
   }
 }
 
-// The dissipation of a contact is accounted as C v^2 dt with the half-step velocity the force
-// used, an O(dt^2) estimate of the kinetic energy the collision removes: the gap must shrink about
-// four-fold per halving of dt and be under 0.5% at 40 steps per collision. (A dense shear cell's
-// imbalance has a first-order part too, from the tangential springs: ShearCellPhysics.)
+// The dissipation of a contact is accounted as C v^2 dt with the velocity predicted for the end of
+// the step, the one the force used: an O(dt^2) estimate of the kinetic energy the collision
+// removes: the gap must shrink about four-fold per halving of dt and be under 0.5% at 40 steps per
+// collision. (A dense shear cell's imbalance has a first-order part too, from the tangential
+// springs: ShearCellPhysics.)
 TEST(DissipationAccounting, ConvergesAtSecondOrderInTheTimeStep) {
   auto accounting_error = [](int steps_per_collision) {
     System system(steel_table(0.3, 0.5, kStiffness), open_box(0.1), Vec3::Zero());
