@@ -69,7 +69,7 @@ std::vector<engine::FieldRule> material_fields() {
             "diameter; "
             "a wall counts as the particle alone), from which the normal stiffness is chosen")
           .unit("s")
-          .range(at_least(1e-7), at_most(1e-1)),
+          .range(at_least(kShortestCollisionTime), at_most(1e-1)),
       Field("/interactions/*/stiffness/normal", FieldType::number, "normal spring stiffness k_n")
           .unit("N/m")
           .range(above(0), {}),
@@ -94,7 +94,7 @@ std::vector<engine::FieldRule> macro_fields() {
       Field("/dem/neighbor_skin_fraction", FieldType::number,
             "neighbour-list skin as a fraction of the smallest particle diameter")
           .defaults(0.3)
-          .range(above(0), at_most(2))
+          .range(at_least(0.01), at_most(2))
           .or_words({"auto"})
           .hint("\"auto\" keeps the cheapest skin by trial in each shear cell and macro run "
                 "(docs/shear_cells.md)"),
@@ -398,12 +398,17 @@ std::vector<engine::FieldRule> micro_fields() {
       Field("/shear_cell/stiffness/mean_overlap_fraction", FieldType::number,
             "bound on the mean overlap, as a fraction of the smaller diameter of a contact")
           .defaults(0.01)
-          .range(above(0), at_most(0.1)),
+          .range(at_least(1e-3), at_most(0.1))
+          .hint("k_n grows as 1 / bound and the time step shrinks as its square root: 1e-3 already "
+                "takes about 3 times the default's steps"),
       Field("/shear_cell/stiffness/p95_overlap_fraction", FieldType::number,
             "bound on the 95th percentile of the overlap; cells above it are flagged overlap_ok = "
             "false")
           .defaults(0.03)
-          .range(above(0), at_most(0.5)),
+          .range(at_least(1e-3), at_most(0.5))
+          .hint(
+              "the impact bound's k_n grows as 1 / bound^2 and the time step as much as the bound: "
+              "1e-3 takes up to 30 times the default's steps"),
       Field("/shear_cell/stiffness/media_rigidity", FieldType::number,
             "\"overlap_bound\" also raises the media-media k_n to at least this times sigma_n "
             "d_m (the balls' rigidity k_n / (sigma_n d_m)); absent or 0: no such bound")
@@ -432,18 +437,20 @@ std::vector<engine::FieldRule> micro_fields() {
             "time steps per collision time in the shear cells (dt = t_c / N; the macro runs' is "
             "/dem/steps_per_collision; the cells' energy balance error falls as 1/N)")
           .defaults(40)
-          .range(at_least(20), {}),
+          .range(at_least(20), at_most(1000)),
       Field("/shear_cell/checkpoint_interval_s", FieldType::number,
             "wall-clock interval between a cell's checkpoints")
           .unit("s")
           .defaults(60.0)
-          .range(above(0), {}),
+          .range(at_least(1), at_most(86400)),
       Field("/shear_cell/stress_control", FieldType::object, "the normal-stress control")
           .defaults(json::object()),
       Field("/shear_cell/stress_control/gain", FieldType::number,
             "gain of the normal-stress control (wall servo or Lees-Edwards barostat)")
           .defaults(0.5)
-          .range(above(0), at_most(1)),
+          .range(at_least(0.01), at_most(1))
+          .hint("the loose fill compacts at a speed proportional to the gain: 0.01 takes 50 times "
+                "the default's compaction steps"),
       Field("/shear_cell/powder", FieldType::object,
             "the powder in the shear cell (required unless /shear_cell/enabled is false)"),
       Field("/shear_cell/powder/material", FieldType::string, "material of the powder")

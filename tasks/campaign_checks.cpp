@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "dem/material.hpp"
 #include "dem/wall_speed_controller.hpp"
 #include "engine/json_validator.hpp"
 
@@ -124,6 +125,7 @@ class ConsistencyChecker {
       check_ball_count(*balls);
       check_sample_interval(*balls);
       check_macro_budget(*balls);
+      check_stiffness_durations(*balls);
       check_powder_count();
     }
     check_region_rules(balls ? std::optional(mean_diameter(*balls)) : std::nullopt);
@@ -505,6 +507,52 @@ class ConsistencyChecker {
               " (at 6 its friction came out 11% below Lees-Edwards')",
           "raise it to at least " + quantity(dem::kRoughWallLeastHeight) +
               " or use \"lees_edwards\"");
+  }
+
+  // A stiffness given as k_n whose contact between the pair's reference particles (balls of the
+  // media's mean diameter, grains of the powder's, a wall standing still) is shorter than any
+  // collision_time may be: the pair's runs would step at a fraction of that, without end.
+  void check_stiffness_durations(const std::vector<BallClass>& balls) {
+    const auto* interactions = campaign_.node("/interactions");
+    // Balls already refused (too many, too big) make no reference particles worth a second error.
+    const bool balls_refused = std::any_of(errors_.begin(), errors_.end(), [](const auto& e) {
+      return related_paths(e.path, "/media");
+    });
+    if (interactions == nullptr || balls_refused) return;
+    const double ball_diameter = mean_diameter(balls);
+    const auto reference_mass = [&](const std::string& material) -> std::optional<double> {
+      const auto density = campaign_.number("/materials/" + material + "/density");
+      if (!density) return std::nullopt;
+      if (campaign_.text("/media/material") == material)
+        return *density * util::sphere_volume_of_diameter(ball_diameter);
+      const auto ratio = campaign_.number("/shear_cell/powder/diameter_ratio");
+      if (ratio && campaign_.text("/shear_cell/powder/material") == material)
+        return *density * util::sphere_volume_of_diameter(*ratio * ball_diameter);
+      return std::nullopt;  // a wall's material
+    };
+    for (std::size_t n = 0; n < interactions->size(); ++n) {
+      const auto& interaction = (*interactions)[n];
+      const std::string path = fmt::format("/interactions/{}/stiffness/normal", n);
+      const auto stiffness = campaign_.number(path);
+      const auto restitution = campaign_.number(fmt::format("/interactions/{}/restitution", n));
+      const auto& pair = interaction.at("materials");
+      if (!stiffness || !restitution || pair.size() != 2) continue;
+      const auto mass_a = reference_mass(pair[0].get<std::string>());
+      const auto mass_b = reference_mass(pair[1].get<std::string>());
+      if (!mass_a && !mass_b) continue;
+      const double effective =
+          mass_a && mass_b ? dem::effective_mass(*mass_a, *mass_b) : mass_a.value_or(*mass_b);
+      const double zeta = dem::damping_ratio_for_restitution(*restitution);
+      const double duration = dem::collision_duration(*stiffness, effective, zeta);
+      if (duration >= kShortestCollisionTime) continue;
+      const double softest =
+          dem::stiffness_for_collision_duration(kShortestCollisionTime, effective, zeta);
+      error(path,
+            quantity(*stiffness) + " N/m gives the pair's reference particles a contact of " +
+                quantity(duration) + " s, shorter than a collision time may be (" +
+                quantity(kShortestCollisionTime) + " s)",
+            "use at most " + quantity(softest) + " N/m, or give the stiffness as collision_time");
+    }
   }
 
   void check_powder_count() {

@@ -99,7 +99,9 @@ std::string engineering(double value) {
 
 std::string hours(double seconds) {
   const double value = seconds / 3600.0;
-  return value >= 100.0 ? fmt::format("{:.0f}", value) : fmt::format("{:.3g}", value);
+  // Whole hours from 100 up, but no run of digits for a campaign nobody could run.
+  return value >= 100.0 && value < 1e7 ? fmt::format("{:.0f}", value)
+                                       : fmt::format("{:.3g}", value);
 }
 
 std::string range(double low, double high) {

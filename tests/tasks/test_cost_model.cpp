@@ -237,4 +237,18 @@ TEST(CostModel, ACellOnceItsSiteIsKnownCostsThatSitesAndAnEmptySlotNothing) {
   EXPECT_EQ(empty->core_seconds, 0.0);
 }
 
+// A campaign's fields are bounded, but nothing bounds what a cell's site asks of it: an estimate
+// far beyond reach still reads as a number.
+TEST(CostModel, AnEstimateBeyondReachPrintsAPowerOfTenNotARunOfDigits) {
+  tasks::KindEstimate cell;
+  cell.tasks = cell.estimated = 1;
+  cell.particles_min = cell.particles_max = 1000.0;
+  cell.steps_min = cell.steps_max = 1e20;
+  cell.core_seconds = 3.6e6;           // 1000 core-hours: whole hours
+  cell.core_seconds_at_caps = 3.6e50;  // 1e47 core-hours
+  const std::string text = tasks::format_estimate({{"shear_cell", cell}});
+  EXPECT_NE(text.find("1000 - 1e+47"), std::string::npos) << text;
+  EXPECT_EQ(text.find("00000000"), std::string::npos) << text;
+}
+
 }  // namespace
