@@ -30,14 +30,16 @@ bool cell_block(const std::string& path) {
 engine::FieldTable make_cell_spec_table() {
   std::vector<engine::FieldRule> rules = {
       Field("", FieldType::object, "one shear cell outside a campaign"),
+      // A cell takes strain / (rate x dt) steps, and its k_n grows with the stress (the overlap
+      // bound): the bounds keep one cell within hours, from I ~ 1e-4 to gas-like flow.
       Field("/shear_rate", FieldType::number, "the cell's target shear rate")
           .unit("1/s")
           .required()
-          .range(engine::above(0), {}),
+          .range(engine::at_least(0.01), engine::at_most(1e4)),
       Field("/normal_stress", FieldType::number, "the normal stress the cell imposes")
           .unit("Pa")
           .required()
-          .range(engine::above(0), {}),
+          .range(engine::at_least(1), engine::at_most(1e8)),
   };
   for (const engine::FieldRule& rule : campaign_table().rules()) {
     if (cell_block(rule.path)) rules.push_back(rule);

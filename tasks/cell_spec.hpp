@@ -4,8 +4,8 @@
 //
 // The spec file holds a campaign's /materials, /interactions, /media, /shear_cell and (optional)
 // /dem blocks, checked by the same field table and cross-field checks as a campaign, plus
-//   /shear_rate      the cell's target shear rate, 1/s (> 0)
-//   /normal_stress   the normal stress it imposes, Pa (> 0)
+//   /shear_rate      the cell's target shear rate, 1/s (0.01 to 1e4)
+//   /normal_stress   the normal stress it imposes, Pa (1 to 1e8)
 // The cell runs as a shear_cell task of site "cell-0" would (tasks/shear_cell.hpp), its seed
 // from /dem/seed and the key "cell"; its result is that task's result JSON.
 #include <filesystem>

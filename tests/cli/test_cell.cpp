@@ -55,10 +55,10 @@ TEST_F(CellCommand, BadSpecIsRefusedWithTheCampaignsMessagesAndExitTwo) {
   EXPECT_EQ(
       finished.err,
       "millflow: invalid input:\n"
-      "/shear_rate: required field is missing; add the cell's target shear rate, a number > 0 "
-      "1/s\n"
-      "/normal_stress: -1 Pa is out of range; the normal stress the cell imposes must be > 0 "
-      "Pa\n"
+      "/shear_rate: required field is missing; add the cell's target shear rate, a number in "
+      "[0.01, 10000] 1/s\n"
+      "/normal_stress: -1 Pa is out of range; the normal stress the cell imposes must be in [1, "
+      "100000000] Pa\n"
       "/shear_cell/convergence/max_strain: 0.1 is below /shear_cell/measure_strain = 0.5; "
       "raise it to at least 0.5 or lower /shear_cell/measure_strain\n");
   EXPECT_FALSE(fs::exists(out));
