@@ -138,7 +138,10 @@ AttemptSpec read_attempt_spec(const fs::path& file) {
     throw InvalidInput({{"", "task-spec file " + file.string() + " cannot be read: " + error.what(),
                          "pass a spec file written by the millflow coordinator"}});
   }
-  if (document.value("millflow_attempt", 0) != kSpecFormat) {
+  // Any JSON at all may arrive here (an array, a string, the format as text): compare, never cast.
+  const bool versioned = document.is_object() && document.contains("millflow_attempt") &&
+                         document.at("millflow_attempt") == kSpecFormat;
+  if (!versioned) {
     throw InvalidInput(
         {{"/millflow_attempt",
           file.string() + " is not a version " + std::to_string(kSpecFormat) + " task-spec file",

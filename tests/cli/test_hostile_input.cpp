@@ -241,6 +241,19 @@ TEST_F(HostileInput, ValuesNoRunCanUseAreExitTwoWithThePathAndAFix) {
                          "\" is not a directory; pass a directory (it is created when missing)\n");
 }
 
+TEST_F(HostileInput, ATaskSpecThatIsNotAnObjectIsNamedAsNotATaskSpec) {
+  for (const char* text : {R"([1, 2])", R"("text")", R"({"millflow_attempt": "1"})"}) {
+    const fs::path spec = dir_.path() / "spec.json";
+    std::ofstream(spec) << text;
+    const auto refused = millflow({"exec", spec.string()});
+    EXPECT_EQ(refused.exit_code, 2) << text;
+    EXPECT_EQ(refused.err, "millflow exec: /millflow_attempt: " + spec.string() +
+                               " is not a version 1 task-spec file; run the millflow that wrote "
+                               "it\n")
+        << text;
+  }
+}
+
 TEST_F(HostileInput, VersionNamesTheReleaseTheCommitAndTheInstructionSet) {
   const auto version = millflow({"--version"});
   EXPECT_EQ(version.exit_code, 0);
