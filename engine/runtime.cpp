@@ -676,7 +676,9 @@ class Coordinator {
     for (const auto& [key, node] : nodes_) {
       if (node.state == State::cached) ++summary.cached;
       if (node.state == State::skipped) ++summary.skipped;
-      if (skipped_its_work(node)) ++summary.skipped_their_work;
+      if (skipped_its_work(node))
+        ++(node.state == State::done ? summary.skipped_their_work_done
+                                     : summary.skipped_their_work_cached);
       if (node.state == State::interrupted) ++summary.interrupted;
       if (node.state == State::pending) ++(node.held ? summary.held_back : summary.not_started);
       if (node.state == State::running) ++summary.detached;
@@ -721,10 +723,10 @@ int RunSummary::exit_code() const {
 }
 
 std::string RunSummary::describe() const {
-  const int skipped_ran = std::min(skipped_their_work, done);  // those counted in `done` first
-  std::string text = fmt::format("{} tasks: {} done, {} cached, {} failed, {} skipped", total,
-                                 done - skipped_ran, cached - (skipped_their_work - skipped_ran),
-                                 failed, skipped + skipped_their_work);
+  std::string text =
+      fmt::format("{} tasks: {} done, {} cached, {} failed, {} skipped", total,
+                  done - skipped_their_work_done, cached - skipped_their_work_cached, failed,
+                  skipped + skipped_their_work_done + skipped_their_work_cached);
   if (interrupted > 0 || not_started > 0) {
     text += fmt::format(", {} interrupted, {} not started", interrupted, not_started);
   }

@@ -35,10 +35,11 @@ struct RunSummary {
   int cached = 0;  // already done before this run
   int failed = 0;
   int skipped = 0;  // below a failed task
-  // Done or cached, but the result holds "skipped" (the task's reason for not doing its work,
-  // e.g. a shear cell without a usable site): counted among done or cached, described as
-  // skipped, like everywhere they are shown (status, dag, the progress line).
-  int skipped_their_work = 0;
+  // Done (in this run) or cached, but the result holds "skipped" (the task's reason for not doing
+  // its work, e.g. a shear cell without a usable site): counted among done or cached, described
+  // as skipped, like everywhere they are shown (status, dag, the progress line).
+  int skipped_their_work_done = 0;
+  int skipped_their_work_cached = 0;
   int interrupted = 0;
   int not_started = 0;  // left pending by an interruption
   int detached = 0;     // left running as batch jobs by an interruption; resume re-attaches

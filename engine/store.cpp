@@ -317,7 +317,8 @@ std::optional<StoredCampaign> find_campaign(sql::Connection& db, const std::stri
 
 namespace {
 
-// A task's result says it skipped its work (r: results; RunSummary::skipped_their_work).
+// A task's result says it skipped its work (r: results; RunSummary::skipped_their_work_done and
+// _cached).
 constexpr std::string_view kResultSaysSkipped = "json_extract(r.result, '$.skipped') IS NOT NULL";
 
 // A task's status as shown (t: tasks, r: results): "skipped" for a done task whose result says

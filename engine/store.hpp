@@ -145,7 +145,7 @@ std::vector<JobRecord> find_jobs(sql::Connection& db, const std::string& key);
 
 // Reads of the inspection and export commands (engine/inspect.hpp, engine/outputs.hpp). A task's
 // "shown" status is its status, except "skipped" for a done task whose result says it skipped
-// its work (engine/runtime.hpp, RunSummary::skipped_their_work).
+// its work (engine/runtime.hpp, RunSummary::skipped_their_work_done and _cached).
 std::optional<std::int64_t> find_campaign_id(sql::Connection& db, const std::string& name);
 // Up to `limit` task keys starting with `prefix`, in key order.
 std::vector<std::string> find_task_keys_with_prefix(sql::Connection& db, const std::string& prefix,

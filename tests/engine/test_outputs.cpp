@@ -149,6 +149,19 @@ TEST(SkippedWork, ACachedTaskThatSkippedItsWorkIsStillCountedAsSkipped) {
   EXPECT_EQ(again.describe(), "2 tasks: 0 done, 1 cached, 0 failed, 1 skipped");
 }
 
+// Submitted again with one more task: the new one ran and the cached one skipped its work; the
+// summary counted the skip against the task that ran ("0 done") until 6 December.
+TEST(SkippedWork, ACachedSkipIsNotTakenFromTheTasksThatRan) {
+  ScratchDir dir;
+  json tasks = json::array(
+      {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}}}},
+       {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", 2}, {"skipped", "no usable site"}}}}});
+  submit(test_campaign("skipping", tasks), dir.db());
+  tasks.push_back({{"id", "c"}, {"kind", "sum"}, {"params", {{"value", 3}}}});
+  const RunSummary again = submit(test_campaign("skipping", tasks), dir.db());
+  EXPECT_EQ(again.describe(), "3 tasks: 1 done, 1 cached, 0 failed, 1 skipped");
+}
+
 TEST(TaskLog, HoldsEachFailedAttemptWithItsTimeAndLevel) {
   ScratchDir dir;
   const json tasks = json::array({{{"id", "f"}, {"kind", "fail"}, {"params", {{"failures", 2}}}}});
