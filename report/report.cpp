@@ -433,6 +433,17 @@ std::string percent(const std::optional<double>& value, const std::optional<doub
                      se ? fmt::format("+- {:.1f}%", 100.0 * *se) : "no standard error");
 }
 
+// What a shift says about the default cells (docs/method.md, "Stiffness sensitivity"): beyond
+// twice its standard error it is a systematic error the error bars do not carry; within, the
+// stiffness is not resolved at this precision, which is not to say it does not matter.
+std::string shift_reading(const std::optional<double>& value, const std::optional<double>& se) {
+  if (!value) return "not measured";
+  if (!se) return "without a standard error to judge it by";
+  return std::abs(*value) > 2.0 * *se
+             ? "beyond twice its standard error: a systematic error the error bars do not carry"
+             : "within twice its standard error: not resolved at this precision";
+}
+
 std::string stiffness_row(const method::UpscaleResult& p, const std::string& region,
                           const method::StiffnessFigures& f) {
   return fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", g(p.fill),
@@ -459,14 +470,16 @@ std::string stiffness_section(const std::vector<UpscalePoint>& points) {
                             s.factor, s.left_out_cells.size());
       continue;
     }
-    sentences += point_label +
-                 fmt::format(
-                     "with the powder pairs {:g} x stiffer, cushioning moves by {} and the "
-                     "powder share by {} (over {} site{}): a systematic error not in the "
-                     "error bars.\n",
-                     s.factor, percent(s.totals.cushioning_shift, s.totals.cushioning_shift_se),
-                     percent(s.totals.powder_share_shift, s.totals.powder_share_shift_se),
-                     s.totals.sites, s.totals.sites == 1 ? "" : "s");
+    const method::StiffnessFigures& t = s.totals;
+    sentences +=
+        point_label +
+        fmt::format(
+            "with the powder pairs {:g} x stiffer, cushioning moves by {} and the powder "
+            "share by {} (over {} site{}); the cushioning's shift is {}, the share's {}.\n",
+            s.factor, percent(t.cushioning_shift, t.cushioning_shift_se),
+            percent(t.powder_share_shift, t.powder_share_shift_se), t.sites,
+            t.sites == 1 ? "" : "s", shift_reading(t.cushioning_shift, t.cushioning_shift_se),
+            shift_reading(t.powder_share_shift, t.powder_share_shift_se));
     for (const auto& [region, figures] : s.regions) rows += stiffness_row(p, region, figures);
     rows += stiffness_row(p, "all", s.totals);
   }
@@ -476,10 +489,12 @@ std::string stiffness_section(const std::vector<UpscalePoint>& points) {
          "and cushioning and the powder's share of the cells' power move with that stiffness "
          "(docs/shear_cells.md, \"Stiffness policy\"). Extra cells at the first sites of some "
          "regions ran with the powder pairs stiffer; comparing them with the default cells at "
-         "the same sites gives the shift below, stiff / default - 1 with its standard error: "
-         "a systematic error of the figures above that their error bars do not carry "
-         "(docs/method.md, \"Stiffness sensitivity\"). The powder share here is the powder's "
-         "share of the power put into the cells.\n\n" +
+         "the same sites gives the shift below, stiff / default - 1 with its standard error. "
+         "Beyond twice its standard error a shift is a systematic error of the figures above "
+         "that their error bars do not carry; within it the stiffness is not resolved at this "
+         "precision, which is not to say it does not matter (docs/method.md, \"Stiffness "
+         "sensitivity\"). The powder share here is the powder's share of the power put into the "
+         "cells.\n\n" +
          sentences +
          "\n| fill J | speed phi | powder load U | region | sites | cushioning | stiff | shift | "
          "powder share | stiff | shift |\n|---|---|---|---|---|---|---|---|---|---|---|\n" +

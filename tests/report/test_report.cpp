@@ -311,10 +311,34 @@ TEST_F(Report, StiffCellsGiveTheirPointASentence) {
   const std::string index = read_text(dir_.path() / "stiff" / "index.md");
   EXPECT_NE(index.find("- J = 0.3, phi = 0.75, U = 1: with the powder pairs 4 x stiffer, "
                        "cushioning moves by +20.0% (no standard error) and the powder share by "
-                       "+12.5% (no standard error) (over 1 site): a systematic error not in the "
-                       "error bars.\n"),
+                       "+12.5% (no standard error) (over 1 site); the cushioning's shift is "
+                       "without a standard error to judge it by, the share's without a standard "
+                       "error to judge it by.\n"),
             std::string::npos)
       << index;
+  {
+    // With the cells' standard errors: the media collisions' small, the powder's large, so the
+    // cushioning's shift stands out of its error and the share's does not.
+    std::vector<engine::TaskInput> with_errors = point;
+    for (engine::TaskInput& input : with_errors) {
+      if (input.kind != "shear_cell") continue;
+      method::CellResult cell = input.result.get<method::CellResult>();
+      method::CellStandardErrors se;
+      se.power_density_w_m3 = 0.01 * cell.power_density_w_m3;
+      se.powder_dissipation_w_m3 = 0.3 * cell.powder_dissipation_w_m3;
+      for (std::size_t t = 0; t < se.dissipation_w_m3.size(); ++t)
+        se.dissipation_w_m3[t] = 0.01 * cell.dissipation_w_m3[t];
+      cell.standard_errors = se;
+      input.result = cell;
+    }
+    run(own_inputs(with_errors), "stiff-errors");
+    const std::string page = read_text(dir_.path() / "stiff-errors" / "index.md");
+    EXPECT_NE(page.find("the cushioning's shift is beyond twice its standard error: a systematic "
+                        "error the error bars do not carry, the share's within twice its standard "
+                        "error: not resolved at this precision.\n"),
+              std::string::npos)
+        << page;
+  }
   EXPECT_NE(index.find("| 0.3 | 0.75 | 1 | toe | 1 | 0.5 | 0.6 | +20.0% (no standard error) | "
                        "0.4 | 0.45 | +12.5% (no standard error) |\n"),
             std::string::npos);
