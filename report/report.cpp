@@ -518,8 +518,11 @@ std::string index_page(const std::string& campaign, const std::vector<UpscalePoi
       "powder's effect, from the upscaled shear cells).\n\n";
   out +=
       "## Points\n\nThe dominant region is the region taking the largest share of the powder "
-      "power; it is "
-      "computed from the shear cells, not assumed.\n\n" +
+      "power; it is computed from the shear cells, not assumed: each cell's powder dissipation per "
+      "volume times the volume its site stands for, summed per region. The macro-anchored "
+      "upscaling, which takes each region's "
+      "dissipation from the macro run and only its split from the cells, may name another "
+      "(\"Flow regions\" below gives both).\n\n" +
       points_table(points) + "\n";
   out +=
       "## Powder power by region\n\n![powder power shares](powder_power_shares.svg)\n\n"

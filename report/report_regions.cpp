@@ -63,10 +63,12 @@ std::string regions_table(const method::SitesResult& sites) {
   return out;
 }
 
-// Rule set | powder load | dominant region | toe share of the powder power, loads above 0.
+// Rule set | powder load | dominant region | toe share of the powder power (both macro-anchored),
+// loads above 0.
 std::string sensitivity_table(const std::map<double, const method::UpscaleResult*>& by_load) {
   std::string out =
-      "| rule set | powder load U | dominant region | toe share of the powder power |\n"
+      "| rule set | powder load U | dominant region, macro-anchored | toe share of the powder "
+      "power, macro-anchored |\n"
       "|---|---|---|---|\n";
   for (const auto& [load, upscale] : by_load) {
     if (load == 0.0) continue;
