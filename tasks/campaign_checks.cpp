@@ -531,14 +531,14 @@ class ConsistencyChecker {
       return std::nullopt;  // a wall's material
     };
     for (std::size_t n = 0; n < interactions->size(); ++n) {
-      const auto& interaction = (*interactions)[n];
       const std::string path = fmt::format("/interactions/{}/stiffness/normal", n);
       const auto stiffness = campaign_.number(path);
       const auto restitution = campaign_.number(fmt::format("/interactions/{}/restitution", n));
-      const auto& pair = interaction.at("materials");
-      if (!stiffness || !restitution || pair.size() != 2) continue;
-      const auto mass_a = reference_mass(pair[0].get<std::string>());
-      const auto mass_b = reference_mass(pair[1].get<std::string>());
+      const auto material_a = campaign_.text(fmt::format("/interactions/{}/materials/0", n));
+      const auto material_b = campaign_.text(fmt::format("/interactions/{}/materials/1", n));
+      if (!stiffness || !restitution || !material_a || !material_b) continue;
+      const auto mass_a = reference_mass(*material_a);
+      const auto mass_b = reference_mass(*material_b);
       if (!mass_a && !mass_b) continue;
       const double effective =
           mass_a && mass_b ? dem::effective_mass(*mass_a, *mass_b) : mass_a.value_or(*mass_b);
