@@ -116,6 +116,7 @@ json site_json(const UpscaleSite& s) {
           {"coupling_ratio", optional_json(s.coupling_ratio)},
           {"power_density_w_m3", optional_json(s.power_density_w_m3)},
           {"powder_dissipation_w_m3", optional_json(s.powder_dissipation_w_m3)},
+          {"cell_normal_stress_pa", optional_json(s.cell_normal_stress_pa)},
           {"skipped", optional_json(s.skipped)}};
 }
 
@@ -321,6 +322,7 @@ UpscaleResult read_upscale_result(const json& document, const std::string& owner
          .coupling_ratio = in.number_or_null(at + "/coupling_ratio"),
          .power_density_w_m3 = in.number_or_null(at + "/power_density_w_m3"),
          .powder_dissipation_w_m3 = in.number_or_null(at + "/powder_dissipation_w_m3"),
+         .cell_normal_stress_pa = in.number_or_null(at + "/cell_normal_stress_pa"),
          .skipped = in.text_or_null(at + "/skipped")});
   }
   return r;

@@ -21,7 +21,7 @@
 //   left_out_cells [{site_id, powder_load, reason, counted}],
 //   sites [{site_id, region, x_m, y_m, weight_m3, shear_rate_per_s, normal_stress_pa,
 //   macro_shear_stress_pa, cell_shear_stress_pa, coupling_ratio, power_density_w_m3,
-//   powder_dissipation_w_m3, skipped}],
+//   powder_dissipation_w_m3, cell_normal_stress_pa, skipped}],
 //   coupling {sites, median_ratio, tolerance, within_tolerance},
 //   stiffness_sensitivity (only with stiff cells, /shear_cell/stiffness/sensitivity) {factor,
 //   regions {<region>: StiffnessFigures keys}, totals {StiffnessFigures keys}, left_out_cells
@@ -137,6 +137,9 @@ struct UpscaleSite {
   double shear_rate_per_s = 0.0, normal_stress_pa = 0.0, macro_shear_stress_pa = 0.0;
   std::optional<double> cell_shear_stress_pa{}, coupling_ratio{}, power_density_w_m3{},
       powder_dissipation_w_m3{};
+  // The normal stress the cell at this point's load held over its measured window (its p_yy),
+  // against normal_stress_pa, the site's it was asked to hold.
+  std::optional<double> cell_normal_stress_pa{};
   std::optional<std::string> skipped{};  // why no cell counts here
 };
 

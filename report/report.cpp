@@ -358,8 +358,8 @@ std::string sites_csv(const std::vector<UpscalePoint>& points) {
   return csv_table(
       {"fill", "speed_fraction", "powder_load", "site_id", "region", "x_m", "y_m", "weight_m3",
        "shear_rate_per_s", "normal_stress_pa", "macro_shear_stress_pa", "cell_shear_stress_pa",
-       "coupling_ratio", "power_density_w_m3", "powder_dissipation_w_m3", "skipped",
-       "upscale_task"},
+       "coupling_ratio", "power_density_w_m3", "powder_dissipation_w_m3", "cell_normal_stress_pa",
+       "skipped", "upscale_task"},
       points, [](const UpscalePoint& p) {
         std::vector<std::vector<std::string>> rows;
         for (const method::UpscaleSite& s : p.upscale.sites) {
@@ -367,7 +367,8 @@ std::string sites_csv(const std::vector<UpscalePoint>& points) {
                           number(s.shear_rate_per_s), number(s.normal_stress_pa),
                           number(s.macro_shear_stress_pa), number(s.cell_shear_stress_pa),
                           number(s.coupling_ratio), number(s.power_density_w_m3),
-                          number(s.powder_dissipation_w_m3), s.skipped.value_or("")});
+                          number(s.powder_dissipation_w_m3), number(s.cell_normal_stress_pa),
+                          s.skipped.value_or("")});
         }
         return rows;
       });
@@ -411,6 +412,39 @@ std::string points_table(const std::vector<UpscalePoint>& points) {
                        md(p.cells.totals.media_power_w), p.cells.dominant_region.value_or("-"));
   }
   return out;
+}
+
+// How far a cell's held normal stress (its measured p_yy) may sit from its site's before the
+// report names it: the stationarity test's windows must be within 10% too (docs/shear_cells.md).
+constexpr double kHeldStressTolerance = 0.10;
+
+// The cells (one per point and site) whose measured normal stress missed their site's by more
+// than kHeldStressTolerance: their friction and powder figures are of another state
+// (docs/cell_validation.md, "Found on the way").
+std::string held_stress_paragraph(const std::vector<UpscalePoint>& points) {
+  std::size_t cells = 0;
+  std::vector<std::string> missed;
+  for (const UpscalePoint& point : points) {
+    for (const method::UpscaleSite& site : point.upscale.sites) {
+      if (!site.cell_normal_stress_pa || !(site.normal_stress_pa > 0.0)) continue;
+      ++cells;
+      const double held = *site.cell_normal_stress_pa / site.normal_stress_pa;
+      if (std::abs(held - 1.0) <= kHeldStressTolerance) continue;
+      missed.push_back(fmt::format("{} at J = {}, phi = {}, U = {} ({:+.0f}%)", site.site_id,
+                                   g(point.upscale.fill), g(point.upscale.speed_fraction),
+                                   g(point.upscale.powder_load), 100.0 * (held - 1.0)));
+    }
+  }
+  if (cells == 0) return {};
+  std::string out = fmt::format(
+      "Normal stress held: {} of {} cells held their site's normal stress within {:g}% over the "
+      "measured window (sites.csv, cell_normal_stress_pa against normal_stress_pa)",
+      cells - missed.size(), cells, 100.0 * kHeldStressTolerance);
+  if (missed.empty()) return out + ".\n";
+  return out + fmt::format(
+                   "; the others measured a state of another stress, their friction and powder "
+                   "figures with it: {}.\n",
+                   fmt::join(missed, "; "));
 }
 
 std::string coupling_table(const std::vector<Slice>& slices) {
@@ -564,7 +598,7 @@ std::string index_page(const std::string& campaign, const std::vector<UpscalePoi
       "A media-only shear cell driven by a site's shear rate and normal stress should reproduce "
       "the macro run's "
       "shear stress there; the points should lie near the dashed 1:1 line.\n\n" +
-      coupling_table(slices) + "\n";
+      coupling_table(slices) + "\n" + held_stress_paragraph(points) + "\n";
   out +=
       "## Tables\n\n"
       "- [upscaled.csv](upscaled.csv): one row per point and region (powers, shares, cushioning).\n"

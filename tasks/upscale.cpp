@@ -283,6 +283,7 @@ method::UpscaleSite site_row(const method::Site& site, const method::CellResult*
   if (loaded) {
     row.power_density_w_m3 = loaded->power_density_w_m3;
     row.powder_dissipation_w_m3 = loaded->powder_dissipation_w_m3;
+    row.cell_normal_stress_pa = loaded->normal_stress_pa;
   } else {
     row.skipped = "no shear cell ran at this site";
   }

@@ -109,7 +109,7 @@
 
 namespace millflow::tasks {
 
-inline constexpr const char* kUpscaleVersion = "3";
+inline constexpr const char* kUpscaleVersion = "4";
 inline constexpr double kCouplingTolerance = 0.5;
 
 engine::TaskOutcome run_upscale(engine::TaskContext& context);

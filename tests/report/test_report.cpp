@@ -88,18 +88,21 @@ json upscale_result(double fill, double speed, double load) {
                     .cushioning = cushioning,
                     .cushioning_se = cushioning_se}};
   };
-  const method::UpscaleSite toe_site{.site_id = "toe-0",
-                                     .region = "toe",
-                                     .x_m = 0.1,
-                                     .y_m = -0.3,
-                                     .weight_m3 = 0.0006,
-                                     .shear_rate_per_s = 12.0 * speed,
-                                     .normal_stress_pa = 4000.0 * fill,
-                                     .macro_shear_stress_pa = 1500.0 * fill,
-                                     .cell_shear_stress_pa = 1400.0 * fill,
-                                     .coupling_ratio = 1400.0 / 1500.0,
-                                     .power_density_w_m3 = 9000.0,
-                                     .powder_dissipation_w_m3 = 800.0 * load};
+  const method::UpscaleSite toe_site{
+      .site_id = "toe-0",
+      .region = "toe",
+      .x_m = 0.1,
+      .y_m = -0.3,
+      .weight_m3 = 0.0006,
+      .shear_rate_per_s = 12.0 * speed,
+      .normal_stress_pa = 4000.0 * fill,
+      .macro_shear_stress_pa = 1500.0 * fill,
+      .cell_shear_stress_pa = 1400.0 * fill,
+      .coupling_ratio = 1400.0 / 1500.0,
+      .power_density_w_m3 = 9000.0,
+      .powder_dissipation_w_m3 = 800.0 * load,
+      // The cell with powder held 30% high, the other 5% low.
+      .cell_normal_stress_pa = 4000.0 * fill * (load > 0 ? 1.3 : 0.95)};
   const method::UpscaleSite bulk_site{.site_id = "bulk-0",
                                       .region = "bulk",
                                       .x_m = -0.1,
@@ -421,8 +424,19 @@ TEST_F(Report, SitesAndSpectraTablesHoldTheInputs) {
     } else {
       EXPECT_EQ(std::stod(row.at("cell_shear_stress_pa")),
                 site.at("cell_shear_stress_pa").get<double>());
+      EXPECT_EQ(std::stod(row.at("cell_normal_stress_pa")),
+                site.at("cell_normal_stress_pa").get<double>());
     }
   }
+  // Of the eight toe cells, the four with powder held 30% above their site's normal stress.
+  const std::string index = read_text(dir_.path() / "work" / "index.md");
+  EXPECT_NE(index.find("Normal stress held: 4 of 8 cells held their site's normal stress within "
+                       "10% over the measured window (sites.csv, cell_normal_stress_pa against "
+                       "normal_stress_pa); the others measured a state of another stress, their "
+                       "friction and powder figures with it: toe-0 at J = 0.2, phi = 0.6, U = 0.5 "
+                       "(+30%);"),
+            std::string::npos)
+      << index;
   const auto spectra = read_csv(dir_.path() / "work" / "spectra.csv");
   ASSERT_EQ(spectra.size(), 8u * 3u);
   for (const auto& row : spectra) {

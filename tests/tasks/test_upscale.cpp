@@ -74,6 +74,9 @@ TEST(Upscale, CouplingComparesTheMediaOnlyCellWithTheMacroShearStress) {
   EXPECT_DOUBLE_EQ(sites.at(1).at("coupling_ratio"), 450.0 / 500.0);
   EXPECT_TRUE(sites.at(2).at("coupling_ratio").is_null());
   EXPECT_EQ(sites.at(2).at("skipped"), "no shear cell ran at this site");
+  // The normal stress held is the cell's at this point's load (1), not the media-only one's.
+  EXPECT_DOUBLE_EQ(sites.at(0).at("cell_normal_stress_pa"), 2101.0);
+  EXPECT_TRUE(sites.at(2).at("cell_normal_stress_pa").is_null());
   EXPECT_EQ(r.at("coupling").at("sites"), 2);
   EXPECT_DOUBLE_EQ(r.at("coupling").at("median_ratio"), 0.5 * (880.0 / 800.0 + 450.0 / 500.0));
   EXPECT_EQ(r.at("coupling").at("within_tolerance"), 2);

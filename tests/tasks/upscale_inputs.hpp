@@ -48,6 +48,7 @@ inline engine::TaskInput cell(const std::string& site_id, double load, const Cel
                             .duration_s = 2.0,
                             .volume_m3 = 1e-4,
                             .shear_stress_pa = v.shear_stress,
+                            .normal_stress_pa = 2100.0 + load,  // the site asks 2000 Pa
                             .media_solid_fraction = 0.5,
                             .powder_solid_fraction = load > 0.0 ? 0.2 : 0.0,
                             .power_density_w_m3 = v.power_density,
