@@ -11,6 +11,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "dem/stationarity.hpp"
 #include "method/sites.hpp"
 #include "report/report_inputs.hpp"
 #include "report/report_regions.hpp"
@@ -415,8 +416,9 @@ std::string points_table(const std::vector<UpscalePoint>& points) {
 }
 
 // How far a cell's held normal stress (its measured p_yy) may sit from its site's before the
-// report names it: the stationarity test's windows must be within 10% too (docs/shear_cells.md).
-constexpr double kHeldStressTolerance = 0.10;
+// report names it: the stationarity test's own tolerance for each warm-up window
+// (docs/shear_cells.md).
+constexpr double kHeldStressTolerance = dem::StationarityCriterion{}.tolerance;
 
 // The cells (one per point and site) whose measured normal stress missed their site's by more
 // than kHeldStressTolerance: their friction and powder figures are of another state
