@@ -389,7 +389,8 @@ class ConsistencyChecker {
       } else if (stiffness.contains("normal") && density) {
         const double mass = *density * util::sphere_volume_of_diameter(smallest);
         const double effective = media_sides == 2 ? mass / 2 : mass;  // the liner is a wall
-        duration = std::numbers::pi * std::sqrt(effective / stiffness.at("normal").get<double>());
+        duration = dem::collision_duration(stiffness.at("normal").get<double>(), effective,
+                                           /*damping_ratio=*/0.0);  // the undamped estimate
       } else {
         continue;
       }
