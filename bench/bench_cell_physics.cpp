@@ -43,6 +43,10 @@
 //                over --lammps_pair_refine (the integrators' share of a difference).
 //                --lammps_dt_refine R: millflow's fixed-volume run at the cell's dt / R (LAMMPS's
 //                stays at the cell's dt), its rows still numbered in the cell's steps.
+//                --lammps_stress_control: both codes shear on holding the normal stress instead of
+//                the volume (millflow under the cell's own barostat, LAMMPS under its
+//                Nose-Hoover barostat on y, fix nph/sphere), the solid fraction written with each
+//                stress sample.
 //
 // The scene is campaigns/cement_ball_mill.json's cell (50 mm steel balls, clinker powder, steel
 // 7800 and clinker 3150 kg/m^3, Lees-Edwards, stiffness policy "overlap_bound") at a site of
@@ -128,14 +132,15 @@ struct Options {
   double lammps_inertial_number = 0.1;
   double lammps_strain = 10.0;
   int lammps_sample_every = 50;
-  double lammps_load = 0.0;         // table 6's powder load (0: media only)
-  int lammps_contact_every = 500;   // table 6 with powder: contacts by pair type, every this
-  bool lammps_pairs_only = false;   // table 6 with powder: the pair collisions alone
-  double lammps_pair_refine = 1.0;  // ... at the cell's dt over this
-  int steps_per_collision = 0;      // every cell's /shear_cell/steps_per_collision (0: default)
-  int lammps_dt_refine = 1;         // table 6: millflow's fixed-volume run at dt over this
-  double wall_speed = 0.0;          // table 4 open loop: > 0 holds the walls at this speed, m/s
-  double open_loop_strain = 8.0;    // table 4 open loop: strain after compaction
+  double lammps_load = 0.0;            // table 6's powder load (0: media only)
+  int lammps_contact_every = 500;      // table 6 with powder: contacts by pair type, every this
+  bool lammps_pairs_only = false;      // table 6 with powder: the pair collisions alone
+  double lammps_pair_refine = 1.0;     // ... at the cell's dt over this
+  int steps_per_collision = 0;         // every cell's /shear_cell/steps_per_collision (0: default)
+  int lammps_dt_refine = 1;            // table 6: millflow's fixed-volume run at dt over this
+  bool lammps_stress_control = false;  // table 6: both codes hold the normal stress, not the volume
+  double wall_speed = 0.0;             // table 4 open loop: > 0 holds the walls at this speed, m/s
+  double open_loop_strain = 8.0;       // table 4 open loop: strain after compaction
   // Table 4: both cells run the rough walls' protocol (dem::kRoughWallStrains) unless a strain
   // flag was given, and at 8 x 10 x 8 d unless --size was given (at 5 x 6 x 5 the wall cell's
   // tau / p_yy sits about 5% below its own at 8 x 10 x 8 and 12 x 10 x 12, the Lees-Edwards
@@ -913,7 +918,8 @@ void add_and_check_pair_types(const dem::System& system, bench::LammpsParams& pa
 
 void lammps_table(const Options& o) {
   if (!o.lammps_dir) throw std::invalid_argument("table 6 needs --lammps_dir");
-  if (o.lammps_contact_every <= 0 || o.lammps_contact_every % o.lammps_sample_every != 0)
+  if (o.lammps_load > 0.0 &&
+      (o.lammps_contact_every <= 0 || o.lammps_contact_every % o.lammps_sample_every != 0))
     throw std::invalid_argument(
         "--lammps_contact_every must be a multiple of --lammps_sample_every");
   const std::filesystem::path& dir = *o.lammps_dir;
@@ -922,8 +928,8 @@ void lammps_table(const Options& o) {
   const Cell c{.powder_load = o.lammps_load,
                .shear_rate = shear_rate_for(o, o.lammps_inertial_number)};
   fmt::print(
-      "\nTable 6: fixed-volume {} for LAMMPS (I {:g}, {:.4g} 1/s, {:g} Pa, {:g} strains, "
-      "files in {})\n",
+      "\nTable 6: {} {} for LAMMPS (I {:g}, {:.4g} 1/s, {:g} Pa, {:g} strains, files in {})\n",
+      o.lammps_stress_control ? "stress-controlled" : "fixed-volume",
       with_powder
           ? fmt::format("cell with powder {:g} d at load {:g}", o.powder_ratio, o.lammps_load)
           : std::string("media cell"),
@@ -948,11 +954,12 @@ void lammps_table(const Options& o) {
   });
   dem::System system = run.cell().system();
   const double length_y = system.domain().length().y();
-  const double solid_fraction = [&] {
+  const double particle_volume = [&] {
     double volume = 0.0;
     for (const double r : system.radii()) volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
-    return volume / system.domain().length().prod();
+    return volume;
   }();
+  const double solid_fraction = particle_volume / system.domain().length().prod();
   // LAMMPS's temp/deform takes the streaming profile as zero at the bottom of the box; ours is
   // zero at mid-height. A uniform shift of every velocity (Galilean) puts LAMMPS's copy in its
   // frame without changing its dynamics.
@@ -992,14 +999,27 @@ void lammps_table(const Options& o) {
   params.set("nsteps", static_cast<double>(steps));
   params.set("sample_every", o.lammps_sample_every);
   params.set("solid_fraction", solid_fraction);
+  params.set("particle_volume", particle_volume);
+  // Under stress control LAMMPS holds p_yy with its Nose-Hoover barostat on y (nph/sphere: LAMMPS
+  // has no first-order barostat for a triclinic box), of period the barostat's relaxation time
+  // and a drag that damps the box's oscillation: another law than millflow's PI law on each
+  // control interval's mean (dem/stress_control.hpp), so only the steady states compare.
+  params.set("stress_control", o.lammps_stress_control ? 1.0 : 0.0);
+  params.set("target_stress", run.cell().stress_control().settings().target_stress);
+  params.set("relaxation_time", run.cell().stress_control().settings().relaxation_time);
+  params.set("barostat_drag", 1.0);
   bench::write_lammps_data(shifted, "cell_physics", dir / "cell_physics.data");
   bench::write_lammps_params("cell_physics",
                              with_powder ? "bench_cell_physics, media + powder LE cell"
                                          : "bench_cell_physics, media-only LE cell",
                              params, dir / "cell_physics.params");
-  // Our side: the same state sheared on at fixed volume (the System alone: no barostat).
+  // Our side: the same state sheared on at fixed volume (the System alone: no barostat), or under
+  // the cell's barostat (a copy of the cell, which carries its control's state).
   std::ofstream out(dir / "millflow_stress.txt");
-  out << "# step pxx pyy pzz pxy pxz pyz (Pa, compression positive)\n";
+  out << "# step pxx pyy pzz pxy pxz pyz (Pa, compression positive) solid_fraction\n";
+  std::optional<dem::ShearCell> held;
+  if (o.lammps_stress_control) held.emplace(run.cell());
+  dem::System& sheared = held ? held->system() : system;
   std::ofstream contacts;
   if (with_powder) {
     contacts.open(dir / "millflow_contacts.txt");
@@ -1009,16 +1029,20 @@ void lammps_table(const Options& o) {
   // At a fraction of the cell's dt (the integrator's share of a difference), the same strain and
   // samples: the rows keep the cell's step numbers, which the reduction turns into strain.
   const auto refine = static_cast<std::uint64_t>(o.lammps_dt_refine);
-  system.set_time_step(system.time_step() / static_cast<double>(refine));
+  if (o.lammps_stress_control && refine != 1)
+    throw std::invalid_argument("--lammps_dt_refine needs the fixed-volume run");
+  sheared.set_time_step(sheared.time_step() / static_cast<double>(refine));
   const double cpu_start = process_cpu_seconds();
   arena.execute([&] {
     for (std::uint64_t step = 0; step <= steps; step += o.lammps_sample_every) {
-      if (step > 0) system.step(o.lammps_sample_every * refine);
-      const auto t = stress_tensor(system, c.shear_rate);
-      out << fmt::format("{} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g}\n", step, t[0], t[1],
-                         t[2], t[3], t[4], t[5]);
+      if (step > 0 && held) held->advance(o.lammps_sample_every);
+      if (step > 0 && !held) system.step(o.lammps_sample_every * refine);
+      const auto t = stress_tensor(sheared, c.shear_rate);
+      out << fmt::format("{} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g} {:.6f}\n", step, t[0],
+                         t[1], t[2], t[3], t[4], t[5],
+                         particle_volume / sheared.domain().length().prod());
       if (with_powder && step % static_cast<std::uint64_t>(o.lammps_contact_every) == 0)
-        contacts << contacts_by_pair_type(step, system, powder);
+        contacts << contacts_by_pair_type(step, sheared, powder);
     }
   });
   if (!out) throw std::runtime_error("could not write millflow_stress.txt");
@@ -1033,9 +1057,10 @@ void lammps_table(const Options& o) {
   else
     fmt::print("  {} balls, ", system.size());
   fmt::print(
-      "solid fraction {:.4f}, media k_n/(p d) {:.3g}, dt {:.4g} s, {} steps at fixed volume in "
-      "{:.1f} CPU s ({:.3g} particle-steps per CPU s)\n",
-      solid_fraction, media_kappa, system.time_step(), steps * refine, cpu,
+      "solid fraction {:.4f}, media k_n/(p d) {:.3g}, dt {:.4g} s, {} steps at {} in {:.1f} CPU "
+      "s ({:.3g} particle-steps per CPU s)\n",
+      solid_fraction, media_kappa, sheared.time_step(), steps * refine,
+      o.lammps_stress_control ? "held normal stress" : "fixed volume", cpu,
       static_cast<double>(system.size() * steps * refine) / cpu);
 }
 
@@ -1099,6 +1124,9 @@ int main(int argc, char** argv) {
                  "every cell's /shear_cell/steps_per_collision (its time step; default: the "
                  "campaign's)")
       ->check(CLI::NonNegativeNumber);
+  app.add_flag("--lammps_stress_control", o.lammps_stress_control,
+               "table 6: both codes shear on under their barostats (millflow's own, LAMMPS's "
+               "nph/sphere on y), not at fixed volume");
   app.add_option("--lammps_dt_refine", o.lammps_dt_refine,
                  "table 6: millflow's fixed-volume run at the cell's dt over this")
       ->check(CLI::PositiveNumber);

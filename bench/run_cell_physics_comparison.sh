@@ -10,6 +10,9 @@
 # BATCHES batches, each batch's tau = -p_xy, p_yy and p = trace / 3 averaged, the frictions
 # tau / p_yy and tau / p formed per batch; mean and standard error over the batches. At fixed
 # volume the solid fraction is the same by construction (printed), so the stresses are compared.
+# STRESS_CONTROL=1: both codes shear on holding the normal stress instead (millflow under its
+# cell's barostat, LAMMPS under its Nose-Hoover barostat on y), and the solid fraction is
+# compared as well (within 0.01).
 #
 # With LOAD > 0 the cell holds powder of POWDER_RATIO ball diameters at that load (type 2; the
 # contact parameters per pair of types, LAMMPS's pair_style granular through
@@ -31,6 +34,10 @@
 #             REDUCE_ONLY=1: only the reduction, of the files an earlier run left in WORK_DIR
 #             DT_REFINE=1: millflow's fixed-volume run at the cell's dt / DT_REFINE (an integer;
 #                LAMMPS's stays at the cell's dt), the integrator's share of a difference
+#             STRESS_CONTROL=1: at the held normal stress, not the volume (above)
+#             SAMPLE_EVERY=50: steps between stress samples (under stress control, one prime to the
+#                barostat's interval, 40 steps at the default steps per collision, samples every
+#                phase of it: docs/cell_validation.md, "LAMMPS under stress control")
 #             PAIRS_ONLY=1 (with LOAD > 0): only the pair collisions, of the cell as placed, in both
 #                codes at the cell's dt and a tenth of it (seconds)
 set -euo pipefail
@@ -52,6 +59,8 @@ seed=${SEED:-1}
 reduce_only=${REDUCE_ONLY:-0}
 pairs_only=${PAIRS_ONLY:-0}
 dt_refine=${DT_REFINE:-1}
+stress_control=${STRESS_CONTROL:-0}
+sample_every=${SAMPLE_EVERY:-50}
 with_powder=$(awk -v l="$load" 'BEGIN {print (l > 0) ? 1 : 0}')
 bench=$build/bench/bench_cell_physics
 [[ -x $bench ]] || { echo "no $bench: build the bench_cell_physics target first" >&2; exit 1; }
@@ -100,7 +109,8 @@ run_both() {
   # shellcheck disable=SC2086  # SIZE is three numbers
   bench_args=(--tables 6 --size $size --lammps_dir "$work" --lammps_inertial_number "$inertial"
               --lammps_strain "$strain" --seed "$seed" --lammps_dt_refine "$dt_refine"
-              "${powder_args[@]}")
+              --lammps_sample_every "$sample_every" "${powder_args[@]}")
+  ((stress_control)) && bench_args+=(--lammps_stress_control)
   if ((overlap)); then
     # millflow's fixed-volume run beside LAMMPS's: LAMMPS starts once the state is written (the bench
     # opens millflow_stress.txt after it), millflow's log comes when it ends.
@@ -132,24 +142,29 @@ run_both() {
 param() { awk -v n="$1" '$1 == "variable" && $2 == n {print $4}' "$work/cell_physics.params"; }
 dt=$(param dt)
 rate=$(param shear_rate)
-echo "solid fraction (both, fixed volume): $(param solid_fraction)"
+if ((stress_control)); then
+  echo "solid fraction (both, at the start): $(param solid_fraction)"
+else
+  echo "solid fraction (both, fixed volume): $(param solid_fraction)"
+fi
 
-# Mean and batch standard error of tau, p_yy, p, tau / p_yy, tau / p of one stress series
-# (columns: step pxx pyy pzz pxy pxz pyz).
+# Mean and batch standard error of tau, p_yy, p, tau / p_yy, tau / p and the solid fraction of
+# one stress series (columns: step pxx pyy pzz pxy pxz pyz solid_fraction; the last 0 in files
+# written before it was recorded).
 reduce() {
   awk -v dt="$dt" -v rate="$rate" -v discard="$discard" -v nb="$batches" -v name="$2" '
     /^#/ {next}
-    NF >= 7 && $1 * dt * rate > discard {n++; xx[n] = $2; yy[n] = $3; zz[n] = $4; xy[n] = $5}
+    NF >= 7 && $1 * dt * rate > discard {n++; xx[n] = $2; yy[n] = $3; zz[n] = $4; xy[n] = $5; phi[n] = $8}
     END {
       per = int(n / nb)
       for (b = 0; b < nb; b++) {
-        t = 0; y = 0; p = 0
-        for (i = b * per + 1; i <= (b + 1) * per; i++) {t -= xy[i]; y += yy[i]; p += (xx[i] + yy[i] + zz[i]) / 3}
+        t = 0; y = 0; p = 0; f = 0
+        for (i = b * per + 1; i <= (b + 1) * per; i++) {t -= xy[i]; y += yy[i]; p += (xx[i] + yy[i] + zz[i]) / 3; f += phi[i]}
         v[1, b] = t / per; v[2, b] = y / per; v[3, b] = p / per
-        v[4, b] = t / y; v[5, b] = t / p
+        v[4, b] = t / y; v[5, b] = t / p; v[6, b] = f / per
       }
       printf "%s", name
-      for (q = 1; q <= 5; q++) {
+      for (q = 1; q <= 6; q++) {
         m = 0; for (b = 0; b < nb; b++) m += v[q, b]; m /= nb
         s = 0; for (b = 0; b < nb; b++) s += (v[q, b] - m) ^ 2
         printf " %.6g %.6g", m, sqrt(s / (nb - 1) / nb)
@@ -159,10 +174,11 @@ reduce() {
 }
 m=$(reduce "$work/millflow_stress.txt" millflow)
 l=$(reduce "$work/lammps_stress.txt" LAMMPS)
-awk -v m="$m" -v l="$l" -v discard="$discard" -v nb="$batches" 'BEGIN {
+awk -v m="$m" -v l="$l" -v discard="$discard" -v nb="$batches" -v held="$stress_control" 'BEGIN {
   split(m, a); split(l, b)
   split("tau_Pa p_yy_Pa p_Pa tau/p_yy tau/p", names)
-  printf "after %g strain, %d batches (%d and %d samples)\n", discard, nb, a[12], b[12]
+  printf "after %g strain, %d batches (%d and %d samples)\n", discard, nb, a[14], b[14]
+  if (a[14] < nb || b[14] < nb) {print "too few samples: FAIL"; exit 1}
   printf "%-10s %24s %24s %8s %8s\n", "quantity", "millflow", "LAMMPS", "diff %", "diff/se"
   pass = 1
   for (q = 1; q <= 5; q++) {
@@ -172,6 +188,11 @@ awk -v m="$m" -v l="$l" -v discard="$discard" -v nb="$batches" 'BEGIN {
     if (q >= 4 && (d > 3 || d < -3)) pass = 0
   }
   print (pass ? "friction within 3%: PASS" : "friction within 3%: FAIL")
+  if (held) {
+    mm = a[12]; ms = a[13]; lm = b[12]; ls = b[13]; d = mm - lm
+    printf "%-10s %12.6g +- %-9.3g %12.6g +- %-9.3g %+8.4f %+8.1f  (diff absolute)\n", "phi", mm, ms, lm, ls, d, d / sqrt(ms ^ 2 + ls ^ 2)
+    print ((d <= 0.01 && d >= -0.01) ? "solid fraction within 0.01: PASS" : "solid fraction within 0.01: FAIL")
+  }
 }'
 
 if ((with_powder)); then

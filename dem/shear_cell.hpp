@@ -287,6 +287,9 @@ class ShearCell {
   void compact();
   // Runs `strain` of shear (target rate x time) with no measurement and no control.
   void run_strain(double strain);
+  // Steps the system after compact(); with Lees-Edwards also integrates the boundary's work and
+  // runs the barostat (step_controlled, which compact() itself uses).
+  void advance(std::size_t steps);
   // Runs `strain` of shear in `windows` equal windows, adjusting the wall speed after each so the
   // bulk shear rate approaches the target (RoughWalls; LE has no slip and only runs). An "auto"
   // skin (ShearCellSetup::neighbor_skin_fraction empty) is chosen by trial at the end of the
@@ -427,9 +430,6 @@ class ShearCell {
   // the first window, ShearCellRun before a measurement with no warm-up.
   void choose_neighbor_skin();
   std::size_t steps_for_strain(double strain) const;
-  // Steps the system after compact(); with Lees-Edwards also integrates the boundary's work and
-  // runs the barostat (step_controlled, which compact() itself uses).
-  void advance(std::size_t steps);
   void step_controlled(std::size_t steps);
   // `steps` steps with the LE boundary's work integrated over each (trapezoidal rule); after each
   // step `after_step()` runs and returns true when it stretched the box (step_controlled: the
