@@ -112,7 +112,11 @@ ShearCell::Measurement ShearCell::start_measurement(double strain, const Measure
     throw std::invalid_argument(
         fmt::format("shear cell: strain = {} is less than two time steps", strain));
   m.steps = std::max(m.min_steps, steps_for_strain(options.max_strain));
-  m.every = std::max<std::uint64_t>(1, m.min_steps / static_cast<std::uint64_t>(options.samples));
+  // At every phase of the stress control's interval (the barostat's stretches make the stress
+  // ring: sample_interval_across_control_phases).
+  m.every = sample_interval_across_control_phases(
+      m.min_steps / static_cast<std::uint64_t>(options.samples),
+      control_->settings().interval_steps);
   // Wall loads are free to read every step; the LE virial costs a pass over the contacts.
   m.stress_every = walls() ? 1 : m.every;
   m.block_steps = std::max<std::uint64_t>(1, steps_for_strain(kBlockStrain));

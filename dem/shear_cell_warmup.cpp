@@ -63,7 +63,10 @@ ShearCell::WarmUpWindow ShearCell::start_window(double strain) const {
   window.steps = steps_for_strain(strain);
   // The profile takes a while to answer a new wall speed: measure over the second half only.
   window.half = window.steps / 2;
-  window.every = std::max<std::uint64_t>(1, (window.steps - window.half) / 50);
+  // Samples at every phase of the stress control's interval, not in step with it (the Lees-Edwards
+  // barostat's stretches make the stress ring: sample_interval_across_control_phases).
+  window.every = sample_interval_across_control_phases((window.steps - window.half) / 50,
+                                                       control_->settings().interval_steps);
   return window;
 }
 

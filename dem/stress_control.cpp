@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <vector>
 
 #include "dem/deterministic_sum.hpp"
@@ -55,6 +56,14 @@ double stretch_along_y_keeping_profile(System& system, double shear_rate, double
   for (std::size_t p = 0; p < system.size(); ++p)
     system.set_velocity(static_cast<ParticleId>(p), velocities[p]);
   return normal_spring_energy(system) - springs_before;
+}
+
+std::uint64_t sample_interval_across_control_phases(std::uint64_t every,
+                                                    std::uint64_t control_interval) {
+  every = std::max<std::uint64_t>(every, 1);
+  if (control_interval <= 1) return every;
+  while (std::gcd(every, control_interval) > 1) ++every;
+  return every;
 }
 
 bool StressControl::after_step(System& system) {

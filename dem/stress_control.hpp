@@ -160,6 +160,17 @@ class StressControl {
   double smoothed_stress_ = 0.0;  // its running mean over tau, Pa
 };
 
+// The interval between a measurement's samples, at least `every` steps and prime to the stress
+// control's interval, so that the samples walk through every phase of it. The Lees-Edwards
+// barostat stretches the box at the end of each interval and the stress rings for about a
+// collision after: at I = 0.3 a 1050-ball cell's p_yy read 18,200-24,400 Pa and tau / p_yy
+// 0.477-0.577 depending on the phase, where its mean over every phase was 0.547 (LAMMPS's, under a
+// barostat that moves the box every step, 0.549: docs/cell_validation.md, "LAMMPS under stress
+// control, and the barostat's phase"). Sampled every 80 steps against an interval of 40, the cell
+// read one phase: p_yy 50% above its target.
+std::uint64_t sample_interval_across_control_phases(std::uint64_t every,
+                                                    std::uint64_t control_interval);
+
 // Stretches a Lees-Edwards cell along y by the factor 1 + strain about its lower face
 // (System::deform_affinely), keeping every particle's velocity relative to the imposed profile
 // shear_rate (y - y_mid), which stretches with the box. Returns the energy the stretch put into

@@ -4,6 +4,8 @@
 #include <algorithm>
 
 #include <numbers>
+#include <numeric>
+#include <vector>
 
 #include "dem/shear_cell.hpp"
 #include "tests/dem/scenes.hpp"
@@ -147,6 +149,30 @@ TEST(ShearCell, ServoConstantsFollowTheDocumentedLaw) {
   EXPECT_NEAR(cell.servo_mobility(), gap / (10.0 * 1000.0 * area * tau),
               1e-12 * cell.servo_mobility());
   EXPECT_NEAR(cell.servo_max_speed(), 0.5 * d / t_wave, 1e-12);
+}
+
+// A measurement's samples must not sit at a fixed phase of the barostat's interval, which stretches
+// the box at its end (the stress rings after each stretch): the sample interval is the first from
+// the window's own that is prime to the control interval.
+TEST(ShearCell, SampleIntervalWalksThroughEveryPhaseOfTheControlInterval) {
+  EXPECT_EQ(sample_interval_across_control_phases(80, 40), 81u);
+  EXPECT_EQ(sample_interval_across_control_phases(83, 40), 83u);
+  EXPECT_EQ(sample_interval_across_control_phases(250, 40), 251u);
+  EXPECT_EQ(sample_interval_across_control_phases(0, 40), 1u);
+  EXPECT_EQ(sample_interval_across_control_phases(6, 1), 6u);
+  EXPECT_EQ(sample_interval_across_control_phases(6, 0), 6u);
+  for (const std::uint64_t control : {2u, 20u, 37u, 40u, 160u, 1000u}) {
+    for (std::uint64_t every = 1; every <= 500; ++every) {
+      const std::uint64_t chosen = sample_interval_across_control_phases(every, control);
+      EXPECT_EQ(std::gcd(chosen, control), 1u) << every << " against " << control;
+      for (std::uint64_t smaller = every; smaller < chosen; ++smaller)
+        EXPECT_GT(std::gcd(smaller, control), 1u) << every << " against " << control;
+      // So `control` consecutive samples fall on `control` different phases.
+      std::vector<bool> seen(control, false);
+      for (std::uint64_t k = 0; k < control; ++k) seen[(k * chosen) % control] = true;
+      EXPECT_TRUE(std::all_of(seen.begin(), seen.end(), [](bool b) { return b; }));
+    }
+  }
 }
 
 TEST(ShearCell, SizeScaledStiffnessUsesTheHarmonicMeanDiameter) {
