@@ -317,7 +317,8 @@ class ShearCell {
 
   // Preparing a state (Lees-Edwards only): runs the cell with its barostat held (it neither
   // samples nor answers, so its running mean stays as it was; its integral term, wound up by the
-  // softer bed, is reset to 0 at the end, the stress being on target) and stretches
+  // softer bed, is reset to 0 at the end with any strain of its last answer not yet stretched,
+  // the stress being on target) and stretches
   // the box along y between control intervals by the law of StressRelief until the normal stress
   // is on target. For a cell whose contacts were just made stiffer (ShearCellRun::
   // with_interactions): the softer contacts' overlaps would hold many times the target, and the
@@ -487,7 +488,8 @@ struct ShearCellProtocol {
 // few hundred collision times). advance() in chunks of any size gives the same bits too.
 //
 // Checkpoint file: the checksummed container of dem/binary_io.hpp, magic "MFSHRCKP", payload
-// version kShearCellCheckpointVersion. Payload (version 5; version 4 lacked the wall-speed
+// version kShearCellCheckpointVersion. Payload (version 6; version 5 lacked the barostat's strain
+// still to stretch and its parts left; version 4 lacked the wall-speed
 // controller's measured-window duration and travel and the servo's integral term; version 3 held
 // the earlier filtered wall-speed controller's two sums, window count and settled flag, and a
 // rough-wall window's stress sums over its profile samples only; version 2 only the previous
@@ -501,9 +503,10 @@ struct ShearCellProtocol {
 //   cell: media, powder and wall ball counts (uint64), wall speed, LE boundary work; the stress
 //         control (StressControl::write: stress sum and sample count since the last control
 //         interval, the stress that interval answered and its running mean over the relaxation
-//         time; the barostat then its stretches' work and its integral term, the servo its
-//         integral term); the wall-speed controller (WallSpeedController::write: the bulk
-//         fractions of the windows at the current speed (uint64 count, doubles), the last
+//         time; the barostat then its stretches' work, its integral term, the strain of its
+//         last answer still to stretch (double) and the parts left to stretch it in (uint64),
+//         the servo its integral term); the wall-speed controller (WallSpeedController::write: the
+//         bulk fractions of the windows at the current speed (uint64 count, doubles), the last
 //         steady estimate (double), settled (uint8), its steady points that stepped: the last,
 //         the latest below the target and the latest above it, each speed, bulk fraction and
 //         its standard error (3 doubles, speed 0 for none), the measured window's duration
@@ -529,7 +532,7 @@ struct ShearCellProtocol {
 // The system buffers no collision events while the cell measures: its recording flag is on and
 // each finished contact goes to the measurement's tally as it finishes (those of a relief's steps
 // are buffered, and tallied before a save).
-inline constexpr std::uint32_t kShearCellCheckpointVersion = 5;
+inline constexpr std::uint32_t kShearCellCheckpointVersion = 6;
 
 class ShearCellRun {
  public:

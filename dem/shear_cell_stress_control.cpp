@@ -54,7 +54,9 @@ std::unique_ptr<StressControl> ShearCell::make_stress_control() const {
       .relaxation_time =
           std::max(crossing_time, kRelaxationStrain / setup_.shear_rate) / setup_.servo_gain,
       .max_speed = setup_.servo_gain * d / crossing_time,
-      .interval_steps = static_cast<std::uint64_t>(setup_.steps_per_collision)};
+      .interval_steps = static_cast<std::uint64_t>(setup_.steps_per_collision),
+      .part_strain =
+          kPartStrainOfStressOverlap * setup_.normal_stress * d / media.normal_stiffness};
   // The wall answers the flowing bed's modulus K p over the gap, not its contacts' stiffness:
   // v = M (F_target - F) with M = H / (K p A tau) relaxes the force in tau.
   settings.mobility =
@@ -152,7 +154,7 @@ StressReliefResult ShearCell::relieve_normal_stress(const StressRelief& relief) 
     wall_speed_ = system_.domain().lees_edwards.velocity;
   }
   result.strain = std::log(system_.domain().length().y() / height0);
-  control_->reset_integral_term();
+  control_->reset_answer();
   return result;
 }
 

@@ -18,12 +18,18 @@ constexpr std::uint64_t kBarostatSamplesEvery = 4;
 // jams for a moment (its modulus far above 10 p) cannot throw the barostat into oscillation.
 constexpr double kBarostatMaxDilation = 0.05;
 
-// normal_spring_energy sums in blocks of this many candidate pairs, on every thread of the cell
-// (deterministic_sum): as one serial pass it was 1.7% of cement_load15's step (docs/benchmarks.md).
+// The stretches' work sums over the candidate pairs in blocks of this many, on every thread of
+// the cell (deterministic_sum).
 constexpr std::size_t kPairSumGrain = 2048;
 
-// Elastic energy of the normal springs of the pairs in contact, J.
-double normal_spring_energy(const System& system) {
+// The change of the normal springs' elastic energy when the box and the particles are stretched
+// along y by `factor` about its lower face, J: over the pairs in contact at the last step, from
+// their separations before and after (the stretch scales a separation's y by the factor, image
+// included). A pair the stretch brings into contact is not counted: its overlap is at most
+// (factor - 1) times its separation's y, against a contact's own. (Until 6 December a stretch
+// took the springs' energy of every candidate pair before and after it: two passes over about
+// three times as many pairs, once per interval; now there may be five stretches.)
+double normal_spring_energy_change(const System& system, double factor) {
   const auto x = system.positions();
   const auto r = system.radii();
   const auto materials = system.particle_materials();
@@ -31,12 +37,15 @@ double normal_spring_energy(const System& system) {
   // The box's constants once per pass, not per pair (Domain::separation's own, same bits).
   const PeriodicImages images(system.domain());
   return deterministic_sum(pairs.size(), kPairSumGrain, [&](std::size_t k) {
+    if (!system.pair_touching(k)) return 0.0;
     const auto [i, j] = pairs[k];
-    // A pair apart counts 0 by its overlap clamped at 0, not by a branch: about a third of the
-    // candidate pairs touch, at random.
-    const double overlap = std::max(r[i] + r[j] - images.separation(x[i], x[j]).norm(), 0.0);
-    return 0.5 * system.materials().pair(materials[i], materials[j]).normal_stiffness * overlap *
-           overlap;
+    Vec3 separation = images.separation(x[i], x[j]);
+    const double reach = r[i] + r[j];
+    const double before = std::max(reach - separation.norm(), 0.0);
+    separation.y() *= factor;
+    const double after = std::max(reach - separation.norm(), 0.0);
+    return 0.5 * system.materials().pair(materials[i], materials[j]).normal_stiffness *
+           (after * after - before * before);
   });
 }
 
@@ -51,11 +60,11 @@ double stretch_along_y_keeping_profile(System& system, double shear_rate, double
   std::vector<Vec3> velocities(v.begin(), v.end());
   for (std::size_t p = 0; p < system.size(); ++p)
     velocities[p].x() += shear_rate * strain * (x[p].y() - y_mid);
-  const double springs_before = normal_spring_energy(system);
+  const double work = normal_spring_energy_change(system, 1.0 + strain);
   system.deform_affinely(1, 1.0 + strain);
   for (std::size_t p = 0; p < system.size(); ++p)
     system.set_velocity(static_cast<ParticleId>(p), velocities[p]);
-  return normal_spring_energy(system) - springs_before;
+  return work;
 }
 
 std::uint64_t sample_interval_across_control_phases(std::uint64_t every,
@@ -71,7 +80,7 @@ bool StressControl::after_step(System& system) {
     stress_sum_ += normal_stress(system);
     stress_samples_ += 1.0;
   }
-  if (system.step_count() % settings_.interval_steps != 0) return false;
+  if (system.step_count() % settings_.interval_steps != 0) return between_answers(system);
   const double stress =
       stress_samples_ > 0.0 ? stress_sum_ / stress_samples_ : normal_stress(system);
   stress_sum_ = stress_samples_ = 0.0;
@@ -154,18 +163,41 @@ bool LeesEdwardsBarostat::answer(System& system, double stress, bool closing) {
   const double strain =
       closing ? -s.max_speed * control_interval / height
               : (proportional + integral_.value()) * control_interval / s.relaxation_time;
-  work_ += stretch_along_y_keeping_profile(system, s.shear_rate, strain);
+  // Spread over the interval, this step first; what the last interval left (one whose length is
+  // no multiple of kBarostatStretchEvery) comes with it.
+  pending_strain_ += strain;
+  const auto most_parts = std::max<std::uint64_t>(1, s.interval_steps / kBarostatStretchEvery);
+  const double parts =
+      s.part_strain > 0.0 ? std::ceil(std::abs(pending_strain_) / s.part_strain) : 1.0;
+  parts_left_ = static_cast<std::uint64_t>(std::clamp(parts, 1.0, static_cast<double>(most_parts)));
+  return stretch_part(system);
+}
+
+bool LeesEdwardsBarostat::between_answers(System& system) {
+  return system.step_count() % kBarostatStretchEvery == 0 && stretch_part(system);
+}
+
+bool LeesEdwardsBarostat::stretch_part(System& system) {
+  if (parts_left_ == 0) return false;
+  const double part = pending_strain_ / static_cast<double>(parts_left_);
+  pending_strain_ -= part;
+  --parts_left_;
+  work_ += stretch_along_y_keeping_profile(system, settings().shear_rate, part);
   return true;
 }
 
 void LeesEdwardsBarostat::write_own(BinaryWriter& out) const {
   out.put(work_);
   integral_.write(out);
+  out.put(pending_strain_);
+  out.put(parts_left_);
 }
 
 void LeesEdwardsBarostat::read_own(BinaryReader& in) {
   work_ = in.get<double>();
   integral_.read(in);
+  pending_strain_ = in.get<double>();
+  parts_left_ = in.get<std::uint64_t>();
 }
 
 }  // namespace millflow::dem

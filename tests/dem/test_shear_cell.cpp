@@ -135,6 +135,58 @@ TEST(ShearCell, LeesEdwardsMeasurementHasTheSameBitsAtOneAndTwoThreads) {
   EXPECT_EQ(one.shear_stress, two.shear_stress);
 }
 
+// The barostat stretches an answer larger than its part strain in equal parts over its interval,
+// as few as keep each part within it, not at once at the interval's end (a stretch at once made
+// the stress ring: dem/stress_control.hpp).
+TEST(ShearCell, BarostatStretchesALargeAnswerInEqualPartsOverItsInterval) {
+  ShearCellSetup setup = small_shear_cell(0.3);
+  setup.boundary = ShearCellSetup::Boundary::LeesEdwards;
+  setup.media_media.normal_stiffness = 1e4 * setup.normal_stress * setup.media_diameter;
+  setup.steps_per_collision = 40;  // the campaigns' default: at most 5 parts
+  ShearCell cell(setup);
+  cell.compact();
+  const auto interval = static_cast<std::uint64_t>(setup.steps_per_collision);
+  const std::uint64_t most_parts = interval / kBarostatStretchEvery;
+  const double part_strain = cell.stress_control().settings().part_strain;
+  EXPECT_DOUBLE_EQ(part_strain, 0.5 * setup.normal_stress * setup.media_diameter /
+                                    setup.media_media.normal_stiffness);
+  // From the next answer on, over eight intervals: the strain of each step.
+  while (cell.system().step_count() % interval != interval - 1) cell.advance(1);
+  std::vector<double> strains;
+  for (std::uint64_t s = 0; s < 8 * interval; ++s) {
+    const double before = cell.system().domain().length().y();
+    cell.advance(1);
+    strains.push_back(cell.system().domain().length().y() / before - 1.0);
+  }
+  // strains[s] is the step to step count (answer + s): the answers at s = 0 mod interval, parts
+  // only at s = 0 mod kBarostatStretchEvery, the first ones of the interval, all alike.
+  int split = 0;
+  for (std::uint64_t answer = 0; answer < strains.size(); answer += interval) {
+    const double part = strains[answer];
+    ASSERT_NE(part, 0.0) << "answer at step " << answer;
+    std::uint64_t parts = 0;
+    for (std::uint64_t s = answer; s < answer + interval; ++s) {
+      if (strains[s] == 0.0) continue;
+      EXPECT_EQ((s - answer) % kBarostatStretchEvery, 0u) << "step " << s;
+      EXPECT_EQ(s - answer, parts * kBarostatStretchEvery) << "step " << s;
+      EXPECT_NEAR(strains[s], part, 1e-9 * std::abs(part)) << "step " << s;
+      ++parts;
+    }
+    // As few parts as keep each within the part strain (to rounding), at most one per
+    // kBarostatStretchEvery steps.
+    EXPECT_LE(parts, most_parts);
+    if (parts < most_parts) {
+      EXPECT_LE(std::abs(part), part_strain * (1.0 + 1e-9));
+    }
+    if (parts > 1) {
+      EXPECT_GT(std::abs(part) * static_cast<double>(parts) / (static_cast<double>(parts) - 1.0),
+                part_strain);
+    }
+    split += parts > 1;
+  }
+  EXPECT_GT(split, 0) << "no answer of this cell at I = 0.3 was large enough to split";
+}
+
 TEST(ShearCell, ServoConstantsFollowTheDocumentedLaw) {
   const ShearCellSetup setup = small_shear_cell(0.05);
   const ShearCell cell(setup);

@@ -139,6 +139,27 @@ TEST_P(ShearCellCheckpoint, StoppingAnywhereAndContinuingGivesTheSameBits) {
   expect_same_bits(uninterrupted, run);
 }
 
+// At I = 0.3 and k_n / (p d) = 1e4 the barostat splits its answers into parts over the interval
+// (dem/stress_control.hpp); stops at odd steps fall between parts, whose strain still to stretch
+// the checkpoint must carry.
+TEST_F(ShearCellCheckpoint, StoppingBetweenTheBarostatsPartsGivesTheSameBits) {
+  ShearCellSetup setup = tiny_cell(ShearCellSetup::Boundary::LeesEdwards);
+  setup.shear_rate *= 3.0;  // I = 0.3
+  setup.media_media.normal_stiffness = 1e4 * setup.normal_stress * setup.media_diameter;
+  setup.steps_per_collision = 40;
+  ShearCellRun uninterrupted(setup, tiny_protocol());
+  while (!uninterrupted.advance(1000)) {
+  }
+  const std::filesystem::path file = dir.path() / "cell.ckpt";
+  ShearCellRun run(setup, tiny_protocol());
+  for (int chunk = 1; !run.advance(37); ++chunk) {
+    if (chunk % 5 != 0) continue;
+    run.save(file);
+    run = ShearCellRun::resume(setup, tiny_protocol(), file);
+  }
+  expect_same_bits(uninterrupted, run);
+}
+
 INSTANTIATE_TEST_SUITE_P(Boundaries, ShearCellCheckpoint,
                          ::testing::Values(ShearCellSetup::Boundary::RoughWalls,
                                            ShearCellSetup::Boundary::LeesEdwards));
