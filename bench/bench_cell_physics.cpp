@@ -918,6 +918,8 @@ void add_and_check_pair_types(const dem::System& system, bench::LammpsParams& pa
 
 void lammps_table(const Options& o) {
   if (!o.lammps_dir) throw std::invalid_argument("table 6 needs --lammps_dir");
+  if (o.lammps_stress_control && o.lammps_dt_refine != 1)
+    throw std::invalid_argument("--lammps_dt_refine needs the fixed-volume run");
   if (o.lammps_load > 0.0 &&
       (o.lammps_contact_every <= 0 || o.lammps_contact_every % o.lammps_sample_every != 0))
     throw std::invalid_argument(
@@ -1029,8 +1031,6 @@ void lammps_table(const Options& o) {
   // At a fraction of the cell's dt (the integrator's share of a difference), the same strain and
   // samples: the rows keep the cell's step numbers, which the reduction turns into strain.
   const auto refine = static_cast<std::uint64_t>(o.lammps_dt_refine);
-  if (o.lammps_stress_control && refine != 1)
-    throw std::invalid_argument("--lammps_dt_refine needs the fixed-volume run");
   sheared.set_time_step(sheared.time_step() / static_cast<double>(refine));
   const double cpu_start = process_cpu_seconds();
   arena.execute([&] {
