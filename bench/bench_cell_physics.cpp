@@ -46,7 +46,9 @@
 //                --lammps_stress_control: both codes shear on holding the normal stress instead of
 //                the volume (millflow under the cell's own barostat, LAMMPS under its
 //                Nose-Hoover barostat on y, fix nph/sphere), the solid fraction written with each
-//                stress sample.
+//                stress sample; the sample interval is then the first from
+//                --lammps_sample_every prime to the barostat's interval, and the contact interval
+//                the first multiple of it from --lammps_contact_every.
 //
 // The scene is campaigns/cement_ball_mill.json's cell (50 mm steel balls, clinker powder, steel
 // 7800 and clinker 3150 kg/m^3, Lees-Edwards, stiffness policy "overlap_bound") at a site of
@@ -82,9 +84,11 @@
 #include "dem/pair_collision.hpp"
 #include "dem/shear_cell.hpp"
 #include "dem/stiffness_policy.hpp"
+#include "dem/stress_control.hpp"
 #include "method/sites.hpp"
 #include "tasks/campaign.hpp"
 #include "tasks/shear_cell.hpp"
+#include "util/sphere.hpp"
 
 namespace {
 
@@ -958,7 +962,7 @@ void lammps_table(const Options& o) {
   const double length_y = system.domain().length().y();
   const double particle_volume = [&] {
     double volume = 0.0;
-    for (const double r : system.radii()) volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+    for (const double r : system.radii()) volume += util::sphere_volume_of_radius(r);
     return volume;
   }();
   const double solid_fraction = particle_volume / system.domain().length().prod();
@@ -969,9 +973,20 @@ void lammps_table(const Options& o) {
   for (std::size_t p = 0; p < shifted.size(); ++p)
     shifted.set_velocity(p,
                          shifted.velocities()[p] + dem::Vec3(0.5 * c.shear_rate * length_y, 0, 0));
-  const auto steps = static_cast<std::uint64_t>(
-      std::ceil(o.lammps_strain / (c.shear_rate * system.time_step()) / o.lammps_sample_every) *
-      o.lammps_sample_every);
+  // Under stress control the samples fall on every phase of the barostat's interval, as the
+  // cells' own do (dem::sample_interval_across_control_phases), and the contact rows on samples.
+  const std::uint64_t sample_every =
+      o.lammps_stress_control ? dem::sample_interval_across_control_phases(
+                                    static_cast<std::uint64_t>(o.lammps_sample_every),
+                                    run.cell().stress_control().settings().interval_steps)
+                              : static_cast<std::uint64_t>(o.lammps_sample_every);
+  const std::uint64_t contact_every =
+      (static_cast<std::uint64_t>(o.lammps_contact_every) + sample_every - 1) / sample_every *
+      sample_every;
+  const auto steps =
+      static_cast<std::uint64_t>(std::ceil(o.lammps_strain / (c.shear_rate * system.time_step()) /
+                                           static_cast<double>(sample_every)) *
+                                 static_cast<double>(sample_every));
   const auto materials = system.particle_materials();
   const auto powder_count = static_cast<std::size_t>(
       std::count_if(materials.begin(), materials.end(), [](dem::MaterialId m) { return m != 0; }));
@@ -982,7 +997,7 @@ void lammps_table(const Options& o) {
   bench::LammpsParams params;
   if (with_powder) {
     add_and_check_pair_types(system, params, 1.0);
-    params.set("contact_every", o.lammps_contact_every);
+    params.set("contact_every", static_cast<double>(contact_every));
     params.set("media_count", static_cast<double>(system.size() - powder_count));
     params.set("powder_count", static_cast<double>(powder_count));
     params.set("volume", system.domain().length().prod());
@@ -999,7 +1014,7 @@ void lammps_table(const Options& o) {
   params.set("skin", default_skin(system));
   params.set("shear_rate", c.shear_rate);
   params.set("nsteps", static_cast<double>(steps));
-  params.set("sample_every", o.lammps_sample_every);
+  params.set("sample_every", static_cast<double>(sample_every));
   params.set("solid_fraction", solid_fraction);
   params.set("particle_volume", particle_volume);
   // Under stress control LAMMPS holds p_yy with its Nose-Hoover barostat on y (nph/sphere: LAMMPS
@@ -1034,14 +1049,14 @@ void lammps_table(const Options& o) {
   sheared.set_time_step(sheared.time_step() / static_cast<double>(refine));
   const double cpu_start = process_cpu_seconds();
   arena.execute([&] {
-    for (std::uint64_t step = 0; step <= steps; step += o.lammps_sample_every) {
-      if (step > 0 && held) held->advance(o.lammps_sample_every);
-      if (step > 0 && !held) system.step(o.lammps_sample_every * refine);
+    for (std::uint64_t step = 0; step <= steps; step += sample_every) {
+      if (step > 0 && held) held->advance(sample_every);
+      if (step > 0 && !held) system.step(sample_every * refine);
       const auto t = stress_tensor(sheared, c.shear_rate);
       out << fmt::format("{} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g} {:.6f}\n", step, t[0],
                          t[1], t[2], t[3], t[4], t[5],
                          particle_volume / sheared.domain().length().prod());
-      if (with_powder && step % static_cast<std::uint64_t>(o.lammps_contact_every) == 0)
+      if (with_powder && step % contact_every == 0)
         contacts << contacts_by_pair_type(step, sheared, powder);
     }
   });

@@ -35,9 +35,10 @@
 #             DT_REFINE=1: millflow's fixed-volume run at the cell's dt / DT_REFINE (an integer;
 #                LAMMPS's stays at the cell's dt), the integrator's share of a difference
 #             STRESS_CONTROL=1: at the held normal stress, not the volume (above)
-#             SAMPLE_EVERY=50: steps between stress samples (under stress control, one prime to the
-#                barostat's interval, 40 steps at the default steps per collision, samples every
-#                phase of it: docs/cell_validation.md, "LAMMPS under stress control")
+#             SAMPLE_EVERY=50: steps between stress samples (under stress control the bench takes the
+#                first interval from it prime to the barostat's, 40 steps at the default steps per
+#                collision, so that the samples fall on every phase of it: docs/cell_validation.md,
+#                "LAMMPS under stress control"; 51 for 50)
 #             PAIRS_ONLY=1 (with LOAD > 0): only the pair collisions, of the cell as placed, in both
 #                codes at the cell's dt and a tenth of it (seconds)
 set -euo pipefail
