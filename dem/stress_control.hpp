@@ -267,11 +267,11 @@ class LeesEdwardsBarostat final : public StressControl {
   void read_own(BinaryReader& in) override;
 
  private:
-  double work_ = 0.0;  // put in by the stretches so far, J
-  IntegralTerm integral_{kBarostatIntegralTimes};
   // The next part of the last answer's strain, if any is left; true when it stretched.
   bool stretch_part(System& system);
 
+  double work_ = 0.0;  // put in by the stretches so far, J
+  IntegralTerm integral_{kBarostatIntegralTimes};
   double pending_strain_ = 0.0;   // of the last answer, still to stretch
   std::uint64_t parts_left_ = 0;  // in how many parts
 };
