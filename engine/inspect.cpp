@@ -357,10 +357,12 @@ std::vector<std::string> collect_garbage(const fs::path& db, bool dry_run) {
   const std::set<std::string> referenced = find_referenced_digests(connection);
   const ArtifactStore artifacts(artifacts_dir(db));
   std::vector<std::string> unreferenced;
-  for (const auto& digest : artifacts.stored_digests()) {
-    if (referenced.count(digest) > 0) continue;
-    unreferenced.push_back(digest);
-    if (!dry_run) artifacts.remove(digest);
+  for (const auto& file : artifacts.stored_files()) {
+    const std::string name = file.filename().string();
+    if (referenced.count(name) > 0) continue;
+    unreferenced.push_back(name);
+    // By its path: a crash's leftover ".<digest>.tmp..." is not where path_of(its name) is.
+    if (!dry_run) artifacts.remove(file);
   }
   return unreferenced;
 }
