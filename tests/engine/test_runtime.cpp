@@ -106,6 +106,31 @@ TEST(Runtime, ResubmissionIsFullyCached) {
   EXPECT_EQ(launches(dir.db()), before);
 }
 
+// A coordinator killed between a task's commit and the removal of its work directory left the
+// directory for good: the task is cached and never runs again. The next run removes it, and only
+// the work directories of cached tasks.
+TEST(Runtime, AWorkDirectoryADoneTaskLeftBehindGoesAtTheNextRun) {
+  ScratchDir dir;
+  const auto campaign = test_campaign("diamond", diamond());
+  ASSERT_EQ(submit(campaign, dir.db()).exit_code(), 0);
+  std::string key;
+  {
+    auto connection = open_read_only(dir.db());
+    auto row = connection.prepare("SELECT key FROM tasks LIMIT 1");
+    ASSERT_TRUE(row.step());
+    key = row.text(0);
+  }
+  const std::filesystem::path left = work_dir(dir.db()) / key;
+  const std::filesystem::path other = work_dir(dir.db()) / "not-a-task-of-this-campaign";
+  for (const auto& folder : {left / "flow", other}) {
+    std::filesystem::create_directories(folder);
+    std::ofstream(folder / "segment") << "frames\n";
+  }
+  EXPECT_EQ(submit(campaign, dir.db()).cached, 4);
+  EXPECT_FALSE(std::filesystem::exists(left));
+  EXPECT_TRUE(std::filesystem::exists(other / "segment"));
+}
+
 TEST(Runtime, ChangedParameterRerunsExactlyItsDownstream) {
   ScratchDir dir;
   submit(test_campaign("diamond", diamond(1)), dir.db());
