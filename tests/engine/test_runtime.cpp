@@ -131,6 +131,22 @@ TEST(Runtime, AWorkDirectoryADoneTaskLeftBehindGoesAtTheNextRun) {
   EXPECT_TRUE(std::filesystem::exists(other / "segment"));
 }
 
+// A coordinator killed mid-line leaves the campaign log without its last newline: the next one
+// starts on a line of its own instead of gluing its first line to the torn one.
+TEST(Runtime, TheNextCoordinatorStartsItsLogOnANewLine) {
+  ScratchDir dir;
+  std::filesystem::create_directories(logs_dir(dir.db()));
+  const std::filesystem::path log = logs_dir(dir.db()) / "diamond.log";
+  std::ofstream(log) << "[2026-12-06 04:24:17.998] [campaign] [info] torn";
+  ASSERT_EQ(submit(test_campaign("diamond", diamond()), dir.db()).exit_code(), 0);
+  std::ifstream in(log);
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  EXPECT_EQ(line, "[2026-12-06 04:24:17.998] [campaign] [info] torn");
+  ASSERT_TRUE(std::getline(in, line));
+  EXPECT_TRUE(line.starts_with("[")) << line;
+}
+
 TEST(Runtime, ChangedParameterRerunsExactlyItsDownstream) {
   ScratchDir dir;
   submit(test_campaign("diamond", diamond(1)), dir.db());
