@@ -105,14 +105,15 @@ void print_status(const fs::path& db, const std::string& campaign, std::ostream&
   auto connection = open_read_only(db);
   const auto coordinator = coordinator_state(db);
   if (coordinator) out << "coordinator: " << coordinator->description << '\n';
-  // A campaign left 'running' by a coordinator that died is shown as what it is.
+  // A campaign, and its tasks, left 'running' by a coordinator that died are shown as what they
+  // are.
   const bool running = coordinator && coordinator->alive;
   if (campaign.empty()) {
     print_aligned(campaign_summaries(connection, running), out);
     return;
   }
   const std::int64_t id = campaign_id(connection, campaign);
-  print_aligned(campaign_status_counts(connection, id), out);
+  print_aligned(campaign_status_counts(connection, id, running), out);
   print_unfinished_jobs(connection, id, out);
 }
 
