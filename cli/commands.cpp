@@ -17,6 +17,7 @@
 #include "engine/outputs.hpp"
 #include "engine/slurm_executor.hpp"
 #include "engine/validation.hpp"
+#include "util/durable_file.hpp"
 
 namespace millflow::cli {
 namespace {
@@ -449,7 +450,10 @@ void add_report(CLI::App& app, std::optional<int>& code) {
             {{"", "campaign \"" + campaign + "\" has no finished report task",
               "run `millflow resume " + campaign + "` until its report task is done"}});
       }
-      engine::copy_artifacts(database, reports.front().artifacts, out_dir);
+      // A kill leaves the whole report or none (a new directory), never some of its files.
+      util::fill_directory_durably(out_dir, [&](const fs::path& dir) {
+        engine::copy_artifacts(database, reports.front().artifacts, dir);
+      });
       std::cout << (out_dir / "index.md").string() << '\n';
       return 0;
     });

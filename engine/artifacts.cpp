@@ -50,14 +50,12 @@ bool ArtifactStore::verify(const StoredArtifact& artifact) const {
   }
 }
 
-std::vector<std::string> ArtifactStore::stored_digests() const {
-  std::vector<std::string> digests;
-  for (const auto& file : files_->files_under(root_)) digests.push_back(file.filename().string());
-  return digests;
+std::vector<fs::path> ArtifactStore::stored_files() const {
+  return files_->files_under(root_);
 }
 
-void ArtifactStore::remove(const std::string& sha256) const {
-  files_->remove(path_of(sha256));
+void ArtifactStore::remove(const fs::path& stored_file) const {
+  files_->remove(stored_file);
 }
 
 }  // namespace millflow::engine

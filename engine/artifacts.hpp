@@ -29,9 +29,10 @@ class ArtifactStore {
   std::filesystem::path path_of(const std::string& sha256) const;
   // True when the stored file exists with exactly this size and digest.
   bool verify(const StoredArtifact& artifact) const;
-  // Every content file present (for garbage collection), by digest.
-  std::vector<std::string> stored_digests() const;
-  void remove(const std::string& sha256) const;
+  // Every file present (for garbage collection): content files, and the temporary files of copies
+  // a crash interrupted, whose names are no digest's and which are not where path_of puts one.
+  std::vector<std::filesystem::path> stored_files() const;
+  void remove(const std::filesystem::path& stored_file) const;
   const std::filesystem::path& root() const { return root_; }
 
  private:

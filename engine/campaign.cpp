@@ -46,8 +46,18 @@ std::string file_safe(const std::string& name) {
   return safe;
 }
 
+// A coordinator killed while it wrote a line (info lines are buffered) leaves the log without its
+// last newline; the next coordinator's first line would be glued to the torn one.
+void end_torn_line(const fs::path& log) {
+  std::ifstream in(log, std::ios::binary | std::ios::ate);
+  if (!in || in.tellg() <= 0) return;
+  in.seekg(-1, std::ios::end);
+  if (in.get() != '\n') std::ofstream(log, std::ios::app) << '\n';
+}
+
 std::shared_ptr<spdlog::logger> campaign_logger(const fs::path& db, const std::string& campaign) {
   const fs::path file = logs_dir(db) / (file_safe(campaign) + ".log");
+  end_torn_line(file);
   // Warnings and errors (a stale lock taken over, a corrupt artifact re-run, a checkpoint
   // discarded) also go to the terminal, not only to the log file.
   auto terminal = std::make_shared<spdlog::sinks::stderr_sink_mt>();

@@ -105,14 +105,15 @@ void print_status(const fs::path& db, const std::string& campaign, std::ostream&
   auto connection = open_read_only(db);
   const auto coordinator = coordinator_state(db);
   if (coordinator) out << "coordinator: " << coordinator->description << '\n';
-  // A campaign left 'running' by a coordinator that died is shown as what it is.
+  // A campaign, and its tasks, left 'running' by a coordinator that died are shown as what they
+  // are.
   const bool running = coordinator && coordinator->alive;
   if (campaign.empty()) {
     print_aligned(campaign_summaries(connection, running), out);
     return;
   }
   const std::int64_t id = campaign_id(connection, campaign);
-  print_aligned(campaign_status_counts(connection, id), out);
+  print_aligned(campaign_status_counts(connection, id, running), out);
   print_unfinished_jobs(connection, id, out);
 }
 
@@ -357,10 +358,12 @@ std::vector<std::string> collect_garbage(const fs::path& db, bool dry_run) {
   const std::set<std::string> referenced = find_referenced_digests(connection);
   const ArtifactStore artifacts(artifacts_dir(db));
   std::vector<std::string> unreferenced;
-  for (const auto& digest : artifacts.stored_digests()) {
-    if (referenced.count(digest) > 0) continue;
-    unreferenced.push_back(digest);
-    if (!dry_run) artifacts.remove(digest);
+  for (const auto& file : artifacts.stored_files()) {
+    const std::string name = file.filename().string();
+    if (referenced.count(name) > 0) continue;
+    unreferenced.push_back(name);
+    // By its path: a crash's leftover ".<digest>.tmp..." is not where path_of(its name) is.
+    if (!dry_run) artifacts.remove(file);
   }
   return unreferenced;
 }

@@ -2,7 +2,6 @@
 
 #include <fmt/format.h>
 
-#include <fstream>
 #include <optional>
 
 #include "engine/artifacts.hpp"
@@ -10,6 +9,7 @@
 #include "engine/inspect.hpp"
 #include "engine/store.hpp"
 #include "engine/validation.hpp"
+#include "util/durable_file.hpp"
 
 namespace millflow::engine {
 namespace fs = std::filesystem;
@@ -112,7 +112,7 @@ std::vector<fs::path> export_files(const fs::path& db, const std::string& task_o
   }
   fs::create_directories(out_dir);
   written.push_back(out_dir / "tasks.csv");
-  std::ofstream(written.back()) << index;
+  util::write_file_durably(written.back(), index);
   return written;
 }
 

@@ -187,6 +187,7 @@ class Coordinator {
     adopted_.clear();
     stored_ = {};
     if (!options_.until.empty()) hold_beyond_until();
+    remove_work_dirs_of_cached_tasks();
     loop();
     env_.launcher.wait_idle();
     return summarize();
@@ -454,6 +455,19 @@ class Coordinator {
       fs::remove_all(work_root_ / key, ignored);
     }
     finished_work_.clear();
+  }
+
+  // A coordinator killed between a task's commit and the removal of its work directory left the
+  // directory behind (a macro run's can hold gigabytes); the task is cached and never runs again,
+  // so nothing else would remove it.
+  void remove_work_dirs_of_cached_tasks() {
+    std::error_code missing;
+    for (const auto& entry : fs::directory_iterator(work_root_, missing)) {
+      const auto found = nodes_.find(entry.path().filename().string());
+      if (found != nodes_.end() && found->second.state == State::cached)
+        finished_work_.push_back(found->first);
+    }
+    remove_finished_work_dirs();
   }
 
   // Runs on a worker thread: everything it touches is either its own or thread-safe.

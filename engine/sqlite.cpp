@@ -7,13 +7,15 @@ namespace {
   throw Error(std::string(what) + ": " + (db ? sqlite3_errmsg(db) : "out of memory"));
 }
 
-// A writer killed at the wrong moment (kill -9) can leave a WAL that needs recovery, which a
-// read-only connection cannot do (SQLITE_READONLY_RECOVERY): a short read-write connection, that
-// creates nothing and writes no page of the database, recovers it first.
-void recover_wal_for_reading(sqlite3* reader, const std::filesystem::path& file) {
+// A writer killed at the wrong moment (kill -9) can leave a WAL that needs recovery, or, in a first
+// submit killed before the file switched to WAL, a hot rollback journal; a read-only connection can
+// do neither (SQLITE_READONLY_RECOVERY, SQLITE_READONLY_ROLLBACK): a short read-write connection,
+// that creates nothing and writes no page beyond undoing the dead writer's, recovers it first.
+void recover_for_reading(sqlite3* reader, const std::filesystem::path& file) {
   sqlite3_extended_result_codes(reader, 1);
   const char* probe = "SELECT count(*) FROM sqlite_master";
-  if (sqlite3_exec(reader, probe, nullptr, nullptr, nullptr) != SQLITE_READONLY_RECOVERY) return;
+  const int probed = sqlite3_exec(reader, probe, nullptr, nullptr, nullptr);
+  if (probed != SQLITE_READONLY_RECOVERY && probed != SQLITE_READONLY_ROLLBACK) return;
   sqlite3* writer = nullptr;
   if (sqlite3_open_v2(file.c_str(), &writer, SQLITE_OPEN_READWRITE | SQLITE_OPEN_NOMUTEX,
                       nullptr) == SQLITE_OK) {
@@ -35,7 +37,7 @@ Connection::Connection(const std::filesystem::path& file, Access access) {
     throw Error(message);
   }
   sqlite3_busy_timeout(db_, 10000);
-  if (access == Access::read_only) recover_wal_for_reading(db_, file);
+  if (access == Access::read_only) recover_for_reading(db_, file);
   exec("PRAGMA foreign_keys = ON");
   if (access == Access::read_only) exec("PRAGMA query_only = ON");
 }

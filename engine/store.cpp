@@ -721,13 +721,21 @@ TextTable campaign_summaries(sql::Connection& db, bool coordinator_running) {
   return read_text_table(rows);
 }
 
-TextTable campaign_status_counts(sql::Connection& db, std::int64_t campaign) {
+TextTable campaign_status_counts(sql::Connection& db, std::int64_t campaign,
+                                 bool coordinator_running) {
+  // A task left 'running' by a coordinator that died is interrupted, unless a batch job of its
+  // current attempt may still run it (resume re-attaches to it).
+  const std::string has_job = db.user_version() < 2
+                                  ? "0"
+                                  : "EXISTS (SELECT 1 FROM jobs j WHERE j.task_key = t.key AND "
+                                    "j.attempt = t.attempts)";
   auto rows = db.prepare(fmt::format(
-      "SELECT t.kind, {} AS status, count(*) AS tasks FROM campaign_tasks ct JOIN tasks t ON "
+      "SELECT t.kind, CASE WHEN t.status = 'running' AND NOT ? AND NOT {} THEN 'interrupted' ELSE "
+      "{} END AS status, count(*) AS tasks FROM campaign_tasks ct JOIN tasks t ON "
       "t.key = ct.task_key LEFT JOIN results r ON r.task_key = t.key "
       "WHERE ct.campaign_id = ? GROUP BY t.kind, 2 ORDER BY t.kind, 2",
-      shown_status()));
-  rows.bind_all(campaign);
+      has_job, shown_status()));
+  rows.bind_all(coordinator_running ? 1 : 0, campaign);
   return read_text_table(rows);
 }
 

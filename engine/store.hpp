@@ -184,8 +184,10 @@ struct TextTable {
 // running or interrupted). Unless a coordinator is running, a campaign left 'running' is shown
 // as 'interrupted' (its coordinator died).
 TextTable campaign_summaries(sql::Connection& db, bool coordinator_running);
-// One campaign's task counts: kind, status (shown), tasks.
-TextTable campaign_status_counts(sql::Connection& db, std::int64_t campaign);
+// One campaign's task counts: kind, status (shown), tasks. Unless a coordinator is running, a task
+// left 'running' without a batch job of its attempt is shown as 'interrupted'.
+TextTable campaign_status_counts(sql::Connection& db, std::int64_t campaign,
+                                 bool coordinator_running);
 // The batch job of the latest attempt of each running task of the campaign: kind, task (key
 // prefix), attempt, executor, job_id, state; empty before schema version 2.
 TextTable unfinished_jobs(sql::Connection& db, std::int64_t campaign);

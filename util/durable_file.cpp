@@ -132,6 +132,26 @@ void copy_file_durably(const fs::path& from, const fs::path& to) {
   ::close(source);
 }
 
+void fill_directory_durably(const fs::path& given,
+                            const std::function<void(const fs::path&)>& fill) {
+  if (fs::is_directory(given)) return fill(given);
+  fs::path target = given.lexically_normal();
+  if (!target.has_filename()) target = target.parent_path();  // "out/"
+  const fs::path staging =
+      directory_of(target) / fmt::format(".{}.partial", target.filename().string());
+  fs::remove_all(staging);
+  fs::create_directories(staging);
+  try {
+    fill(staging);
+    fs::rename(staging, target);
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove_all(staging, ignored);
+    throw;
+  }
+  sync_directory(directory_of(target));
+}
+
 SimulatedFullDisk::SimulatedFullDisk(std::int64_t bytes_left) {
   g_simulated_bytes_left.store(bytes_left);
 }

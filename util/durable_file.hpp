@@ -8,6 +8,7 @@
 // fails the caller's work, it does not terminate the process.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string_view>
 
 namespace millflow::util {
@@ -36,6 +37,13 @@ void write_file_durably(const std::filesystem::path& target, std::string_view by
 
 // Copies `from` to `to` durably, streaming (artifacts may be large).
 void copy_file_durably(const std::filesystem::path& from, const std::filesystem::path& to);
+
+// Fills a directory: one that does not exist yet is filled under a temporary name beside it
+// (".<name>.partial", cleared first: what a killed fill left) and renamed into place, so a crash
+// leaves the whole directory or none; an existing one is filled in place, each file whole. `fill`
+// writes into the directory it is given. When `fill` throws, a new directory is not created.
+void fill_directory_durably(const std::filesystem::path& target,
+                            const std::function<void(const std::filesystem::path&)>& fill);
 
 // For tests: while one is alive, the writes of every DurableFile in the process fail with ENOSPC
 // once `bytes_left` more bytes have been written, as on a full disk.

@@ -412,25 +412,30 @@ TEST_F(Cli, GcRemovesOnlyFilesNoTaskReferences) {
   const fs::path kept = root / row.text(0).substr(0, 2) / row.text(0);
   const std::string stray = std::string(64, 'f');
   const std::string leftover = row.text(0) + ".tmp.1.0";  // a copy interrupted by a crash
+  // ... and the temporary file of util::DurableFile inside that copy, whose name starts with '.'
+  // (gc once said it removed it, looking for it in a directory ".x", and left it)
+  const std::string hidden = "." + leftover + ".tmp.Ab12Cd";
   fs::create_directories(root / "ff");
   std::ofstream(root / "ff" / stray) << "orphan\n";
   std::ofstream(kept.parent_path() / leftover) << "half";
+  std::ofstream(kept.parent_path() / hidden) << "ha";
 
   const auto dry = millflow({"gc", "--dry-run"});
   ASSERT_EQ(dry.exit_code, 0) << dry.err;
   const auto dry_lines = lines_of(dry.out);
   EXPECT_EQ(std::set<std::string>(dry_lines.begin(), dry_lines.end()),
             (std::set<std::string>{"would remove " + stray, "would remove " + leftover,
-                                   "2 unreferenced artifact file(s)"}));
+                                   "would remove " + hidden, "3 unreferenced artifact file(s)"}));
   EXPECT_TRUE(fs::exists(root / "ff" / stray));
 
   const auto collected = millflow({"gc"});
   const auto lines = lines_of(collected.out);
   EXPECT_EQ(std::set<std::string>(lines.begin(), lines.end()),
-            (std::set<std::string>{"removed " + stray, "removed " + leftover,
-                                   "2 unreferenced artifact file(s)"}));
+            (std::set<std::string>{"removed " + stray, "removed " + leftover, "removed " + hidden,
+                                   "3 unreferenced artifact file(s)"}));
   EXPECT_FALSE(fs::exists(root / "ff" / stray));
   EXPECT_FALSE(fs::exists(kept.parent_path() / leftover));
+  EXPECT_FALSE(fs::exists(kept.parent_path() / hidden));
   EXPECT_TRUE(fs::exists(kept));
   EXPECT_EQ(millflow({"gc"}).out, "0 unreferenced artifact file(s)\n");
 }

@@ -166,6 +166,11 @@ TEST_F(HostileInput, StatusTellsACoordinatorThatDiedAndTheNextOneSaysItTookOver)
   EXPECT_NE(dead.out.find("long      interrupted"), std::string::npos) << dead.out;
   EXPECT_EQ(dead.out.find("running", dead.out.find("not running") + 11), std::string::npos)
       << dead.out;
+  // ... and so are its tasks: they were shown running until the next resume.
+  const auto tasks = millflow({"status", "long", "--db", db.string()});
+  EXPECT_EQ(tasks.out.find("running", tasks.out.find("not running") + 11), std::string::npos)
+      << tasks.out;
+  EXPECT_NE(tasks.out.find("interrupted  2"), std::string::npos) << tasks.out;
 
   // The warning of the take-over is printed on the terminal.
   const auto resumed = millflow({"submit", quick_campaign().string(), "--db", db.string()});

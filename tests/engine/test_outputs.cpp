@@ -11,6 +11,7 @@
 #include "engine/store.hpp"
 #include "engine/validation.hpp"
 #include "support_engine.hpp"
+#include "util/durable_file.hpp"
 
 namespace millflow::engine::testing {
 namespace {
@@ -112,6 +113,14 @@ TEST_F(Outputs, FilesOfACampaignGoUnderKindAndSweepPointWithAnIndex) {
   std::string expected = "kind,task_key,folder,value,label\n";
   for (const auto& [key, row] : rows) expected += row + "\n";
   EXPECT_EQ(read_text(out / "tasks.csv"), expected);
+}
+
+// The index was written with a plain stream: a kill or a full disk left part of it, and the
+// command said it was written.
+TEST_F(Outputs, TheIndexOfTheFilesIsWrittenDurably) {
+  const util::SimulatedFullDisk full(10);  // room for the two artifacts, not for the index
+  EXPECT_THROW(export_files(dir_.db(), "swept", dir_.path() / "all"), std::system_error);
+  EXPECT_FALSE(fs::exists(dir_.path() / "all" / "tasks.csv"));
 }
 
 TEST_F(Outputs, FilesOfAnUnknownNameIsBadInput) {

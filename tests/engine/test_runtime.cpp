@@ -106,6 +106,47 @@ TEST(Runtime, ResubmissionIsFullyCached) {
   EXPECT_EQ(launches(dir.db()), before);
 }
 
+// A coordinator killed between a task's commit and the removal of its work directory left the
+// directory for good: the task is cached and never runs again. The next run removes it, and only
+// the work directories of cached tasks.
+TEST(Runtime, AWorkDirectoryADoneTaskLeftBehindGoesAtTheNextRun) {
+  ScratchDir dir;
+  const auto campaign = test_campaign("diamond", diamond());
+  ASSERT_EQ(submit(campaign, dir.db()).exit_code(), 0);
+  std::string key;
+  {
+    auto connection = open_read_only(dir.db());
+    auto row = connection.prepare("SELECT key FROM tasks LIMIT 1");
+    ASSERT_TRUE(row.step());
+    key = row.text(0);
+  }
+  const std::filesystem::path left = work_dir(dir.db()) / key;
+  const std::filesystem::path other = work_dir(dir.db()) / "not-a-task-of-this-campaign";
+  for (const auto& folder : {left / "flow", other}) {
+    std::filesystem::create_directories(folder);
+    std::ofstream(folder / "segment") << "frames\n";
+  }
+  EXPECT_EQ(submit(campaign, dir.db()).cached, 4);
+  EXPECT_FALSE(std::filesystem::exists(left));
+  EXPECT_TRUE(std::filesystem::exists(other / "segment"));
+}
+
+// A coordinator killed mid-line leaves the campaign log without its last newline: the next one
+// starts on a line of its own instead of gluing its first line to the torn one.
+TEST(Runtime, TheNextCoordinatorStartsItsLogOnANewLine) {
+  ScratchDir dir;
+  std::filesystem::create_directories(logs_dir(dir.db()));
+  const std::filesystem::path log = logs_dir(dir.db()) / "diamond.log";
+  std::ofstream(log) << "[2026-12-06 04:24:17.998] [campaign] [info] torn";
+  ASSERT_EQ(submit(test_campaign("diamond", diamond()), dir.db()).exit_code(), 0);
+  std::ifstream in(log);
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  EXPECT_EQ(line, "[2026-12-06 04:24:17.998] [campaign] [info] torn");
+  ASSERT_TRUE(std::getline(in, line));
+  EXPECT_TRUE(line.starts_with("[")) << line;
+}
+
 TEST(Runtime, ChangedParameterRerunsExactlyItsDownstream) {
   ScratchDir dir;
   submit(test_campaign("diamond", diamond(1)), dir.db());

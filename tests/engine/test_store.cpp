@@ -71,6 +71,41 @@ TEST(Store, SubmitToADatabaseWithoutTablesCreatesThem) {
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM tasks WHERE status = 'done'"), 1);
 }
 
+// A first submit killed while it wrote the schema (before the file switched to WAL) leaves a hot
+// rollback journal, which a read-only connection cannot roll back: every command then failed with
+// "attempt to write a readonly database", submit included, until the journal was removed by hand.
+TEST(Store, AFirstSubmitKilledMidTransactionIsRolledBackByReaders) {
+  ScratchDir dir;
+  const pid_t child = ::fork();
+  if (child == 0) {  // a writer that dies with pages of its transaction spilled to the file
+    sql::Connection raw(dir.db(), sql::Access::read_write);
+    raw.exec("PRAGMA cache_size = 1");
+    raw.exec("BEGIN");
+    raw.exec("CREATE TABLE filler (bytes BLOB)");
+    raw.exec(
+        "INSERT INTO filler WITH RECURSIVE n(i) AS (SELECT 1 UNION ALL SELECT i + 1 FROM n WHERE "
+        "i < 200) SELECT randomblob(1000) FROM n");
+    ::_exit(0);
+  }
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(std::filesystem::exists(dir.db().string() + "-journal"));
+  EXPECT_THROW(
+      {
+        try {
+          open_read_only(dir.db());
+        } catch (const std::runtime_error& error) {
+          EXPECT_NE(std::string(error.what()).find("has no millflow tables"), std::string::npos)
+              << error.what();
+          throw;
+        }
+      },
+      std::runtime_error);
+  EXPECT_EQ(submit(test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})), dir.db())
+                .exit_code(),
+            0);
+}
+
 // Version 3 added jobs.job_name, version 4 changed indexes and rebuilt results (WITHOUT ROWID): a
 // version-2 database (built by its own migrations) with a committed result and a job is read as it
 // is, opens migrated, its result still answers through the views, its job keeps its id with an

@@ -89,7 +89,7 @@ TEST(FullDisk, AnArtifactThatCannotBeStoredIsAnErrorAndLeavesNoPart) {
   const engine::ArtifactStore store(scratch.path() / "store");
   expect_full_disk_error(
       scratch.path(), [&] { store.put("big.bin", file); }, 50000);
-  EXPECT_EQ(store.stored_digests(), std::vector<std::string>{});
+  EXPECT_EQ(store.stored_files(), std::vector<fs::path>{});
 }
 
 TEST(FullDisk, AMacroRunFailsWithTheErrorInsteadOfAborting) {

@@ -87,6 +87,38 @@ TEST(DurableFile, AMissingDirectoryIsReported) {
   EXPECT_THROW(write_file_durably(dir.path() / "no" / "such" / "file", "x"), std::system_error);
 }
 
+// `millflow report --out DIR` killed part-way left DIR with some of its files and the temporary
+// file of the one being copied: a new directory is now filled under another name, then renamed.
+TEST(DurableFile, ANewDirectoryIsWholeOrAbsent) {
+  ScratchDir dir;
+  const fs::path target = dir.path() / "report";
+  const fs::path staging = dir.path() / ".report.partial";
+  EXPECT_THROW(fill_directory_durably(target,
+                                      [](const fs::path& into) {
+                                        write_file_durably(into / "a.svg", "a");
+                                        throw std::runtime_error("killed");
+                                      }),
+               std::runtime_error);
+  EXPECT_FALSE(fs::exists(target));
+  EXPECT_FALSE(fs::exists(staging));
+
+  fs::create_directories(staging);  // as a kill -9 part-way leaves it
+  write_file_durably(staging / "stale.svg", "old");
+  fill_directory_durably(dir.path() / "report/", [&](const fs::path& into) {
+    EXPECT_NE(into, target);
+    write_file_durably(into / "index.md", "whole");
+  });
+  EXPECT_EQ(read(target / "index.md"), "whole");
+  EXPECT_EQ(entries(target), 1u);
+  EXPECT_EQ(entries(dir.path()), 1u);
+
+  fill_directory_durably(target, [&](const fs::path& into) {  // an existing one: in place
+    EXPECT_EQ(into, target);
+    write_file_durably(into / "b.svg", "b");
+  });
+  EXPECT_EQ(entries(target), 2u);
+}
+
 TEST(Sha256, KnownDigestsOfTextAndFiles) {
   EXPECT_EQ(sha256_hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
   EXPECT_EQ(sha256_hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
