@@ -1,6 +1,7 @@
 #include "engine/sweep.hpp"
 
 #include <cmath>
+#include <cstdlib>
 #include <optional>
 
 #include <fmt/format.h>
@@ -363,7 +364,8 @@ std::vector<SweepPoint> expand_sweep(const nlohmann::json& document, const Field
 
 double round_significant(double value, int digits) {
   if (value == 0.0 || !std::isfinite(value)) return value;
-  return std::stod(fmt::format("{:.{}g}", value, digits));
+  // strtod, not stod: stod throws on a subnormal result (1e-320), which is a valid value.
+  return std::strtod(fmt::format("{:.{}g}", value, digits).c_str(), nullptr);
 }
 
 std::vector<double> linspace(double start, double stop, long long num) {

@@ -67,6 +67,8 @@ TEST(SweepValues, RoundingToTwelveDigitsRemovesFloatingPointNoise) {
   EXPECT_EQ(millflow::engine::round_significant(1e-7 * 3), 3e-7);
   EXPECT_EQ(millflow::engine::round_significant(123456789.0123456), 123456789.012);
   EXPECT_EQ(millflow::engine::round_significant(0.0), 0.0);
+  // Subnormal: std::stod threw std::out_of_range on it, and validate exited 1 with "stod".
+  EXPECT_EQ(millflow::engine::round_significant(1e-320), 1e-320);
 }
 
 TEST(SweepExpansion, WithoutSweepTheDocumentIsTheOnlyPoint) {
