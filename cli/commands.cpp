@@ -102,9 +102,11 @@ engine::RunOptions selection(const engine::Registry& registry,
       options.force.kinds.push_back(name);
       continue;
     }
-    const bool planned_key = std::any_of(planned.begin(), planned.end(), [&](const auto& spec) {
-      return spec.key.rfind(name, 0) == 0;
-    });
+    // An empty prefix would be the prefix of every key: `--force ""` forced the whole campaign.
+    const bool planned_key =
+        !name.empty() && std::any_of(planned.begin(), planned.end(), [&](const auto& spec) {
+          return spec.key.rfind(name, 0) == 0;
+        });
     bool stored_key = false;
     if (!planned_key && !name.empty() && fs::exists(flags.db)) {
       auto db = engine::open_read_only(flags.db);

@@ -378,6 +378,13 @@ TEST_F(Cli, ForceAndUntilSelectWhatSubmitAndResumeRun) {
                 ") or a key from `millflow explain FILE`\n"
                 "--until: \"nada\" is not a task kind; name one of: " +
                 kinds + "\n");
+  // The empty prefix of every key: it forced the whole campaign.
+  const auto empty = millflow({"submit", file.string(), "--force", ""});
+  EXPECT_EQ(empty.exit_code, 2);
+  EXPECT_EQ(empty.err,
+            "millflow: invalid input:\n--force: \"\" is neither a task kind nor a task "
+            "key; name a kind (" +
+                kinds + ") or a key from `millflow explain FILE`\n");
 
   const auto chain = write_campaign(
       "chain",
