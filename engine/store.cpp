@@ -257,6 +257,12 @@ sql::Connection open_read_only(const fs::path& db) {
   return connection;
 }
 
+void check_database_readable(const fs::path& db) {
+  if (!fs::exists(db)) return;
+  sql::Connection connection(db, sql::Access::read_only);
+  refuse_newer_schema(db, readable_user_version(connection, db));
+}
+
 std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key) {
   auto row = db.prepare(
       "SELECT kind, kind_version, params, key_text, parent_key, status, attempts, coalesce(error, "

@@ -88,6 +88,13 @@ TEST_F(HostileInput, UnusableDatabasePathsAreRefusedBeforeAnythingIsWritten) {
                                "\" is a directory, not a database file"),
             std::string::npos)
       << directory.err;
+  const auto under_a_file =
+      millflow({"submit", campaign.string(), "--db", (campaign / "mill.db").string()});
+  EXPECT_EQ(under_a_file.exit_code, 2);  // was 1, a filesystem_error
+  EXPECT_EQ(under_a_file.err, "millflow: invalid input:\n--db: cannot create the directory " +
+                                  fs::weakly_canonical(campaign).string() +
+                                  ": Not a directory; name a database in a directory you can "
+                                  "write\n");
   const auto missing = (dir_.path() / "missing.db").string();
   for (const char* command : {"status", "gc", "resume", "query"}) {
     std::vector<std::string> arguments{command};
@@ -179,8 +186,12 @@ TEST_F(HostileInput, StatusTellsACoordinatorThatDiedAndTheNextOneSaysItTookOver)
 TEST_F(HostileInput, DamagedDatabasesAreBadInputNamingTheFile) {
   const fs::path db = dir_.path() / "noise.db";
   std::ofstream(db) << std::string(8192, 'x');
-  for (const std::vector<std::string>& command :
-       {std::vector<std::string>{"status"}, {"query", "SELECT 1"}, {"resume"}}) {
+  const auto campaign = quick_campaign();
+  for (const std::vector<std::string>& command : {std::vector<std::string>{"status"},
+                                                  {"query", "SELECT 1"},
+                                                  {"resume"},
+                                                  {"submit", campaign.string()},
+                                                  {"gc"}}) {
     auto arguments = command;
     arguments.insert(arguments.end(), {"--db", db.string()});
     const auto refused = millflow(arguments);
@@ -191,6 +202,8 @@ TEST_F(HostileInput, DamagedDatabasesAreBadInputNamingTheFile) {
         << refused.err;
     EXPECT_EQ(refused.err.find("check the SQL"), std::string::npos) << refused.err;
   }
+  // submit and gc found the file unreadable only after creating its lock file.
+  EXPECT_EQ(written(), std::vector<std::string>{"noise.db"});
 }
 
 TEST_F(HostileInput, ValuesNoRunCanUseAreExitTwoWithThePathAndAFix) {
