@@ -1,5 +1,7 @@
 #include "engine/json_text.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <set>
 #include <string>
@@ -18,11 +20,11 @@ class DuplicateKeyFinder {
   bool operator()(int /*depth*/, json::parse_event_t event, json& parsed) {
     switch (event) {
       case json::parse_event_t::object_start:
-        enter_element();
+        enter_container();
         frames_.push_back({true, {}, {}, 0});
         break;
       case json::parse_event_t::array_start:
-        enter_element();
+        enter_container();
         frames_.push_back({false, {}, {}, 0});
         break;
       case json::parse_event_t::object_end:
@@ -64,6 +66,15 @@ class DuplicateKeyFinder {
 
   void enter_element() {
     if (!frames_.empty() && !frames_.back().object) ++frames_.back().items;
+  }
+
+  // Copying, printing and destroying a document recurse once per level: some 130,000 levels
+  // overflowed the stack.
+  void enter_container() {
+    enter_element();
+    if (frames_.size() < kMaxJsonDepth) return;
+    throw InvalidInput({{path(), fmt::format("nested more than {} levels deep", kMaxJsonDepth),
+                         "check the brackets: a millflow file nests a few levels"}});
   }
 
   void on_key(std::string key) {
