@@ -5,6 +5,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <iostream>
 
 #include "cli/estimate.hpp"
@@ -64,18 +66,6 @@ CLI::Validator seconds_between(double low, double high) {
 // before the command opens or creates anything.
 fs::path existing_database(const std::string& given) {
   return engine::resolve_database(given, engine::DatabaseUse::existing);
-}
-
-// An --out directory: created when missing, refused when it names something else.
-fs::path output_directory(const std::string& given) {
-  std::error_code error;
-  if (given.empty() || (fs::exists(given, error) && !fs::is_directory(given, error))) {
-    throw engine::InvalidInput(
-        {{"--out",
-          given.empty() ? "the output directory is empty" : "\"" + given + "\" is not a directory",
-          "pass a directory (it is created when missing)"}});
-  }
-  return given;
 }
 
 void add_db_option(CLI::App* command, std::string& db) {
@@ -502,6 +492,28 @@ void add_logs(CLI::App& app, std::optional<int>& code) {
 }
 
 }  // namespace
+
+fs::path output_directory(const std::string& given) {
+  constexpr const char* kFix = "pass a directory (it is created when missing)";
+  if (given.empty()) throw engine::InvalidInput({{"--out", "the output directory is empty", kFix}});
+  // The directory or, when it is missing, the nearest one above it that exists: where the
+  // command's first write goes.
+  fs::path existing = given;
+  std::error_code error;
+  while (!existing.empty() && !fs::exists(existing, error)) existing = existing.parent_path();
+  if (existing.empty()) existing = ".";
+  if (!fs::is_directory(existing, error)) {
+    throw engine::InvalidInput(
+        {{"--out", fmt::format("\"{}\" is not a directory", existing.string()), kFix}});
+  }
+  if (::access(existing.c_str(), W_OK | X_OK) != 0) {
+    throw engine::InvalidInput(
+        {{"--out",
+          fmt::format("cannot write in \"{}\": {}", existing.string(), std::strerror(errno)),
+          "pass a directory you can write"}});
+  }
+  return given;
+}
 
 int guarded(const std::function<int()>& body) {
   try {

@@ -252,6 +252,10 @@ TEST_F(HostileInput, ValuesNoRunCanUseAreExitTwoWithThePathAndAFix) {
   EXPECT_EQ(out.exit_code, 2);
   EXPECT_EQ(out.err, "millflow: invalid input:\n--out: \"" + file.string() +
                          "\" is not a directory; pass a directory (it is created when missing)\n");
+  const auto under = millflow({"export", "quick", "--format", "csv", "--out",
+                               (file / "csv").string(), "--db", db.string()});
+  EXPECT_EQ(under.exit_code, 2);  // was 1, a filesystem_error from creating it
+  EXPECT_EQ(under.err, out.err);
 }
 
 TEST_F(HostileInput, ATaskSpecThatIsNotAnObjectIsNamedAsNotATaskSpec) {
