@@ -163,6 +163,13 @@ class SweepReader {
                        : "sweep a field the schema defines");
       return nullptr;
     }
+    // Its values would pass unchecked (the block's own checks read the file's, not a point's),
+    // and a sweep block in a point changes nothing.
+    if (rule->opaque) {
+      error(error_path, "\"" + path + "\" cannot be swept",
+            "sweep the fields of the file, not the sweep block");
+      return nullptr;
+    }
     if (!holds(path)) {
       error(error_path, "\"" + path + "\" is not set in this file",
             "set it outside the sweep first, or sweep a field that is set");

@@ -200,6 +200,14 @@ TEST(SweepErrors, AFieldIsSweptInOnePlaceOnly) {
                 "elsewhere; sweep each field in one place only"});
 }
 
+// Its values passed unchecked and the points' sweep blocks did nothing.
+TEST(SweepErrors, TheSweepBlockCannotSweepItself) {
+  EXPECT_EQ(sweep_errors({{"product", {{"/sweep", {{{"product", {{"/minutes", {1, 2}}}}}}}}}}),
+            std::vector<std::string>{
+                "/sweep/product/~1sweep: \"/sweep\" cannot be swept; sweep the fields of the file, "
+                "not the sweep block"});
+}
+
 TEST(SweepErrors, StructureOfTheBlock) {
   EXPECT_EQ(sweep_errors({{"zipp", json::array()}}),
             std::vector<std::string>{"/sweep/zipp: unknown field \"zipp\"; did you mean \"zip\"?"});
