@@ -97,6 +97,20 @@ TEST(JsonValidator, UnknownKeySuggestsTheClosestField) {
                 "\"rate\", \"stages\", \"enabled\", \"motor\", \"fluids\", \"ports\""});
 }
 
+// Printed raw, a NUL (from "\u0000" in the file) cut the whole report short and an escape
+// sequence reached the terminal.
+TEST(JsonValidator, ControlCharactersArePrintedAsJsonEscapes) {
+  const std::string key("stag\0\x1b[1m", 9);
+  EXPECT_EQ(
+      errors_of({{key, 2}}),
+      std::vector<std::string>{
+          "/stag\\u0000\\u001b[1m: unknown field \"stag\\u0000\\u001b[1m\"; allowed fields "
+          "here: \"kind\", \"label\", \"rate\", \"stages\", \"enabled\", \"motor\", \"fluids\", "
+          "\"ports\""});
+  EXPECT_EQ(std::string(millflow::engine::InvalidInput({{"/" + key, "x", "y"}}).what()),
+            "/stag\\u0000\\u001b[1m: x; y");
+}
+
 TEST(JsonValidator, WrongTypeNamesTheExpectedType) {
   EXPECT_EQ(errors_of({{"rate", "fast"}}),
             std::vector<std::string>{"/rate: expected a number, got the string \"fast\"; give flow "
