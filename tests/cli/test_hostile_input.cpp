@@ -271,6 +271,18 @@ TEST_F(HostileInput, ATaskSpecThatIsNotAnObjectIsNamedAsNotATaskSpec) {
   }
 }
 
+// exec read /dev/zero until the kernel killed it for memory.
+TEST_F(HostileInput, ATaskSpecThatIsNotARegularFileIsRefusedAtOnce) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto zero = millflow({"exec", "/dev/zero"});
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(20));
+  EXPECT_EQ(zero.exit_code, 2);
+  EXPECT_EQ(
+      zero.err,
+      "millflow exec: (document): task-spec file /dev/zero cannot be read: /dev/zero is not a "
+      "regular file; pass a spec file written by the millflow coordinator\n");
+}
+
 TEST_F(HostileInput, VersionNamesTheReleaseTheCommitAndTheInstructionSet) {
   const auto version = millflow({"--version"});
   EXPECT_EQ(version.exit_code, 0);
