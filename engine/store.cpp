@@ -150,6 +150,16 @@ int readable_user_version(sql::Connection& connection, const fs::path& db) {
   try {
     return connection.user_version();
   } catch (const sql::Error& error) {
+    // Reading a WAL database takes its -shm file, which SQLite creates when it is missing: in a
+    // directory the user cannot write, even reading fails.
+    if (std::string_view(error.what()).find("attempt to write a readonly database") !=
+        std::string_view::npos) {
+      throw InvalidInput({{"--db",
+                           fmt::format("{} cannot be read where it is: SQLite needs to create "
+                                       "{}-shm beside it ({})",
+                                       db.string(), db.string(), error.what()),
+                           "copy the database to a directory you can write and pass the copy"}});
+    }
     if (!is_damaged_database_error(error.what())) throw;
     throw InvalidInput(
         {{"--db", damaged_database_problem(db, error.what()), damaged_database_fix(db)}});

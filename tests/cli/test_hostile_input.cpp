@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <fstream>
@@ -204,6 +205,32 @@ TEST_F(HostileInput, DamagedDatabasesAreBadInputNamingTheFile) {
   }
   // submit and gc found the file unreadable only after creating its lock file.
   EXPECT_EQ(written(), std::vector<std::string>{"noise.db"});
+}
+
+// Both were exit 1: SQLite's "attempt to write a readonly database" from the first view the store
+// installed, and from the first read of a read-only connection that needed the -shm file.
+TEST_F(HostileInput, ADatabaseThatCannotBeWrittenIsRefusedNamingIt) {
+  if (::geteuid() == 0) GTEST_SKIP() << "permissions do not hold for root";
+  const fs::path db = dir_.path() / "kept.db";
+  ASSERT_EQ(millflow({"submit", quick_campaign().string(), "--db", db.string()}).exit_code, 0);
+  fs::permissions(db, fs::perms::owner_write, fs::perm_options::remove);
+  const auto resumed = millflow({"resume", "--db", db.string()});
+  EXPECT_EQ(resumed.exit_code, 2);
+  EXPECT_EQ(resumed.err, "millflow: invalid input:\n--db: cannot write " + db.string() +
+                             ": Permission denied; make it writable (chmod u+w), or submit to a "
+                             "copy of it\n");
+
+  const fs::path shelf = dir_.path() / "shelf";
+  fs::create_directories(shelf);
+  fs::copy_file(db, shelf / "kept.db");  // without its -shm file
+  fs::permissions(shelf, fs::perms::owner_write, fs::perm_options::remove);
+  const auto status = millflow({"status", "--db", (shelf / "kept.db").string()});
+  fs::permissions(shelf, fs::perms::owner_write, fs::perm_options::add);
+  EXPECT_EQ(status.exit_code, 2);
+  EXPECT_NE(status.err.find("--db: " + (shelf / "kept.db").string() +
+                            " cannot be read where it is: SQLite needs to create "),
+            std::string::npos)
+      << status.err;
 }
 
 TEST_F(HostileInput, ValuesNoRunCanUseAreExitTwoWithThePathAndAFix) {
