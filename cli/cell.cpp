@@ -25,8 +25,9 @@ void add_cell_command(CLI::App& app, std::optional<int>& exit_code) {
       // stdout carries the result JSON alone.
       spdlog::set_default_logger(spdlog::stderr_logger_mt("cell"));
       const auto spec = tasks::load_cell_spec(*spec_file);
-      const auto result = tasks::run_cell_spec(
-          spec, *out_dir, [](std::string_view line) { std::cerr << line << '\n'; });
+      const auto result =
+          tasks::run_cell_spec(spec, output_directory(*out_dir),
+                               [](std::string_view line) { std::cerr << line << '\n'; });
       std::cout << result.dump(2) << '\n';
       return 0;
     });

@@ -5,6 +5,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <iostream>
 
 #include "cli/estimate.hpp"
@@ -67,18 +69,6 @@ fs::path existing_database(const std::string& given) {
   return engine::resolve_database(given, engine::DatabaseUse::existing);
 }
 
-// An --out directory: created when missing, refused when it names something else.
-fs::path output_directory(const std::string& given) {
-  std::error_code error;
-  if (given.empty() || (fs::exists(given, error) && !fs::is_directory(given, error))) {
-    throw engine::InvalidInput(
-        {{"--out",
-          given.empty() ? "the output directory is empty" : "\"" + given + "\" is not a directory",
-          "pass a directory (it is created when missing)"}});
-  }
-  return given;
-}
-
 void add_db_option(CLI::App* command, std::string& db) {
   command->add_option("--db", db, "Database file (default ./millflow.db)");
 }
@@ -103,9 +93,11 @@ engine::RunOptions selection(const engine::Registry& registry,
       options.force.kinds.push_back(name);
       continue;
     }
-    const bool planned_key = std::any_of(planned.begin(), planned.end(), [&](const auto& spec) {
-      return spec.key.rfind(name, 0) == 0;
-    });
+    // An empty prefix would be the prefix of every key: `--force ""` forced the whole campaign.
+    const bool planned_key =
+        !name.empty() && std::any_of(planned.begin(), planned.end(), [&](const auto& spec) {
+          return spec.key.rfind(name, 0) == 0;
+        });
     bool stored_key = false;
     if (!planned_key && !name.empty() && fs::exists(flags.db)) {
       auto db = engine::open_read_only(flags.db);
@@ -504,6 +496,28 @@ void add_logs(CLI::App& app, std::optional<int>& code) {
 }
 
 }  // namespace
+
+fs::path output_directory(const std::string& given) {
+  constexpr const char* kFix = "pass a directory (it is created when missing)";
+  if (given.empty()) throw engine::InvalidInput({{"--out", "the output directory is empty", kFix}});
+  // The directory or, when it is missing, the nearest one above it that exists: where the
+  // command's first write goes.
+  fs::path existing = given;
+  std::error_code error;
+  while (!existing.empty() && !fs::exists(existing, error)) existing = existing.parent_path();
+  if (existing.empty()) existing = ".";
+  if (!fs::is_directory(existing, error)) {
+    throw engine::InvalidInput(
+        {{"--out", fmt::format("\"{}\" is not a directory", existing.string()), kFix}});
+  }
+  if (::access(existing.c_str(), W_OK | X_OK) != 0) {
+    throw engine::InvalidInput(
+        {{"--out",
+          fmt::format("cannot write in \"{}\": {}", existing.string(), std::strerror(errno)),
+          "pass a directory you can write"}});
+  }
+  return given;
+}
 
 int guarded(const std::function<int()>& body) {
   try {

@@ -23,6 +23,9 @@ namespace {
 constexpr int kSpecFormat = 1;
 
 std::string read_text(const fs::path& file) {
+  // /dev/zero or a named pipe would be read until memory runs out, or forever.
+  if (fs::exists(file) && !fs::is_regular_file(file))
+    throw std::runtime_error(file.string() + " is not a regular file");
   std::ifstream in(file, std::ios::binary);
   if (!in) throw std::runtime_error("cannot read " + file.string());
   std::stringstream text;

@@ -6,6 +6,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <set>
@@ -290,7 +292,21 @@ RunSummary submit_campaign(const Registry& registry, const Campaign& campaign,
   const auto planned =
       plan_campaign(registry, campaign);  // bad input fails before anything is written
   const fs::path db = resolve_database(given_db, DatabaseUse::create);
-  if (!db.parent_path().empty()) fs::create_directories(db.parent_path());
+  if (fs::exists(db) && ::access(db.c_str(), W_OK) != 0) {
+    throw InvalidInput(
+        {{"--db", fmt::format("cannot write {}: {}", db.string(), std::strerror(errno)),
+          "make it writable (chmod u+w), or submit to a copy of it"}});
+  }
+  if (!db.parent_path().empty()) {
+    std::error_code error;
+    fs::create_directories(db.parent_path(), error);
+    if (error) {
+      throw InvalidInput({{"--db",
+                           fmt::format("cannot create the directory {}: {}",
+                                       db.parent_path().string(), error.message()),
+                           "name a database in a directory you can write"}});
+    }
+  }
   CoordinatorLock lock(db);
   const SystemClock system_clock;
   const Clock& clock = options.clock ? *options.clock : system_clock;

@@ -12,6 +12,7 @@
 #include "engine/database_path.hpp"
 #include "engine/sqlite.hpp"
 #include "engine/store.hpp"
+#include "engine/validation.hpp"
 
 namespace millflow::engine {
 
@@ -61,11 +62,18 @@ std::optional<CoordinatorState> coordinator_state(const std::filesystem::path& d
 }
 
 CoordinatorLock::CoordinatorLock(const std::filesystem::path& db) {
-  const auto file = lock_file(resolve_database(db, DatabaseUse::create));
+  const auto real = resolve_database(db, DatabaseUse::create);
+  // A file SQLite cannot read is refused before a lock file is created beside it.
+  check_database_readable(real);
+  const auto file = lock_file(real);
   fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (fd_ < 0)
-    throw std::runtime_error("cannot open lock file " + file.string() + ": " +
-                             std::strerror(errno));
+  if (fd_ < 0) {
+    throw InvalidInput(
+        {{"--db",
+          fmt::format("cannot create the lock file {}: {}", file.string(), std::strerror(errno)),
+          "put the database in a directory you can write (its lock file, logs and "
+          "artifacts go beside it)"}});
+  }
   if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     ::close(fd_);
     fd_ = -1;

@@ -129,7 +129,9 @@ void run_query(const fs::path& db, const std::string& sql_text, TableFormat form
         row[result.columns[column]] = cell_json(values[column]);
       rows.push_back(std::move(row));
     }
-    out << rows.dump(2) << '\n';
+    // Text SQLite holds need not be UTF-8 (a blob, CAST(x'ff' AS TEXT)): such bytes print as
+    // U+FFFD.
+    out << rows.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
     return;
   }
   Table table{result.columns, {}};

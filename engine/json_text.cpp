@@ -1,5 +1,7 @@
 #include "engine/json_text.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <set>
 #include <string>
@@ -18,11 +20,11 @@ class DuplicateKeyFinder {
   bool operator()(int /*depth*/, json::parse_event_t event, json& parsed) {
     switch (event) {
       case json::parse_event_t::object_start:
-        enter_element();
+        enter_container();
         frames_.push_back({true, {}, {}, 0});
         break;
       case json::parse_event_t::array_start:
-        enter_element();
+        enter_container();
         frames_.push_back({false, {}, {}, 0});
         break;
       case json::parse_event_t::object_end:
@@ -66,6 +68,15 @@ class DuplicateKeyFinder {
     if (!frames_.empty() && !frames_.back().object) ++frames_.back().items;
   }
 
+  // Copying, printing and destroying a document recurse once per level: some 130,000 levels
+  // overflowed the stack.
+  void enter_container() {
+    enter_element();
+    if (frames_.size() < kMaxJsonDepth) return;
+    throw InvalidInput({{path(), fmt::format("nested more than {} levels deep", kMaxJsonDepth),
+                         "check the brackets: a millflow file nests a few levels"}});
+  }
+
   void on_key(std::string key) {
     auto& frame = frames_.back();
     frame.key = std::move(key);
@@ -87,13 +98,22 @@ class DuplicateKeyFinder {
   std::vector<ValidationError> errors_;
 };
 
-// Line and column from the parser's byte offset, plus the parser's reason.
-ValidationError syntax_error(const json::parse_error& error, std::string_view text) {
-  const auto index = std::min<std::size_t>(error.byte == 0 ? 0 : error.byte - 1, text.size());
+// A syntax error at a byte of the text, by line and column.
+ValidationError syntax_error_at(std::size_t index, std::string_view text, const std::string& reason,
+                                std::string fix) {
+  index = std::min(index, text.size());
   const auto before = text.substr(0, index);
   const auto line = 1 + std::count(before.begin(), before.end(), '\n');
   const auto line_start = before.rfind('\n');
   const auto column = line_start == std::string_view::npos ? index + 1 : index - line_start;
+  return {"",
+          "JSON syntax error at line " + std::to_string(line) + ", column " +
+              std::to_string(column) + ": " + reason,
+          std::move(fix)};
+}
+
+// Line and column from the parser's byte offset, plus the parser's reason.
+ValidationError syntax_error(const json::parse_error& error, std::string_view text) {
   std::string reason = error.what();
   const auto column_text = reason.find("column ");
   const auto colon =
@@ -101,16 +121,20 @@ ValidationError syntax_error(const json::parse_error& error, std::string_view te
   if (colon != std::string::npos) reason = reason.substr(colon + 2);
   if (reason.starts_with("syntax error "))
     reason.erase(0, std::string_view("syntax error ").size());
-  return {"",
-          "JSON syntax error at line " + std::to_string(line) + ", column " +
-              std::to_string(column) + ": " + reason,
-          "correct the JSON there (a missing comma or quote, or a comma before } or ], is the "
-          "usual cause)"};
+  return syntax_error_at(error.byte == 0 ? 0 : error.byte - 1, text, reason,
+                         "correct the JSON there (a missing comma or quote, or a comma before } or "
+                         "], is the usual cause)");
 }
 
 }  // namespace
 
 ParsedJson parse_json_text(std::string_view text) {
+  // The parser takes a NUL byte for the end of the text and would ignore what follows it.
+  if (const auto nul = text.find('\0'); nul != std::string_view::npos) {
+    throw InvalidInput({syntax_error_at(nul, text, "a NUL byte",
+                                        "remove it (JSON text has none; write \\u0000 in a "
+                                        "string for one)")});
+  }
   DuplicateKeyFinder finder;
   ParsedJson parsed;
   try {

@@ -11,6 +11,9 @@
 
 namespace millflow::engine {
 
+// The most levels of objects and lists a JSON input file may nest.
+inline constexpr std::size_t kMaxJsonDepth = 100;
+
 struct ParsedJson {
   nlohmann::json document;
   std::vector<ValidationError> duplicate_keys;  // one per repeated key; the document keeps the last

@@ -144,6 +144,11 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
   return d[a.size()][b.size()];
 }
 
+std::string too_long(const std::string& text, const std::string& what) {
+  return fmt::format("{} has {} characters, more than {}", what, text.size(), kMaxPatternedLength);
+}
+
+// Only for texts of at most kMaxPatternedLength characters.
 bool full_match(const std::string& text, const std::string& pattern) {
   return std::regex_match(text, std::regex(pattern, std::regex::ECMAScript));
 }
@@ -239,7 +244,14 @@ class Checker {
 
   json check_string(const json& value, const FieldRule& rule, const std::string& path) {
     if (!value.is_string()) return wrong_type(value, rule, path);
-    if (!rule.pattern.empty() && !full_match(value.get<std::string>(), rule.pattern)) {
+    if (rule.pattern.empty()) return value;
+    const auto& text = value.get_ref<const std::string&>();
+    if (text.size() > kMaxPatternedLength) {
+      report(path, too_long(text, "the string"),
+             fmt::format("give {} as at most {} characters matching {}", rule.description,
+                         kMaxPatternedLength, rule.pattern),
+             rule);
+    } else if (!full_match(text, rule.pattern)) {
       report(path, quote_value(value) + " does not match the pattern " + rule.pattern,
              "give " + rule.description + " as a string matching it", rule);
     }
@@ -309,13 +321,20 @@ class Checker {
     json normalized = json::object();
     for (const auto& [key, entry] : value.items()) {
       const auto entry_path = path + "/" + escape_path_segment(key);
-      if (!rule.pattern.empty() && !full_match(key, rule.pattern)) {
-        report(entry_path, "name \"" + key + "\" does not match the pattern " + rule.pattern,
-               "rename it", rule);
-      }
+      if (!rule.pattern.empty()) check_name(key, rule, entry_path);
       normalized[key] = check(entry, item, entry_path);
     }
     return normalized;
+  }
+
+  void check_name(const std::string& key, const FieldRule& rule, const std::string& path) {
+    if (key.size() > kMaxPatternedLength) {
+      report(path, too_long(key, "the name"),
+             fmt::format("rename it to at most {} characters", kMaxPatternedLength), rule);
+    } else if (!full_match(key, rule.pattern)) {
+      report(path, "name \"" + key + "\" does not match the pattern " + rule.pattern, "rename it",
+             rule);
+    }
   }
 
   json check_named_fields(const json& value, const FieldRule& rule, const std::string& path) {
@@ -399,6 +418,10 @@ std::string anchored(const std::string& pattern) {
   return "^(?:" + pattern + ")$";
 }
 
+json patterned_schema(const FieldRule& rule) {
+  return {{"pattern", anchored(rule.pattern)}, {"maxLength", kMaxPatternedLength}};
+}
+
 json schema_of(const FieldRule& rule, const FieldTable& table);
 
 json object_schema(const FieldRule& rule, const FieldTable& table) {
@@ -406,7 +429,7 @@ json object_schema(const FieldRule& rule, const FieldTable& table) {
   if (rule.opaque) return schema;
   if (const auto* entries = table.rule(rule.path + "/*")) {
     schema["additionalProperties"] = schema_of(*entries, table);
-    if (!rule.pattern.empty()) schema["propertyNames"] = {{"pattern", anchored(rule.pattern)}};
+    if (!rule.pattern.empty()) schema["propertyNames"] = patterned_schema(rule);
   } else {
     schema["properties"] = json::object();
     json required = json::array();
@@ -453,7 +476,7 @@ json schema_of(const FieldRule& rule, const FieldTable& table) {
       break;
     case FieldType::string:
       schema = {{"type", "string"}};
-      if (!rule.pattern.empty()) schema["pattern"] = anchored(rule.pattern);
+      if (!rule.pattern.empty()) schema.update(patterned_schema(rule));
       break;
     case FieldType::boolean:
       schema = {{"type", "boolean"}};

@@ -17,6 +17,10 @@ namespace millflow::engine {
 
 enum class FieldType { integer, number, string, boolean, object, array, enumeration };
 
+// The most characters of a string or map key that a pattern checks: std::regex matches with one
+// stack frame per character, and some ten thousand characters overflow the stack.
+inline constexpr std::size_t kMaxPatternedLength = 200;
+
 // One end of a numeric range.
 struct Bound {
   double value = 0.0;

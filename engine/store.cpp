@@ -150,6 +150,16 @@ int readable_user_version(sql::Connection& connection, const fs::path& db) {
   try {
     return connection.user_version();
   } catch (const sql::Error& error) {
+    // Reading a WAL database takes its -shm file, which SQLite creates when it is missing: in a
+    // directory the user cannot write, even reading fails.
+    if (std::string_view(error.what()).find("attempt to write a readonly database") !=
+        std::string_view::npos) {
+      throw InvalidInput({{"--db",
+                           fmt::format("{} cannot be read where it is: SQLite needs to create "
+                                       "{}-shm beside it ({})",
+                                       db.string(), db.string(), error.what()),
+                           "copy the database to a directory you can write and pass the copy"}});
+    }
     if (!is_damaged_database_error(error.what())) throw;
     throw InvalidInput(
         {{"--db", damaged_database_problem(db, error.what()), damaged_database_fix(db)}});
@@ -255,6 +265,12 @@ sql::Connection open_read_only(const fs::path& db) {
   }
   refuse_newer_schema(db, version);
   return connection;
+}
+
+void check_database_readable(const fs::path& db) {
+  if (!fs::exists(db)) return;
+  sql::Connection connection(db, sql::Access::read_only);
+  refuse_newer_schema(db, readable_user_version(connection, db));
 }
 
 std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key) {
@@ -867,18 +883,28 @@ std::optional<CoordinatorRecord> find_coordinator(sql::Connection& db) {
   return CoordinatorRecord{row.integer(0), row.text(1), row.real(2), row.text(3)};
 }
 
+namespace {
+
+// An error of a query's statement: the database's fault when SQLite cannot read it, else the
+// SQL's, whether preparing or running it found it (ATTACH of a missing file, an integer overflow).
+InvalidInput query_error(const fs::path& db_path, const sql::Error& error) {
+  if (is_damaged_database_error(error.what()))
+    return InvalidInput(
+        {{"--db", damaged_database_problem(db_path, error.what()), damaged_database_fix(db_path)}});
+  return InvalidInput(
+      {{"", error.what(),
+        "check the SQL; `millflow query \"SELECT name FROM sqlite_master\"` lists tables"}});
+}
+
+}  // namespace
+
 QueryRows run_read_only_query(sql::Connection& db, const fs::path& db_path,
                               const std::string& sql_text) {
   std::optional<sql::Statement> statement;
   try {
     statement.emplace(db.prepare(sql_text));
   } catch (const sql::Error& error) {
-    if (is_damaged_database_error(error.what()))
-      throw InvalidInput({{"--db", damaged_database_problem(db_path, error.what()),
-                           damaged_database_fix(db_path)}});
-    throw InvalidInput(
-        {{"", error.what(),
-          "check the SQL; `millflow query \"SELECT name FROM sqlite_master\"` lists tables"}});
+    throw query_error(db_path, error);
   }
   if (!statement->read_only()) {
     throw InvalidInput(
@@ -888,17 +914,21 @@ QueryRows run_read_only_query(sql::Connection& db, const fs::path& db_path,
   QueryRows result;
   for (int column = 0; column < statement->columns(); ++column)
     result.columns.push_back(statement->column_name(column));
-  while (statement->step()) {
-    std::vector<QueryValue> row;
-    for (int column = 0; column < statement->columns(); ++column) {
-      QueryValue value;
-      value.type = statement->column_type(column);
-      if (value.type == SQLITE_INTEGER) value.integer = statement->integer(column);
-      if (value.type == SQLITE_FLOAT) value.real = statement->real(column);
-      value.text = statement->text(column);
-      row.push_back(std::move(value));
+  try {
+    while (statement->step()) {
+      std::vector<QueryValue> row;
+      for (int column = 0; column < statement->columns(); ++column) {
+        QueryValue value;
+        value.type = statement->column_type(column);
+        if (value.type == SQLITE_INTEGER) value.integer = statement->integer(column);
+        if (value.type == SQLITE_FLOAT) value.real = statement->real(column);
+        value.text = statement->text(column);
+        row.push_back(std::move(value));
+      }
+      result.rows.push_back(std::move(row));
     }
-    result.rows.push_back(std::move(row));
+  } catch (const sql::Error& error) {
+    throw query_error(db_path, error);
   }
   return result;
 }

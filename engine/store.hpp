@@ -111,6 +111,11 @@ std::string damaged_database_fix(const std::filesystem::path& db);
 // is not a readable SQLite database is InvalidInput (path "--db").
 sql::Connection open_read_only(const std::filesystem::path& db);
 
+// Refuses, before anything is written beside it, a database file SQLite cannot read
+// (InvalidInput, path "--db") or one of a newer schema (SchemaTooNew). A missing file, or one
+// without millflow tables yet, passes.
+void check_database_readable(const std::filesystem::path& db);
+
 // Reads shared by the writer and the read-only tools.
 std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key);
 std::optional<nlohmann::json> find_result(sql::Connection& db, const std::string& key);

@@ -1,6 +1,7 @@
 #include "engine/sweep.hpp"
 
 #include <cmath>
+#include <cstdlib>
 #include <optional>
 
 #include <fmt/format.h>
@@ -160,6 +161,13 @@ class SweepReader {
       error(error_path, "\"" + path + "\" is not a field of this file",
             suggestion ? "did you mean \"" + *suggestion + "\"?"
                        : "sweep a field the schema defines");
+      return nullptr;
+    }
+    // Its values would pass unchecked (the block's own checks read the file's, not a point's),
+    // and a sweep block in a point changes nothing.
+    if (rule->opaque) {
+      error(error_path, "\"" + path + "\" cannot be swept",
+            "sweep the fields of the file, not the sweep block");
       return nullptr;
     }
     if (!holds(path)) {
@@ -363,7 +371,8 @@ std::vector<SweepPoint> expand_sweep(const nlohmann::json& document, const Field
 
 double round_significant(double value, int digits) {
   if (value == 0.0 || !std::isfinite(value)) return value;
-  return std::stod(fmt::format("{:.{}g}", value, digits));
+  // strtod, not stod: stod throws on a subnormal result (1e-320), which is a valid value.
+  return std::strtod(fmt::format("{:.{}g}", value, digits).c_str(), nullptr);
 }
 
 std::vector<double> linspace(double start, double stop, long long num) {

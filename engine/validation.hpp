@@ -12,7 +12,8 @@ struct ValidationError {
   std::string problem;  // what is wrong, with the offending value
   std::string fix;      // how to fix it (may be empty)
 
-  // "<path>: <problem>" plus "; <fix>" when a fix is given. Tests assert this exact text.
+  // "<path>: <problem>" plus "; <fix>" when a fix is given, control characters written as
+  // \u0000 ... \u001f and \u007f. Tests assert this exact text.
   std::string message() const;
 };
 

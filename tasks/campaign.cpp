@@ -69,7 +69,7 @@ std::vector<engine::FieldRule> material_fields() {
             "diameter; "
             "a wall counts as the particle alone), from which the normal stiffness is chosen")
           .unit("s")
-          .range(at_least(kShortestCollisionTime), at_most(1e-1)),
+          .range(at_least(kShortestCollisionTime), at_most(kLongestCollisionTime)),
       Field("/interactions/*/stiffness/normal", FieldType::number, "normal spring stiffness k_n")
           .unit("N/m")
           .range(above(0), {}),

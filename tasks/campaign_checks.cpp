@@ -511,8 +511,9 @@ class ConsistencyChecker {
   }
 
   // A stiffness given as k_n whose contact between the pair's reference particles (balls of the
-  // media's mean diameter, grains of the powder's, a wall standing still) is shorter than any
-  // collision_time may be: the pair's runs would step at a fraction of that, without end.
+  // media's mean diameter, grains of the powder's, a wall standing still) is shorter or longer
+  // than any collision_time may be: the pair's runs would step at a fraction of that, without
+  // end, or so soft that the particles pass through each other (1e-300 N/m: a run of no step).
   void check_stiffness_durations(const std::vector<BallClass>& balls) {
     const auto* interactions = campaign_.node("/interactions");
     // Balls already refused (too many, too big) make no reference particles worth a second error.
@@ -545,14 +546,16 @@ class ConsistencyChecker {
           mass_a && mass_b ? dem::effective_mass(*mass_a, *mass_b) : mass_a.value_or(*mass_b);
       const double zeta = dem::damping_ratio_for_restitution(*restitution);
       const double duration = dem::collision_duration(*stiffness, effective, zeta);
-      if (duration >= kShortestCollisionTime) continue;
-      const double softest =
-          dem::stiffness_for_collision_duration(kShortestCollisionTime, effective, zeta);
+      if (duration >= kShortestCollisionTime && duration <= kLongestCollisionTime) continue;
+      const bool too_stiff = duration < kShortestCollisionTime;
+      const double bound = too_stiff ? kShortestCollisionTime : kLongestCollisionTime;
+      const double allowed = dem::stiffness_for_collision_duration(bound, effective, zeta);
       error(path,
             quantity(*stiffness) + " N/m gives the pair's reference particles a contact of " +
-                quantity(duration) + " s, shorter than a collision time may be (" +
-                quantity(kShortestCollisionTime) + " s)",
-            "use at most " + quantity(softest) + " N/m, or give the stiffness as collision_time");
+                quantity(duration) + " s, " + (too_stiff ? "shorter" : "longer") +
+                " than a collision time may be (" + quantity(bound) + " s)",
+            std::string("use ") + (too_stiff ? "at most " : "at least ") + quantity(allowed) +
+                " N/m, or give the stiffness as collision_time");
     }
   }
 

@@ -13,6 +13,8 @@ namespace millflow::tasks {
 // collision_time, or a normal stiffness between the pair's reference particles): the runs step at
 // a fraction of it.
 inline constexpr double kShortestCollisionTime = 1e-7;
+// The longest one: a softer contact lets the particles pass through each other.
+inline constexpr double kLongestCollisionTime = 1e-1;
 // Assumed voids of a ball bed, for estimates of ball and powder counts.
 inline constexpr double bed_void_fraction = 0.4;
 // Below this many balls there is no bed to average over or to split into flow regions.

@@ -64,6 +64,18 @@ TEST_F(CellCommand, BadSpecIsRefusedWithTheCampaignsMessagesAndExitTwo) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+// The cell's --out was not checked: a file there was exit 1, a filesystem_error.
+TEST_F(CellCommand, AnOutputDirectoryUnderAFileIsRefusedWithExitTwo) {
+  const auto file = dir_.path() / "a-file";
+  std::ofstream(file) << "x";
+  const auto finished = run_millflow(
+      {"cell", write_spec(tiny_spec()).string(), "--out", (file / "cell").string()}, dir_.path());
+  EXPECT_EQ(finished.exit_code, 2);
+  EXPECT_EQ(finished.err, "millflow: invalid input:\n--out: \"" + file.string() +
+                              "\" is not a directory; pass a directory (it is created when "
+                              "missing)\n");
+}
+
 TEST_F(CellCommand, PrintsTheCellsResultAndLeavesItsFilesInTheOutputDirectory) {
   const auto out = dir_.path() / "out";
   const auto finished =

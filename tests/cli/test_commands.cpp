@@ -157,6 +157,17 @@ TEST_F(Cli, QueryAnswersInCsvAndJsonAndRefusesWrites) {
   EXPECT_EQ(refused.exit_code, 2);
   EXPECT_NE(refused.err.find("refused: the statement would modify the database"), std::string::npos)
       << refused.err;
+  // An error found running the statement, not preparing it, was exit 1.
+  const auto overflow = millflow({"query", "SELECT abs(-9223372036854775808)"});
+  EXPECT_EQ(overflow.exit_code, 2);
+  EXPECT_EQ(overflow.err,
+            "millflow: invalid input:\n(document): SQL step failed for \"SELECT "
+            "abs(-9223372036854775808)\": integer overflow; check the SQL; `millflow query "
+            "\"SELECT name FROM sqlite_master\"` lists tables\n");
+  // Text that is not UTF-8 made --format json exit 1 (nlohmann's type_error 316).
+  const auto bytes = millflow({"query", "--format", "json", "SELECT CAST(x'ff' AS TEXT) AS a"});
+  EXPECT_EQ(bytes.exit_code, 0) << bytes.err;
+  EXPECT_EQ(json::parse(bytes.out), json::parse(R"([{"a": "\ufffd"}])"));
 }
 
 std::time_t parse_iso8601_utc(const std::string& text) {
@@ -378,6 +389,13 @@ TEST_F(Cli, ForceAndUntilSelectWhatSubmitAndResumeRun) {
                 ") or a key from `millflow explain FILE`\n"
                 "--until: \"nada\" is not a task kind; name one of: " +
                 kinds + "\n");
+  // The empty prefix of every key: it forced the whole campaign.
+  const auto empty = millflow({"submit", file.string(), "--force", ""});
+  EXPECT_EQ(empty.exit_code, 2);
+  EXPECT_EQ(empty.err,
+            "millflow: invalid input:\n--force: \"\" is neither a task kind nor a task "
+            "key; name a kind (" +
+                kinds + ") or a key from `millflow explain FILE`\n");
 
   const auto chain = write_campaign(
       "chain",

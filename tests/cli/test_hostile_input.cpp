@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <fstream>
@@ -88,6 +89,13 @@ TEST_F(HostileInput, UnusableDatabasePathsAreRefusedBeforeAnythingIsWritten) {
                                "\" is a directory, not a database file"),
             std::string::npos)
       << directory.err;
+  const auto under_a_file =
+      millflow({"submit", campaign.string(), "--db", (campaign / "mill.db").string()});
+  EXPECT_EQ(under_a_file.exit_code, 2);  // was 1, a filesystem_error
+  EXPECT_EQ(under_a_file.err, "millflow: invalid input:\n--db: cannot create the directory " +
+                                  fs::weakly_canonical(campaign).string() +
+                                  ": Not a directory; name a database in a directory you can "
+                                  "write\n");
   const auto missing = (dir_.path() / "missing.db").string();
   for (const char* command : {"status", "gc", "resume", "query"}) {
     std::vector<std::string> arguments{command};
@@ -184,8 +192,12 @@ TEST_F(HostileInput, StatusTellsACoordinatorThatDiedAndTheNextOneSaysItTookOver)
 TEST_F(HostileInput, DamagedDatabasesAreBadInputNamingTheFile) {
   const fs::path db = dir_.path() / "noise.db";
   std::ofstream(db) << std::string(8192, 'x');
-  for (const std::vector<std::string>& command :
-       {std::vector<std::string>{"status"}, {"query", "SELECT 1"}, {"resume"}}) {
+  const auto campaign = quick_campaign();
+  for (const std::vector<std::string>& command : {std::vector<std::string>{"status"},
+                                                  {"query", "SELECT 1"},
+                                                  {"resume"},
+                                                  {"submit", campaign.string()},
+                                                  {"gc"}}) {
     auto arguments = command;
     arguments.insert(arguments.end(), {"--db", db.string()});
     const auto refused = millflow(arguments);
@@ -196,6 +208,34 @@ TEST_F(HostileInput, DamagedDatabasesAreBadInputNamingTheFile) {
         << refused.err;
     EXPECT_EQ(refused.err.find("check the SQL"), std::string::npos) << refused.err;
   }
+  // submit and gc found the file unreadable only after creating its lock file.
+  EXPECT_EQ(written(), std::vector<std::string>{"noise.db"});
+}
+
+// Both were exit 1: SQLite's "attempt to write a readonly database" from the first view the store
+// installed, and from the first read of a read-only connection that needed the -shm file.
+TEST_F(HostileInput, ADatabaseThatCannotBeWrittenIsRefusedNamingIt) {
+  if (::geteuid() == 0) GTEST_SKIP() << "permissions do not hold for root";
+  const fs::path db = dir_.path() / "kept.db";
+  ASSERT_EQ(millflow({"submit", quick_campaign().string(), "--db", db.string()}).exit_code, 0);
+  fs::permissions(db, fs::perms::owner_write, fs::perm_options::remove);
+  const auto resumed = millflow({"resume", "--db", db.string()});
+  EXPECT_EQ(resumed.exit_code, 2);
+  EXPECT_EQ(resumed.err, "millflow: invalid input:\n--db: cannot write " + db.string() +
+                             ": Permission denied; make it writable (chmod u+w), or submit to a "
+                             "copy of it\n");
+
+  const fs::path shelf = dir_.path() / "shelf";
+  fs::create_directories(shelf);
+  fs::copy_file(db, shelf / "kept.db");  // without its -shm file
+  fs::permissions(shelf, fs::perms::owner_write, fs::perm_options::remove);
+  const auto status = millflow({"status", "--db", (shelf / "kept.db").string()});
+  fs::permissions(shelf, fs::perms::owner_write, fs::perm_options::add);
+  EXPECT_EQ(status.exit_code, 2);
+  EXPECT_NE(status.err.find("--db: " + (shelf / "kept.db").string() +
+                            " cannot be read where it is: SQLite needs to create "),
+            std::string::npos)
+      << status.err;
 }
 
 TEST_F(HostileInput, ValuesNoRunCanUseAreExitTwoWithThePathAndAFix) {
@@ -244,6 +284,10 @@ TEST_F(HostileInput, ValuesNoRunCanUseAreExitTwoWithThePathAndAFix) {
   EXPECT_EQ(out.exit_code, 2);
   EXPECT_EQ(out.err, "millflow: invalid input:\n--out: \"" + file.string() +
                          "\" is not a directory; pass a directory (it is created when missing)\n");
+  const auto under = millflow({"export", "quick", "--format", "csv", "--out",
+                               (file / "csv").string(), "--db", db.string()});
+  EXPECT_EQ(under.exit_code, 2);  // was 1, a filesystem_error from creating it
+  EXPECT_EQ(under.err, out.err);
 }
 
 TEST_F(HostileInput, ATaskSpecThatIsNotAnObjectIsNamedAsNotATaskSpec) {
@@ -257,6 +301,18 @@ TEST_F(HostileInput, ATaskSpecThatIsNotAnObjectIsNamedAsNotATaskSpec) {
                                "it\n")
         << text;
   }
+}
+
+// exec read /dev/zero until the kernel killed it for memory.
+TEST_F(HostileInput, ATaskSpecThatIsNotARegularFileIsRefusedAtOnce) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto zero = millflow({"exec", "/dev/zero"});
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(20));
+  EXPECT_EQ(zero.exit_code, 2);
+  EXPECT_EQ(
+      zero.err,
+      "millflow exec: (document): task-spec file /dev/zero cannot be read: /dev/zero is not a "
+      "regular file; pass a spec file written by the millflow coordinator\n");
 }
 
 TEST_F(HostileInput, VersionNamesTheReleaseTheCommitAndTheInstructionSet) {

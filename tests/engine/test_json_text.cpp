@@ -27,6 +27,30 @@ TEST(JsonText, SyntaxErrorNamesLineAndColumn) {
                   .starts_with("(document): JSON syntax error at line 3, column "));
 }
 
+// Some 130,000 levels crashed validate: copying the document recursed once per level.
+TEST(JsonText, NestingDeeperThanAHundredLevelsIsRefusedWithThePath) {
+  const auto nested = [](std::size_t levels) {
+    return "{\"a\": " + std::string(levels - 1, '[') + std::string(levels - 1, ']') + "}";
+  };
+  EXPECT_EQ(syntax_message(nested(100)), "parsed");
+  std::string path = "/a";  // the list on level 2; each on the levels 3 to 101 its parent's 0
+  for (int level = 3; level <= 101; ++level) path += "/0";
+  EXPECT_EQ(syntax_message(nested(101)),
+            path +
+                ": nested more than 100 levels deep; check the brackets: a millflow file nests "
+                "a few levels");
+  EXPECT_EQ(syntax_message(nested(200000)).substr(path.size()),
+            ": nested more than 100 levels deep; check the brackets: a millflow file nests a few "
+            "levels");
+}
+
+// The parser took a NUL byte for the end of the text and ignored the rest.
+TEST(JsonText, ANulByteIsASyntaxErrorWhereverItIs) {
+  EXPECT_EQ(syntax_message(std::string_view("{\"a\": 1}\n\0{\"b\"", 13)),
+            "(document): JSON syntax error at line 2, column 1: a NUL byte; remove it (JSON text "
+            "has none; write \\u0000 in a string for one)");
+}
+
 TEST(JsonText, KeysWrittenTwiceAreReportedWithTheirPath) {
   const auto parsed = parse_json_text(
       R"({"a": [{"x": 1}, {"y": [0, {"z": 1, "z": 2}], "y2": 0}], "b": 1, "b": 3})");

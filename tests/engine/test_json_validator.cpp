@@ -97,6 +97,20 @@ TEST(JsonValidator, UnknownKeySuggestsTheClosestField) {
                 "\"rate\", \"stages\", \"enabled\", \"motor\", \"fluids\", \"ports\""});
 }
 
+// Printed raw, a NUL (from "\u0000" in the file) cut the whole report short and an escape
+// sequence reached the terminal.
+TEST(JsonValidator, ControlCharactersArePrintedAsJsonEscapes) {
+  const std::string key("stag\0\x1b[1m", 9);
+  EXPECT_EQ(
+      errors_of({{key, 2}}),
+      std::vector<std::string>{
+          "/stag\\u0000\\u001b[1m: unknown field \"stag\\u0000\\u001b[1m\"; allowed fields "
+          "here: \"kind\", \"label\", \"rate\", \"stages\", \"enabled\", \"motor\", \"fluids\", "
+          "\"ports\""});
+  EXPECT_EQ(std::string(millflow::engine::InvalidInput({{"/" + key, "x", "y"}}).what()),
+            "/stag\\u0000\\u001b[1m: x; y");
+}
+
 TEST(JsonValidator, WrongTypeNamesTheExpectedType) {
   EXPECT_EQ(errors_of({{"rate", "fast"}}),
             std::vector<std::string>{"/rate: expected a number, got the string \"fast\"; give flow "
@@ -153,6 +167,21 @@ TEST(JsonValidator, PatternsApplyToStringsAndToMapKeys) {
   EXPECT_EQ(errors_of({{"fluids", {{"Oil", {{"viscosity", 0.1}}}}}}),
             std::vector<std::string>{
                 "/fluids/Oil: name \"Oil\" does not match the pattern [a-z]+; rename it"});
+}
+
+// Matching such texts would overflow std::regex's stack (a segmentation fault at some 50,000
+// characters).
+TEST(JsonValidator, StringsAndKeysLongerThanAPatternChecksAreRefusedBeforeMatching) {
+  const std::string long_text(100000, 'a');
+  EXPECT_EQ(errors_of({{"label", long_text}}),
+            std::vector<std::string>{
+                "/label: the string has 100000 characters, more than 200; give pump label as at "
+                "most 200 characters matching [a-z]+; use lower-case letters"});
+  EXPECT_EQ(errors_of({{"fluids", {{long_text, {{"viscosity", 0.1}}}}}}),
+            std::vector<std::string>{"/fluids/" + long_text +
+                                     ": the name has 100000 characters, more than 200; rename "
+                                     "it to at most 200 characters"});
+  EXPECT_TRUE(errors_of({{"label", std::string(200, 'a')}}).empty());
 }
 
 TEST(JsonValidator, ListsCheckTheirItemsCountAndUniqueness) {
@@ -244,11 +273,11 @@ TEST(JsonValidator, SchemaSaysWhatTheTableSays) {
     "type": "object", "description": "document", "additionalProperties": false, "required": ["n"],
     "properties": {
       "n": {"type": "integer", "description": "count", "minimum": 1, "exclusiveMaximum": 10},
-      "m": {"type": "object", "description": "map", "propertyNames": {"pattern": "^(?:[a-z]+)$"},
+      "m": {"type": "object", "description": "map", "propertyNames": {"pattern": "^(?:[a-z]+)$", "maxLength": 200},
             "additionalProperties": {"type": "number", "description": "value [m]", "default": 0.5}},
       "e": {"type": "string", "description": "choice", "enum": ["x", "y"]},
       "l": {"type": "array", "description": "list", "minItems": 2, "maxItems": 2, "uniqueItems": true,
-            "items": {"type": "string", "description": "item", "pattern": "^(?:[a-z])$"}},
+            "items": {"type": "string", "description": "item", "pattern": "^(?:[a-z])$", "maxLength": 200}},
       "o": {"type": "object", "description": "either", "additionalProperties": false,
             "properties": {"p": {"type": "boolean", "description": "p"}, "q": {"type": "boolean", "description": "q"}},
             "oneOf": [{"required": ["p"]}, {"required": ["q"]}]}

@@ -67,6 +67,8 @@ TEST(SweepValues, RoundingToTwelveDigitsRemovesFloatingPointNoise) {
   EXPECT_EQ(millflow::engine::round_significant(1e-7 * 3), 3e-7);
   EXPECT_EQ(millflow::engine::round_significant(123456789.0123456), 123456789.012);
   EXPECT_EQ(millflow::engine::round_significant(0.0), 0.0);
+  // Subnormal: std::stod threw std::out_of_range on it, and validate exited 1 with "stod".
+  EXPECT_EQ(millflow::engine::round_significant(1e-320), 1e-320);
 }
 
 TEST(SweepExpansion, WithoutSweepTheDocumentIsTheOnlyPoint) {
@@ -196,6 +198,14 @@ TEST(SweepErrors, AFieldIsSweptInOnePlaceOnly) {
             std::vector<std::string>{
                 "/sweep/product/~1trays~10~1height: \"/trays/0/height\" overlaps \"/trays\", swept "
                 "elsewhere; sweep each field in one place only"});
+}
+
+// Its values passed unchecked and the points' sweep blocks did nothing.
+TEST(SweepErrors, TheSweepBlockCannotSweepItself) {
+  EXPECT_EQ(sweep_errors({{"product", {{"/sweep", {{{"product", {{"/minutes", {1, 2}}}}}}}}}}),
+            std::vector<std::string>{
+                "/sweep/product/~1sweep: \"/sweep\" cannot be swept; sweep the fields of the file, "
+                "not the sweep block"});
 }
 
 TEST(SweepErrors, StructureOfTheBlock) {
