@@ -40,13 +40,15 @@
 
 namespace millflow::method {
 
-// One method's figures over one region or over all, W in the slice.
+// One method's figures over one region or over all, W in the slice. The powers are none where
+// no cell was counted (every site's cell left out or never run): a sum over no site is not 0 W.
 struct UpscaleFigures {
   std::size_t sites = 0;
-  double volume_m3 = 0.0, solid_volume_m3 = 0.0, powder_power_w = 0.0;
-  std::optional<double> powder_power_w_se{}, powder_power_share{}, powder_power_share_se{};
-  double media_power_w = 0.0, media_collision_power_w = 0.0,
-         media_collision_power_no_powder_w = 0.0;
+  double volume_m3 = 0.0, solid_volume_m3 = 0.0;
+  std::optional<double> powder_power_w{}, powder_power_w_se{}, powder_power_share{},
+      powder_power_share_se{};
+  std::optional<double> media_power_w{}, media_collision_power_w{},
+      media_collision_power_no_powder_w{};
   std::optional<double> cushioning{}, cushioning_se{}, cushioning_rate_factor{},
       cushioning_rate_factor_se{}, cushioning_energy_factor{}, cushioning_energy_factor_se{};
 };
@@ -163,8 +165,8 @@ struct UpscaleResult {
   double fill = 0.0, speed_fraction = 0.0, powder_load = 0.0;
   std::string average_task{}, sites_task{};
   UpscaleMill mill{};
-  double powder_to_media_mass_ratio = 0.0;
-  std::optional<double> power_draw_with_powder_w{};  // none without media-only cells
+  std::optional<double> powder_to_media_mass_ratio{};  // none without counted cells
+  std::optional<double> power_draw_with_powder_w{};    // none without media-only cells
   UpscaleAnchored macro_anchored{};
   std::vector<UpscaleSensitivity> sensitivity{};
   UpscaleSpectra spectra{};

@@ -415,6 +415,27 @@ std::string points_table(const std::vector<UpscalePoint>& points) {
   return out;
 }
 
+// The points whose every cell was left out (or never ran): their powers are unknown ("-" above)
+// and their plots hold no data.
+std::string uncounted_points_paragraph(const std::vector<UpscalePoint>& points) {
+  std::vector<std::string> uncounted;
+  for (const UpscalePoint& point : points) {
+    const method::UpscaleResult& p = point.upscale;
+    if (p.cells.totals.powder_power_w) continue;
+    uncounted.push_back(fmt::format("J = {}, phi = {}, U = {} ({} cells left out)", g(p.fill),
+                                    g(p.speed_fraction), g(p.powder_load),
+                                    p.left_out_cells.size()));
+  }
+  if (uncounted.empty()) return {};
+  return fmt::format(
+      "No cell was counted at {}: every cell there was left out as unsteady or unconverged, or "
+      "none ran (sites.csv's `skipped` says which), so their powder power, shares and spectra "
+      "are unknown. Longer warm-up or measurement strains "
+      "(`/shear_cell/max_warmup_strain`, `/shear_cell/convergence/max_strain`) or "
+      "`/upscale/include_unsteady` count them.\n\n",
+      fmt::join(uncounted, "; "));
+}
+
 // How far a cell's held normal stress (its measured p_yy) may sit from its site's before the
 // report names it: the stationarity test's own tolerance for each warm-up window
 // (docs/shear_cells.md).
@@ -559,7 +580,7 @@ std::string index_page(const std::string& campaign, const std::vector<UpscalePoi
       "upscaling, which takes each region's "
       "dissipation from the macro run and only its split from the cells, may name another "
       "(\"Flow regions\" below gives both).\n\n" +
-      points_table(points) + "\n";
+      points_table(points) + "\n" + uncounted_points_paragraph(points);
   out +=
       "## Powder power by region\n\n![powder power shares](powder_power_shares.svg)\n\n"
       "Each region's share of the power going into the powder (site power densities x site "

@@ -44,11 +44,7 @@ method::FlowMap read_flow_map(const std::string& average_key,
 
 UpscalePoint read_upscale(const std::string& task_key, const json& result) {
   const std::string owner = fmt::format("upscale task {}", task_key);
-  method::UpscaleResult upscale = method::read_upscale_result(result, owner, kUpscaleFix);
-  if (upscale.spectra.bin_edges_j.size() < 2)
-    FieldReader(owner, result, kUpscaleFix)
-        .refuse("/spectra/bin_edges_j", "holds fewer than 2 edges");
-  return {.task_key = task_key, .upscale = std::move(upscale)};
+  return {.task_key = task_key, .upscale = method::read_upscale_result(result, owner, kUpscaleFix)};
 }
 
 SitesPoint read_sites(const std::string& task_key, const json& result) {

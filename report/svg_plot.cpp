@@ -431,7 +431,10 @@ Figure histogram_chart(const HistogramChart& chart) {
   std::vector<LegendEntry> entries;
   for (std::size_t s = 0; s < chart.series.size(); ++s) {
     const Histogram& h = chart.series[s];
-    check_sizes(h.edges.size(), h.values.size() + 1, h.name, "edges must be one more than values");
+    // A series without bins (a sweep point where no cell was counted) is listed, without data.
+    if (!h.edges.empty() || !h.values.empty())
+      check_sizes(h.edges.size(), h.values.size() + 1, h.name,
+                  "edges must be one more than values");
     bool has_data = false;
     for (std::size_t i = 0; i < h.values.size(); ++i) {
       if (!bin_plottable(h, i)) continue;

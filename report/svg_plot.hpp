@@ -89,7 +89,7 @@ Figure line_chart(const LineChart& chart);
 // A histogram drawn as steps: value i spans [edges i, edges i+1).
 struct Histogram {
   std::string name{};
-  std::vector<double> edges{};   // n + 1
+  std::vector<double> edges{};   // n + 1, or none with no values
   std::vector<double> values{};  // n
   int colour = -1;
   bool dashed = false;

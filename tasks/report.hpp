@@ -16,7 +16,7 @@
 namespace millflow::tasks {
 
 // Bump whenever the report's files or result change.
-inline constexpr const char* kReportVersion = "8";
+inline constexpr const char* kReportVersion = "9";
 
 // The upstream results the report reads, by kind, and each average task's fields.json artifact.
 report::ReportSources report_sources(const std::vector<engine::TaskInput>& inputs);

@@ -104,16 +104,20 @@ method::UpscaleFigures figures_of(const method::PowerSums& r, const method::Sum&
   const method::Ratio cushioning = method::ratio(r.collisions, r.collisions_no_powder);
   const method::Ratio rate_factor = method::ratio(r.rate, r.rate_no_powder);
   const method::Ratio energy_factor = method::ratio(cushioning, rate_factor);
+  // Without a counted site the powers are unknown, not 0 W.
+  const auto counted = [&](double watts) {
+    return r.sites > 0 ? std::optional(watts) : std::nullopt;
+  };
   return {.sites = static_cast<std::size_t>(r.sites),
           .volume_m3 = r.volume,
           .solid_volume_m3 = r.solid_volume,
-          .powder_power_w = r.powder.value,
-          .powder_power_w_se = r.powder.standard_error(),
+          .powder_power_w = counted(r.powder.value),
+          .powder_power_w_se = r.sites > 0 ? r.powder.standard_error() : std::nullopt,
           .powder_power_share = share.value,
           .powder_power_share_se = share.standard_error,
-          .media_power_w = r.input.value - r.powder.value,
-          .media_collision_power_w = r.collisions.value,
-          .media_collision_power_no_powder_w = r.collisions_no_powder.value,
+          .media_power_w = counted(r.input.value - r.powder.value),
+          .media_collision_power_w = counted(r.collisions.value),
+          .media_collision_power_no_powder_w = counted(r.collisions_no_powder.value),
           .cushioning = cushioning.value,
           .cushioning_se = cushioning.standard_error,
           .cushioning_rate_factor = rate_factor.value,
@@ -266,8 +270,10 @@ std::vector<method::UpscaleSensitivity> sensitivity(
   return result;
 }
 
+// A site's row; without a counted cell at load U, why: its cell left out (by its flag), or none.
 method::UpscaleSite site_row(const method::Site& site, const method::CellResult* loaded,
-                             const method::CellResult* baseline) {
+                             const method::CellResult* baseline, double load,
+                             const std::vector<method::LeftOutCell>& left_out) {
   method::UpscaleSite row{.site_id = site.site_id,
                           .region = site.region,
                           .x_m = site.x,
@@ -285,7 +291,15 @@ method::UpscaleSite site_row(const method::Site& site, const method::CellResult*
     row.powder_dissipation_w_m3 = loaded->powder_dissipation_w_m3;
     row.cell_normal_stress_pa = loaded->normal_stress_pa;
   } else {
-    row.skipped = "no shear cell ran at this site";
+    const auto flagged = std::find_if(left_out.begin(), left_out.end(), [&](const auto& cell) {
+      return cell.site_id == site.site_id && cell.powder_load == load && !cell.counted;
+    });
+    row.skipped = flagged == left_out.end()
+                      ? "no shear cell ran at this site"
+                      : fmt::format(
+                            "its cell was left out ({}); /upscale/include_unsteady "
+                            "counts such cells",
+                            flagged->reason);
   }
   return row;
 }
@@ -343,7 +357,7 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
   for (const method::Site& typed : sites_result.sites) {
     const method::CellResult* cell = cell_of(cells.loaded, typed.site_id);
     const method::CellResult* reference = cell_of(cells.baseline, typed.site_id);
-    site_rows.push_back(site_row(typed, cell, reference));
+    site_rows.push_back(site_row(typed, cell, reference, load, cells.flagged));
     if (!cell) continue;
     const method::CellFigures loaded = method::cell_figures(*cell);
     const std::optional<method::CellFigures> baseline =
@@ -375,7 +389,8 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
 
   method::PowerSums all;
   for (const auto& [name, sums] : by_region) all.merge(sums);
-  const double mass_ratio = solid_volume > 0.0 ? powder_mass / solid_volume : 0.0;
+  const std::optional<double> mass_ratio =
+      solid_volume > 0.0 ? std::optional(powder_mass / solid_volume) : std::nullopt;
   const double power_draw = macro.power.mean_w;
   const std::size_t left_out = cells.flagged.size();
   method::UpscaleResult result{
@@ -388,8 +403,8 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
       .mill = mill_of(macro),
       .powder_to_media_mass_ratio = mass_ratio,
       .power_draw_with_powder_w =
-          all.input_no_powder.value > 0.0
-              ? std::optional(power_draw * (1.0 + mass_ratio) * all.input_paired.value /
+          all.input_no_powder.value > 0.0 && mass_ratio
+              ? std::optional(power_draw * (1.0 + *mass_ratio) * all.input_paired.value /
                               all.input_no_powder.value)
               : std::nullopt,
       .macro_anchored = {.figures =
@@ -413,11 +428,14 @@ engine::TaskOutcome run_upscale(engine::TaskContext& context) {
         shown(stiff->totals.cushioning_shift_se), shown(stiff->totals.powder_share_shift),
         shown(stiff->totals.powder_share_shift_se)));
   }
+  const auto watts = [](const std::optional<double>& w) {
+    return w ? fmt::format("{:.4g} W", *w) : std::string("unknown (no cell counted)");
+  };
   context.log(fmt::format(
-      "upscale U = {}: powder {:.4g} W ({} dominates; macro-anchored {:.4g} W, {}), cushioning {}, "
+      "upscale U = {}: powder {} ({} dominates; macro-anchored {}, {}), cushioning {}, "
       "{} cells left out, {} of {} sites couple within {:.0f}%",
-      load, all.powder.value, shown(result.cells.dominant_region),
-      result.macro_anchored.figures.totals.powder_power_w,
+      load, watts(result.cells.totals.powder_power_w), shown(result.cells.dominant_region),
+      watts(result.macro_anchored.figures.totals.powder_power_w),
       shown(result.macro_anchored.figures.dominant_region), shown(result.cells.totals.cushioning),
       left_out, result.coupling.within_tolerance, result.coupling.sites, 100 * kCouplingTolerance));
   return engine::TaskOutcome::with_result(result);
@@ -465,7 +483,7 @@ FROM campaign_tasks ct
 JOIN campaigns c ON c.id = ct.campaign_id
 JOIN tasks up ON up.key = ct.task_key AND up.kind = 'upscale' AND up.status = 'done'
 JOIN methods m ON m.task_key = up.key
-JOIN json_each(m.totals, '$.regions') region
+LEFT JOIN json_each(m.totals, '$.regions') region
 )sql"};
 }
 

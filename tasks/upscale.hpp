@@ -109,12 +109,15 @@
 
 namespace millflow::tasks {
 
-inline constexpr const char* kUpscaleVersion = "4";
+// 5: the powers and the powder-to-media mass ratio are null where no cell was counted (they read
+// 0 W), and a site whose cell was left out says so in `skipped`.
+inline constexpr const char* kUpscaleVersion = "5";
 inline constexpr double kCouplingTolerance = 0.5;
 
 engine::TaskOutcome run_upscale(engine::TaskContext& context);
 
-// upscaled_results: one row per (campaign, upscale task, method, region).
+// upscaled_results: one row per (campaign, upscale task, method, region); a point without a
+// counted cell (no region) has one row per method, its region and powers null.
 engine::ViewDefinition upscaled_results_view();
 
 }  // namespace millflow::tasks

@@ -380,6 +380,32 @@ TEST_F(Report, PointWithoutPowerDrawWithPowderIsReportedWithoutIt) {
   EXPECT_GT(blank, 0u);
 }
 
+// Every cell of a point left out as unsteady: its powers are null and its spectra hold no bin.
+TEST_F(Report, APointWithoutACountedCellIsReportedAsUnknown) {
+  auto inputs = inputs_;
+  const std::string key = upscale_key(0.3, 0.6, 0.5);
+  for (auto& input : inputs) {
+    if (input.key != key) continue;
+    json& r = input.result;
+    for (const char* figure :
+         {"powder_power_w", "powder_power_w_se", "media_power_w", "media_collision_power_w",
+          "media_collision_power_no_powder_w", "powder_to_media_mass_ratio",
+          "power_draw_with_powder_w", "dominant_region", "powder_power_share", "cushioning"})
+      r[figure] = nullptr;
+    r["regions"] = json::array();
+    for (auto& [name, bins] : r["spectra"].items()) bins = json::array();
+  }
+  run(inputs, "uncounted");
+  const std::string index = read_text(dir_.path() / "uncounted" / "index.md");
+  EXPECT_NE(index.find("| 0.3 | 0.6 | 0.5 | 1200 | - | - | - | - |"), std::string::npos) << index;
+  EXPECT_NE(index.find("No cell was counted at J = 0.3, phi = 0.6, U = 0.5 (0 cells left out)"),
+            std::string::npos)
+      << index;
+  EXPECT_TRUE(fs::exists(dir_.path() / "uncounted" / "powder_spectra.svg"));
+  for (const auto& row : read_csv(dir_.path() / "uncounted" / "spectra.csv"))
+    EXPECT_NE(row.at("upscale_task"), key) << "a point without bins has no spectrum rows";
+}
+
 TEST_F(Report, UpscaledTableHoldsTheInputsInPointOrder) {
   run(inputs_, "work");
   const auto rows = read_csv(dir_.path() / "work" / "upscaled.csv");

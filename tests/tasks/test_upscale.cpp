@@ -5,8 +5,11 @@
 #include <cmath>
 #include <tuple>
 
+#include "engine/sqlite.hpp"
+#include "engine/store.hpp"
 #include "method/upscale_result.hpp"
 #include "tasks/upscale.hpp"
+#include "tests/common/scratch_dir.hpp"
 #include "tests/tasks/upscale_inputs.hpp"
 
 namespace millflow::tasks {
@@ -175,6 +178,64 @@ TEST(Upscale, UnsteadyAndUnconvergedCellsAreLeftOutAndListed) {
   const json kept = upscale(inputs, 1.0, true);
   EXPECT_DOUBLE_EQ(kept.at("powder_power_w"), 1.1);
   EXPECT_EQ(kept.at("left_out_cells").at(0).at("counted"), true);
+}
+
+TEST(Upscale, APointWhoseCellsAreAllLeftOutHasUnknownPowersNotZero) {
+  auto inputs = point_inputs();
+  for (const char* site : {"toe-0", "bulk-0"})
+    edit_cell(inputs, site, 1.0, [](method::CellResult& cell) { cell.steady = false; });
+  const json r = upscale(inputs, 1.0);
+  for (const char* figure : {"powder_power_w", "powder_power_w_se", "media_power_w",
+                             "media_collision_power_w", "media_collision_power_no_powder_w",
+                             "powder_to_media_mass_ratio", "power_draw_with_powder_w"})
+    EXPECT_TRUE(r.at(figure).is_null()) << figure;
+  EXPECT_TRUE(r.at("macro_anchored").at("powder_power_w").is_null());
+  EXPECT_TRUE(r.at("spectra").at("bin_edges_j").empty());
+  EXPECT_EQ(r.at("sites").at(0).at("skipped"),
+            "its cell was left out (not steady); /upscale/include_unsteady counts such cells");
+  // The stored result reads back (the report's reader).
+  const method::UpscaleResult read = method::read_upscale_result(r, "upscale", "re-run it");
+  EXPECT_FALSE(read.cells.totals.powder_power_w);
+  EXPECT_FALSE(read.powder_to_media_mass_ratio);
+}
+
+// A row per method and region; a point without a counted cell keeps one row per method.
+TEST(UpscaledResultsView, APointWithoutACountedCellKeepsARowWithoutRegion) {
+  const millflow::testing::ScratchDir scratch;
+  const auto db = scratch.db();
+  engine::SystemClock clock;
+  engine::Store store(db, {upscaled_results_view()}, clock);
+  auto uncounted_inputs = point_inputs();
+  for (const char* site : {"toe-0", "bulk-0"})
+    edit_cell(uncounted_inputs, site, 1.0, [](method::CellResult& cell) { cell.steady = false; });
+  const std::vector<std::pair<engine::TaskSpec, json>> points = {
+      {engine::make_task_spec("upscale", kUpscaleVersion, {{"point", 1}}, {}),
+       upscale(point_inputs(), 1.0)},
+      {engine::make_task_spec("upscale", kUpscaleVersion, {{"point", 2}}, {}),
+       upscale(uncounted_inputs, 1.0)}};
+  const auto campaign = store.register_campaign("c1", "millflow_campaign", json::object(),
+                                                {points[0].first, points[1].first});
+  for (const auto& [spec, result] : points) {
+    store.mark_running(spec.key);
+    store.commit_done(campaign, spec.key, result, {}, {}, 1.0);
+  }
+  auto read = engine::open_read_only(db);
+  auto rows = read.prepare(
+      "SELECT method, region IS NULL, mill_powder_power_w IS NULL, left_out_cells "
+      "FROM upscaled_results WHERE task_key = ? ORDER BY method, region");
+  rows.bind(1, points[1].first.key);
+  for (const char* method : {"cells", "macro_anchored"}) {
+    ASSERT_TRUE(rows.step()) << method;
+    EXPECT_EQ(rows.text(0), method);
+    EXPECT_EQ(rows.integer(1), 1);
+    EXPECT_EQ(rows.integer(2), 1);
+    EXPECT_EQ(rows.integer(3), 2);
+  }
+  EXPECT_FALSE(rows.step());
+  auto counted = read.prepare("SELECT count(*) FROM upscaled_results WHERE task_key = ?");
+  counted.bind(1, points[0].first.key);
+  ASSERT_TRUE(counted.step());
+  EXPECT_EQ(counted.integer(0), 4) << "toe and bulk under each method";
 }
 
 TEST(Upscale, StandardErrorsOfTheCellsPropagate) {
