@@ -1,7 +1,6 @@
 #include "method/macro_run.hpp"
 
 #include <cmath>
-#include <fstream>
 #include <limits>
 #include <numbers>
 #include <optional>
@@ -73,22 +72,21 @@ dem::System fresh_system(const MacroSettings& settings) {
 // The collision energy spectra of the result as a table: a row per bin, a column per
 // category and energy (collisions in the bin over the measurement).
 void write_spectra_csv(const MacroResult& result, const fs::path& path) {
-  std::ofstream out(path, std::ios::trunc);
   const std::vector<double>& edges = result.spectrum_bin_edges_j;
-  out << "energy_low_j,energy_high_j";
+  std::string text = "energy_low_j,energy_high_j";
   for (const auto& [label, collisions] : result.collisions)
-    out << ',' << label << "_impact_energy_count," << label << "_dissipated_energy_count";
-  out << '\n';
+    text += fmt::format(",{0}_impact_energy_count,{0}_dissipated_energy_count", label);
+  text += '\n';
   for (std::size_t bin = 0; bin + 1 < edges.size(); ++bin) {
-    out << fmt::format("{},{}", edges[bin], edges[bin + 1]);
+    text += fmt::format("{},{}", edges[bin], edges[bin + 1]);
     // A count as the result's JSON writes it (a double keeps its ".0").
     for (const auto& [label, c] : result.collisions) {
-      out << ',' << json(c.impact_energy.counts[bin]) << ','
-          << json(c.dissipated_energy.counts[bin]);
+      text += fmt::format(",{},{}", json(c.impact_energy.counts[bin]).dump(),
+                          json(c.dissipated_energy.counts[bin]).dump());
     }
-    out << '\n';
+    text += '\n';
   }
-  if (!out) throw std::runtime_error("cannot write " + path.string());
+  util::write_file_durably(path, text);
 }
 
 }  // namespace
@@ -332,6 +330,15 @@ void MacroRun::restore() {
   if (pending > 0) pending_frames_ = dem::read_flow_segment(pending_file(dir_, step));
   if (pending_frames_.size() != pending)
     throw dem::CorruptData("macro state: the pending flow frames are missing");
+  // The flow segments and VTK files written before the checkpoint belong to its state: one
+  // damaged or gone would fail the run at its end, so the checkpoint is refused now instead.
+  for (std::uint64_t k = 0; k < segments_; ++k) dem::read_flow_segment(dir_ / segment_name(k));
+  for (std::size_t k = 0; k < vtk_times_.size(); ++k) {
+    for (const std::string& name : {vtk_name(k), outline_name(k)}) {
+      if (!fs::is_regular_file(dir_ / "vtk" / name))
+        throw dem::CorruptData(fmt::format("macro state: vtk/{} is missing", name));
+    }
+  }
   log(fmt::format(
       "macro: continuing from the checkpoint at step {} (t = {:.4g} s), {} flow frames written",
       step, system_.time(), frames_));

@@ -404,6 +404,23 @@ TEST_F(MacroRunTest, ADamagedCheckpointIsLoggedAndTheRunStartsAgainToTheSameResu
                  std::filesystem::remove(entry.path());
              }
            }},
+          // The measured output before the checkpoint: a resume used to fail at the run's end.
+          {"flipped flow segment",
+           [](const std::filesystem::path& dir) {
+             const auto segment = dir / "flow" / "segment_0000.mfs";
+             ASSERT_TRUE(std::filesystem::exists(segment));
+             std::fstream file(segment, std::ios::in | std::ios::out | std::ios::binary);
+             file.seekg(40);
+             const char byte = static_cast<char>(file.get());
+             file.seekp(40);
+             file.put(static_cast<char>(byte ^ 0xff));
+           }},
+          {"deleted VTK file",
+           [](const std::filesystem::path& dir) {
+             const auto vtk = dir / "vtk" / "particles_0000.vtp";
+             ASSERT_TRUE(std::filesystem::exists(vtk));
+             std::filesystem::remove(vtk);
+           }},
       };
   for (const auto& [name, damage] : damages) {
     const auto dir = scratch_->path() / ("damaged " + name);
@@ -412,7 +429,7 @@ TEST_F(MacroRunTest, ADamagedCheckpointIsLoggedAndTheRunStartsAgainToTheSameResu
     std::stop_source stop;
     ASSERT_TRUE(run.run(stop.get_token(),
                         [&](double fraction, std::string_view) {
-                          if (fraction >= 0.3) stop.request_stop();
+                          if (fraction >= 0.8) stop.request_stop();
                         })
                     .interrupted);
     damage(dir);
