@@ -163,12 +163,22 @@ void print_show(const fs::path& db, const std::string& task, std::ostream& out) 
   const std::string key = resolve_task(connection, task);
   const auto record = *find_task(connection, key);
   const TaskRunInfo run = find_task_run_info(connection, key);
+  const std::vector<JobRecord> jobs = find_jobs(connection, key);
+  // A task a dead coordinator left 'running' is interrupted, as `status` shows it, unless a batch
+  // job of its attempt may still run it.
+  const auto coordinator = coordinator_state(db);
+  const bool left_running =
+      record.status == TaskStatus::running && !(coordinator && coordinator->alive) &&
+      std::none_of(jobs.begin(), jobs.end(),
+                   [&](const JobRecord& job) { return job.attempt == record.attempts; });
   const std::string started = run.started_at ? iso8601_utc(*run.started_at) : std::string("never");
   out << fmt::format("task {}\nkind {} (version {})\nstatus {} after {} attempt(s){}\n", key,
-                     record.spec.kind, record.spec.version, to_string(record.status),
+                     record.spec.kind, record.spec.version,
+                     left_running ? to_string(TaskStatus::interrupted) : to_string(record.status),
                      record.attempts, record.error.empty() ? "" : "\nerror " + record.error);
-  out << fmt::format("started {} duration {} s host {} code {}\n", started, run.duration_s,
-                     run.host, run.code_version);
+  out << fmt::format("started {} duration {} host {} code {}\n", started,
+                     run.duration_s.empty() ? "-" : run.duration_s + " s", run.host,
+                     run.code_version);
   out << "params " << record.spec.params.dump(2) << '\n';
   if (const auto result = find_result(connection, key)) out << "result " << result->dump(2) << '\n';
   const ArtifactStore artifacts(artifacts_dir(db));
@@ -177,7 +187,7 @@ void print_show(const fs::path& db, const std::string& task, std::ostream& out) 
                        artifact.sha256, artifacts.path_of(artifact.sha256).string(),
                        artifacts.verify(artifact) ? "verified" : "MISSING OR CORRUPT");
   }
-  for (const auto& job : find_jobs(connection, key)) {
+  for (const auto& job : jobs) {
     out << fmt::format("job {} {} attempt {} state {} name {}\n  stdout {}\n  stderr {}\n",
                        job.executor, job.job_id, job.attempt, job.state, job.job_name,
                        job.stdout_file.string(), job.stderr_file.string());

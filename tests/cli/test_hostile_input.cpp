@@ -179,6 +179,14 @@ TEST_F(HostileInput, StatusTellsACoordinatorThatDiedAndTheNextOneSaysItTookOver)
   EXPECT_EQ(tasks.out.find("running", tasks.out.find("not running") + 11), std::string::npos)
       << tasks.out;
   EXPECT_NE(tasks.out.find("interrupted  2"), std::string::npos) << tasks.out;
+  // `show` says so too, and gives no duration for the attempt that never ended.
+  const auto keys = millflow({"query", "SELECT key FROM tasks WHERE status = 'running'", "--format",
+                              "csv", "--db", db.string()});
+  const std::string key = keys.out.substr(4, keys.out.find('\n', 4) - 4);  // after "key\n"
+  const auto shown = millflow({"show", key, "--db", db.string()});
+  EXPECT_NE(shown.out.find("status interrupted after 1 attempt(s)\n"), std::string::npos)
+      << shown.out;
+  EXPECT_NE(shown.out.find(" duration - host "), std::string::npos) << shown.out;
 
   // The warning of the take-over is printed on the terminal.
   const auto resumed = millflow({"submit", quick_campaign().string(), "--db", db.string()});
