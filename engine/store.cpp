@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 
 #include "engine/canonical_json.hpp"
@@ -899,7 +900,7 @@ InvalidInput query_error(const fs::path& db_path, const sql::Error& error) {
 }  // namespace
 
 QueryRows run_read_only_query(sql::Connection& db, const fs::path& db_path,
-                              const std::string& sql_text) {
+                              const std::string& sql_text, std::size_t max_values) {
   std::optional<sql::Statement> statement;
   try {
     statement.emplace(db.prepare(sql_text));
@@ -914,8 +915,13 @@ QueryRows run_read_only_query(sql::Connection& db, const fs::path& db_path,
   QueryRows result;
   for (int column = 0; column < statement->columns(); ++column)
     result.columns.push_back(statement->column_name(column));
+  const std::size_t columns = std::max<std::size_t>(result.columns.size(), 1);
   try {
     while (statement->step()) {
+      if ((result.rows.size() + 1) * columns > max_values) {
+        throw InvalidInput({{"", fmt::format("the result holds more than {} values", max_values),
+                             "add a LIMIT, or select fewer rows or columns"}});
+      }
       std::vector<QueryValue> row;
       for (int column = 0; column < statement->columns(); ++column) {
         QueryValue value;

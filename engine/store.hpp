@@ -266,7 +266,8 @@ struct CoordinatorRecord {
 std::optional<CoordinatorRecord> find_coordinator(sql::Connection& db);
 
 // `millflow query`: runs one read-only statement of the user's and returns every row. A
-// statement SQLite cannot prepare, or one that would write, is InvalidInput.
+// statement SQLite cannot prepare, one that would write, or one whose rows hold more than
+// max_values values (a recursive query without end would fill the memory) is InvalidInput.
 struct QueryValue {
   int type = SQLITE_NULL;  // SQLITE_NULL, SQLITE_INTEGER, SQLITE_FLOAT, SQLITE_TEXT or SQLITE_BLOB
   // integer and real are set for their own type only.
@@ -278,8 +279,10 @@ struct QueryRows {
   std::vector<std::string> columns;
   std::vector<std::vector<QueryValue>> rows;
 };
+inline constexpr std::size_t kMaxQueryValues = 10'000'000;
 QueryRows run_read_only_query(sql::Connection& db, const std::filesystem::path& db_path,
-                              const std::string& sql_text);
+                              const std::string& sql_text,
+                              std::size_t max_values = kMaxQueryValues);
 
 class Store {
  public:

@@ -238,6 +238,27 @@ TEST(Store, QueryRefusesWrites) {
   EXPECT_EQ(json::parse(out.str()), json::parse(R"([{"s": 1}])"));
 }
 
+// A recursive query without end used to fill the memory until the process was killed.
+TEST(Store, QueryRefusesAResultOfMoreValuesThanItHolds) {
+  ScratchDir dir;
+  submit(test_campaign("one",
+                       json::array({{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}}}}})),
+         dir.db());
+  auto connection = open_read_only(dir.db());
+  const std::string endless =
+      "WITH RECURSIVE c(x, y) AS (SELECT 1, 2 UNION ALL SELECT x + 1, y FROM c) SELECT x, y FROM c";
+  try {
+    run_read_only_query(connection, dir.db(), endless, 1000);
+    FAIL() << "no error";
+  } catch (const InvalidInput& error) {
+    ASSERT_EQ(error.errors().size(), 1u);
+    EXPECT_EQ(error.errors()[0].problem, "the result holds more than 1000 values");
+    EXPECT_EQ(error.errors()[0].fix, "add a LIMIT, or select fewer rows or columns");
+  }
+  EXPECT_EQ(run_read_only_query(connection, dir.db(), endless + " LIMIT 500", 1000).rows.size(),
+            500u);
+}
+
 TEST(CoordinatorLock, SecondCoordinatorIsRefusedWithTheHoldersName) {
   ScratchDir dir;
   const SystemClock clock;
