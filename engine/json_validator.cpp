@@ -564,6 +564,11 @@ Field& Field::opaque() {
   return *this;
 }
 
+Field& Field::whole_campaign() {
+  rule_.whole_campaign = true;
+  return *this;
+}
+
 Field& Field::hint(std::string hint) {
   rule_.hint = std::move(hint);
   return *this;

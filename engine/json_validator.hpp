@@ -61,8 +61,9 @@ struct FieldRule {
   bool unique_items = false;                // arrays: no item twice
   std::vector<std::string> exactly_one_of;  // objects: exactly one of these keys must be present
   bool opaque =
-      false;         // objects whose contents another check owns (e.g. a sweep block): kept as is
-  std::string hint;  // extra advice appended to the fix of every error on this field
+      false;  // objects whose contents another check owns (e.g. a sweep block): kept as is
+  bool whole_campaign = false;  // one value for the whole file (its name, executor): not swept
+  std::string hint;             // extra advice appended to the fix of every error on this field
 };
 
 // Builds a FieldRule one property at a time, so tables read as one line per field:
@@ -83,6 +84,9 @@ class Field {
   Field& unique();
   Field& exactly_one_of(std::vector<std::string> keys);
   Field& opaque();
+  // A field (with everything under it) that holds one value for the whole file, which a sweep
+  // would vary from point to point to no effect.
+  Field& whole_campaign();
   Field& hint(std::string hint);
   operator FieldRule() const { return rule_; }  // NOLINT(google-explicit-constructor): table syntax
 

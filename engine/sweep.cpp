@@ -11,9 +11,10 @@ namespace {
 
 using nlohmann::json;
 
-// Caps that keep a typo (a step of 1e-9) from generating millions of tasks.
+// Caps that keep a typo (a step of 1e-9) from generating millions of tasks. Validation builds
+// every point's document: 40,000 points of the default campaign took 10 GB and 2 minutes.
 constexpr std::size_t max_values_per_axis = 10000;
-constexpr std::size_t max_points = 100000;
+constexpr std::size_t max_points = 10000;
 
 const std::vector<std::string> sweep_keys = {"product", "zip"};
 const std::vector<std::string> range_keys = {"start", "stop", "num", "step"};
@@ -170,6 +171,17 @@ class SweepReader {
             "sweep the fields of the file, not the sweep block");
       return nullptr;
     }
+    for (std::string owner = path; !owner.empty(); owner = owner.substr(0, owner.rfind('/'))) {
+      if (const auto* owner_rule = table_.match(owner); owner_rule && owner_rule->whole_campaign) {
+        error(error_path,
+              "\"" + path +
+                  "\" holds one value for the whole campaign; a sweep would change it "
+                  "to no effect",
+              "sweep the fields of the runs (mill, macro, shear_cell, ...) or write one file "
+              "per value");
+        return nullptr;
+      }
+    }
     if (!holds(path)) {
       error(error_path, "\"" + path + "\" is not set in this file",
             "set it outside the sweep first, or sweep a field that is set");
@@ -232,6 +244,13 @@ class SweepReader {
       valid = false;
     }
     if (!valid || !start || !stop) return std::nullopt;
+    if (!std::isfinite(*stop - *start)) {  // the values between would come out NaN
+      error(error_path,
+            fmt::format("the span from start {} to stop {} is beyond a double", quote_value(*start),
+                        quote_value(*stop)),
+            "narrow the range");
+      return std::nullopt;
+    }
     const auto generated = spec.contains("num")
                                ? range_by_count(spec.at("num"), *start, *stop, error_path)
                                : range_by_step(spec, *start, *stop, error_path);

@@ -196,7 +196,8 @@ std::vector<engine::FieldRule> limit_fields() {
   return {
       Field("/limits", FieldType::object,
             "the most one task may cost; raise a limit here to run beyond it")
-          .defaults(json::object()),
+          .defaults(json::object())
+          .whole_campaign(),
       Field("/limits/max_steps_per_task", FieldType::number,
             "estimated DEM time steps of one macro run")
           .defaults(default_max_steps_per_task)
@@ -471,7 +472,9 @@ std::vector<engine::FieldRule> micro_fields() {
 
 std::vector<engine::FieldRule> executor_fields() {
   return {
-      Field("/executor", FieldType::object, "where the tasks run").defaults(json::object()),
+      Field("/executor", FieldType::object, "where the tasks run")
+          .defaults(json::object())
+          .whole_campaign(),
       Field("/executor/kind", FieldType::enumeration, "executor kind")
           .defaults("local")
           .choices({"local", "slurm"}),
@@ -525,12 +528,16 @@ engine::FieldTable make_campaign_table() {
       Field("", FieldType::object, "a millflow campaign"),
       Field("/millflow_campaign", FieldType::integer, "campaign file format version")
           .required()
-          .range(at_least(campaign_format_version), at_most(campaign_format_version)),
+          .range(at_least(campaign_format_version), at_most(campaign_format_version))
+          .whole_campaign(),
       Field("/name", FieldType::string, "the campaign name")
           .required()
           .pattern("[a-z0-9_-]+")
-          .hint("use lower-case letters, digits, '_' and '-'"),
-      Field("/description", FieldType::string, "a free-text description").defaults(""),
+          .hint("use lower-case letters, digits, '_' and '-'")
+          .whole_campaign(),
+      Field("/description", FieldType::string, "a free-text description")
+          .defaults("")
+          .whole_campaign(),
   };
   const std::vector<engine::FieldRule> sweep = {
       Field("/sweep", FieldType::object,

@@ -185,12 +185,24 @@ TEST(SweepErrors, BadRanges) {
             std::vector<std::string>{
                 "/sweep/product/~1temperature/step: step 0.001 makes more than 10000 values; use a "
                 "larger step"});
+  EXPECT_EQ(sweep_errors({{"product",
+                           {{"/temperature", {{"start", -1e308}, {"stop", 1e308}, {"num", 3}}}}}}),
+            std::vector<std::string>{"/sweep/product/~1temperature: the span from start -1e+308 to "
+                                     "stop 1e+308 is beyond a double; narrow the range"});
   EXPECT_EQ(
       sweep_errors({{"product", {{"/temperature", {{"stop", "400"}, {"num", 2}}}}}}),
       (std::vector<std::string>{
           "/sweep/product/~1temperature/start: required field is missing; add \"start\", a number",
           "/sweep/product/~1temperature/stop: expected a number, got the string \"400\"; give "
           "\"stop\" as a number"}));
+}
+
+TEST(SweepErrors, TooManyPointsAreRefusedBeforeTheyAreBuilt) {
+  const json temperatures = {{"start", 300}, {"stop", 400}, {"num", 200}};
+  const json minutes = {{"start", 1}, {"stop", 200}, {"step", 1}};
+  EXPECT_EQ(sweep_errors({{"product", {{"/temperature", temperatures}, {"/minutes", minutes}}}}),
+            std::vector<std::string>{
+                "/sweep: makes 40000 points, more than 10000; split the study into several files"});
 }
 
 TEST(SweepErrors, AFieldIsSweptInOnePlaceOnly) {
@@ -206,6 +218,32 @@ TEST(SweepErrors, TheSweepBlockCannotSweepItself) {
             std::vector<std::string>{
                 "/sweep/product/~1sweep: \"/sweep\" cannot be swept; sweep the fields of the file, "
                 "not the sweep block"});
+}
+
+// A campaign's name or executor swept changed nothing from point to point.
+TEST(SweepErrors, AWholeCampaignFieldOrOneUnderItCannotBeSwept) {
+  const FieldTable table({
+      Field("/name", FieldType::string, "the name").whole_campaign(),
+      Field("/executor", FieldType::object, "where it runs").whole_campaign(),
+      Field("/executor/kind", FieldType::string, "which"),
+      Field("/minutes", FieldType::integer, "baking time"),
+      Field("/sweep", FieldType::object, "the sweep").opaque(),
+  });
+  const json document = {
+      {"name", "bake"},
+      {"executor", {{"kind", "local"}}},
+      {"minutes", 3},
+      {"sweep",
+       {{"product",
+         {{"/name", {"a", "b"}}, {"/executor/kind", {"local", "slurm"}}, {"/minutes", {1, 2}}}}}}};
+  std::vector<std::string> errors;
+  for (const auto& e : check_sweep(document, table)) errors.push_back(e.path + ": " + e.problem);
+  const std::string effect =
+      " holds one value for the whole campaign; a sweep would change it to "
+      "no effect";
+  EXPECT_EQ(errors, (std::vector<std::string>{
+                        "/sweep/product/~1executor~1kind: \"/executor/kind\"" + effect,
+                        "/sweep/product/~1name: \"/name\"" + effect}));
 }
 
 TEST(SweepErrors, StructureOfTheBlock) {
