@@ -1,16 +1,23 @@
 #include "cli/cell.hpp"
 
+#include <chrono>
+#include <filesystem>
 #include <iostream>
 #include <memory>
+#include <stop_token>
 #include <string>
+#include <thread>
 
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include "cli/commands.hpp"
+#include "engine/interrupt.hpp"
 #include "tasks/cell_spec.hpp"
 
 namespace millflow::cli {
+
+namespace fs = std::filesystem;
 
 void add_cell_command(CLI::App& app, std::optional<int>& exit_code) {
   auto* command = app.add_subcommand(
@@ -25,10 +32,24 @@ void add_cell_command(CLI::App& app, std::optional<int>& exit_code) {
       // stdout carries the result JSON alone.
       spdlog::set_default_logger(spdlog::stderr_logger_mt("cell"));
       const auto spec = tasks::load_cell_spec(*spec_file);
-      const auto result =
-          tasks::run_cell_spec(spec, output_directory(*out_dir),
-                               [](std::string_view line) { std::cerr << line << '\n'; });
-      std::cout << result.dump(2) << '\n';
+      const fs::path dir = output_directory(*out_dir);
+      // Ctrl-C or SIGTERM: the handlers set a flag, which this thread hands to the cell; it saves
+      // its checkpoint and returns (a second signal exits at once).
+      engine::install_interrupt_handlers();
+      std::stop_source stop;
+      const std::jthread watch([&stop](std::stop_token done) {
+        while (!done.stop_requested() && !engine::interrupt_requested())
+          std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        if (engine::interrupt_requested()) stop.request_stop();
+      });
+      const auto result = tasks::run_cell_spec(
+          spec, dir, [](std::string_view line) { std::cerr << line << '\n'; }, stop.get_token());
+      if (!result) {
+        std::cerr << "millflow: interrupted; the cell's checkpoint is in " << dir.string()
+                  << ": the same command continues it\n";
+        return 130;
+      }
+      std::cout << result->dump(2) << '\n';
       return 0;
     });
   });

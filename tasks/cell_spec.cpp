@@ -83,8 +83,9 @@ json load_cell_spec(const std::filesystem::path& file) {
   return parse_cell_spec(engine::read_input_file(file));
 }
 
-json run_cell_spec(const json& spec, const std::filesystem::path& out_dir,
-                   const std::function<void(std::string_view)>& log) {
+std::optional<json> run_cell_spec(const json& spec, const std::filesystem::path& out_dir,
+                                  const std::function<void(std::string_view)>& log,
+                                  std::stop_token stop) {
   json params = spec;
   params["slot"] = kSlot;
   const std::vector<engine::TaskInput> inputs = {
@@ -92,17 +93,18 @@ json run_cell_spec(const json& spec, const std::filesystem::path& out_dir,
        .kind = "sites",
        .result = method::sites_json_of({spec_site(spec)}),
        .artifacts = {}}};
-  std::stop_source never;
   engine::TaskContext context{.key = "cell",
                               .params = params,
                               .inputs = inputs,
                               .work_dir = out_dir,
                               .threads = 1,
                               .attempt = 1,
-                              .stop = never.get_token(),
+                              .stop = std::move(stop),
                               .progress = [](double, std::string_view) {},
                               .log = log};
-  return run_shear_cell(context).result;
+  engine::TaskOutcome outcome = run_shear_cell(context);
+  if (outcome.interrupted) return std::nullopt;
+  return std::move(outcome.result);
 }
 
 }  // namespace millflow::tasks

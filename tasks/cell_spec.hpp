@@ -10,6 +10,8 @@
 // from /dem/seed and the key "cell"; its result is that task's result JSON.
 #include <filesystem>
 #include <functional>
+#include <optional>
+#include <stop_token>
 #include <string_view>
 
 #include <nlohmann/json.hpp>
@@ -27,8 +29,11 @@ nlohmann::json parse_cell_spec(std::string_view text);
 
 // Runs the validated spec's cell in out_dir (created; it keeps cell.vtp and result.json, and the
 // checkpoint while it runs, so an interrupted command continues where it stopped). Log lines go
-// to `log`. Returns the result JSON.
-nlohmann::json run_cell_spec(const nlohmann::json& spec, const std::filesystem::path& out_dir,
-                             const std::function<void(std::string_view)>& log);
+// to `log`. Returns the result JSON, or none when `stop` was requested: the cell saved its
+// checkpoint and stopped.
+std::optional<nlohmann::json> run_cell_spec(const nlohmann::json& spec,
+                                            const std::filesystem::path& out_dir,
+                                            const std::function<void(std::string_view)>& log,
+                                            std::stop_token stop);
 
 }  // namespace millflow::tasks

@@ -2,8 +2,11 @@
 // the campaign's field table and messages, its result JSON alone on stdout.
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <csignal>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "tests/common/child_process.hpp"
 #include "tests/common/scratch_dir.hpp"
@@ -91,6 +94,40 @@ TEST_F(CellCommand, PrintsTheCellsResultAndLeavesItsFilesInTheOutputDirectory) {
   EXPECT_TRUE(fs::exists(out / "cell.vtp"));
   EXPECT_FALSE(fs::exists(out / "cell.ckpt"));
   EXPECT_NE(finished.err.find("shear cell stiffness at sigma_n 2000 Pa"), std::string::npos);
+}
+
+// SIGTERM (or Ctrl-C) stops the cell at a checkpoint with exit 130, and the same command
+// continues it. The signal used to end it at once (143), keeping only its last periodic
+// checkpoint.
+TEST_F(CellCommand, ASigtermStopsTheCellAtACheckpointThatTheSameCommandContinues) {
+  json spec = tiny_spec();
+  spec["shear_cell"]["measure_strain"] = 50;  // long enough to be caught running
+  spec["shear_cell"]["convergence"]["max_strain"] = 50;
+  const auto out = dir_.path() / "out";
+  const auto err = dir_.path() / "first.err";
+  const auto file = write_spec(spec);
+  const pid_t cell = spawn_millflow({"cell", file.string(), "--out", out.string()},
+                                    dir_.path() / "first.out", err);
+  for (int wait = 0; wait < 300 && read_text(err).find("stiffness") == std::string::npos; ++wait)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ::kill(cell, SIGTERM);
+  EXPECT_EQ(wait_exit_code(cell), 130) << read_text(err);
+  EXPECT_NE(read_text(err).find("millflow: interrupted; the cell's checkpoint is in "),
+            std::string::npos);
+  EXPECT_TRUE(fs::exists(out / "cell.ckpt"));
+
+  const auto again_err = dir_.path() / "again.err";
+  const pid_t again = spawn_millflow({"cell", file.string(), "--out", out.string()},
+                                     dir_.path() / "again.out", again_err);
+  for (int wait = 0; wait < 300 && read_text(again_err).find("continuing from the checkpoint") ==
+                                       std::string::npos;
+       ++wait)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ::kill(again, SIGTERM);
+  EXPECT_EQ(wait_exit_code(again), 130);
+  EXPECT_NE(read_text(again_err).find("shear cell: continuing from the checkpoint at step "),
+            std::string::npos)
+      << read_text(again_err);
 }
 
 }  // namespace
