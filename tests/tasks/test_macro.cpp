@@ -380,19 +380,21 @@ TEST_F(MacroRunTest, AnAutoSkinLogsItsChoiceAndGivesTheSameResult) {
             1);
 }
 
+void flip_byte(const std::filesystem::path& file, std::streamoff at) {
+  std::fstream bytes(file, std::ios::in | std::ios::out | std::ios::binary);
+  bytes.seekg(at);
+  const char byte = static_cast<char>(bytes.get());
+  bytes.seekp(at);
+  bytes.put(static_cast<char>(byte ^ 0xff));
+}
+
 // A damaged checkpoint used to fail every resume the same way until the work directory was
 // deleted by hand. It is logged and the run starts again, to the same result.
 TEST_F(MacroRunTest, ADamagedCheckpointIsLoggedAndTheRunStartsAgainToTheSameResult) {
   const std::vector<std::pair<std::string, std::function<void(const std::filesystem::path&)>>>
       damages = {
           {"flipped state",
-           [](const std::filesystem::path& dir) {
-             std::fstream file(dir / "state.bin", std::ios::in | std::ios::out | std::ios::binary);
-             file.seekg(30);
-             const char byte = static_cast<char>(file.get());
-             file.seekp(30);
-             file.put(static_cast<char>(byte ^ 0xff));
-           }},
+           [](const std::filesystem::path& dir) { flip_byte(dir / "state.bin", 30); }},
           {"truncated state",
            [](const std::filesystem::path& dir) {
              std::filesystem::resize_file(dir / "state.bin", 40);
@@ -409,11 +411,7 @@ TEST_F(MacroRunTest, ADamagedCheckpointIsLoggedAndTheRunStartsAgainToTheSameResu
            [](const std::filesystem::path& dir) {
              const auto segment = dir / "flow" / "segment_0000.mfs";
              ASSERT_TRUE(std::filesystem::exists(segment));
-             std::fstream file(segment, std::ios::in | std::ios::out | std::ios::binary);
-             file.seekg(40);
-             const char byte = static_cast<char>(file.get());
-             file.seekp(40);
-             file.put(static_cast<char>(byte ^ 0xff));
+             flip_byte(segment, 40);
            }},
           {"deleted VTK file",
            [](const std::filesystem::path& dir) {
