@@ -210,8 +210,8 @@ MacroOutcome MacroRun::finish() {
   add("vtk/particles.pvd");
   dem::write_pvd(dir_ / "vtk/mill.pvd", outlines);
   add("vtk/mill.pvd");
-  remove_checkpoints_except(std::nullopt);
-  fs::remove(dir_ / "state.bin");
+  // The last checkpoint stays: the work directory goes after the task's commit, and an attempt
+  // killed while its artifacts are stored continues from it instead of from scratch.
   const MacroPower& power = outcome.result.power;
   log(fmt::format(
       "macro: power {:.4g} kW ({:.4g} kW/m, {:.4g} kW/t), torque arm {:.4g} kW; {} frames in {} "
@@ -285,11 +285,10 @@ double MacroRun::mill_angle() const {
   return std::get<dem::MillWall>(system_.wall(kShellWall).shape).angle;
 }
 
-void MacroRun::remove_checkpoints_except(std::optional<std::uint64_t> keep) const {
+void MacroRun::remove_checkpoints_except(std::uint64_t keep) const {
   for (const auto& entry : fs::directory_iterator(dir_)) {
     const fs::path& path = entry.path();
-    if (keep && (path == checkpoint_file(dir_, *keep) || path == pending_file(dir_, *keep)))
-      continue;
+    if (path == checkpoint_file(dir_, keep) || path == pending_file(dir_, keep)) continue;
     const std::string name = path.filename().string();
     if (name.starts_with("checkpoint_") || name.starts_with("pending_")) fs::remove(path);
   }

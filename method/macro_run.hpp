@@ -84,8 +84,9 @@ class MacroRun {
   std::string phase_name() const;
   // Writes the checkpoint into the run's directory.
   void save();
-  // Writes the artifacts, removes the checkpoint and returns the result. Throws
-  // std::logic_error until done().
+  // Writes the artifacts and returns the result, keeping the last checkpoint (the task's work
+  // directory, removed after its commit, holds it until then). Throws std::logic_error until
+  // done().
   MacroOutcome finish();
 
   const dem::System& system() const { return system_; }
@@ -107,7 +108,7 @@ class MacroRun {
   void capture_frame();
   void write_vtk();
   double mill_angle() const;
-  void remove_checkpoints_except(std::optional<std::uint64_t> keep) const;
+  void remove_checkpoints_except(std::uint64_t keep) const;
   void write_state(dem::BinaryWriter& out) const;
   void restore();
   void log_setup() const;

@@ -360,7 +360,31 @@ TEST_F(MacroRunTest, InterruptedTwiceAndResumedGivesTheSameResultAndFiles) {
     EXPECT_EQ(read_file(resumed.artifacts[k].file), read_file(outcome_->artifacts[k].file))
         << resumed.artifacts[k].name;
   }
-  EXPECT_FALSE(std::filesystem::exists(dir / "state.bin"));  // checkpoints go when the run is done
+  // The last checkpoint stays until the runtime removes the work directory after the commit.
+  EXPECT_TRUE(std::filesystem::exists(dir / "state.bin"));
+}
+
+// An attempt killed after its run finished, while its artifacts were stored, used to start again
+// from scratch (finish() had removed the checkpoint): it continues from the last checkpoint.
+TEST_F(MacroRunTest, ARunKilledAfterItFinishedContinuesFromItsLastCheckpoint) {
+  const auto dir = scratch_->path() / "finished";
+  std::vector<std::string> log;
+  const DirectRun run{params(), dir, "tiny-macro", 2, &log};
+  std::stop_source stop;
+  ASSERT_TRUE(run.run(stop.get_token(),
+                      [&](double fraction, std::string_view) {
+                        if (fraction >= 0.8) stop.request_stop();
+                      })
+                  .interrupted);
+  ASSERT_FALSE(run.run().interrupted);
+  const auto again = run.run();  // as the next attempt after a kill before the commit
+  ASSERT_FALSE(again.interrupted);
+  EXPECT_EQ(again.result.dump(), result().dump());
+  EXPECT_EQ(std::count_if(log.begin(), log.end(),
+                          [](const std::string& line) {
+                            return line.starts_with("macro: continuing from the checkpoint");
+                          }),
+            2);
 }
 
 // "auto" chooses the skin by trial at the end of the warm-up, logs it, and moves no result bit.
