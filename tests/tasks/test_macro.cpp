@@ -339,16 +339,23 @@ TEST_F(MacroRunTest, WritesPowerCsvAndVtkFiles) {
             std::string::npos);
 }
 
+// Runs until `fraction` of the run is done and asks it to stop there: true when it stopped.
+bool stopped_at(const DirectRun& run, double fraction) {
+  std::stop_source stop;
+  return run
+      .run(stop.get_token(),
+           [&](double done, std::string_view) {
+             if (done >= fraction) stop.request_stop();
+           })
+      .interrupted;
+}
+
 TEST_F(MacroRunTest, InterruptedTwiceAndResumedGivesTheSameResultAndFiles) {
   const auto dir = scratch_->path() / "interrupted";
   const DirectRun run{params(), dir};
   // Stop once in the warm-up and once in the measurement (with frames waiting for a segment).
   for (const double stop_at : {0.25, 0.8}) {
-    std::stop_source stop;
-    const auto outcome = run.run(stop.get_token(), [&](double fraction, std::string_view) {
-      if (fraction >= stop_at) stop.request_stop();
-    });
-    ASSERT_TRUE(outcome.interrupted) << stop_at;
+    ASSERT_TRUE(stopped_at(run, stop_at)) << stop_at;
     EXPECT_TRUE(std::filesystem::exists(dir / "state.bin"));
   }
   const auto resumed = run.run();
@@ -370,12 +377,7 @@ TEST_F(MacroRunTest, ARunKilledAfterItFinishedContinuesFromItsLastCheckpoint) {
   const auto dir = scratch_->path() / "finished";
   std::vector<std::string> log;
   const DirectRun run{params(), dir, "tiny-macro", 2, &log};
-  std::stop_source stop;
-  ASSERT_TRUE(run.run(stop.get_token(),
-                      [&](double fraction, std::string_view) {
-                        if (fraction >= 0.8) stop.request_stop();
-                      })
-                  .interrupted);
+  ASSERT_TRUE(stopped_at(run, 0.8));
   ASSERT_FALSE(run.run().interrupted);
   const auto again = run.run();  // as the next attempt after a kill before the commit
   ASSERT_FALSE(again.interrupted);
@@ -448,12 +450,7 @@ TEST_F(MacroRunTest, ADamagedCheckpointIsLoggedAndTheRunStartsAgainToTheSameResu
     const auto dir = scratch_->path() / ("damaged " + name);
     std::vector<std::string> log;
     const DirectRun run{params(), dir, "tiny-macro", 2, &log};
-    std::stop_source stop;
-    ASSERT_TRUE(run.run(stop.get_token(),
-                        [&](double fraction, std::string_view) {
-                          if (fraction >= 0.8) stop.request_stop();
-                        })
-                    .interrupted);
+    ASSERT_TRUE(stopped_at(run, 0.8)) << name;
     damage(dir);
     const auto resumed = run.run();
     ASSERT_FALSE(resumed.interrupted) << name;
