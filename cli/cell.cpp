@@ -1,12 +1,9 @@
 #include "cli/cell.hpp"
 
-#include <chrono>
 #include <filesystem>
 #include <iostream>
 #include <memory>
-#include <stop_token>
 #include <string>
-#include <thread>
 
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
@@ -33,17 +30,12 @@ void add_cell_command(CLI::App& app, std::optional<int>& exit_code) {
       spdlog::set_default_logger(spdlog::stderr_logger_mt("cell"));
       const auto spec = tasks::load_cell_spec(*spec_file);
       const fs::path dir = output_directory(*out_dir);
-      // Ctrl-C or SIGTERM: the handlers set a flag, which this thread hands to the cell; it saves
-      // its checkpoint and returns (a second signal exits at once).
+      // Ctrl-C or SIGTERM: the cell saves its checkpoint and returns (a second signal exits at
+      // once).
       engine::install_interrupt_handlers();
-      std::stop_source stop;
-      const std::jthread watch([&stop](std::stop_token done) {
-        while (!done.stop_requested() && !engine::interrupt_requested())
-          std::this_thread::sleep_for(std::chrono::milliseconds(50));
-        if (engine::interrupt_requested()) stop.request_stop();
-      });
+      const engine::StopWatcher watcher(engine::interrupt_requested);
       const auto result = tasks::run_cell_spec(
-          spec, dir, [](std::string_view line) { std::cerr << line << '\n'; }, stop.get_token());
+          spec, dir, [](std::string_view line) { std::cerr << line << '\n'; }, watcher.token());
       if (!result) {
         std::cerr << "millflow: interrupted; the cell's checkpoint is in " << dir.string()
                   << ": the same command continues it\n";

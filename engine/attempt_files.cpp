@@ -7,10 +7,10 @@
 #include <fstream>
 #include <mutex>
 #include <sstream>
-#include <thread>
 
 #include "engine/canonical_json.hpp"
 #include "engine/files.hpp"
+#include "engine/interrupt.hpp"
 #include "engine/validation.hpp"
 #include "util/durable_file.hpp"
 #include "util/sha256.hpp"
@@ -93,26 +93,6 @@ json write_outputs(const fs::path& output_dir, const TaskOutcome& outcome) {
           {"result_sha256", util::sha256_hex(result_text)},
           {"artifacts", artifacts}};
 }
-
-// Asks the task to stop once stop_requested() turns true (signal handlers only set a flag).
-class StopWatcher {
- public:
-  explicit StopWatcher(const std::function<bool()>& stop_requested)
-      : thread_([this, &stop_requested](std::stop_token done) {
-          while (!done.stop_requested()) {
-            if (stop_requested()) {
-              source_.request_stop();
-              return;
-            }
-            std::this_thread::sleep_for(std::chrono::milliseconds(20));
-          }
-        }) {}
-  std::stop_token token() const { return source_.get_token(); }
-
- private:
-  std::stop_source source_;
-  std::jthread thread_;
-};
 
 }  // namespace
 

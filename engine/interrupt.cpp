@@ -2,8 +2,10 @@
 
 #include <unistd.h>
 
+#include <chrono>
 #include <csignal>
 #include <initializer_list>
+#include <utility>
 
 namespace millflow::engine {
 namespace {
@@ -42,5 +44,16 @@ void install_interrupt_handlers() {
 bool interrupt_requested() {
   return g_interrupts > 0;
 }
+
+StopWatcher::StopWatcher(std::function<bool()> stop_requested)
+    : stop_requested_(std::move(stop_requested)), thread_([this](std::stop_token done) {
+        while (!done.stop_requested()) {
+          if (stop_requested_()) {
+            source_.request_stop();
+            return;
+          }
+          std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+      }) {}
 
 }  // namespace millflow::engine
