@@ -105,14 +105,14 @@ method::UpscaleFigures figures_of(const method::PowerSums& r, const method::Sum&
   const method::Ratio rate_factor = method::ratio(r.rate, r.rate_no_powder);
   const method::Ratio energy_factor = method::ratio(cushioning, rate_factor);
   // Without a counted site the powers are unknown, not 0 W.
-  const auto counted = [&](double watts) {
-    return r.sites > 0 ? std::optional(watts) : std::nullopt;
+  const auto counted = [&](std::optional<double> watts) {
+    return r.sites > 0 ? watts : std::nullopt;
   };
   return {.sites = static_cast<std::size_t>(r.sites),
           .volume_m3 = r.volume,
           .solid_volume_m3 = r.solid_volume,
           .powder_power_w = counted(r.powder.value),
-          .powder_power_w_se = r.sites > 0 ? r.powder.standard_error() : std::nullopt,
+          .powder_power_w_se = counted(r.powder.standard_error()),
           .powder_power_share = share.value,
           .powder_power_share_se = share.standard_error,
           .media_power_w = counted(r.input.value - r.powder.value),
