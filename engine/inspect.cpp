@@ -163,14 +163,10 @@ void print_show(const fs::path& db, const std::string& task, std::ostream& out) 
   const std::string key = resolve_task(connection, task);
   const auto record = *find_task(connection, key);
   const TaskRunInfo run = find_task_run_info(connection, key);
-  const std::vector<JobRecord> jobs = find_jobs(connection, key);
-  // A task a dead coordinator left 'running' is interrupted, as `status` shows it, unless a batch
-  // job of its attempt may still run it.
+  // A task a dead coordinator left 'running' is interrupted, as `status` shows it.
   const auto coordinator = coordinator_state(db);
   const bool left_running =
-      record.status == TaskStatus::running && !(coordinator && coordinator->alive) &&
-      std::none_of(jobs.begin(), jobs.end(),
-                   [&](const JobRecord& job) { return job.attempt == record.attempts; });
+      left_running_by_dead_coordinator(connection, key, coordinator && coordinator->alive);
   const std::string started = run.started_at ? iso8601_utc(*run.started_at) : std::string("never");
   out << fmt::format("task {}\nkind {} (version {})\nstatus {} after {} attempt(s){}\n", key,
                      record.spec.kind, record.spec.version,
@@ -187,7 +183,7 @@ void print_show(const fs::path& db, const std::string& task, std::ostream& out) 
                        artifact.sha256, artifacts.path_of(artifact.sha256).string(),
                        artifacts.verify(artifact) ? "verified" : "MISSING OR CORRUPT");
   }
-  for (const auto& job : jobs) {
+  for (const auto& job : find_jobs(connection, key)) {
     out << fmt::format("job {} {} attempt {} state {} name {}\n  stdout {}\n  stderr {}\n",
                        job.executor, job.job_id, job.attempt, job.state, job.job_name,
                        job.stdout_file.string(), job.stderr_file.string());

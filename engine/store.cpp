@@ -738,20 +738,36 @@ TextTable campaign_summaries(sql::Connection& db, bool coordinator_running) {
   return read_text_table(rows);
 }
 
-TextTable campaign_status_counts(sql::Connection& db, std::int64_t campaign,
-                                 bool coordinator_running) {
-  // A task left 'running' by a coordinator that died is interrupted, unless a batch job of its
-  // current attempt may still run it (resume re-attaches to it).
+namespace {
+
+// True for a task row `t` left 'running' by a coordinator that died (the one parameter: whether a
+// coordinator runs now), unless a batch job of its current attempt may still run it (resume
+// re-attaches to it): such a task is interrupted.
+std::string left_running_sql(sql::Connection& db) {
   const std::string has_job = db.user_version() < 2
                                   ? "0"
                                   : "EXISTS (SELECT 1 FROM jobs j WHERE j.task_key = t.key AND "
                                     "j.attempt = t.attempts)";
+  return fmt::format("(t.status = 'running' AND NOT ? AND NOT {})", has_job);
+}
+
+}  // namespace
+
+bool left_running_by_dead_coordinator(sql::Connection& db, const std::string& key,
+                                      bool coordinator_running) {
+  auto row =
+      db.prepare(fmt::format("SELECT {} FROM tasks t WHERE t.key = ?", left_running_sql(db)));
+  row.bind_all(coordinator_running ? 1 : 0, key);
+  return row.step() && row.integer(0) != 0;
+}
+
+TextTable campaign_status_counts(sql::Connection& db, std::int64_t campaign,
+                                 bool coordinator_running) {
   auto rows = db.prepare(fmt::format(
-      "SELECT t.kind, CASE WHEN t.status = 'running' AND NOT ? AND NOT {} THEN 'interrupted' ELSE "
-      "{} END AS status, count(*) AS tasks FROM campaign_tasks ct JOIN tasks t ON "
-      "t.key = ct.task_key LEFT JOIN results r ON r.task_key = t.key "
-      "WHERE ct.campaign_id = ? GROUP BY t.kind, 2 ORDER BY t.kind, 2",
-      has_job, shown_status()));
+      "SELECT t.kind, CASE WHEN {} THEN 'interrupted' ELSE {} END AS status, count(*) AS tasks "
+      "FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key LEFT JOIN results r ON "
+      "r.task_key = t.key WHERE ct.campaign_id = ? GROUP BY t.kind, 2 ORDER BY t.kind, 2",
+      left_running_sql(db), shown_status()));
   rows.bind_all(coordinator_running ? 1 : 0, campaign);
   return read_text_table(rows);
 }

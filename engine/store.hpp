@@ -193,6 +193,9 @@ TextTable campaign_summaries(sql::Connection& db, bool coordinator_running);
 // left 'running' without a batch job of its attempt is shown as 'interrupted'.
 TextTable campaign_status_counts(sql::Connection& db, std::int64_t campaign,
                                  bool coordinator_running);
+// The same rule for one task: held 'running', no coordinator running, no batch job of its attempt.
+bool left_running_by_dead_coordinator(sql::Connection& db, const std::string& key,
+                                      bool coordinator_running);
 // The batch job of the latest attempt of each running task of the campaign: kind, task (key
 // prefix), attempt, executor, job_id, state; empty before schema version 2.
 TextTable unfinished_jobs(sql::Connection& db, std::int64_t campaign);
