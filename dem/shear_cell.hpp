@@ -182,13 +182,12 @@ struct ShearCellMeasurements {
   // whose servo work is part of the walls' work).
   double work_in = 0.0, kinetic_change = 0.0, elastic_change = 0.0, dissipated = 0.0;
   double stress_control_work = 0.0;
-  // |work - accounted| / work. Two parts remain: each dashpot's dissipation is the O(dt^2)
-  // estimate C v^2 dt (over-counts, ~1% at 20 steps per collision, four-fold less per doubling),
-  // and the integrator advances a tangential spring by the relative velocity predicted for the
-  // end of the step rather than by the step's displacement, an O(dt) energy loss no ledger entry
-  // holds (halves per doubling). (The tangential spring a contact holds when a barostat stretch
-  // pulls it apart is counted as dissipated, dem/system.hpp.) campaigns/README.md gives what it
-  // is in quick.json's cells; DissipationAccounting and ShearCellPhysics test both parts.
+  // |work - accounted| / work. What remains is each dashpot's dissipation, the O(dt^2) estimate
+  // C v^2 dt (over-counts, ~1% at 20 steps per collision, four-fold less per doubling); the
+  // tangential springs follow the contact points' displacements and add no error of that order.
+  // (The tangential spring a contact holds when a barostat stretch pulls it apart is counted as
+  // dissipated, dem/system.hpp.) campaigns/README.md gives what it is in quick.json's cells;
+  // DissipationAccounting and ShearCellPhysics test it.
   double energy_balance_error = 0.0;
   // Steady state: shear stress means over the two halves of the window.
   double shear_stress_first_half = 0.0, shear_stress_second_half = 0.0;

@@ -10,10 +10,6 @@
 namespace millflow::dem {
 namespace {
 
-// The barostat samples the normal stress every this many steps and averages it over its
-// interval: single collisions of stiff balls make the instantaneous stress spike (and the virial
-// costs a pass over the contacts).
-constexpr std::uint64_t kBarostatSamplesEvery = 4;
 // Once compacted, the box changes by at most this strain per relaxation time, so a bed that
 // jams for a moment (its modulus far above 10 p) cannot throw the barostat into oscillation.
 constexpr double kBarostatMaxDilation = 0.05;
@@ -147,8 +143,15 @@ double LeesEdwardsBarostat::normal_stress(const System& system) const {
   return sum / system.domain().length().prod();
 }
 
+// The barostat samples the normal stress on every step of its interval and answers the mean:
+// single collisions of stiff balls make the instantaneous stress spike, and it rings after each
+// stretch. (Samples every 4 steps of a 20-step interval, always at the same phases of it, held
+// the collisional test cells' mean p_yy at 1071 Pa against a target of 1000, 16 seeds, 19 Pa
+// standard error; every step: 971 +- 24 Pa. The kinetic part's pass over the particles costs
+// nothing measurable: bench_cells' cement_load15 ran at 3.96 M particle-steps per CPU second
+// sampled either way.)
 std::uint64_t LeesEdwardsBarostat::sample_every() const {
-  return kBarostatSamplesEvery;
+  return 1;
 }
 
 bool LeesEdwardsBarostat::answer(System& system, double stress, bool closing) {

@@ -226,7 +226,7 @@ class RoughWallServo final : public StressControl {
 // Every control interval dt_c the box and the particles are stretched affinely along y by
 //   e = (clamp(x, +-0.05) + b) dt_c / tau,   x = (p_yy - p_target) / (K p_target),
 //   b <- clamp(b + x dt_c / T_i, +-0.05),    T_i = 2 tau   (IntegralTerm, kBarostatIntegralTimes),
-// p_yy the interval's mean virial normal stress (sampled every kBarostatSamplesEvery steps:
+// p_yy the interval's mean virial normal stress (sampled on every step of it:
 // single collisions of stiff balls make it spike). The limit of 5% per tau keeps a bed that
 // jams for a moment from throwing the box into oscillation, but a clamped law alone answers
 // something nearer the median than the mean of an intermittent stress (a collisional bed of stiff

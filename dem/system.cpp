@@ -776,6 +776,8 @@ struct System::PairContactKernel {
         position(s.position_.data()),
         predicted_velocity(s.predicted_velocity_.data()),
         predicted_angular_velocity(s.predicted_angular_velocity_.data()),
+        step_velocity(s.velocity_.data()),
+        step_angular_velocity(s.angular_velocity_.data()),
         material(s.material_.data()),
         params(&s.materials_.pair(0, 0)),
         material_count(s.materials_.size()),
@@ -802,12 +804,16 @@ struct System::PairContactKernel {
     const double lever_i = radius[i] - 0.5 * overlap, lever_j = radius[j] - 0.5 * overlap;
     const Vec3 arm_i = -lever_i * normal;
     const Vec3 arm_j = lever_j * normal;
-    const Vec3 contact_velocity_i =
-        predicted_velocity[i] + predicted_angular_velocity[i].cross(arm_i);
-    const Vec3 contact_velocity_j = predicted_velocity[j] +
-                                    images.image_velocity(touching.gradient_images) +
-                                    predicted_angular_velocity[j].cross(arm_j);
-    const ContactGeometry geometry{normal, overlap, contact_velocity_i - contact_velocity_j};
+    const Vec3 image_velocity = images.image_velocity(touching.gradient_images);
+    // Contact point i minus contact point j: with arm_i = -lever_i n and arm_j = lever_j n the two
+    // spins' parts w_i x arm_i - w_j x arm_j are one cross product, n x (lever_i w_i + lever_j
+    // w_j).
+    const auto relative_velocity = [&](const Vec3* v, const Vec3* w) -> Vec3 {
+      return v[i] - v[j] - image_velocity + normal.cross(lever_i * w[i] + lever_j * w[j]);
+    };
+    const ContactGeometry geometry{
+        normal, overlap, relative_velocity(predicted_velocity, predicted_angular_velocity),
+        relative_velocity(step_velocity, step_angular_velocity)};
     const std::uint32_t slot = slot_of[k];
     ContactHistory& history = history_of[slot];
     if (!touching_flag[k]) [[unlikely]] {  // the contact starts
@@ -848,6 +854,10 @@ struct System::PairContactKernel {
   const Vec3* const position;
   const Vec3* const predicted_velocity;
   const Vec3* const predicted_angular_velocity;
+  // The half-step velocities of the drift that moved the particles (the closing kick comes after
+  // the pair pass).
+  const Vec3* const step_velocity;
+  const Vec3* const step_angular_velocity;
   const MaterialId* const material;
   const PairParams* const params;
   const std::size_t material_count;
@@ -945,6 +955,8 @@ void System::compute_pair_forces(double dt) {
             const ParticleId ahead = pair[touching[t + kContactLookahead].k].j;
             __builtin_prefetch(&contact.predicted_velocity[ahead]);
             __builtin_prefetch(&contact.predicted_angular_velocity[ahead]);
+            __builtin_prefetch(&contact.step_velocity[ahead]);
+            __builtin_prefetch(&contact.step_angular_velocity[ahead]);
           }
           if (was_touching[touching[t].k])
             contact(touching[t]);
@@ -1155,10 +1167,13 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
                 }
               }
               const Vec3 arm = -(radius[p] - 0.5 * contact.overlap) * contact.normal;
+              const Vec3 surface_velocity = wall_surface_velocity(walls[w], contact.point);
               const Vec3 relative_velocity = predicted_velocity_[p] +
                                              predicted_angular_velocity_[p].cross(arm) -
-                                             wall_surface_velocity(walls[w], contact.point);
-              const ContactGeometry geometry{contact.normal, contact.overlap, relative_velocity};
+                                             surface_velocity;
+              const ContactGeometry geometry{
+                  contact.normal, contact.overlap, relative_velocity,
+                  velocity_[p] + angular_velocity_[p].cross(arm) - surface_velocity};
               const ContactResponse response =
                   linear_spring_dashpot(materials_.pair(material_[p], walls[w].material), mass_[p],
                                         geometry, slot.history.spring, dt);

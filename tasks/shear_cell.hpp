@@ -50,7 +50,7 @@
 namespace millflow::tasks {
 
 // Bump whenever the results of the same parameters change (tests/tasks/golden/shear_cell.json).
-inline constexpr const char* kShearCellVersion = "15";
+inline constexpr const char* kShearCellVersion = "16";
 inline constexpr int kWarmupWindows = 4;
 inline constexpr std::uint64_t kStepsBetweenPolls = 100;
 

@@ -44,7 +44,8 @@ PairParams params(double e, double mu) {
 
 TEST(LinearSpringDashpot, NormalForceIsSpringMinusDashpot) {
   const PairParams p = params(0.5, 0.3);
-  const ContactGeometry g{Vec3::UnitZ(), 1e-3, Vec3(0, 0, -0.2)};  // approaching at 0.2 m/s
+  const Vec3 approaching(0, 0, -0.2);  // m/s
+  const ContactGeometry g{Vec3::UnitZ(), 1e-3, approaching, approaching};
   const ContactResponse r = linear_spring_dashpot(p, 0.1, g, Vec3::Zero(), 1e-4);
   const double c_n = normal_damping_coefficient(1000.0, 0.1, p.damping_ratio);
   EXPECT_NEAR(r.normal_force, 1000.0 * 1e-3 + c_n * 0.2, 1e-12);
@@ -54,11 +55,15 @@ TEST(LinearSpringDashpot, NormalForceIsSpringMinusDashpot) {
   EXPECT_FALSE(r.sliding);
 }
 
-TEST(LinearSpringDashpot, SpringGrowsWithTangentialMotionWhileSticking) {
+// The spring follows the contact points' displacement over the step (their half-step velocity,
+// here 0.008 m/s across and 0.003 m/s along the normal, which it leaves out); the dashpot acts on
+// the velocity at the step's end (0.01 m/s).
+TEST(LinearSpringDashpot, SpringGrowsWithTheStepsTangentialDisplacementWhileSticking) {
   const PairParams p = params(0.5, 1.0);
-  const ContactGeometry g{Vec3::UnitZ(), 1e-3, Vec3(0.01, 0, 0)};
+  const ContactGeometry g{Vec3::UnitZ(), 1e-3, Vec3(0.01, 0, 0), Vec3(0.008, 0, 0.003)};
   const ContactResponse r = linear_spring_dashpot(p, 0.1, g, Vec3(2e-6, 0, 0), 1e-4);
-  EXPECT_NEAR(r.spring.x(), 2e-6 + 0.01 * 1e-4, 1e-18);
+  EXPECT_NEAR(r.spring.x(), 2e-6 + 0.008 * 1e-4, 1e-18);
+  EXPECT_EQ(r.spring.z(), 0.0);
   const double c_t =
       p.tangential_damping_ratio * normal_damping_coefficient(1000.0, 0.1, p.damping_ratio);
   EXPECT_NEAR(r.force_on_a.x(), -p.tangential_stiffness * r.spring.x() - c_t * 0.01, 1e-12);
@@ -70,7 +75,7 @@ TEST(LinearSpringDashpot, SpringGrowsWithTangentialMotionWhileSticking) {
 TEST(LinearSpringDashpot, SlidingCapsForceAtCoulombLimitAndResetsSpringWithItsDashpot) {
   const PairParams p = params(0.5, 0.2);
   const Vec3 v_t(0.01, 0, 0);
-  const ContactGeometry g{Vec3::UnitZ(), 1e-3, v_t};
+  const ContactGeometry g{Vec3::UnitZ(), 1e-3, v_t, v_t};
   const ContactResponse r = linear_spring_dashpot(p, 0.1, g, Vec3(5e-3, 0, 0), 1e-4);
   ASSERT_TRUE(r.sliding);
   const Vec3 tangential = r.force_on_a - r.normal_force * Vec3::UnitZ();
@@ -90,7 +95,7 @@ TEST(LinearSpringDashpot, UnloadingTailPullsAndHoldsUpToMuTimesThePull) {
   const PairParams p = params(0.3, 0.5);
   const double c_n = normal_damping_coefficient(1000.0, 0.1, p.damping_ratio);
   const double separating = 0.5;  // m/s: C_n v_n > k_n overlap
-  const ContactGeometry g{Vec3::UnitZ(), 1e-5, Vec3(1.0, 0, separating)};
+  const ContactGeometry g{Vec3::UnitZ(), 1e-5, Vec3(1.0, 0, separating), Vec3(1.0, 0, separating)};
   const ContactResponse r = linear_spring_dashpot(p, 0.1, g, Vec3::Zero(), 1e-4);
   EXPECT_NEAR(r.normal_force, 1000.0 * 1e-5 - c_n * separating, 1e-12);
   ASSERT_LT(r.normal_force, 0.0);
@@ -105,7 +110,7 @@ TEST(LinearSpringDashpot, UnloadingTailPullsAndHoldsUpToMuTimesThePull) {
 
 TEST(LinearSpringDashpot, FrictionlessContactStoresAndDissipatesNothingTangential) {
   const PairParams p = params(1.0, 0.0);
-  const ContactGeometry g{Vec3::UnitZ(), 1e-3, Vec3(1.0, 0.5, 0)};
+  const ContactGeometry g{Vec3::UnitZ(), 1e-3, Vec3(1.0, 0.5, 0), Vec3(1.0, 0.5, 0)};
   const ContactResponse r = linear_spring_dashpot(p, 0.1, g, Vec3::Zero(), 1e-4);
   EXPECT_EQ(r.spring.norm(), 0.0);
   EXPECT_EQ(r.dissipated_friction, 0.0);

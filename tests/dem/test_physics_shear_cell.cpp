@@ -206,15 +206,13 @@ TEST_F(ShearCellPhysics, LeesEdwardsCellBalancesEnergyAndResistsShear) {
 // Where a cell's energy balance error comes from (campaigns/README.md). The normal dashpots'
 // dissipation, counted per step as C v^2 dt with the velocity predicted for the end of the step,
 // is an O(dt^2) estimate: four-fold smaller per doubling of the steps per collision, and over-
-// counted. The tangential spring is advanced by the relative velocity predicted for the end of
-// the step, not by the step's relative displacement, so it does not store exactly the work done
-// on it: an O(dt) loss of the integrator that no ledger entry holds, halving per doubling.
-// Frictionless contacts show the first alone (measured -1.08%, -0.26%, -0.06% at 20, 40, 80),
-// sticking ones (mu = 5) add the second (+2.88%, +1.93%, +0.98%). (Advancing the spring by the
-// displacement instead made the sticking cell second order too: -1.69%, -0.42%, -0.05%, before
-// the springs of contacts that let go were counted as dissipated.)
-TEST_F(ShearCellPhysics,
-       EnergyBalanceErrorIsSecondOrderForNormalAndFirstOrderForTangentialContacts) {
+// counted. The tangential spring follows the contact points' displacement over the step, as the
+// overlap follows the positions, so it stores the work done on it and adds no error of its own
+// order. Measured: frictionless -1.08%, -0.26%, -0.07% at 20, 40, 80 steps per collision,
+// sticking (mu = 5) -0.48%, -0.03%, +0.04%. Until 6 December 2026 the spring was advanced by the
+// relative velocity predicted for the end of the step: an O(dt) loss no ledger entry held, the
+// sticking cell +2.88%, +1.93%, +0.98% (first order), which both assertions on it reject.
+TEST_F(ShearCellPhysics, EnergyBalanceErrorIsSecondOrderForNormalAndTangentialContacts) {
   auto signed_error = [](double friction, int steps_per_collision) {
     ShearCellSetup setup = small_shear_cell(0.1);
     setup.media_media.restitution = 0.3;
@@ -238,10 +236,10 @@ TEST_F(ShearCellPhysics,
   for (std::size_t k = 0; k < 2; ++k) {
     EXPECT_LT(frictionless[k], 0.0) << "the dashpots' dissipation is over-counted";
     EXPECT_GT(frictionless[k] / frictionless[k + 1], 3.0) << "second order";
-    EXPECT_GT(sticking[k], 0.0) << "the tangential springs lose energy";
-    EXPECT_GT(sticking[k] / sticking[k + 1], 1.3) << "first order";
-    EXPECT_LT(sticking[k] / sticking[k + 1], 2.6) << "first order";
+    EXPECT_LT(std::abs(sticking[k]), std::abs(frictionless[k]))
+        << "the tangential springs add no error above the dashpots'";
   }
+  EXPECT_GT(std::abs(sticking[0]), 3.0 * std::abs(sticking[1])) << "second order or better";
 }
 
 // Cushioning: powder between the balls takes part of the work, so at the same shear rate and

@@ -103,13 +103,15 @@ TEST(ShearCellStiffnessPolicy, KeepsBallPowderOverlapsWithinTheBoundAtLowLoad) {
   EXPECT_TRUE(m.overlap_ok);
 }
 
-// The same cell with powder 50 times softer, kept as given: the check above can fail.
+// The same cell with powder 50 times softer, kept as given: the check above can fail. Two strains
+// of warm-up: after one the barostat had not settled on this soft bed (p_yy 1103-1239 Pa,
+// depending on the phases it sampled; 1008 Pa after two).
 TEST(ShearCellStiffnessPolicy, SoftPowderKeptAsGivenBreaksTheBoundAndIsFlagged) {
   spdlog::set_level(spdlog::level::warn);
   ShearCellSetup setup = dense_powder_cell();
   setup.media_powder.normal_stiffness /= 50.0;
   setup.powder_powder.normal_stiffness /= 50.0;
-  const ShearCellMeasurements m = run(setup, 1.0);
+  const ShearCellMeasurements m = run(setup, 2.0, 2.0);
   print("soft", m);
   EXPECT_NEAR(m.normal_stress, setup.normal_stress, 0.2 * setup.normal_stress);
   EXPECT_GT(m.overlaps[static_cast<std::size_t>(ContactType::MediaPowder)].p95_fraction,

@@ -47,12 +47,15 @@ ShearCellMeasurements run_at_stiffness(ShearCellSetup::Boundary boundary, double
 // stress 995, 1005, 1020 Pa and bulk rate -17.5%, +1.4%, +3.6% at 1e2, 1e4, 1e5. At I = 0.1 the
 // rate answers the friction 14 times over (mu(I) = 0.368 + 0.69 I) and a 6 d gap's friction
 // scatters by a few percent, so only the order is asserted here; the rate within a tolerance is
-// asserted in the larger cell below (docs/shear_cells.md, "Wall speed").
+// asserted in the larger cell below (docs/shear_cells.md, "Wall speed"), and so is the sign of
+// the slip: in this cell the bulk's rate scatters about the walls' own, and the tangential spring
+// that follows the step's displacement (6 December 2026) left seed 1's slip below zero at 1e2
+// (-0.005 m/s of a wall speed of 0.25 m/s) and, with another rounding of the contact velocity,
+// at 1e4 (its bulk 15% above the target).
 void expect_walls_hold_their_targets(double kappa) {
   const ShearCellMeasurements m = run_at_stiffness(ShearCellSetup::Boundary::RoughWalls, kappa);
   EXPECT_NEAR(m.normal_stress, 1000.0, 50.0);
   EXPECT_NEAR(m.bulk_shear_rate / m.target_shear_rate, 1.0, 0.5);
-  EXPECT_GT(m.wall_slip, 0.0) << "rough walls slip";
   EXPECT_NEAR(m.wall_slip, 0.5 * (m.wall_speed - m.bulk_shear_rate * m.gap), 1e-12);
 }
 
@@ -88,7 +91,10 @@ ShearCellMeasurements run_with_the_rough_walls_protocol(const ShearCellSetup& se
 // balance within 0.7%); the same protocol without the catch-up law +6.5%, +0.4%, +15.0%, +1.2%,
 // -2.5%, -2.0%; the code before (warm-up in windows of 0.5 strain to 12, 4 measured, no catch-up)
 // +11.6%, +2.3%, +13.6%. So the 5% of issue 12 (docs/cell_validation.md, table 4 a seventh and a
-// ninth time). About 7 CPU s.
+// ninth time). The energy balance is the dashpots' second-order over-count (ShearCellPhysics):
+// 1.3%, 0.34%, 0.11% at 20, 40, 80 steps per collision (0.18% at 20 while the tangential spring's
+// first-order error, of the other sign, cancelled part of it, until 6 December 2026). About 7
+// CPU s.
 TEST(ShearCellStressControl, WallsDriveTheBulkToTheSiteRateAtRealisticStiffness) {
   spdlog::set_level(std::getenv("MF_DEBUG") ? spdlog::level::debug : spdlog::level::warn);
   ShearCellSetup setup = testing::small_shear_cell(0.3);
@@ -105,7 +111,8 @@ TEST(ShearCellStressControl, WallsDriveTheBulkToTheSiteRateAtRealisticStiffness)
   EXPECT_NEAR(m.normal_stress, 1000.0, 50.0);
   EXPECT_NEAR(m.bulk_shear_rate / m.target_shear_rate, 1.0, 0.05);
   EXPECT_TRUE(m.stationary);
-  EXPECT_LT(m.energy_balance_error, 0.01);
+  EXPECT_GT(m.wall_slip, 0.0) << "rough walls slip";
+  EXPECT_LT(m.energy_balance_error, 0.02);
 }
 
 // The walls hold the MEAN normal stress within 5% in a tall narrow cell (5 x 10 x 5 d) of the

@@ -12,7 +12,7 @@ namespace {
 
 constexpr double kFill = 0.4, kSpeedFraction = 0.2, kSpinUp = 0.5, kInterval = 0.02;
 constexpr int kSegments = 3, kFramesPerSegment = 8;
-constexpr const char* kCacheVersion = "v4";
+constexpr const char* kCacheVersion = "v5";  // bump when the macro run's bits change
 
 std::filesystem::path cache_dir() {
   return std::filesystem::path(MILLFLOW_BINARY_DIR) / "test_data" /
