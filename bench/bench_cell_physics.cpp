@@ -41,8 +41,9 @@
 //                cell's pair types and the parameters in.restitution_pair needs, from the cell
 //                as placed (seconds instead of the preparation's minutes), at the cell's dt
 //                over --lammps_pair_refine (the integrators' share of a difference).
-//                --lammps_dt_refine R: millflow's fixed-volume run at the cell's dt / R (LAMMPS's
-//                stays at the cell's dt), its rows still numbered in the cell's steps.
+//                --lammps_dt_refine R: millflow's run at the cell's dt / R (LAMMPS's stays at
+//                the cell's dt; under stress control the barostat's interval R times as many
+//                steps), its rows still numbered in the cell's steps.
 //                --lammps_stress_control: both codes shear on holding the normal stress instead of
 //                the volume (millflow under the cell's own barostat, LAMMPS under its
 //                Nose-Hoover barostat on y, fix nph/sphere), the solid fraction written with each
@@ -922,8 +923,6 @@ void add_and_check_pair_types(const dem::System& system, bench::LammpsParams& pa
 
 void lammps_table(const Options& o) {
   if (!o.lammps_dir) throw std::invalid_argument("table 6 needs --lammps_dir");
-  if (o.lammps_stress_control && o.lammps_dt_refine != 1)
-    throw std::invalid_argument("--lammps_dt_refine needs the fixed-volume run");
   if (o.lammps_load > 0.0 &&
       (o.lammps_contact_every <= 0 || o.lammps_contact_every % o.lammps_sample_every != 0))
     throw std::invalid_argument(
@@ -1046,11 +1045,14 @@ void lammps_table(const Options& o) {
   // At a fraction of the cell's dt (the integrator's share of a difference), the same strain and
   // samples: the rows keep the cell's step numbers, which the reduction turns into strain.
   const auto refine = static_cast<std::uint64_t>(o.lammps_dt_refine);
-  sheared.set_time_step(sheared.time_step() / static_cast<double>(refine));
+  if (held)
+    held->refine_time_step(o.lammps_dt_refine);
+  else
+    sheared.set_time_step(sheared.time_step() / static_cast<double>(refine));
   const double cpu_start = process_cpu_seconds();
   arena.execute([&] {
     for (std::uint64_t step = 0; step <= steps; step += sample_every) {
-      if (step > 0 && held) held->advance(sample_every);
+      if (step > 0 && held) held->advance(sample_every * refine);
       if (step > 0 && !held) system.step(sample_every * refine);
       const auto t = stress_tensor(sheared, c.shear_rate);
       out << fmt::format("{} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g} {:.10g} {:.6f}\n", step, t[0],
@@ -1143,7 +1145,7 @@ int main(int argc, char** argv) {
                "table 6: both codes shear on under their barostats (millflow's own, LAMMPS's "
                "nph/sphere on y), not at fixed volume");
   app.add_option("--lammps_dt_refine", o.lammps_dt_refine,
-                 "table 6: millflow's fixed-volume run at the cell's dt over this")
+                 "table 6: millflow's run at the cell's dt over this")
       ->check(CLI::PositiveNumber);
   app.add_option("--lammps_contact_every", o.lammps_contact_every,
                  "table 6 with powder: contact stress by pair type every this many steps (a "

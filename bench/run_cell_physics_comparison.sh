@@ -32,8 +32,8 @@
 #             LOAD=0 (media only) POWDER_RATIO=0.5 CONTACT_EVERY=500 SEED=1 (the cell's /dem/seed)
 #             OVERLAP=1: millflow's fixed-volume run beside LAMMPS's (two cores; the same results)
 #             REDUCE_ONLY=1: only the reduction, of the files an earlier run left in WORK_DIR
-#             DT_REFINE=1: millflow's fixed-volume run at the cell's dt / DT_REFINE (an integer;
-#                LAMMPS's stays at the cell's dt), the integrator's share of a difference
+#             DT_REFINE=1: millflow's run at the cell's dt / DT_REFINE (an integer; LAMMPS's
+#                stays at the cell's dt), the integrator's share of a difference
 #             STRESS_CONTROL=1: at the held normal stress, not the volume (above)
 #             SAMPLE_EVERY=50: steps between stress samples (under stress control the bench takes the
 #                first interval from it prime to the barostat's, 40 steps at the default steps per

@@ -289,6 +289,10 @@ class ShearCell {
   // Steps the system after compact(); with Lees-Edwards also integrates the boundary's work and
   // runs the barostat (step_controlled, which compact() itself uses).
   void advance(std::size_t steps);
+  // From here on at dt / factor, its stress control's interval `factor` times as many steps (the
+  // same time): the integrator's share of a result (bench_cell_physics --lammps_dt_refine).
+  // Throws std::invalid_argument unless factor >= 1.
+  void refine_time_step(int factor);
   // Runs `strain` of shear in `windows` equal windows, adjusting the wall speed after each so the
   // bulk shear rate approaches the target (RoughWalls; LE has no slip and only runs). An "auto"
   // skin (ShearCellSetup::neighbor_skin_fraction empty) is chosen by trial at the end of the

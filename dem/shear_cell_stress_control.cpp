@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "dem/shear_cell_geometry.hpp"
@@ -110,6 +111,14 @@ void ShearCell::step_integrating_work(std::size_t steps, AfterStep&& after_step)
       wall_speed_ = system_.domain().lees_edwards.velocity;
     }
   }
+}
+
+void ShearCell::refine_time_step(int factor) {
+  if (factor < 1)
+    throw std::invalid_argument(fmt::format("shear cell: time step refinement {} < 1", factor));
+  setup_.steps_per_collision *= factor;
+  system_.set_time_step(system_.time_step() / factor);
+  control_->lengthen_interval(static_cast<std::uint64_t>(factor));
 }
 
 void ShearCell::step_controlled(std::size_t steps) {

@@ -140,6 +140,8 @@ class StressControl {
   bool after_step(System& system);
   // While set, the boundary closes at the speed limit (compaction).
   void set_closing(bool closing);
+  // The interval `factor` times as many steps, for a time step as many times shorter.
+  void lengthen_interval(std::uint64_t factor) { settings_.interval_steps *= factor; }
   // The mean stress the last interval answered, Pa, and the answered stresses' running mean
   // over tau (the last one included).
   double last_interval_stress() const { return last_stress_; }
