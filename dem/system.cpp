@@ -802,12 +802,10 @@ struct System::PairContactKernel {
     const Vec3 normal = d * (-1.0 / distance);  // from j towards i
     const double overlap = reach - distance;
     const double lever_i = radius[i] - 0.5 * overlap, lever_j = radius[j] - 0.5 * overlap;
-    const Vec3 arm_i = -lever_i * normal;
-    const Vec3 arm_j = lever_j * normal;
+    const Vec3 arm_i = -lever_i * normal;  // the contact point from i's centre (j's: lever_j n)
     const Vec3 image_velocity = images.image_velocity(touching.gradient_images);
-    // Contact point i minus contact point j: with arm_i = -lever_i n and arm_j = lever_j n the two
-    // spins' parts w_i x arm_i - w_j x arm_j are one cross product, n x (lever_i w_i + lever_j
-    // w_j).
+    // Contact point i minus contact point j: the two spins' parts w_i x (-lever_i n) -
+    // w_j x (lever_j n) are one cross product, n x (lever_i w_i + lever_j w_j).
     const auto relative_velocity = [&](const Vec3* v, const Vec3* w) -> Vec3 {
       return v[i] - v[j] - image_velocity + normal.cross(lever_i * w[i] + lever_j * w[j]);
     };
