@@ -491,7 +491,10 @@ struct ShearCellProtocol {
 // few hundred collision times). advance() in chunks of any size gives the same bits too.
 //
 // Checkpoint file: the checksummed container of dem/binary_io.hpp, magic "MFSHRCKP", payload
-// version kShearCellCheckpointVersion. Payload (version 6; version 5 lacked the barostat's strain
+// version kShearCellCheckpointVersion. Payload (version 7, the layout of version 6: a version-6
+// file was written by the integrator whose tangential spring followed the end-of-step velocity, and
+// continued now it would finish under another contact law, so it is refused and the cell starts
+// again; version 5 lacked the barostat's strain
 // still to stretch and its parts left; version 4 lacked the wall-speed
 // controller's measured-window duration and travel and the servo's integral term; version 3 held
 // the earlier filtered wall-speed controller's two sums, window count and settled flag, and a
@@ -535,7 +538,7 @@ struct ShearCellProtocol {
 // The system buffers no collision events while the cell measures: its recording flag is on and
 // each finished contact goes to the measurement's tally as it finishes (those of a relief's steps
 // are buffered, and tallied before a save).
-inline constexpr std::uint32_t kShearCellCheckpointVersion = 6;
+inline constexpr std::uint32_t kShearCellCheckpointVersion = 7;
 
 class ShearCellRun {
  public:
