@@ -135,8 +135,9 @@ class StressControl {
   // The normal stress the control holds, now, Pa: the wall load per area (walls) or the
   // virial's p_yy (Lees-Edwards).
   virtual double normal_stress(const System& system) const = 0;
-  // After each step: samples the normal stress and, at the end of a control interval, answers
-  // its mean. True when the answer moved the particles (the box was stretched).
+  // After each step: samples the normal stress (on every step, stress_control.cpp says why) and,
+  // at the end of a control interval, answers its mean. True when the answer moved the particles
+  // (the box was stretched).
   bool after_step(System& system);
   // While set, the boundary closes at the speed limit (compaction).
   void set_closing(bool closing);
@@ -161,7 +162,6 @@ class StressControl {
   void read(BinaryReader& in);
 
  protected:
-  virtual std::uint64_t sample_every() const = 0;
   // Whether a bed that lost contact after compaction is closed at the speed limit again.
   virtual bool recloses() const = 0;
   // Answers an interval's mean stress; true when it moved the particles.
@@ -210,8 +210,6 @@ class RoughWallServo final : public StressControl {
   void reset_answer() override { integral_.reset(); }
 
  protected:
-  // The wall load is free every step.
-  std::uint64_t sample_every() const override { return 1; }
   // A wall closing at the speed limit would hit the bed and set the servo oscillating.
   bool recloses() const override { return false; }
   bool answer(System& system, double stress, bool closing) override;
@@ -259,7 +257,6 @@ class LeesEdwardsBarostat final : public StressControl {
   }
 
  protected:
-  std::uint64_t sample_every() const override;
   bool recloses() const override { return true; }
   bool answer(System& system, double stress, bool closing) override;
   bool between_answers(System& system) override;
