@@ -1016,14 +1016,24 @@ void lammps_table(const Options& o) {
   params.set("sample_every", static_cast<double>(sample_every));
   params.set("solid_fraction", solid_fraction);
   params.set("particle_volume", particle_volume);
-  // Under stress control LAMMPS holds p_yy with its Nose-Hoover barostat on y (nph/sphere: LAMMPS
-  // has no first-order barostat for a triclinic box), of period the barostat's relaxation time
-  // and a drag that damps the box's oscillation: another law than millflow's PI law on each
-  // control interval's mean (dem/stress_control.hpp), so only the steady states compare.
+  // Under stress control LAMMPS holds p_yy either with its Nose-Hoover barostat on y (nph/sphere:
+  // LAMMPS has no first-order barostat for a triclinic box), of period the barostat's relaxation
+  // time and a drag that damps the box's oscillation, another law than millflow's; or with
+  // millflow's own law (dem/stress_control.hpp, LeesEdwardsBarostat) as a loop of runs that
+  // stretches the box between them (bench/lammps/stretch_barostat.lmp), whose constants follow.
+  // The interval is the cell's at its own dt (LAMMPS runs at it whatever --lammps_dt_refine).
+  const dem::StressControlSettings& control = run.cell().stress_control().settings();
   params.set("stress_control", o.lammps_stress_control ? 1.0 : 0.0);
-  params.set("target_stress", run.cell().stress_control().settings().target_stress);
-  params.set("relaxation_time", run.cell().stress_control().settings().relaxation_time);
+  params.set("target_stress", control.target_stress);
+  params.set("relaxation_time", control.relaxation_time);
   params.set("barostat_drag", 1.0);
+  params.set("barostat_interval", static_cast<double>(control.interval_steps));
+  params.set("barostat_part_strain", control.part_strain);
+  params.set("barostat_stretch_every", static_cast<double>(dem::kBarostatStretchEvery));
+  params.set("barostat_bed_modulus", dem::kFlowingBedModulus);
+  params.set("barostat_integral_times", dem::kBarostatIntegralTimes);
+  params.set("barostat_max_dilation", dem::kBarostatMaxDilation);
+  params.set("barostat_max_integral", dem::IntegralTerm::kMaxIntegralRate);
   bench::write_lammps_data(shifted, "cell_physics", dir / "cell_physics.data");
   bench::write_lammps_params("cell_physics",
                              with_powder ? "bench_cell_physics, media + powder LE cell"

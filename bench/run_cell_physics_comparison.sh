@@ -11,7 +11,8 @@
 # tau / p_yy and tau / p formed per batch; mean and standard error over the batches. At fixed
 # volume the solid fraction is the same by construction (printed), so the stresses are compared.
 # STRESS_CONTROL=1: both codes shear on holding the normal stress instead (millflow under its
-# cell's barostat, LAMMPS under its Nose-Hoover barostat on y), and the solid fraction is
+# cell's barostat, LAMMPS under its Nose-Hoover barostat on y, or with LAMMPS_BAROSTAT=stretch
+# under millflow's barostat law: bench/lammps/stretch_barostat.lmp), and the solid fraction is
 # compared as well (within 0.01).
 #
 # With LOAD > 0 the cell holds powder of POWDER_RATIO ball diameters at that load (type 2; the
@@ -35,6 +36,9 @@
 #             DT_REFINE=1: millflow's run at the cell's dt / DT_REFINE (an integer; LAMMPS's
 #                stays at the cell's dt), the integrator's share of a difference
 #             STRESS_CONTROL=1: at the held normal stress, not the volume (above)
+#             LAMMPS_BAROSTAT=nph: LAMMPS's barostat under stress control, nph (Nose-Hoover) or
+#                stretch (millflow's law in a loop of runs: a third reference, LAMMPS's contacts
+#                under millflow's box)
 #             SAMPLE_EVERY=50: steps between stress samples (under stress control the bench takes the
 #                first interval from it prime to the barostat's, 40 steps at the default steps per
 #                collision, so that the samples fall on every phase of it: docs/cell_validation.md,
@@ -61,6 +65,9 @@ reduce_only=${REDUCE_ONLY:-0}
 pairs_only=${PAIRS_ONLY:-0}
 dt_refine=${DT_REFINE:-1}
 stress_control=${STRESS_CONTROL:-0}
+lammps_barostat=${LAMMPS_BAROSTAT:-nph}
+[[ $lammps_barostat == nph || $lammps_barostat == stretch ]] ||
+  { echo "LAMMPS_BAROSTAT=$lammps_barostat: use nph or stretch" >&2; exit 1; }
 sample_every=${SAMPLE_EVERY:-50}
 with_powder=$(awk -v l="$load" 'BEGIN {print (l > 0) ? 1 : 0}')
 bench=$build/bench/bench_cell_physics
@@ -129,10 +136,10 @@ run_both() {
   # LAMMPS's CPU time: its subshell's children's (the bench, a child of this shell, is not one).
   lammps_cpu=$(
     OMP_NUM_THREADS=1 "$lmp" -in "$input" -var dir "$work" -var lammps "$here/lammps" \
-      -log "$work/lammps.log" -screen none -nocite
+      -var barostat "$lammps_barostat" -log "$work/lammps.log" -screen none -nocite
     awk -v hz="$(getconf CLK_TCK)" '{print ($16 + $17) / hz}' "/proc/$BASHPID/stat"
   )
-  echo "LAMMPS: $lammps_cpu CPU s ($(awk '/^Loop time of/ {print $4, "s loop wall"}' "$work/lammps.log"))"
+  echo "LAMMPS: $lammps_cpu CPU s ($(awk '/^Loop time of/ {wall += $4} END {print wall, "s loop wall"}' "$work/lammps.log"))"
   if ((overlap)); then
     wait "$bench_pid"
     cat "$work/millflow.log"

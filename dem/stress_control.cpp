@@ -10,10 +10,6 @@
 namespace millflow::dem {
 namespace {
 
-// Once compacted, the box changes by at most this strain per relaxation time, so a bed that
-// jams for a moment (its modulus far above 10 p) cannot throw the barostat into oscillation.
-constexpr double kBarostatMaxDilation = 0.05;
-
 // The stretches' work sums over the candidate pairs in blocks of this many, on every thread of
 // the cell (deterministic_sum).
 constexpr std::size_t kPairSumGrain = 2048;

@@ -100,6 +100,11 @@ inline constexpr std::uint64_t kBarostatStretchEvery = 8;
 // fraction of it.
 inline constexpr double kPartStrainOfStressOverlap = 0.5;
 
+// Once compacted, the barostat's proportional part changes the box by at most this strain per
+// relaxation time, so a bed that jams for a moment (its modulus far above 10 p) cannot throw the
+// barostat into oscillation.
+inline constexpr double kBarostatMaxDilation = 0.05;
+
 // The barostat's T_i / tau: critically damped at 4 tau but twice as slow (in the 5 d cells of
 // tests/dem/test_physics_barostat_mean_stress.cpp at I = 0.5, k_n / (p d) = 1e5 the mean p_yy of 8
 // seeds was 1.025 of the target against 1.004 with 2 tau).
