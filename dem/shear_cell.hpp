@@ -484,6 +484,10 @@ struct ShearCellProtocol {
   double max_warmup_strain = 6.0;  // >= warmup_strain
   double measure_strain = 4.0;
   MeasureOptions measure;
+  // The version of the code whose physics runs the cell (the shear_cell task kind's,
+  // tasks/shear_cell.hpp; empty where no kind runs it). A checkpoint written under another is not
+  // continued: it would finish under other physics than it started with.
+  std::string code_version = {};
 };
 
 // A cell run that can stop between any two steps after compaction and continue from a
@@ -491,10 +495,11 @@ struct ShearCellProtocol {
 // few hundred collision times). advance() in chunks of any size gives the same bits too.
 //
 // Checkpoint file: the checksummed container of dem/binary_io.hpp, magic "MFSHRCKP", payload
-// version kShearCellCheckpointVersion. Payload (version 7, the layout of version 6: a version-6
-// file was written by the integrator whose tangential spring followed the end-of-step velocity, and
-// continued now it would finish under another contact law, so it is refused and the cell starts
-// again; version 5 lacked the barostat's strain
+// version kShearCellCheckpointVersion. Payload (version 8; version 7 lacked the code version, so
+// a cell could be continued by a build of other physics; version 7 had the layout of version 6: a
+// version-6 file was written by the integrator whose tangential spring followed the end-of-step
+// velocity, and continued now it would finish under another contact law, so it is refused and the
+// cell starts again; version 5 lacked the barostat's strain
 // still to stretch and its parts left; version 4 lacked the wall-speed
 // controller's measured-window duration and travel and the servo's integral term; version 3 held
 // the earlier filtered wall-speed controller's two sums, window count and settled flag, and a
@@ -504,6 +509,8 @@ struct ShearCellProtocol {
 //   identity: string, the setup (overlap bound included) and protocol (warm-up cap, convergence
 //             target and cap included) encoded field by field (resume() refuses a file whose
 //             identity differs from the cell it is asked to continue)
+//   code version: string, ShearCellProtocol::code_version of the run that wrote it (resume()
+//             refuses another, naming both)
 //   system: uint32 version of the DEM checkpoint payload, then that payload as a string
 //           (dem/checkpoint.hpp)
 //   cell: media, powder and wall ball counts (uint64), wall speed, LE boundary work; the stress
@@ -538,7 +545,7 @@ struct ShearCellProtocol {
 // The system buffers no collision events while the cell measures: its recording flag is on and
 // each finished contact goes to the measurement's tally as it finishes (those of a relief's steps
 // are buffered, and tallied before a save).
-inline constexpr std::uint32_t kShearCellCheckpointVersion = 7;
+inline constexpr std::uint32_t kShearCellCheckpointVersion = 8;
 
 class ShearCellRun {
  public:

@@ -245,6 +245,12 @@ ShearCellRun ShearCellRun::from_state(const ShearCellSetup& setup,
     throw CorruptData(
         fmt::format("{}: the checkpoint is of another shear cell or protocol", source));
   }
+  if (const std::string written_by = in.get_string(); written_by != protocol.code_version) {
+    throw CorruptData(fmt::format(
+        "{}: the checkpoint was written by shear cell code version '{}', this run is version '{}' "
+        "(it would finish under other physics than it started with)",
+        source, written_by, protocol.code_version));
+  }
   const auto system_version = in.get<std::uint32_t>();
   System system = system_from_checkpoint_payload(in.get_string(), system_version);
   if (continue_with) system = system_with_materials(system, make_materials(*continue_with));
@@ -282,6 +288,7 @@ std::string ShearCellRun::state() {
   if (phase_ == Phase::Measuring) cell_.tally_collisions(measurement_);
   BinaryWriter out;
   out.put_string(run_identity(cell_.setup(), protocol_));
+  out.put_string(protocol_.code_version);
   out.put(kCheckpointVersion);
   out.put_string(checkpoint_payload(cell_.system()));
   cell_.write_state(out);

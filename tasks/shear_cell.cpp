@@ -169,7 +169,8 @@ dem::ShearCellProtocol shear_cell_protocol(const json& params) {
       .max_warmup_strain = cell.at("max_warmup_strain").get<double>(),
       .measure_strain = cell.at("measure_strain").get<double>(),
       .measure = {.standard_error_target = at(cell, "/convergence/standard_error").get<double>(),
-                  .max_strain = at(cell, "/convergence/max_strain").get<double>()}};
+                  .max_strain = at(cell, "/convergence/max_strain").get<double>()},
+      .code_version = kShearCellVersion};
 }
 
 engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {

@@ -216,6 +216,33 @@ TEST(ShearCellCheckpointFile, TruncatedAlteredForeignAndMissingFilesAreRefused) 
   EXPECT_NE(resume_error(setup, file).find("cannot read"), std::string::npos);
 }
 
+// A cell interrupted under one build's physics is not finished under another's: the checkpoint
+// names the code version that wrote it (the task kind's), and a run of another version refuses it.
+TEST(ShearCellCheckpointFile, ACheckpointOfAnotherCodeVersionIsRefusedNamingBoth) {
+  spdlog::set_level(spdlog::level::warn);
+  millflow::testing::ScratchDir dir;
+  const ShearCellSetup setup = tiny_cell(ShearCellSetup::Boundary::LeesEdwards);
+  ShearCellProtocol written_by = tiny_protocol();
+  written_by.code_version = "15";
+  ShearCellRun run(setup, written_by);
+  run.advance(200);
+  const std::filesystem::path file = dir.path() / "cell.ckpt";
+  run.save(file);
+  ShearCellProtocol continued_by = written_by;
+  continued_by.code_version = "16";
+  try {
+    ShearCellRun::resume(setup, continued_by, file);
+    ADD_FAILURE() << "a checkpoint of code version 15 was continued by version 16";
+  } catch (const CorruptData& error) {
+    EXPECT_EQ(std::string(error.what()),
+              file.string() +
+                  ": the checkpoint was written by shear cell code version '15', this run is "
+                  "version '16' (it would finish under other physics than it started with)");
+  }
+  const ShearCellRun same = ShearCellRun::resume(setup, written_by, file);
+  EXPECT_EQ(same.cell().system().step_count(), run.cell().system().step_count());
+}
+
 // with_interactions: a run continued with its own setup keeps every bit; continued with stiffer
 // powder contacts, it holds what a cell built with them holds (the materials, the time step) and
 // the same particles; a setup that differs in anything but its interactions is refused.
