@@ -902,6 +902,10 @@ std::optional<CoordinatorRecord> find_coordinator(sql::Connection& db) {
 
 namespace {
 
+// What an error of the statement itself names as its place: `millflow query`'s argument (the
+// database's errors name --db).
+constexpr const char* kQueryArgument = "SQL";
+
 // An error of a query's statement: the database's fault when SQLite cannot read it, else the
 // SQL's, whether preparing or running it found it (ATTACH of a missing file, an integer overflow).
 InvalidInput query_error(const fs::path& db_path, const sql::Error& error) {
@@ -909,7 +913,7 @@ InvalidInput query_error(const fs::path& db_path, const sql::Error& error) {
     return InvalidInput(
         {{"--db", damaged_database_problem(db_path, error.what()), damaged_database_fix(db_path)}});
   return InvalidInput(
-      {{"", error.what(),
+      {{kQueryArgument, error.what(),
         "check the SQL; `millflow query \"SELECT name FROM sqlite_master\"` lists tables"}});
 }
 
@@ -925,7 +929,7 @@ QueryRows run_read_only_query(sql::Connection& db, const fs::path& db_path,
   }
   if (!statement->read_only()) {
     throw InvalidInput(
-        {{"", "refused: the statement would modify the database",
+        {{kQueryArgument, "refused: the statement would modify the database",
           "millflow query only reads; the store is written by millflow submit/resume alone"}});
   }
   QueryRows result;
@@ -935,8 +939,9 @@ QueryRows run_read_only_query(sql::Connection& db, const fs::path& db_path,
   try {
     while (statement->step()) {
       if ((result.rows.size() + 1) * columns > max_values) {
-        throw InvalidInput({{"", fmt::format("the result holds more than {} values", max_values),
-                             "add a LIMIT, or select fewer rows or columns"}});
+        throw InvalidInput(
+            {{kQueryArgument, fmt::format("the result holds more than {} values", max_values),
+              "add a LIMIT, or select fewer rows or columns"}});
       }
       std::vector<QueryValue> row;
       for (int column = 0; column < statement->columns(); ++column) {

@@ -8,7 +8,9 @@
 namespace millflow::engine {
 
 struct ValidationError {
-  std::string path;     // JSON pointer-like path, e.g. "/mill/lifters/count" ("" for the document)
+  // JSON pointer-like path, e.g. "/mill/lifters/count" ("" for the document), or the command-line
+  // option or argument at fault ("--db", "SQL").
+  std::string path;
   std::string problem;  // what is wrong, with the offending value
   std::string fix;      // how to fix it (may be empty)
 

@@ -155,13 +155,14 @@ TEST_F(Cli, QueryAnswersInCsvAndJsonAndRefusesWrites) {
   EXPECT_EQ(json::parse(millflow({"query", "--format", "json", sql}).out), expected_json);
   const auto refused = millflow({"query", "DELETE FROM tasks"});
   EXPECT_EQ(refused.exit_code, 2);
-  EXPECT_NE(refused.err.find("refused: the statement would modify the database"), std::string::npos)
-      << refused.err;
+  EXPECT_EQ(refused.err,
+            "millflow: invalid input:\nSQL: refused: the statement would modify the database; "
+            "millflow query only reads; the store is written by millflow submit/resume alone\n");
   // An error found running the statement, not preparing it, was exit 1.
   const auto overflow = millflow({"query", "SELECT abs(-9223372036854775808)"});
   EXPECT_EQ(overflow.exit_code, 2);
   EXPECT_EQ(overflow.err,
-            "millflow: invalid input:\n(document): SQL step failed for \"SELECT "
+            "millflow: invalid input:\nSQL: SQL step failed for \"SELECT "
             "abs(-9223372036854775808)\": integer overflow; check the SQL; `millflow query "
             "\"SELECT name FROM sqlite_master\"` lists tables\n");
   // Text that is not UTF-8 made --format json exit 1 (nlohmann's type_error 316).

@@ -252,6 +252,7 @@ TEST(Store, QueryRefusesAResultOfMoreValuesThanItHolds) {
     FAIL() << "no error";
   } catch (const InvalidInput& error) {
     ASSERT_EQ(error.errors().size(), 1u);
+    EXPECT_EQ(error.errors()[0].path, "SQL");
     EXPECT_EQ(error.errors()[0].problem, "the result holds more than 1000 values");
     EXPECT_EQ(error.errors()[0].fix, "add a LIMIT, or select fewer rows or columns");
   }
