@@ -208,13 +208,14 @@ TEST_F(ShearCellPhysics, LeesEdwardsCellBalancesEnergyAndResistsShear) {
 // is an O(dt^2) estimate: four-fold smaller per doubling of the steps per collision, and over-
 // counted. The tangential spring follows the contact points' displacement over the step, as the
 // overlap follows the positions, so it stores the work done on it and adds no error of its own
-// order. Measured: frictionless -1.08%, -0.26%, -0.07% at 20, 40, 80 steps per collision,
-// sticking (mu = 5) -0.48%, -0.03%, +0.04%. Until 6 December 2026 the spring was advanced by the
+// order. Measured: frictionless -1.09%, -0.24%, -0.07% at 20, 40, 80 steps per collision,
+// sticking (mu = 5) -0.64%, -0.01%, +0.05% (-0.48%, -0.03%, +0.04% before the barostat sampled
+// every step). Until 6 December 2026 the spring was advanced by the
 // relative velocity predicted for the end of the step: an O(dt) loss no ledger entry held, the
 // sticking cell +2.88%, +1.93%, +0.98% (first order), which both assertions on it reject.
 TEST_F(ShearCellPhysics, EnergyBalanceErrorIsSecondOrderForNormalAndTangentialContacts) {
-  auto signed_error = [](double friction, int steps_per_collision) {
-    ShearCellSetup setup = small_shear_cell(0.1);
+  auto signed_error = [](double friction, int steps_per_collision, double inertial_number = 0.1) {
+    ShearCellSetup setup = small_shear_cell(inertial_number);
     setup.media_media.restitution = 0.3;
     setup.media_media.friction = friction;
     setup.boundary = ShearCellSetup::Boundary::LeesEdwards;
@@ -240,6 +241,23 @@ TEST_F(ShearCellPhysics, EnergyBalanceErrorIsSecondOrderForNormalAndTangentialCo
         << "the tangential springs add no error above the dashpots'";
   }
   EXPECT_GT(std::abs(sticking[0]), 3.0 * std::abs(sticking[1])) << "second order or better";
+  // Sliding contacts (the campaigns' friction, at I = 0.3 where most contacts slide) leave a
+  // part of first order that the books do not hold (campaigns/README.md): measured +0.53%,
+  // +0.25%, +0.12% of the work at 40, 80, 160 steps per collision above the frictionless cell's.
+  // It converges with the step, and stays inside 1% at the cells' default of 40.
+  std::array<double, 3> sliding{}, sliding_frictionless{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    sliding[k] = signed_error(0.75, 40 << k, 0.3);
+    sliding_frictionless[k] = signed_error(0.0, 40 << k, 0.3);
+    std::printf("I = 0.3, %d steps per collision: %+.3f%% friction 0.75, %+.3f%% frictionless\n",
+                40 << k, 100 * sliding[k], 100 * sliding_frictionless[k]);
+  }
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_GT(sliding[k] - sliding_frictionless[k],
+              1.5 * (sliding[k + 1] - sliding_frictionless[k + 1]))
+        << "friction's part converges with the step";
+  }
+  EXPECT_LT(std::abs(sliding[0]), 0.01);
 }
 
 // Cushioning: powder between the balls takes part of the work, so at the same shear rate and
