@@ -33,8 +33,9 @@
 // steps (compaction runs whole); on a stop, and every /shear_cell/checkpoint_interval_s of wall
 // time, the run is saved to cell.ckpt in the work directory (the format is beside
 // dem::ShearCellRun), and the next attempt continues from it with the same bits. A checkpoint that
-// cannot be read (truncated, altered, of another cell) is logged and removed, and the cell starts
-// again from scratch. The file goes when the cell is done. Result: method::CellResult
+// cannot be read (truncated, altered, of another cell, or written by another version of this
+// kind) is logged and removed, and the cell starts again from scratch. The file goes when the cell
+// is done. Result: method::CellResult
 // (method/cell_result.hpp), its JSON keys and their meaning.
 #include <cstdint>
 #include <optional>
