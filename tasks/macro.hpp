@@ -14,7 +14,7 @@
 namespace millflow::tasks {
 
 // Bump whenever the results of the same parameters change.
-inline constexpr const char* kMacroVersion = "7";
+inline constexpr const char* kMacroVersion = "8";
 
 engine::TaskOutcome run_macro(engine::TaskContext& context);
 

@@ -53,7 +53,7 @@ namespace millflow::tasks {
 // Bump whenever the results of the same parameters change (tests/tasks/golden/shear_cell.json).
 // Its cells' checkpoints carry it (dem::ShearCellProtocol::code_version): a cell interrupted
 // under one version is not continued by another (`millflow cell --out` reuses its directory).
-inline constexpr const char* kShearCellVersion = "16";
+inline constexpr const char* kShearCellVersion = "17";
 inline constexpr int kWarmupWindows = 4;
 inline constexpr std::uint64_t kStepsBetweenPolls = 100;
 
