@@ -209,8 +209,8 @@ TEST_F(ShearCellPhysics, LeesEdwardsCellBalancesEnergyAndResistsShear) {
 // counted. The tangential spring follows the contact points' displacement over the step, as the
 // overlap follows the positions, so it stores the work done on it and adds no error of its own
 // order. Measured: frictionless -1.09%, -0.24%, -0.07% at 20, 40, 80 steps per collision,
-// sticking (mu = 5) -0.64%, -0.01%, +0.05% (-0.48%, -0.03%, +0.04% before the barostat sampled
-// every step). Until 6 December 2026 the spring was advanced by the
+// sticking (mu = 5) -0.82%, -0.15%, -0.03% (-0.64%, -0.01%, +0.05% while friction was booked in
+// sliding steps only, below). Until 6 December 2026 the spring was advanced by the
 // relative velocity predicted for the end of the step: an O(dt) loss no ledger entry held, the
 // sticking cell +2.88%, +1.93%, +0.98% (first order), which both assertions on it reject.
 TEST_F(ShearCellPhysics, EnergyBalanceErrorIsSecondOrderForNormalAndTangentialContacts) {
