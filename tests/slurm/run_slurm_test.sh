@@ -33,14 +33,7 @@ cleanup() {
 }
 trap cleanup EXIT
 
-fail() {
-  echo "FAILED: $*" >&2
-  for log in "$scratch"/slurm/*.logs/*.log; do echo "--- $log" >&2; tail -30 "$log" >&2; done
-  exit 1
-}
-query() {  # query DB SQL: one value
-  "$millflow" query --db "$1" --format csv "$2" | tail -n +2
-}
+source "$here/checks.sh"
 
 start_private_cluster "$scratch/cluster"
 echo "cluster up after $(echo "$(date +%s.%N) - $started" | bc) s"
@@ -116,12 +109,7 @@ echo "the steps task stopped at step $stopped_at, exit 75, and its second attemp
 slurm_elements=$(squeue --noheader --array --states=all --format=%i | wc -l)
 [ "$slurm_elements" -eq $((task_count + 1)) ] || fail "Slurm ran $slurm_elements jobs for $task_count tasks + 1"
 
-# Bitwise equal results and artifacts.
-"$millflow" export slurm-small --db "$scratch/local/local.db" --format json --out "$scratch/local/export" >/dev/null
-"$millflow" export slurm-small --db "$db" --format json --out "$scratch/slurm/export" >/dev/null
-cmp "$scratch/local/export/slurm-small.json" "$scratch/slurm/export/slurm-small.json" || fail "results differ"
-artifacts="SELECT task_key, name, sha256, size FROM artifacts ORDER BY task_key, name"
-[ "$(query "$scratch/local/local.db" "$artifacts")" = "$(query "$db" "$artifacts")" ] || fail "artifacts differ"
-[ "$(query "$db" "SELECT count(*) FROM tasks WHERE status <> 'done'")" -eq 0 ] || fail "tasks left unfinished"
+# Every task done, bitwise equal results and artifacts.
+expect_same_as_local "$db" "$scratch/local/local.db"
 
 echo "slurm test passed: $task_count tasks, $slurm_elements Slurm jobs, in $(echo "$(date +%s.%N) - $started" | bc) s"
