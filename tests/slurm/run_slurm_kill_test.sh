@@ -10,34 +10,14 @@
 # checkpoint signal; this one kills anywhere.)
 # Usage: run_slurm_kill_test.sh MILLFLOW_BINARY CAMPAIGN_FILE. Exit 77 (skipped) without Slurm.
 set -euo pipefail
-for binary in sbatch squeue scancel scontrol sinfo slurmctld slurmd munged; do
-  if ! PATH=$PATH:/usr/sbin command -v "$binary" >/dev/null; then
-    echo "skipped: $binary is not installed (apt-get install slurm-wlm munge)"
-    exit 77
-  fi
-done
 millflow=$(realpath "$1")
 campaign=$(realpath "$2")
 here=$(dirname "$(realpath "$0")")
+source "$here/common.sh"
+require_slurm
 kills=${KILLS:-12}
 
-scratch=$(mktemp -d /tmp/millflow-slurm-kill-XXXXXX)
-source "$here/private_cluster.sh"
-source "$here/checks.sh"
-coordinator=""
-reference=""
-cleanup() {
-  [ -n "$coordinator" ] && kill -9 "$coordinator" 2>/dev/null || true
-  [ -n "$reference" ] && kill -9 "$reference" 2>/dev/null || true
-  stop_private_cluster
-  rm -rf "$scratch"
-}
-trap cleanup EXIT
-
-start_private_cluster "$scratch/cluster"
-mkdir -p "$scratch/local" "$scratch/slurm"
-"$millflow" submit "$campaign" --executor local --db "$scratch/local/local.db" --jobs 5 >/dev/null 2>&1 &
-reference=$!
+start_cluster_and_reference millflow-slurm-kill
 db=$scratch/slurm/slurm.db
 
 command=(submit "$campaign" --executor slurm --db "$db" --poll-interval 0.3)

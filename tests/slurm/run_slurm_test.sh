@@ -10,38 +10,17 @@
 # bitwise equal to a run of the same campaign with the local executor.
 # Usage: run_slurm_test.sh MILLFLOW_BINARY CAMPAIGN_FILE. Exit 77 (skipped) without Slurm.
 set -euo pipefail
-for binary in sbatch squeue scancel scontrol sinfo slurmctld slurmd munged sqlite3; do
-  if ! PATH=$PATH:/usr/sbin command -v "$binary" >/dev/null; then
-    echo "skipped: $binary is not installed (apt-get install slurm-wlm munge sqlite3)"
-    exit 77
-  fi
-done
 millflow=$(realpath "$1")
 campaign=$(realpath "$2")
 here=$(dirname "$(realpath "$0")")
+source "$here/common.sh"
+require_slurm sqlite3
 
 started=$(date +%s.%N)
-scratch=$(mktemp -d /tmp/millflow-slurm-XXXXXX)
-source "$here/private_cluster.sh"
-coordinator=""
-reference=""
-cleanup() {
-  [ -n "$coordinator" ] && kill -9 "$coordinator" 2>/dev/null || true
-  [ -n "$reference" ] && kill -9 "$reference" 2>/dev/null || true
-  stop_private_cluster
-  rm -rf "$scratch"
-}
-trap cleanup EXIT
-
-source "$here/checks.sh"
-
-start_private_cluster "$scratch/cluster"
+# The cluster, and the reference beside it: the same campaign with the local executor (its tasks
+# mostly sleep).
+start_cluster_and_reference millflow-slurm
 echo "cluster up after $(echo "$(date +%s.%N) - $started" | bc) s"
-
-# The reference: the same campaign with the local executor, run meanwhile (its tasks mostly sleep).
-mkdir -p "$scratch/local" "$scratch/slurm"
-"$millflow" submit "$campaign" --executor local --db "$scratch/local/local.db" --jobs 5 >/dev/null 2>&1 &
-reference=$!
 db=$scratch/slurm/slurm.db
 
 # Submit through Slurm and kill the coordinator once its first jobs are queued or running.
