@@ -11,6 +11,7 @@
 #include <fstream>
 #include <string>
 #include <system_error>
+#include <vector>
 
 namespace millflow::util {
 namespace fs = std::filesystem;
@@ -132,9 +133,51 @@ void copy_file_durably(const fs::path& from, const fs::path& to) {
   ::close(source);
 }
 
+namespace {
+
+// Moves every entry of `from` into `to`, replacing an entry of the same name (a directory found
+// in both is merged the same way), then makes the renames durable.
+void move_entries_replacing(const fs::path& from, const fs::path& to) {
+  // Listed first: a directory's listing while its entries move out is unspecified (POSIX).
+  const std::vector<fs::directory_entry> listed{fs::directory_iterator(from),
+                                                fs::directory_iterator()};
+  for (const fs::directory_entry& entry : listed) {
+    const fs::path destination = to / entry.path().filename();
+    const bool both_directories = entry.is_directory() && fs::is_directory(destination);
+    if (both_directories) {
+      move_entries_replacing(entry.path(), destination);
+      fs::remove(entry.path());  // emptied
+      continue;
+    }
+    // A file cannot replace a directory by a rename, nor a directory a file.
+    if (fs::exists(fs::symlink_status(destination)) &&
+        entry.is_directory() != fs::is_directory(destination))
+      fs::remove_all(destination);
+    fs::rename(entry.path(), destination);
+  }
+  sync_directory(to);
+}
+
+}  // namespace
+
 void fill_directory_durably(const fs::path& given,
                             const std::function<void(const fs::path&)>& fill) {
-  if (fs::is_directory(given)) return fill(given);
+  if (fs::is_directory(given)) {
+    // Staged inside it (its parent may not be writable), then moved in by renames.
+    const fs::path staging = given / kStagingDirectoryName;
+    fs::remove_all(staging);
+    fs::create_directories(staging);
+    try {
+      fill(staging);
+      move_entries_replacing(staging, given);
+      fs::remove(staging);
+    } catch (...) {
+      std::error_code ignored;
+      fs::remove_all(staging, ignored);
+      throw;
+    }
+    return;
+  }
   fs::path target = given.lexically_normal();
   if (!target.has_filename()) target = target.parent_path();  // "out/"
   const fs::path staging =

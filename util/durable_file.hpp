@@ -40,8 +40,12 @@ void copy_file_durably(const std::filesystem::path& from, const std::filesystem:
 
 // Fills a directory: one that does not exist yet is filled under a temporary name beside it
 // (".<name>.partial", cleared first: what a killed fill left) and renamed into place, so a crash
-// leaves the whole directory or none; an existing one is filled in place, each file whole. `fill`
-// writes into the directory it is given. When `fill` throws, a new directory is not created.
+// leaves the whole directory or none. An existing one (it may hold files of its own, which are
+// kept) is filled in kStagingDirectoryName inside it, whose entries then replace those of the
+// same names by renames: a crash while `fill` runs leaves it as it was, one during the renames
+// (milliseconds) some entries new and some old, each whole. `fill` writes into the directory it
+// is given. When `fill` throws, nothing of it remains.
+inline constexpr const char* kStagingDirectoryName = ".millflow.partial";
 void fill_directory_durably(const std::filesystem::path& target,
                             const std::function<void(const std::filesystem::path&)>& fill);
 

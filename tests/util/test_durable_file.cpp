@@ -112,11 +112,56 @@ TEST(DurableFile, ANewDirectoryIsWholeOrAbsent) {
   EXPECT_EQ(entries(target), 1u);
   EXPECT_EQ(entries(dir.path()), 1u);
 
-  fill_directory_durably(target, [&](const fs::path& into) {  // an existing one: in place
-    EXPECT_EQ(into, target);
+  fill_directory_durably(target, [&](const fs::path& into) {  // an existing one: staged inside
+    EXPECT_EQ(into, target / kStagingDirectoryName);
     write_file_durably(into / "b.svg", "b");
   });
   EXPECT_EQ(entries(target), 2u);
+  EXPECT_EQ(read(target / "b.svg"), "b");
+}
+
+// `millflow report --out DIR` into an existing DIR, killed part-way, left DIR with some files of
+// the new report among the old report's: the new files are now staged inside DIR and moved in
+// only once all are written, replacing those of the same names and keeping the others.
+TEST(DurableFile, AnExistingDirectoryKeepsItsFilesUntilTheFillIsWhole) {
+  ScratchDir dir;
+  const fs::path target = dir.path() / "report";
+  write_file_durably(dir.path() / "keep", "");
+  fs::create_directories(target / "plots");
+  write_file_durably(target / "index.md", "old");
+  write_file_durably(target / "plots" / "a.svg", "old");
+  write_file_durably(target / "notes.txt", "the user's");
+  write_file_durably(target / "table", "a file where the new fill has a directory");
+  const auto fill_new = [](const fs::path& into) {
+    fs::create_directories(into / "plots");
+    fs::create_directories(into / "table");
+    write_file_durably(into / "index.md", "new");
+    write_file_durably(into / "plots" / "a.svg", "new");
+    write_file_durably(into / "plots" / "b.svg", "new");
+    write_file_durably(into / "table" / "t.csv", "new");
+  };
+  EXPECT_THROW(fill_directory_durably(target,
+                                      [&](const fs::path& into) {
+                                        fill_new(into);
+                                        throw std::runtime_error("killed");
+                                      }),
+               std::runtime_error);
+  EXPECT_EQ(read(target / "index.md"), "old");
+  EXPECT_EQ(read(target / "plots" / "a.svg"), "old");
+  EXPECT_EQ(entries(target / "plots"), 1u);
+  EXPECT_EQ(entries(target), 4u) << "nothing of the failed fill remains";
+
+  fs::create_directories(target / kStagingDirectoryName);  // as a kill -9 part-way leaves it
+  write_file_durably(target / kStagingDirectoryName / "stale.svg", "stale");
+  fill_directory_durably(target, fill_new);
+  EXPECT_EQ(read(target / "index.md"), "new");
+  EXPECT_EQ(read(target / "plots" / "a.svg"), "new");
+  EXPECT_EQ(read(target / "plots" / "b.svg"), "new");
+  EXPECT_EQ(read(target / "table" / "t.csv"), "new");
+  EXPECT_EQ(read(target / "notes.txt"), "the user's");
+  EXPECT_FALSE(fs::exists(target / "stale.svg"));
+  EXPECT_EQ(entries(target), 4u) << "index.md, plots, table, notes.txt: no staging left";
+  EXPECT_EQ(entries(dir.path()), 2u);
 }
 
 TEST(Sha256, KnownDigestsOfTextAndFiles) {
