@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <functional>
 #include <iostream>
 
 #include "cli/estimate.hpp"
@@ -28,6 +29,21 @@ namespace fs = std::filesystem;
 using engine::TableFormat;
 
 constexpr int kBusy = 3;
+
+// Writes an --out directory through util::fill_directory_durably (a kill while `write` runs
+// leaves an existing directory as it was and a new one absent); `write` returns the files it
+// wrote under the directory it is given, and so does this, at their final places.
+std::vector<fs::path> write_out_directory(
+    const fs::path& out_dir, const std::function<std::vector<fs::path>(const fs::path&)>& write) {
+  std::vector<fs::path> files;
+  fs::path staged_in;
+  util::fill_directory_durably(out_dir, [&](const fs::path& dir) {
+    staged_in = dir;
+    files = write(dir);
+  });
+  for (fs::path& file : files) file = out_dir / file.lexically_relative(staged_in);
+  return files;
+}
 
 struct RunFlags {
   std::string db = "millflow.db";
@@ -327,10 +343,11 @@ void add_export(CLI::App& app, std::optional<int>& code) {
   command->add_option("--out", *out, "Output directory")->required();
   command->callback([&code, name, db, format, out] {
     code = guarded([&] {
-      for (const auto& file : engine::export_campaign(
-               existing_database(*db), *name, parse_format(*format), output_directory(*out))) {
-        std::cout << file.string() << '\n';
-      }
+      const fs::path database = existing_database(*db);
+      const auto files = write_out_directory(output_directory(*out), [&](const fs::path& dir) {
+        return engine::export_campaign(database, *name, parse_format(*format), dir);
+      });
+      for (const auto& file : files) std::cout << file.string() << '\n';
       return 0;
     });
   });
@@ -468,8 +485,10 @@ void add_files(CLI::App& app, std::optional<int>& code) {
   command->add_option("--out", *out, "Output directory")->required();
   command->callback([&code, name, db, out] {
     code = guarded([&] {
-      const auto files =
-          engine::export_files(existing_database(*db), *name, output_directory(*out));
+      const fs::path database = existing_database(*db);
+      const auto files = write_out_directory(output_directory(*out), [&](const fs::path& dir) {
+        return engine::export_files(database, *name, dir);
+      });
       for (const auto& file : files) {
         if (file.extension() == ".pvd" || file.filename() == "tasks.csv")
           std::cout << file.string() << '\n';
