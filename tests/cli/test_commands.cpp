@@ -234,7 +234,17 @@ TEST_F(Cli, ExportWritesOneCsvPerKindOrOneJsonFile) {
     EXPECT_EQ(task["task_key"], keys.at(value));
     EXPECT_EQ(task["result"]["sum"], kDiamondSums.at(value));
   }
+  // A failed export leaves the directory as it was: both files, nothing staged.
   EXPECT_EQ(millflow({"export", "nope", "--format", "json", "--out", out.string()}).exit_code, 2);
+  EXPECT_EQ(std::distance(fs::directory_iterator(out), fs::directory_iterator()), 2);
+  // Into a new directory: absent after a failure, whole after a success.
+  const fs::path fresh = dir_.path() / "new" / "export";
+  EXPECT_EQ(millflow({"export", "nope", "--format", "json", "--out", fresh.string()}).exit_code, 2);
+  EXPECT_FALSE(fs::exists(fresh));
+  EXPECT_FALSE(fs::exists(fresh.parent_path() / ".export.partial"));
+  ASSERT_EQ(millflow({"export", "diamond", "--format", "json", "--out", fresh.string()}).exit_code,
+            0);
+  EXPECT_EQ(read_text(fresh / "diamond.json"), read_text(out / "diamond.json"));
 }
 
 TEST_F(Cli, DagWithTasksHasEveryTaskAndEveryEdge) {
