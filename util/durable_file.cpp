@@ -162,37 +162,30 @@ void move_entries_replacing(const fs::path& from, const fs::path& to) {
 
 void fill_directory_durably(const fs::path& given,
                             const std::function<void(const fs::path&)>& fill) {
-  if (fs::is_directory(given)) {
-    // Staged inside it (its parent may not be writable), then moved in by renames.
-    const fs::path staging = given / kStagingDirectoryName;
-    fs::remove_all(staging);
-    fs::create_directories(staging);
-    try {
-      fill(staging);
-      move_entries_replacing(staging, given);
-      fs::remove(staging);
-    } catch (...) {
-      std::error_code ignored;
-      fs::remove_all(staging, ignored);
-      throw;
-    }
-    return;
-  }
+  const bool existing = fs::is_directory(given);
   fs::path target = given.lexically_normal();
   if (!target.has_filename()) target = target.parent_path();  // "out/"
+  // An existing directory is staged inside it (its parent may not be writable), a new one beside
+  // where it goes.
   const fs::path staging =
-      directory_of(target) / fmt::format(".{}.partial", target.filename().string());
+      existing ? target / kStagingDirectoryName
+               : directory_of(target) / fmt::format(".{}.partial", target.filename().string());
   fs::remove_all(staging);
   fs::create_directories(staging);
   try {
     fill(staging);
-    fs::rename(staging, target);
+    if (existing) {
+      move_entries_replacing(staging, target);
+      fs::remove(staging);
+    } else {
+      fs::rename(staging, target);
+      sync_directory(directory_of(target));
+    }
   } catch (...) {
     std::error_code ignored;
     fs::remove_all(staging, ignored);
     throw;
   }
-  sync_directory(directory_of(target));
 }
 
 SimulatedFullDisk::SimulatedFullDisk(std::int64_t bytes_left) {
