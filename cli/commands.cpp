@@ -459,7 +459,8 @@ void add_report(CLI::App& app, std::optional<int>& code) {
             {{"", "campaign \"" + campaign + "\" has no finished report task",
               "run `millflow resume " + campaign + "` until its report task is done"}});
       }
-      // A kill leaves the whole report or none (a new directory), never some of its files.
+      // A kill while the report is copied leaves a new directory absent and an existing one as it
+      // was (util::fill_directory_durably says what a kill in its final renames leaves).
       util::fill_directory_durably(out_dir, [&](const fs::path& dir) {
         engine::copy_artifacts(database, reports.front().artifacts, dir);
       });
