@@ -513,8 +513,12 @@ class Coordinator {
   // --- outcomes ----------------------------------------------------------------------------
   void handle(Event event) {
     if (event.type == Event::Type::log) {
-      // A task marks the lines that matter (e.g. a checkpoint it had to discard) "warning: ".
-      log(event.key, event.message.starts_with(kTaskWarning) ? "warn" : "info", event.message);
+      // A task marks the lines that matter (e.g. a checkpoint it had to discard) "warning: ":
+      // the line's level says so, without the marker (the console would print it twice).
+      if (event.message.starts_with(kTaskWarning))
+        log(event.key, "warn", event.message.substr(kTaskWarning.size()));
+      else
+        log(event.key, "info", event.message);
       return;
     }
     --running_;

@@ -77,7 +77,7 @@ struct TaskOutcome {
 
 // What a running task gets. Thread-safe to use from the task's own threads.
 // A task's log line starting with this is a warning: the coordinator logs it at warn level, which
-// is also printed on the terminal.
+// is also printed on the terminal, without the marker.
 inline constexpr std::string_view kTaskWarning = "warning: ";
 
 struct TaskContext {

@@ -55,11 +55,16 @@ struct StepsCheckpoint {
   std::uint64_t state = 0;
 };
 
-StepsCheckpoint read_steps_checkpoint(const std::filesystem::path& file) {
+// The saved state, or none (step 0) when there is no file; one that cannot be read is logged as
+// a warning and the task starts again, as the DEM kinds do.
+StepsCheckpoint read_steps_checkpoint(const std::filesystem::path& file, TaskContext& context) {
   StepsCheckpoint checkpoint;
   std::ifstream in(file);
-  if (in && !(in >> checkpoint.step >> checkpoint.state))
-    throw std::runtime_error("unreadable checkpoint " + file.string());
+  if (in && !(in >> checkpoint.step >> checkpoint.state)) {
+    context.log(fmt::format("{}the checkpoint {} cannot be read; starting again from step 0",
+                            kTaskWarning, file.string()));
+    return {};
+  }
   return checkpoint;
 }
 
@@ -76,7 +81,7 @@ TaskOutcome run_steps(TaskContext& context) {
   const std::int64_t step_ms = integer_param(context.params, "step_ms", 0);
   std::filesystem::create_directories(context.work_dir);
   const auto file = context.work_dir / "steps.checkpoint";
-  StepsCheckpoint checkpoint = read_steps_checkpoint(file);
+  StepsCheckpoint checkpoint = read_steps_checkpoint(file, context);
   if (checkpoint.step > 0)
     context.log(fmt::format("continuing from step {} of {}", checkpoint.step, steps));
   while (checkpoint.step < steps) {

@@ -10,7 +10,8 @@
 //          with {"non_finite": true} it returns a NaN result on them instead of throwing
 //   steps  {"steps": N, "step_ms": M} N steps of M ms, each advancing a 64-bit state; checkpoints
 //          (step, state) in its work directory after every step, stops at a stop request and
-//          continues from the checkpoint when run again (logging "continuing from step k of N");
+//          continues from the checkpoint when run again (logging "continuing from step k of N";
+//          a checkpoint it cannot read is logged as a warning and it starts again from step 0);
 //          result {"steps": N, "state": "<16 hex digits>"}
 //   sum    {"value": N, "sleep_ms": M, "artifact": true, "skipped": "reason"}
 //          result {"sum": N + the "sum" of each input}, plus {"skipped": reason} when given (a

@@ -276,6 +276,41 @@ TEST(Runtime, StoppedTaskContinuesFromItsCheckpointToTheSameResult) {
   EXPECT_EQ(json::parse(only_result(dir.db()))["steps"], 60);
 }
 
+// A task's warning (a line marked kTaskWarning: here a checkpoint it cannot read) is stored at
+// level warn without the marker, which the terminal's warning prefix would repeat.
+TEST(Runtime, ATasksWarningIsLoggedAtWarnLevelWithoutItsMarker) {
+  const auto campaign = test_campaign(
+      "steps",
+      json::array({{{"id", "s"}, {"kind", "steps"}, {"params", {{"steps", 20}, {"step_ms", 5}}}}}));
+  ScratchDir whole;
+  ASSERT_EQ(submit(campaign, whole.db()).exit_code(), 0);
+  ScratchDir dir;
+  const auto checkpoints = [&] {
+    std::vector<std::filesystem::path> files;
+    std::error_code missing;
+    for (const auto& entry : std::filesystem::directory_iterator(work_dir(dir.db()), missing)) {
+      if (std::filesystem::exists(entry.path() / "steps.checkpoint"))
+        files.push_back(entry.path() / "steps.checkpoint");
+    }
+    return files;
+  };
+  SubmitOptions options;
+  options.run.refresh_s = 0.002;
+  options.run.stop_requested = [&] { return !checkpoints().empty(); };
+  ASSERT_EQ(submit_campaign(testing_registry(), campaign, dir.db(), options).interrupted, 1);
+  ASSERT_EQ(checkpoints().size(), 1u);
+  const std::filesystem::path checkpoint = checkpoints().front();  // gone once the task is done
+  std::ofstream(checkpoint) << "garbage\n";
+  ASSERT_EQ(submit(campaign, dir.db()).exit_code(), 0);
+  EXPECT_EQ(count(dir.db(),
+                  "SELECT count(*) FROM log_lines WHERE level = 'warn' AND message = '"
+                  "the checkpoint " +
+                      checkpoint.string() + " cannot be read; starting again from step 0'"),
+            1);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM log_lines WHERE message LIKE 'warning:%'"), 0);
+  EXPECT_EQ(only_result(dir.db()), only_result(whole.db()));
+}
+
 // A NaN in a result used to throw out of the commit and stop the coordinator, leaving the task
 // running; every resume did the same. It is a failed attempt, logged, and a retry can succeed.
 TEST(Runtime, ANonFiniteResultIsAFailedAttemptWithTheReasonInTheTaskLog) {
