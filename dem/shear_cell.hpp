@@ -42,6 +42,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <span>
@@ -281,9 +282,13 @@ class ShearCell {
   // cell's choice once its first warm-up window ended).
   double neighbor_skin_fraction() const;
 
-  // Closes the loose placement gap until the bed carries half the normal stress. The first run
-  // below does it if it was not done.
-  void compact();
+  // Closes the loose placement gap until the bed carries half the normal stress (CompactionEnd),
+  // in whole control intervals. It stops after the interval that reaches `max_steps` more steps
+  // and goes on at the next call, so that a checkpoint can come between (the same bits as a
+  // compaction that never stopped); true once compacted. The first run below compacts whole if
+  // it was not done.
+  bool compact(std::uint64_t max_steps = std::numeric_limits<std::uint64_t>::max());
+  bool compacted() const { return compaction_ == Compaction::Done; }
   // Runs `strain` of shear (target rate x time) with no measurement and no control.
   void run_strain(double strain);
   // Steps the system after compact(); with Lees-Edwards also integrates the boundary's work and
@@ -464,7 +469,11 @@ class ShearCell {
   StressControlPtr control_;
   WallSpeedController speed_controller_{setup_.shear_rate};  // RoughWalls
   double le_work_ = 0.0;  // work put in through the LE boundary so far, J
-  bool compacted_ = false;
+  // Where compaction stands (the values are the checkpoint's byte), and its end's count of
+  // loaded intervals while it runs.
+  enum class Compaction : std::uint8_t { NotStarted = 0, Done = 1, Running = 2 };
+  Compaction compaction_ = Compaction::NotStarted;
+  CompactionEnd compaction_end_{setup_.normal_stress};
 };
 
 // What a cell run does: compaction, warm-up in windows of warmup_strain / warmup_windows until
@@ -490,12 +499,14 @@ struct ShearCellProtocol {
   std::string code_version = {};
 };
 
-// A cell run that can stop between any two steps after compaction and continue from a
-// checkpoint with the same bits as a run that never stopped (compaction runs as one piece: a
-// few hundred collision times). advance() in chunks of any size gives the same bits too.
+// A cell run that can stop between any two steps, or between two control intervals while it
+// compacts, and continue from a checkpoint with the same bits as a run that never stopped.
+// advance() in chunks of any size gives the same bits too.
 //
 // Checkpoint file: the checksummed container of dem/binary_io.hpp, magic "MFSHRCKP", payload
-// version kShearCellCheckpointVersion. Payload (version 8; version 7 lacked the code version, so
+// version kShearCellCheckpointVersion. Payload (version 9; version 8 ran compaction whole, so it
+// lacked the stress control's speed-limit flag and compaction's count of loaded intervals, and
+// held compaction's state as 0 or 1; version 7 lacked the code version, so
 // a cell could be continued by a build of other physics; version 7 had the layout of version 6: a
 // version-6 file was written by the integrator whose tangential spring followed the end-of-step
 // velocity, and continued now it would finish under another contact law, so it is refused and the
@@ -516,15 +527,16 @@ struct ShearCellProtocol {
 //   cell: media, powder and wall ball counts (uint64), wall speed, LE boundary work; the stress
 //         control (StressControl::write: stress sum and sample count since the last control
 //         interval, the stress that interval answered and its running mean over the relaxation
-//         time; the barostat then its stretches' work, its integral term, the strain of its
-//         last answer still to stretch (double) and the parts left to stretch it in (uint64),
-//         the servo its integral term); the wall-speed controller (WallSpeedController::write: the
-//         bulk fractions of the windows at the current speed (uint64 count, doubles), the last
-//         steady estimate (double), settled (uint8), its steady points that stepped: the last,
-//         the latest below the target and the latest above it, each speed, bulk fraction and
-//         its standard error (3 doubles, speed 0 for none), the measured window's duration
-//         up to its last control point and the walls' travel over it (2 doubles));
-//         compacted (uint8)
+//         time, whether it closes at the speed limit (uint8); the barostat then its stretches'
+//         work, its integral term, the strain of its last answer still to stretch (double) and the
+//         parts left to stretch it in (uint64), the servo its integral term); the wall-speed
+//         controller (WallSpeedController::write: the bulk fractions of the windows at the current
+//         speed (uint64 count, doubles), the last steady estimate (double), settled (uint8), its
+//         steady points that stepped: the last, the latest below the target and the latest above
+//         it, each speed, bulk fraction and its standard error (3 doubles, speed 0 for none), the
+//         measured window's duration up to its last control point and the walls' travel over it (2
+//         doubles)); compaction (uint8: 0 not started, 1 done, 2 under way), its loaded control
+//         intervals in a row (int32, CompactionEnd)
 //   run: phase (uint8: 0 compacting, 1 warm-up, 2 measuring), warm-up window index
 //        (int32); the window in progress (uint64 steps, half, every, done; profile: 8 doubles;
 //        shear stress sum, normal stress sum (with walls summed every step of the second half,
@@ -545,7 +557,7 @@ struct ShearCellProtocol {
 // The system buffers no collision events while the cell measures: its recording flag is on and
 // each finished contact goes to the measurement's tally as it finishes (those of a relief's steps
 // are buffered, and tallied before a save).
-inline constexpr std::uint32_t kShearCellCheckpointVersion = 8;
+inline constexpr std::uint32_t kShearCellCheckpointVersion = 9;
 
 class ShearCellRun {
  public:
@@ -562,7 +574,8 @@ class ShearCellRun {
   // that differs in anything else, std::logic_error once done().
   ShearCellRun with_interactions(const ShearCellSetup& setup);
 
-  // Runs at most `max_steps` more steps (compaction, which runs whole, aside); true when done.
+  // Runs at most `max_steps` more steps (compaction up to one control interval more: it stops
+  // only between two); true when done.
   bool advance(std::uint64_t max_steps);
   bool done() const { return phase_ == Phase::Done; }
   // Fraction of the warm-up and measurement steps done, and what the run is doing.

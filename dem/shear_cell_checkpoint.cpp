@@ -191,7 +191,8 @@ void ShearCell::write_state(BinaryWriter& out) const {
   out.put(le_work_);
   control_->write(out);
   speed_controller_.write(out);
-  out.put<std::uint8_t>(compacted_);
+  out.put(static_cast<std::uint8_t>(compaction_));
+  compaction_end_.write(out);
 }
 
 void ShearCell::read_state(BinaryReader& in) {
@@ -201,7 +202,11 @@ void ShearCell::read_state(BinaryReader& in) {
   le_work_ = in.get<double>();
   control_->read(in);
   speed_controller_.read(in);
-  compacted_ = in.get<std::uint8_t>() != 0;
+  const auto compaction = in.get<std::uint8_t>();
+  if (compaction > static_cast<std::uint8_t>(Compaction::Running))
+    throw CorruptData("shear cell checkpoint: compaction's state is out of range");
+  compaction_ = static_cast<Compaction>(compaction);
+  compaction_end_.read(in);
   if (media_count_ + powder_count_ + wall_ball_count_ != system_.size()) {
     throw CorruptData("shear cell checkpoint: the particle counts do not add up to the system's");
   }
@@ -261,6 +266,10 @@ ShearCellRun ShearCellRun::from_state(const ShearCellSetup& setup,
     throw CorruptData(fmt::format("{}: unknown shear cell run phase {}", source, phase));
   }
   run.phase_ = static_cast<Phase>(phase);
+  if ((run.phase_ == Phase::Compacting) == run.cell_.compacted()) {
+    throw CorruptData(
+        fmt::format("{}: the run's phase and the cell's compaction disagree", source));
+  }
   run.window_index_ = in.get<std::int32_t>();
   run.window_.read(in);
   const auto windows = in.get<std::uint64_t>();

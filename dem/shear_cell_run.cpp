@@ -49,14 +49,14 @@ bool ShearCellRun::advance(std::uint64_t max_steps) {
   while (!done()) {
     const std::uint64_t before = cell_.system().step_count();
     if (phase_ == Phase::Compacting) {
-      cell_.compact();
+      cell_.compact(left);
     } else if (phase_ == Phase::WarmUp) {
       cell_.advance_window(window_, left);
     } else {
       cell_.advance_measurement(measurement_, left);
     }
     left -= std::min(left, cell_.system().step_count() - before);
-    const bool piece_finished = phase_ == Phase::Compacting ||
+    const bool piece_finished = (phase_ == Phase::Compacting && cell_.compacted()) ||
                                 (phase_ == Phase::WarmUp && window_.finished()) ||
                                 (phase_ == Phase::Measuring && measurement_.finished());
     if (!piece_finished) break;

@@ -71,27 +71,34 @@ std::unique_ptr<StressControl> ShearCell::make_stress_control() const {
   return std::make_unique<LeesEdwardsBarostat>(settings);
 }
 
-void ShearCell::compact() {
-  if (compacted_) return;
-  compacted_ = true;
+bool ShearCell::compact(std::uint64_t max_steps) {
+  if (compaction_ == Compaction::Done) return true;
   // The linear law would close the loose fill far too slowly (it moves a boundary that touches
   // nothing only by the small strain that carries the target per relaxation time), so the
   // boundary closes at the speed limit while the bed carries less than half the target over a
   // control interval, and compaction ends on a state: several intervals in a row carrying it
   // (CompactionEnd; an LE box closes again whenever it loses contact: dem/stress_control.hpp).
   const StressControlSettings& control = control_->settings();
-  const double limit = 4.0 * placement_gap(setup_) / control.max_speed;
-  CompactionEnd end(setup_.normal_stress);
-  control_->set_closing(true);
-  while (system_.time() < limit && !end.compacted()) {
-    step_controlled(control.interval_steps);
-    const bool was_closing = end.closing();
-    end.answer(control_->last_interval_stress());
-    if (end.closing() != was_closing) control_->set_closing(end.closing());
+  if (compaction_ == Compaction::NotStarted) {
+    compaction_ = Compaction::Running;
+    control_->set_closing(true);
   }
+  const double limit = 4.0 * placement_gap(setup_) / control.max_speed;
+  const auto more_to_do = [&] { return system_.time() < limit && !compaction_end_.compacted(); };
+  for (std::uint64_t steps = 0; steps < max_steps && more_to_do();
+       steps += control.interval_steps) {
+    step_controlled(control.interval_steps);
+    const bool was_closing = compaction_end_.closing();
+    compaction_end_.answer(control_->last_interval_stress());
+    if (compaction_end_.closing() != was_closing) control_->set_closing(compaction_end_.closing());
+  }
+  if (more_to_do()) return false;
   control_->set_closing(false);
-  spdlog::debug("shear cell: compacted in {:.4g} s to a gap of {:.4g} m{}", system_.time(), gap(),
-                end.compacted() ? "" : " (time limit: the bed never carried half its target)");
+  compaction_ = Compaction::Done;
+  spdlog::debug(
+      "shear cell: compacted in {:.4g} s to a gap of {:.4g} m{}", system_.time(), gap(),
+      compaction_end_.compacted() ? "" : " (time limit: the bed never carried half its target)");
+  return true;
 }
 
 template <class AfterStep>
@@ -127,7 +134,7 @@ void ShearCell::step_controlled(std::size_t steps) {
 
 StressReliefResult ShearCell::relieve_normal_stress(const StressRelief& relief) {
   if (walls()) throw std::logic_error("shear cell: relieve_normal_stress needs Lees-Edwards");
-  if (!compacted_) throw std::logic_error("shear cell: relieve_normal_stress before compaction");
+  if (!compacted()) throw std::logic_error("shear cell: relieve_normal_stress before compaction");
   const double target = setup_.normal_stress;
   const double height0 = system_.domain().length().y();
   const auto interval = static_cast<std::uint64_t>(setup_.steps_per_collision);

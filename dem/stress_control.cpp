@@ -99,12 +99,14 @@ void StressControl::set_closing(bool closing) {
 
 void StressControl::write(BinaryWriter& out) const {
   for (double v : {stress_sum_, stress_samples_, last_stress_, smoothed_stress_}) out.put(v);
+  out.put<std::uint8_t>(at_speed_limit_);
   write_own(out);
 }
 
 void StressControl::read(BinaryReader& in) {
   for (double* v : {&stress_sum_, &stress_samples_, &last_stress_, &smoothed_stress_})
     *v = in.get<double>();
+  at_speed_limit_ = in.get<std::uint8_t>() != 0;
   read_own(in);
 }
 

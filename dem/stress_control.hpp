@@ -57,6 +57,18 @@ class CompactionEnd {
   bool closing() const { return loaded_ == 0; }
   bool compacted() const { return loaded_ >= kCompactedIntervals; }
 
+  // Checkpoint state: the count of loaded intervals in a row (int32).
+  void write(BinaryWriter& out) const { out.put<std::int32_t>(loaded_); }
+  void read(BinaryReader& in) {
+    const std::int32_t loaded = in.get<std::int32_t>();
+    if (loaded < 0 || loaded > kCompactedIntervals) {
+      throw CorruptData(
+          "shear cell checkpoint: compaction's count of loaded intervals is out of "
+          "range");
+    }
+    loaded_ = loaded;
+  }
+
  private:
   double target_stress_;
   int loaded_ = 0;  // consecutive intervals that carried the closing fraction
@@ -162,7 +174,8 @@ class StressControl {
   virtual void reset_answer() = 0;
 
   // Checkpoint state: the base's four doubles (stress sum and sample count since the last
-  // interval, the stress it answered, its running mean over tau), then the boundary's own.
+  // interval, the stress it answered, its running mean over tau) and whether it closes at the
+  // speed limit (uint8: a checkpoint may come within compaction), then the boundary's own.
   void write(BinaryWriter& out) const;
   void read(BinaryReader& in);
 

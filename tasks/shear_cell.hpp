@@ -30,13 +30,13 @@
 // Run: a dem::ShearCellRun of shear_cell_protocol (warm-up in windows of warmup_strain /
 // kWarmupWindows until stationary or max_warmup_strain, then measure_strain measured and on to
 // convergence up to convergence/max_strain). The stop token is polled every kStepsBetweenPolls
-// steps (compaction runs whole); on a stop, and every /shear_cell/checkpoint_interval_s of wall
-// time, the run is saved to cell.ckpt in the work directory (the format is beside
-// dem::ShearCellRun), and the next attempt continues from it with the same bits. A checkpoint that
-// cannot be read (truncated, altered, of another cell, or written by another version of this
-// kind) is logged and removed, and the cell starts again from scratch. The file goes when the cell
-// is done. Result: method::CellResult
-// (method/cell_result.hpp), its JSON keys and their meaning.
+// steps (while it compacts, at the end of the control interval that reaches them); on a stop, and
+// every /shear_cell/checkpoint_interval_s of wall time, the run is saved to cell.ckpt in the work
+// directory (the format is beside dem::ShearCellRun), and the next attempt continues from it with
+// the same bits. A checkpoint that cannot be read (truncated, altered, of another cell, or written
+// by another version of this kind) is logged and removed, and the cell starts again from scratch.
+// The file goes when the cell is done. Result: method::CellResult (method/cell_result.hpp), its
+// JSON keys and their meaning.
 #include <cstdint>
 #include <optional>
 #include <string>

@@ -1,6 +1,7 @@
-// Shear cell checkpoints: a run stopped at several points of its warm-up and measurement and
-// continued from its checkpoint file gives the same bits as a run that never stopped, with both
-// boundaries; truncated, altered and foreign files are refused with a message that says so.
+// Shear cell checkpoints: a run stopped at several points of its compaction, warm-up and
+// measurement and continued from its checkpoint file gives the same bits as a run that never
+// stopped, with both boundaries; truncated, altered and foreign files are refused with a message
+// that says so.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
@@ -121,21 +122,27 @@ TEST_P(ShearCellCheckpoint, StoppingAnywhereAndContinuingGivesTheSameBits) {
   // The window finishes collisions, which a stop inside it must carry over.
   ASSERT_GT(uninterrupted.measurements().media_collisions.count, 0.0);
 
-  // Stop before compaction, then after every few chunks of an odd size, through both warm-up
-  // windows and the measurement; each stop saves, and a new run continues from the file.
+  // Stop before compaction, after every chunk of an odd size while it compacts (a chunk ends
+  // there at the first control interval's end past it), then after every few chunks, through
+  // both warm-up windows and the measurement; each stop saves, and a new run continues from the
+  // file.
   const std::filesystem::path file = dir.path() / "cell.ckpt";
   ShearCellRun first(setup, tiny_protocol());
   first.save(file);
   ShearCellRun run = ShearCellRun::resume(setup, tiny_protocol(), file);
   std::set<std::string> stopped_in;
+  int stops_while_compacting = 0;
   for (int chunk = 1; !run.advance(37); ++chunk) {
-    if (chunk % 9 != 0) continue;
+    const bool compacting = !run.cell().compacted();
+    if (chunk % 9 != 0 && !compacting) continue;
     stopped_in.insert(run.phase_name());
+    stops_while_compacting += compacting;
     run.save(file);
     run = ShearCellRun::resume(setup, tiny_protocol(), file);
   }
-  EXPECT_EQ(stopped_in, (std::set<std::string>{"warm-up window 1 (at most 2)",
+  EXPECT_EQ(stopped_in, (std::set<std::string>{"compacting", "warm-up window 1 (at most 2)",
                                                "warm-up window 2 (at most 2)", "measuring"}));
+  EXPECT_GE(stops_while_compacting, 3);
   expect_same_bits(uninterrupted, run);
 }
 

@@ -417,13 +417,16 @@ TEST(ShearCellSetup, StiffnessFactorMultipliesOnlyThePowderPairsAfterThePolicy) 
 }
 
 // One attempt of a task in a work directory kept across attempts: stopped when it reports
-// progress for the `stop_at`-th time (never when 0), its log lines kept.
+// progress for the `stop_at`-th time (never when 0, before its first step when -1), counting
+// only the reports of a phase whose name starts with `phase` when one is given; its log lines
+// kept.
 struct Attempt {
   engine::TaskOutcome outcome;
   std::vector<std::string> log;
 };
 
-Attempt attempt(const json& params, const std::filesystem::path& work_dir, int stop_at) {
+Attempt attempt(const json& params, const std::filesystem::path& work_dir, int stop_at,
+                std::string_view phase = {}) {
   const std::vector<engine::TaskInput> inputs = {sites_input()};
   std::stop_source stop;
   if (stop_at == -1) stop.request_stop();
@@ -436,8 +439,9 @@ Attempt attempt(const json& params, const std::filesystem::path& work_dir, int s
                               .threads = 2,
                               .stop = stop.get_token(),
                               .progress =
-                                  [&](double, std::string_view) {
-                                    if (++reports == stop_at) stop.request_stop();
+                                  [&](double, std::string_view name) {
+                                    if (name.starts_with(phase) && ++reports == stop_at)
+                                      stop.request_stop();
                                   },
                               .log = [&](std::string_view line) { result.log.emplace_back(line); }};
   tbb::task_arena arena(2);
@@ -474,9 +478,9 @@ TEST(ShearCell, StopsBeforeTheFirstStepWhenAskedAndKeepsACheckpoint) {
   EXPECT_TRUE(std::filesystem::exists(dir.path() / "work" / "cell.ckpt"));
 }
 
-// Stopped three times (in the warm-up's first and second windows and in the measurement: the tiny
-// cell reports progress every 100 steps, its warm-up windows are ~400 steps), each attempt
-// continuing from the last one's checkpoint: the same result bytes and snapshot as one attempt.
+// Stopped five times (twice while it compacts, in the warm-up's first and second windows and in
+// the measurement: the tiny cell reports progress every 100 steps), each attempt continuing from
+// the last one's checkpoint: the same result bytes and snapshot as one attempt.
 TEST(ShearCell, AnInterruptedCellContinuesFromItsCheckpointToTheSameResult) {
   const json params = tiny_cell_params(0.1);
   const millflow::testing::ScratchDir once, interrupted;
@@ -484,14 +488,20 @@ TEST(ShearCell, AnInterruptedCellContinuesFromItsCheckpointToTheSameResult) {
   ASSERT_FALSE(reference.outcome.interrupted);
   const std::filesystem::path work = interrupted.path() / "work";
   std::vector<std::string> stops;
-  for (int stop_at : {1, 5, 12}) {
-    const Attempt stopped = attempt(params, work, stop_at);
-    ASSERT_TRUE(stopped.outcome.interrupted) << "stop at report " << stop_at;
+  for (const auto& [stop_at, phase] : {std::pair{1, "compacting"},
+                                       {2, "compacting"},
+                                       {1, "warm-up window 1 "},
+                                       {2, "warm-up window 2 "},
+                                       {2, "measuring"}}) {
+    const Attempt stopped = attempt(params, work, stop_at, phase);
+    ASSERT_TRUE(stopped.outcome.interrupted) << "stop at report " << stop_at << " of " << phase;
     stops.push_back(stopped.log.back());
   }
-  EXPECT_NE(stops[0].find("(warm-up window 1 (at most 4))"), std::string::npos) << stops[0];
-  EXPECT_NE(stops[1].find("(warm-up window 2 (at most 4))"), std::string::npos) << stops[1];
-  EXPECT_NE(stops[2].find("(measuring)"), std::string::npos) << stops[2];
+  EXPECT_NE(stops[0].find("(compacting)"), std::string::npos) << stops[0];
+  EXPECT_NE(stops[1].find("(compacting)"), std::string::npos) << stops[1];
+  EXPECT_NE(stops[2].find("(warm-up window 1 (at most 4))"), std::string::npos) << stops[2];
+  EXPECT_NE(stops[3].find("(warm-up window 2 (at most 4))"), std::string::npos) << stops[3];
+  EXPECT_NE(stops[4].find("(measuring)"), std::string::npos) << stops[4];
   const Attempt last = attempt(params, work, 0);
   ASSERT_FALSE(last.outcome.interrupted);
   EXPECT_NE(last.log.front().find("shear cell: continuing from the checkpoint at step"),
@@ -523,10 +533,9 @@ TEST(ShearCell, AnAutoSkinCellReportsItsChoiceAndOtherwiseTheSameResult) {
   // Stopped in the first warm-up window (before the choice, at its end) and in the second (after
   // it) and continued from its checkpoint, it reports the same skin: chosen by the continued run,
   // or the one the checkpoint saved. The log names the window it continues in.
-  for (const auto& [stop_at, window] :
-       {std::pair{1, "warm-up window 1 "}, {5, "warm-up window 2 "}}) {
+  for (const char* window : {"warm-up window 1 ", "warm-up window 2 "}) {
     const millflow::testing::ScratchDir stopped_dir;
-    ASSERT_TRUE(attempt(auto_params, stopped_dir.path() / "work", stop_at).outcome.interrupted);
+    ASSERT_TRUE(attempt(auto_params, stopped_dir.path() / "work", 1, window).outcome.interrupted);
     const Attempt resumed = attempt(auto_params, stopped_dir.path() / "work", 0);
     ASSERT_FALSE(resumed.log.empty());
     EXPECT_NE(resumed.log.front().find(window), std::string::npos) << resumed.log.front();
