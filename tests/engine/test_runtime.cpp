@@ -2,7 +2,9 @@
 // re-keying, shared tasks, dynamic expansion, artifact corruption, interruption.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
+#include <functional>
 
 #include "engine/store.hpp"
 #include "support_engine.hpp"
@@ -244,62 +246,78 @@ TEST(Runtime, StopRequestInterruptsRunningTasksAndResumeFinishes) {
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM campaigns WHERE outcome = 'interrupted'"), 1);
 }
 
+// One steps task of `steps` steps of 5 ms.
+Campaign steps_campaign(int steps) {
+  return test_campaign(
+      "steps",
+      json::array(
+          {{{"id", "s"}, {"kind", "steps"}, {"params", {{"steps", steps}, {"step_ms", 5}}}}}));
+}
+
+// The steps kind's checkpoints in the store's work directory, each with the step it holds (0 when
+// unreadable).
+std::vector<std::pair<std::filesystem::path, int>> steps_checkpoints(
+    const std::filesystem::path& db) {
+  std::vector<std::pair<std::filesystem::path, int>> found;
+  std::error_code missing;
+  for (const auto& entry : std::filesystem::directory_iterator(work_dir(db), missing)) {
+    const auto file = entry.path() / "steps.checkpoint";
+    std::ifstream checkpoint(file);
+    int step = 0;
+    if (checkpoint) found.emplace_back(file, checkpoint >> step ? step : 0);
+  }
+  return found;
+}
+
+// The result of one uninterrupted run of `campaign` (a single task) in a store of its own.
+std::string uninterrupted_result(const Campaign& campaign) {
+  ScratchDir whole;
+  EXPECT_EQ(submit(campaign, whole.db()).exit_code(), 0);
+  return only_result(whole.db());
+}
+
+// Submits `campaign` into `db`, stopping it once `stop` holds for the steps kind's checkpoints.
+RunSummary submit_until(
+    const Campaign& campaign, const std::filesystem::path& db,
+    const std::function<bool(const std::vector<std::pair<std::filesystem::path, int>>&)>& stop) {
+  SubmitOptions options;
+  options.run.refresh_s = 0.002;
+  options.run.stop_requested = [&] { return stop(steps_checkpoints(db)); };
+  return submit_campaign(testing_registry(), campaign, db, options);
+}
+
 // The steps kind stands in for a long DEM task: stopped part-way, it continues from the checkpoint
 // in its work directory, and the result equals that of one uninterrupted run.
 TEST(Runtime, StoppedTaskContinuesFromItsCheckpointToTheSameResult) {
-  const auto campaign = test_campaign(
-      "steps",
-      json::array({{{"id", "s"}, {"kind", "steps"}, {"params", {{"steps", 60}, {"step_ms", 5}}}}}));
-  ScratchDir whole;
-  ASSERT_EQ(submit(campaign, whole.db()).exit_code(), 0);
-
+  const auto campaign = steps_campaign(60);
+  const std::string whole = uninterrupted_result(campaign);
   ScratchDir dir;
-  SubmitOptions options;
-  options.run.refresh_s = 0.002;
-  options.run.stop_requested = [&] {  // once the task has checkpointed a few steps
-    std::error_code missing;
-    for (const auto& entry : std::filesystem::directory_iterator(work_dir(dir.db()), missing)) {
-      std::ifstream checkpoint(entry.path() / "steps.checkpoint");
-      int step = 0;
-      if (checkpoint >> step && step >= 5) return true;
-    }
-    return false;
+  const auto a_few_steps_saved = [](const auto& checkpoints) {
+    return std::any_of(checkpoints.begin(), checkpoints.end(),
+                       [](const auto& checkpoint) { return checkpoint.second >= 5; });
   };
-  EXPECT_EQ(submit_campaign(testing_registry(), campaign, dir.db(), options).interrupted, 1);
+  EXPECT_EQ(submit_until(campaign, dir.db(), a_few_steps_saved).interrupted, 1);
   ASSERT_EQ(submit(campaign, dir.db()).exit_code(), 0);
   const auto resumed = count(dir.db(),
                              "SELECT CAST(substr(message, 22) AS INTEGER) FROM log_lines "
                              "WHERE message LIKE 'continuing from step % of 60'");
   EXPECT_GE(resumed, 5);
   EXPECT_LT(resumed, 60);
-  EXPECT_EQ(only_result(dir.db()), only_result(whole.db()));
+  EXPECT_EQ(only_result(dir.db()), whole);
   EXPECT_EQ(json::parse(only_result(dir.db()))["steps"], 60);
 }
 
 // A task's warning (a line marked kTaskWarning: here a checkpoint it cannot read) is stored at
 // level warn without the marker, which the terminal's warning prefix would repeat.
 TEST(Runtime, ATasksWarningIsLoggedAtWarnLevelWithoutItsMarker) {
-  const auto campaign = test_campaign(
-      "steps",
-      json::array({{{"id", "s"}, {"kind", "steps"}, {"params", {{"steps", 20}, {"step_ms", 5}}}}}));
-  ScratchDir whole;
-  ASSERT_EQ(submit(campaign, whole.db()).exit_code(), 0);
+  const auto campaign = steps_campaign(20);
+  const std::string whole = uninterrupted_result(campaign);
   ScratchDir dir;
-  const auto checkpoints = [&] {
-    std::vector<std::filesystem::path> files;
-    std::error_code missing;
-    for (const auto& entry : std::filesystem::directory_iterator(work_dir(dir.db()), missing)) {
-      if (std::filesystem::exists(entry.path() / "steps.checkpoint"))
-        files.push_back(entry.path() / "steps.checkpoint");
-    }
-    return files;
-  };
-  SubmitOptions options;
-  options.run.refresh_s = 0.002;
-  options.run.stop_requested = [&] { return !checkpoints().empty(); };
-  ASSERT_EQ(submit_campaign(testing_registry(), campaign, dir.db(), options).interrupted, 1);
-  ASSERT_EQ(checkpoints().size(), 1u);
-  const std::filesystem::path checkpoint = checkpoints().front();  // gone once the task is done
+  const auto saved = [](const auto& checkpoints) { return !checkpoints.empty(); };
+  ASSERT_EQ(submit_until(campaign, dir.db(), saved).interrupted, 1);
+  ASSERT_EQ(steps_checkpoints(dir.db()).size(), 1u);
+  // The file goes once the task is done.
+  const std::filesystem::path checkpoint = steps_checkpoints(dir.db()).front().first;
   std::ofstream(checkpoint) << "garbage\n";
   ASSERT_EQ(submit(campaign, dir.db()).exit_code(), 0);
   EXPECT_EQ(count(dir.db(),
@@ -308,7 +326,7 @@ TEST(Runtime, ATasksWarningIsLoggedAtWarnLevelWithoutItsMarker) {
                       checkpoint.string() + " cannot be read; starting again from step 0'"),
             1);
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM log_lines WHERE message LIKE 'warning:%'"), 0);
-  EXPECT_EQ(only_result(dir.db()), only_result(whole.db()));
+  EXPECT_EQ(only_result(dir.db()), whole);
 }
 
 // A NaN in a result used to throw out of the commit and stop the coordinator, leaving the task
