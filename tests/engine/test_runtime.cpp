@@ -256,9 +256,9 @@ Campaign steps_campaign(int steps) {
 
 // The steps kind's checkpoints in the store's work directory, each with the step it holds (0 when
 // unreadable).
-std::vector<std::pair<std::filesystem::path, int>> steps_checkpoints(
-    const std::filesystem::path& db) {
-  std::vector<std::pair<std::filesystem::path, int>> found;
+using StepsCheckpoints = std::vector<std::pair<std::filesystem::path, int>>;
+StepsCheckpoints steps_checkpoints(const std::filesystem::path& db) {
+  StepsCheckpoints found;
   std::error_code missing;
   for (const auto& entry : std::filesystem::directory_iterator(work_dir(db), missing)) {
     const auto file = entry.path() / "steps.checkpoint";
@@ -277,9 +277,8 @@ std::string uninterrupted_result(const Campaign& campaign) {
 }
 
 // Submits `campaign` into `db`, stopping it once `stop` holds for the steps kind's checkpoints.
-RunSummary submit_until(
-    const Campaign& campaign, const std::filesystem::path& db,
-    const std::function<bool(const std::vector<std::pair<std::filesystem::path, int>>&)>& stop) {
+RunSummary submit_until(const Campaign& campaign, const std::filesystem::path& db,
+                        const std::function<bool(const StepsCheckpoints&)>& stop) {
   SubmitOptions options;
   options.run.refresh_s = 0.002;
   options.run.stop_requested = [&] { return stop(steps_checkpoints(db)); };
