@@ -97,10 +97,15 @@ MaterialTable shear_cell_detail::make_materials(const ShearCellSetup& s) {
 }
 
 ShearCellPopulation shear_cell_population(const ShearCellSetup& s) {
-  ShearCellPopulation population{.media = media_count_for(s),
-                                 .powder = powder_count_for(s),
-                                 .solid_fraction = nominal_solid_fraction(s),
-                                 .placement_height = placement_height(s)};
+  const double solid_fraction = nominal_solid_fraction(s);
+  const double compacted_height =
+      std::max(1.0, solid_fraction / kCompactedSolidFraction) * nominal_gap(s);
+  ShearCellPopulation population{
+      .media = media_count_for(s),
+      .powder = powder_count_for(s),
+      .solid_fraction = solid_fraction,
+      .placement_height = placement_height(s),
+      .compaction_distance = std::max(0.0, placement_height(s) - compacted_height)};
   if (s.boundary == ShearCellSetup::Boundary::RoughWalls) {
     const Vec3 length = make_domain(s).length();
     population.wall_balls = 2 * wall_layer_columns(length.x(), s.media_diameter) *

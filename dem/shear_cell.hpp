@@ -101,13 +101,21 @@ void validate(const ShearCellSetup& setup);
 
 // Size-scaled stiffness (k_n ~ E d, a model choice): the stiffness of a pair of diameters d_a,
 // d_b is k_ref * d_eff / d_ref with d_eff = 2 d_a d_b / (d_a + d_b) the harmonic-mean diameter.
+// The overall solid fraction a compacted cell reaches at most.
+inline constexpr double kCompactedSolidFraction = 0.64;
+
 // The particles a cell of this setup is built with (ShearCell's constructor places exactly
-// these) and the height of its loose fill before compaction: what a cost estimate needs before
-// any cell exists.
+// these), the height of its loose fill before compaction and what compaction is expected to
+// close of it: what a cost estimate needs before any cell exists.
 struct ShearCellPopulation {
   std::size_t media = 0, powder = 0, wall_balls = 0;
   double solid_fraction = 0.0;    // media and powder in the nominal gap
   double placement_height = 0.0;  // m
+  // From the placement height down to the nominal height, or to the height that holds all solid
+  // at kCompactedSolidFraction where that is larger, m. Compaction closes it at the control's
+  // speed limit (measured: the steps within 15% on the cement campaign's cells,
+  // docs/shear_cells.md).
+  double compaction_distance = 0.0;
 };
 ShearCellPopulation shear_cell_population(const ShearCellSetup& setup);
 
@@ -289,6 +297,13 @@ class ShearCell {
   // it was not done.
   bool compact(std::uint64_t max_steps = std::numeric_limits<std::uint64_t>::max());
   bool compacted() const { return compaction_ == Compaction::Done; }
+  // The steps compaction is expected to take: the population's compaction distance at the
+  // control's speed limit. And the most it runs: it stops at a time limit of 4 placement gaps at
+  // that speed even if the bed never carried half the target.
+  std::uint64_t expected_compaction_steps() const;
+  std::uint64_t compaction_step_cap() const;
+  // Whether compaction ended with the bed carrying half the target (not at its time limit).
+  bool compacted_under_load() const { return compaction_end_.compacted(); }
   // Runs `strain` of shear (target rate x time) with no measurement and no control.
   void run_strain(double strain);
   // Steps the system after compact(); with Lees-Edwards also integrates the boundary's work and
@@ -439,6 +454,8 @@ class ShearCell {
   // the first window, ShearCellRun before a measurement with no warm-up.
   void choose_neighbor_skin();
   std::size_t steps_for_strain(double strain) const;
+  // Simulated time after which compaction stops even if the bed never carried half the target.
+  double compaction_time_limit() const;
   void step_controlled(std::size_t steps);
   // `steps` steps with the LE boundary's work integrated over each (trapezoidal rule); after each
   // step `after_step()` runs and returns true when it stretched the box (step_controlled: the
@@ -578,7 +595,9 @@ class ShearCellRun {
   // only between two); true when done.
   bool advance(std::uint64_t max_steps);
   bool done() const { return phase_ == Phase::Done; }
-  // Fraction of the warm-up and measurement steps done, and what the run is doing.
+  // Fraction of the steps done: of compaction's expected steps, of the warm-up's and the
+  // measurement's caps (max_warmup_strain, the measurement's max_strain); and what the run is
+  // doing.
   double progress() const;
   std::string phase_name() const;
   // Writes atomically (temp file + rename). Throws std::logic_error once done().

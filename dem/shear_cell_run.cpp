@@ -98,15 +98,29 @@ void ShearCellRun::start_next_piece() {
 }
 
 double ShearCellRun::progress() const {
-  // Against the caps: a cell that becomes stationary or converges early jumps ahead.
-  const std::uint64_t total =
-      window_steps_ * static_cast<std::uint64_t>(max_windows_) + measure_steps_;
+  // Compaction against the steps it is expected to take (it may stay there a while or jump
+  // ahead), the rest against the caps: a cell that becomes stationary or converges early jumps
+  // ahead.
+  const std::uint64_t compaction = cell_.expected_compaction_steps();
+  const std::uint64_t warmup = window_steps_ * static_cast<std::uint64_t>(max_windows_);
+  const std::uint64_t total = compaction + warmup + measure_steps_;
   std::uint64_t done_steps = 0;
-  if (phase_ == Phase::WarmUp)
-    done_steps = window_steps_ * static_cast<std::uint64_t>(window_index_) + window_.done;
-  if (phase_ == Phase::Measuring) done_steps = total - measure_steps_ + measurement_.done;
-  done_steps = std::min(done_steps, total);
-  if (phase_ == Phase::Done) done_steps = total;
+  switch (phase_) {
+    case Phase::Compacting:
+      done_steps = std::min(cell_.system().step_count(), compaction);
+      break;
+    case Phase::WarmUp:
+      done_steps = compaction + std::min(window_steps_ * static_cast<std::uint64_t>(window_index_) +
+                                             window_.done,
+                                         warmup);
+      break;
+    case Phase::Measuring:
+      done_steps = compaction + warmup + std::min(measurement_.done, measure_steps_);
+      break;
+    case Phase::Done:
+      done_steps = total;
+      break;
+  }
   return static_cast<double>(done_steps) / static_cast<double>(total);
 }
 

@@ -71,6 +71,23 @@ std::unique_ptr<StressControl> ShearCell::make_stress_control() const {
   return std::make_unique<LeesEdwardsBarostat>(settings);
 }
 
+double ShearCell::compaction_time_limit() const {
+  return 4.0 * placement_gap(setup_) / control_->settings().max_speed;
+}
+
+std::uint64_t ShearCell::expected_compaction_steps() const {
+  return static_cast<std::uint64_t>(std::llround(shear_cell_population(setup_).compaction_distance /
+                                                 control_->settings().max_speed /
+                                                 system_.time_step()));
+}
+
+std::uint64_t ShearCell::compaction_step_cap() const {
+  const auto interval = control_->settings().interval_steps;
+  const auto intervals = static_cast<std::uint64_t>(
+      std::ceil(compaction_time_limit() / system_.time_step() / interval));
+  return intervals * interval;
+}
+
 bool ShearCell::compact(std::uint64_t max_steps) {
   if (compaction_ == Compaction::Done) return true;
   // The linear law would close the loose fill far too slowly (it moves a boundary that touches
@@ -83,7 +100,7 @@ bool ShearCell::compact(std::uint64_t max_steps) {
     compaction_ = Compaction::Running;
     control_->set_closing(true);
   }
-  const double limit = 4.0 * placement_gap(setup_) / control.max_speed;
+  const double limit = compaction_time_limit();
   const auto more_to_do = [&] { return system_.time() < limit && !compaction_end_.compacted(); };
   for (std::uint64_t steps = 0; steps < max_steps && more_to_do();
        steps += control.interval_steps) {

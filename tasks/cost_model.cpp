@@ -243,11 +243,8 @@ ShearCellSize shear_cell_size(const json& cell_params, const json& site) {
                              strain_step;
   // Compaction: the barostat (or the servo) closes the loose fill at its speed limit
   // gain x d / ((H / d) t_c,media).
-  const double compacted_height =
-      std::max(1.0, population.solid_fraction / kCompactedSolidFraction) * height;
   const double speed_limit = setup.servo_gain * d / ((height / d) * media_contact);
-  size.compaction_steps = std::max(0.0, population.placement_height - compacted_height) /
-                          speed_limit / size.time_step_s;
+  size.compaction_steps = population.compaction_distance / speed_limit / size.time_step_s;
   return size;
 }
 

@@ -17,10 +17,9 @@
 //                Shear steps: the strain over (gdot dt), between the least the protocol runs
 //                (warmup_strain + measure_strain) and its caps (max_warmup_strain + the larger
 //                of measure_strain and convergence/max_strain). Compaction: the loose placement
-//                closed at the barostat's speed limit (dem::ShearCell), the gap from the
-//                placement height down to the nominal height (or the height that holds all
-//                solid at kCompactedSolidFraction, whichever is larger), at the throughput of
-//                a loose fill.
+//                closed at the barostat's speed limit, the population's compaction distance
+//                (dem::ShearCellPopulation; the steps a cell's progress expects,
+//                dem::ShearCell::expected_compaction_steps), at the throughput of a loose fill.
 // The site of a cell is the sites task's once it is known. Before, the typical site of the
 // cell's region in a mill of that diameter, fill and speed: shear rate = a x omega and normal
 // stress = b x rho_media x g x D x J, a and b per region measured on quick.json's sites.
@@ -84,8 +83,6 @@ inline constexpr std::array<PowderFamily, 3> kPowderFamilies = {{
 // A cell's compaction: a loose fill, few contacts (the constant also absorbs the model's error
 // in its steps, the bed carrying half the target before it is as dense as assumed).
 inline constexpr double kCompactionThroughput = 56.0e6;
-// The overall solid fraction a compacted cell reaches at most.
-inline constexpr double kCompactedSolidFraction = 0.64;
 
 // The throughputs above as the model uses them: a macro run of `balls`, a cell of balls only
 // (powder_load 0) or with powder at `powder_load` of `powder_diameter_ratio` (d_p / d).

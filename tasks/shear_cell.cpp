@@ -159,6 +159,24 @@ dem::ShearCellRun resume_or_start(const dem::ShearCellSetup& setup,
   return dem::ShearCellRun(setup, protocol);
 }
 
+// How compaction went: how long it took against what was expected and its cap, and how far it
+// closed the cell.
+std::string compaction_summary(const dem::ShearCell& cell) {
+  const dem::System& system = cell.system();
+  const dem::ShearCellSetup& setup = cell.setup();
+  const double nominal_gap = setup.size_diameters.y() * setup.media_diameter;
+  return fmt::format(
+      "{}shear cell: compacted in {} steps ({:.3g} s; expected {}, at most {}), to a gap of {:.3f} "
+      "times the nominal{}",
+      cell.compacted_under_load() ? "" : engine::kTaskWarning, system.step_count(), system.time(),
+      cell.expected_compaction_steps(), cell.compaction_step_cap(), cell.gap() / nominal_gap,
+      cell.compacted_under_load()
+          ? ""
+          : fmt::format(": its time limit, the bed never carried half the normal stress for {} "
+                        "control intervals in a row",
+                        dem::kCompactedIntervals));
+}
+
 }  // namespace
 
 dem::ShearCellProtocol shear_cell_protocol(const json& params) {
@@ -205,7 +223,9 @@ engine::TaskOutcome run_shear_cell(engine::TaskContext& context) {
         return engine::TaskOutcome::stopped();
       }
     }
+    const bool compacting = !run.cell().compacted();
     run.advance(kStepsBetweenPolls);
+    if (compacting && run.cell().compacted()) context.log(compaction_summary(run.cell()));
     context.progress(run.progress(), run.phase_name());
   }
   const dem::ShearCell& cell = run.cell();

@@ -275,5 +275,38 @@ TEST(ShearCell, AStrainOfMoreStepsThanACountHoldsIsRefused) {
   }
 }
 
+// A run's progress counts compaction against the steps it is expected to take, so that a
+// compaction of many minutes is seen to move; it never goes back and ends at 1. At the stiffness
+// the campaigns run (k_n / (p d) = 1e4) with powder, where compaction is long.
+TEST(ShearCellRun, ProgressMovesThroughCompactionAndNeverGoesBack) {
+  ShearCellSetup setup = small_shear_cell(0.1, 0.5, 0.5);
+  setup.boundary = ShearCellSetup::Boundary::LeesEdwards;
+  setup.size_diameters = Vec3(4, 5, 4);
+  const double k = 1e4 * setup.normal_stress * setup.media_diameter;
+  for (InteractionSpec* pair : {&setup.media_media, &setup.media_powder, &setup.powder_powder})
+    pair->normal_stiffness = k;
+  ShearCellRun run(setup, {.warmup_strain = 0.1,
+                           .warmup_windows = 2,
+                           .max_warmup_strain = 0.1,
+                           .measure_strain = 0.1,
+                           .measure = {.samples = 10, .max_strain = 0.1}});
+  EXPECT_EQ(run.progress(), 0.0);
+  double last = 0.0;
+  int reports_while_compacting = 0;
+  while (!run.advance(500)) {
+    const double now = run.progress();
+    EXPECT_GE(now, last) << run.phase_name() << " at step " << run.cell().system().step_count();
+    EXPECT_LT(now, 1.0);
+    if (!run.cell().compacted()) {
+      ++reports_while_compacting;
+      EXPECT_GT(now, 0.0) << "compaction at step " << run.cell().system().step_count();
+    }
+    last = now;
+  }
+  EXPECT_GE(reports_while_compacting, 3);
+  EXPECT_TRUE(run.cell().compacted_under_load());
+  EXPECT_EQ(run.progress(), 1.0);
+}
+
 }  // namespace
 }  // namespace millflow::dem

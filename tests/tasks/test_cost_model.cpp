@@ -49,6 +49,7 @@ void expect_cell_inputs_match(const json& params, const json& site) {
   EXPECT_EQ(size.powder_diameter_ratio, cell.setup().powder_diameter_ratio);
   EXPECT_DOUBLE_EQ(size.time_step_s, cell.system().time_step());
   EXPECT_GT(size.compaction_steps, 0.0);
+  EXPECT_NEAR(size.compaction_steps, static_cast<double>(cell.expected_compaction_steps()), 0.5);
   EXPECT_GT(size.shear_steps_at_caps, size.shear_steps);
 }
 

@@ -486,6 +486,12 @@ TEST(ShearCell, AnInterruptedCellContinuesFromItsCheckpointToTheSameResult) {
   const millflow::testing::ScratchDir once, interrupted;
   const Attempt reference = attempt(params, once.path() / "work", 0);
   ASSERT_FALSE(reference.outcome.interrupted);
+  // The log says once how compaction ended (under load: no warning).
+  EXPECT_EQ(std::ranges::count_if(reference.log,
+                                  [](const std::string& line) {
+                                    return line.starts_with("shear cell: compacted in ");
+                                  }),
+            1);
   const std::filesystem::path work = interrupted.path() / "work";
   std::vector<std::string> stops;
   for (const auto& [stop_at, phase] : {std::pair{1, "compacting"},
