@@ -57,7 +57,8 @@ TaskCost cell_task_cost(const ShearCellSize& size) {
   cost.steps_at_caps = size.compaction_steps + size.shear_steps_at_caps;
   const double throughput =
       cell_throughput(size.powder > 0 ? size.powder_load : 0.0, size.powder_diameter_ratio);
-  const double compaction = cost.particles * size.compaction_steps / kCompactionThroughput;
+  const double compaction =
+      cost.particles * size.compaction_steps / (kCompactionSpeedup * throughput);
   cost.core_seconds = compaction + cost.particles * size.shear_steps / throughput;
   cost.core_seconds_at_caps = compaction + cost.particles * size.shear_steps_at_caps / throughput;
   return cost;

@@ -19,7 +19,8 @@
 //                of measure_strain and convergence/max_strain). Compaction: the loose placement
 //                closed at the barostat's speed limit, the population's compaction distance
 //                (dem::ShearCellPopulation; the steps a cell's progress expects,
-//                dem::ShearCell::expected_compaction_steps), at the throughput of a loose fill.
+//                dem::ShearCell::expected_compaction_steps), at kCompactionSpeedup times the
+//                cell's throughput.
 // The site of a cell is the sites task's once it is known. Before, the typical site of the
 // cell's region in a mill of that diameter, fill and speed: shear rate = a x omega and normal
 // stress = b x rho_media x g x D x J, a and b per region measured on quick.json's sites.
@@ -80,9 +81,11 @@ inline constexpr std::array<PowderFamily, 3> kPowderFamilies = {{
     {.diameter_ratio = 0.25, .throughput = {15.0e6, 11.3e6, 6.60e6}},
     {.diameter_ratio = 0.5, .throughput = {12.5e6, 12.5e6, 11.4e6}},
 }};
-// A cell's compaction: a loose fill, few contacts (the constant also absorbs the model's error
-// in its steps, the bed carrying half the target before it is as dense as assumed).
-inline constexpr double kCompactionThroughput = 56.0e6;
+// A cell's compaction runs this many times its cell's throughput above (the bed is loose for
+// most of it): the median of 1.68, 2.14 and 1.95 measured on the cement campaign's cell at
+// loads 0.5, 1 and 1.5 (per the model's compaction steps, which came within 0.87-1.08 of those
+// taken; docs/cost_model.md).
+inline constexpr double kCompactionSpeedup = 1.95;
 
 // The throughputs above as the model uses them: a macro run of `balls`, a cell of balls only
 // (powder_load 0) or with powder at `powder_load` of `powder_diameter_ratio` (d_p / d).
