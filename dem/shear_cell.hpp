@@ -99,8 +99,6 @@ struct ShearCellSetup {
 // Checks a setup; throws std::invalid_argument naming the bad value and how to fix it.
 void validate(const ShearCellSetup& setup);
 
-// Size-scaled stiffness (k_n ~ E d, a model choice): the stiffness of a pair of diameters d_a,
-// d_b is k_ref * d_eff / d_ref with d_eff = 2 d_a d_b / (d_a + d_b) the harmonic-mean diameter.
 // The overall solid fraction a compacted cell reaches at most.
 inline constexpr double kCompactedSolidFraction = 0.64;
 
@@ -113,12 +111,14 @@ struct ShearCellPopulation {
   double placement_height = 0.0;  // m
   // From the placement height down to the nominal height, or to the height that holds all solid
   // at kCompactedSolidFraction where that is larger, m. Compaction closes it at the control's
-  // speed limit (measured: the steps within 15% on the cement campaign's cells,
-  // docs/shear_cells.md).
+  // speed limit (measured: the cement campaign's cells compacted in 0.87-1.08 times the steps
+  // this gives, docs/shear_cells.md).
   double compaction_distance = 0.0;
 };
 ShearCellPopulation shear_cell_population(const ShearCellSetup& setup);
 
+// Size-scaled stiffness (k_n ~ E d, a model choice): the stiffness of a pair of diameters d_a,
+// d_b is k_ref * d_eff / d_ref with d_eff = 2 d_a d_b / (d_a + d_b) the harmonic-mean diameter.
 double size_scaled_stiffness(double reference_stiffness, double reference_diameter,
                              double diameter_a, double diameter_b);
 
