@@ -188,21 +188,6 @@ TableFormat parse_format(const std::string& name) {
   return TableFormat::json;
 }
 
-// While it lives, what the libraries log goes to stderr through the progress view (above its
-// status line).
-class LogThrough {
- public:
-  explicit LogThrough(engine::ProgressView& view) : previous_(spdlog::default_logger()) {
-    spdlog::set_default_logger(engine::progress_logger(view));
-  }
-  ~LogThrough() { spdlog::set_default_logger(previous_); }
-  LogThrough(const LogThrough&) = delete;
-  LogThrough& operator=(const LogThrough&) = delete;
-
- private:
-  std::shared_ptr<spdlog::logger> previous_;
-};
-
 int run_campaign(const engine::Registry& registry, engine::Campaign campaign, RunFlags flags) {
   flags.db = engine::resolve_database(flags.db, engine::DatabaseUse::create);
   const ExecutorChoice choice = choose_executor(campaign.document, flags.executor);
@@ -219,7 +204,7 @@ int run_campaign(const engine::Registry& registry, engine::Campaign campaign, Ru
   options.run.retries = flags.retries;
   options.run.stop_requested = engine::interrupt_requested;
   options.jobs = jobs.executor.get();
-  options.progress = ::isatty(STDERR_FILENO) ? static_cast<engine::ProgressView*>(&live) : &plain;
+  options.progress = &terminal_or_plain(live, plain);
   const LogThrough logging(*options.progress);
   const auto summary = engine::submit_campaign(registry, campaign, flags.db, options);
   std::cout << "campaign " << campaign.name << ": " << summary.describe() << '\n';
@@ -516,6 +501,18 @@ void add_logs(CLI::App& app, std::optional<int>& code) {
 }
 
 }  // namespace
+
+LogThrough::LogThrough(engine::ProgressView& view) : previous_(spdlog::default_logger()) {
+  spdlog::set_default_logger(engine::progress_logger(view));
+}
+
+LogThrough::~LogThrough() {
+  spdlog::set_default_logger(previous_);
+}
+
+engine::ProgressView& terminal_or_plain(engine::LiveProgress& live, engine::PlainProgress& plain) {
+  return ::isatty(STDERR_FILENO) ? static_cast<engine::ProgressView&>(live) : plain;
+}
 
 fs::path output_directory(const std::string& given) {
   constexpr const char* kFix = "pass a directory (it is created when missing)";

@@ -6,9 +6,11 @@
 #include <CLI/CLI.hpp>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <optional>
 
 #include "engine/campaign.hpp"
+#include "engine/progress.hpp"
 
 namespace millflow::cli {
 
@@ -21,6 +23,22 @@ int guarded(const std::function<int()>& body);
 // when it or the nearest existing directory above it is something else or cannot be written.
 // The command creates it when missing.
 std::filesystem::path output_directory(const std::string& given);
+
+// While it lives, what the libraries log goes to stderr through the progress view (above its
+// status line).
+class LogThrough {
+ public:
+  explicit LogThrough(engine::ProgressView& view);
+  ~LogThrough();
+  LogThrough(const LogThrough&) = delete;
+  LogThrough& operator=(const LogThrough&) = delete;
+
+ private:
+  std::shared_ptr<spdlog::logger> previous_;
+};
+
+// The live status line on a terminal, plain lines otherwise (stderr).
+engine::ProgressView& terminal_or_plain(engine::LiveProgress& live, engine::PlainProgress& plain);
 
 // Adds the subcommands; the one that runs stores its exit code in `exit_code`.
 void add_engine_commands(CLI::App& app, const engine::Registry& registry,

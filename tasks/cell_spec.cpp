@@ -58,6 +58,13 @@ json spec_site(const json& spec) {
                                   .normal_stress = spec.at("normal_stress").get<double>()});
 }
 
+// The spec as a shear_cell task's parameters (its slot names the spec's one site).
+json cell_task_params(const json& spec) {
+  json params = spec;
+  params["slot"] = kSlot;
+  return params;
+}
+
 }  // namespace
 
 const engine::FieldTable& cell_spec_table() {
@@ -83,11 +90,13 @@ json load_cell_spec(const std::filesystem::path& file) {
   return parse_cell_spec(engine::read_input_file(file));
 }
 
+TaskCost cell_spec_cost(const json& spec) {
+  return shear_cell_cost(cell_task_params(spec), spec_site(spec));
+}
+
 std::optional<json> run_cell_spec(const json& spec, const std::filesystem::path& out_dir,
-                                  const std::function<void(std::string_view)>& log,
-                                  std::stop_token stop) {
-  json params = spec;
-  params["slot"] = kSlot;
+                                  const CellRunHooks& hooks) {
+  const json params = cell_task_params(spec);
   const std::vector<engine::TaskInput> inputs = {
       {.key = "spec",
        .kind = "sites",
@@ -99,9 +108,9 @@ std::optional<json> run_cell_spec(const json& spec, const std::filesystem::path&
                               .work_dir = out_dir,
                               .threads = 1,
                               .attempt = 1,
-                              .stop = std::move(stop),
-                              .progress = [](double, std::string_view) {},
-                              .log = log};
+                              .stop = hooks.stop,
+                              .progress = hooks.progress,
+                              .log = hooks.log};
   engine::TaskOutcome outcome = run_shear_cell(context);
   if (outcome.interrupted) return std::nullopt;
   return std::move(outcome.result);

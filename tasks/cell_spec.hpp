@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/json_validator.hpp"
+#include "tasks/cost_model.hpp"
 
 namespace millflow::tasks {
 
@@ -27,13 +28,22 @@ const engine::FieldTable& cell_spec_table();
 nlohmann::json load_cell_spec(const std::filesystem::path& file);
 nlohmann::json parse_cell_spec(std::string_view text);
 
+// What a running cell tells its caller, and when it should stop.
+struct CellRunHooks {
+  std::function<void(std::string_view line)> log;
+  // The fraction done (dem::ShearCellRun::progress: against the strain caps) and what it does.
+  std::function<void(double fraction, std::string_view phase)> progress;
+  std::stop_token stop;
+};
+
 // Runs the validated spec's cell in out_dir (created; it keeps cell.vtp and result.json, and the
-// checkpoint while it runs, so an interrupted command continues where it stopped). Log lines go
-// to `log`. Returns the result JSON, or none when `stop` was requested: the cell saved its
-// checkpoint and stopped.
+// checkpoint while it runs, so an interrupted command continues where it stopped). Returns the
+// result JSON, or none when a stop was requested: the cell saved its checkpoint and stopped.
 std::optional<nlohmann::json> run_cell_spec(const nlohmann::json& spec,
                                             const std::filesystem::path& out_dir,
-                                            const std::function<void(std::string_view)>& log,
-                                            std::stop_token stop);
+                                            const CellRunHooks& hooks);
+
+// The validated spec's cell as the cost model prices it (tasks/cost_model.hpp).
+TaskCost cell_spec_cost(const nlohmann::json& spec);
 
 }  // namespace millflow::tasks

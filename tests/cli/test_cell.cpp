@@ -96,6 +96,33 @@ TEST_F(CellCommand, PrintsTheCellsResultAndLeavesItsFilesInTheOutputDirectory) {
   EXPECT_NE(finished.err.find("shear cell stiffness at sigma_n 2000 Pa"), std::string::npos);
 }
 
+// --threads sets the cell's threads, and its result is the same bytes at 1 and 2 (with powder, so
+// that the per-particle passes and the sums run in several blocks). Its stderr names each phase
+// as it starts and carries the status line (plain lines: stderr is not a terminal here).
+TEST_F(CellCommand, GivesTheSameResultAtOneAndTwoThreadsAndShowsItsPhases) {
+  json spec = tiny_spec();
+  spec["shear_cell"]["powder"]["load"] = 1.0;
+  spec["shear_cell"]["powder"]["diameter_ratio"] = 0.25;
+  for (const char* strain : {"warmup_strain", "max_warmup_strain", "measure_strain"})
+    spec["shear_cell"][strain] = 0.2;
+  spec["shear_cell"]["convergence"]["max_strain"] = 0.2;
+  const std::string file = write_spec(spec).string();
+  const auto run = [&](const std::string& threads) {
+    return run_millflow(
+        {"cell", file, "--out", (dir_.path() / threads).string(), "--threads", threads},
+        dir_.path());
+  };
+  const auto one = run("1"), two = run("2");
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  ASSERT_EQ(two.exit_code, 0) << two.err;
+  EXPECT_GT(json::parse(one.out).at("powder_count").get<int>(), 2048);
+  EXPECT_EQ(one.out, two.out);
+  for (const char* line : {"\nshear cell: compacting\n", "\nshear cell: warm-up window 1 (at most ",
+                           "\nshear cell: measuring\n", " shear_cell 0/1 shear_cell:cell "}) {
+    EXPECT_NE(one.err.find(line), std::string::npos) << line << " in\n" << one.err;
+  }
+}
+
 // SIGTERM (or Ctrl-C) stops the cell at a checkpoint with exit 130, and the same command
 // continues it. The signal used to end it at once (143), keeping only its last periodic
 // checkpoint.
