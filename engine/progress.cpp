@@ -94,8 +94,10 @@ std::string format_status_line(const ProgressSnapshot& snapshot, std::size_t wid
                                     : fmt::format(" ({} skipped)", skipped->second)));
   }
   for (const auto& task : snapshot.running) {
-    parts.push_back(
-        fmt::format("{}:{} {:.0f}%", task.kind, task.key.substr(0, 6), 100.0 * task.fraction));
+    // Tenths below 10%: a cell of hours would otherwise sit at 0% for many minutes.
+    const double percent = 100.0 * task.fraction;
+    parts.push_back(fmt::format("{}:{} {:.{}f}%", task.kind, task.key.substr(0, 6), percent,
+                                percent < 9.95 ? 1 : 0));
   }
   std::string line;
   for (const auto& part : parts) {

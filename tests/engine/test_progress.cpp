@@ -185,6 +185,12 @@ TEST(Progress, StatusLineShowsSkippedAndNeverExceedsTheWidth) {
   EXPECT_EQ(full.substr(0, 14), "[1m35s] ETA >3");
   EXPECT_NE(full.find("shear_cell 6/120 (2 skipped)"), std::string::npos) << full;
   EXPECT_NE(full.find("shear_cell:012345 50%"), std::string::npos) << full;
+  // Tenths below 10%, where a long task would otherwise sit at 0% for minutes.
+  ProgressSnapshot early = s;
+  early.running.front().fraction = 0.0043;
+  EXPECT_NE(format_status_line(early).find("shear_cell:012345 0.4%"), std::string::npos);
+  early.running.front().fraction = 0.0996;
+  EXPECT_NE(format_status_line(early).find("shear_cell:012345 10%"), std::string::npos);
   for (std::size_t width = 1; width <= full.size() + 5; ++width) {
     const std::string line = format_status_line(s, width);
     EXPECT_LE(line.size(), width) << line;
