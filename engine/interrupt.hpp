@@ -1,7 +1,9 @@
 #pragma once
 // Ctrl-C handling for a coordinator: the first SIGINT/SIGTERM asks for a clean stop (no new
 // tasks, running tasks stop at their next checkpoint and are recorded as interrupted); a second
-// one exits at once with status 130 (the store stays consistent: every commit is atomic).
+// one, half a second or more after the first, exits at once with status 130 (the store stays
+// consistent: every commit is atomic). Signals closer to the first are the same request
+// delivered twice (timeout(1), a kill of the process group).
 #include <functional>
 #include <stop_token>
 #include <thread>

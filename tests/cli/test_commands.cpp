@@ -72,6 +72,25 @@ class Cli : public ::testing::Test {
     return millflow({"submit", write_campaign("diamond", diamond_tasks()).string(), "--jobs", "2"});
   }
   fs::path db() const { return dir_.path() / "cli.db"; }
+  // A campaign of four 20-second sleeps, its coordinator started in the background with 2 jobs
+  // (stdout and stderr to long.out and long.err) and waited for until both run.
+  pid_t start_long_campaign() {
+    json sleepers = json::array();
+    for (int i = 0; i < 4; ++i)
+      sleepers.push_back(
+          {{"id", std::to_string(i)}, {"kind", "sleep"}, {"params", {{"ms", 20000 + i}}}});
+    const pid_t coordinator = spawn_millflow(
+        {"submit", write_campaign("long", sleepers).string(), "--db", db().string(), "--jobs", "2"},
+        dir_.path() / "long.out", dir_.path() / "long.err");
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (running_tasks(db()) < 2 && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return coordinator;
+  }
+  static constexpr const char* kLongInterrupted =
+      "campaign long: 4 tasks: 0 done, 0 cached, 0 failed, 0 skipped, 2 interrupted, 2 not "
+      "started\n";
   // value parameter -> task key, read from the store.
   std::map<int, std::string> keys_by_value() {
     auto connection = engine::open_read_only(db());
@@ -478,20 +497,9 @@ TEST_F(Cli, ExitCodesForDoneFailedBadInputBusyAndInterrupted) {
   EXPECT_EQ(millflow({"submit"}).exit_code, 2);                                   // no file
   EXPECT_EQ(millflow({"status", "no-such-campaign"}).exit_code, 2);
 
-  json sleepers = json::array();
-  for (int i = 0; i < 4; ++i)
-    sleepers.push_back(
-        {{"id", std::to_string(i)}, {"kind", "sleep"}, {"params", {{"ms", 20000 + i}}}});
-  const auto long_file = write_campaign("long", sleepers);
-  const pid_t coordinator =
-      spawn_millflow({"submit", long_file.string(), "--db", db().string(), "--jobs", "2"},
-                     dir_.path() / "long.out", dir_.path() / "long.err");
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (running_tasks(db()) < 2 && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
+  const pid_t coordinator = start_long_campaign();
   ASSERT_EQ(running_tasks(db()), 2);
-  const auto busy = millflow({"submit", long_file.string()});
+  const auto busy = millflow({"submit", (dir_.path() / "long.json").string()});
   EXPECT_EQ(busy.exit_code, 3);
   EXPECT_NE(
       busy.err.find("in use by another millflow coordinator: pid " + std::to_string(coordinator)),
@@ -500,9 +508,26 @@ TEST_F(Cli, ExitCodesForDoneFailedBadInputBusyAndInterrupted) {
 
   ::kill(coordinator, SIGINT);
   EXPECT_EQ(wait_exit_code(coordinator), 130);
-  EXPECT_EQ(read_text(dir_.path() / "long.out"),
-            "campaign long: 4 tasks: 0 done, 0 cached, 0 failed, 0 skipped, 2 interrupted, 2 not "
-            "started\n");
+  EXPECT_EQ(read_text(dir_.path() / "long.out"), kLongInterrupted);
+  EXPECT_EQ(running_tasks(db()), 0);
+}
+
+// `timeout -s INT` signals the command and then its process group, so the coordinator gets one
+// request as two signals in a row; it used to take the second as "Ctrl-C again" and exit at
+// once, leaving its tasks marked running and their work since the last checkpoint lost. (Two
+// kills before the first is handled merge into one signal: the second follows the first's
+// message.)
+TEST_F(Cli, ARequestDeliveredAsTwoSignalsInARowStillStopsCleanly) {
+  const pid_t coordinator = start_long_campaign();
+  ASSERT_EQ(running_tasks(db()), 2);
+  ::kill(coordinator, SIGINT);
+  const auto err = dir_.path() / "long.err";
+  for (int wait = 0; wait < 400 && read_text(err).find("millflow: stopping") == std::string::npos;
+       ++wait)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  ::kill(coordinator, SIGINT);
+  EXPECT_EQ(wait_exit_code(coordinator), 130);
+  EXPECT_EQ(read_text(dir_.path() / "long.out"), kLongInterrupted);
   EXPECT_EQ(running_tasks(db()), 0);
 }
 
