@@ -61,6 +61,9 @@ void install_interrupt_handlers() {
   sigemptyset(&action.sa_mask);
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
+  // A closed terminal or a dropped ssh session: stop cleanly rather than die mid-task (the
+  // status line's writes to the gone terminal fail quietly, engine/progress.hpp).
+  sigaction(SIGHUP, &action, nullptr);
 }
 
 bool interrupt_requested() {

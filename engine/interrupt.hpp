@@ -1,5 +1,5 @@
 #pragma once
-// Ctrl-C handling for a coordinator: the first SIGINT/SIGTERM asks for a clean stop (no new
+// Ctrl-C handling for a coordinator: the first SIGINT/SIGTERM/SIGHUP asks for a clean stop (no new
 // tasks, running tasks stop at their next checkpoint and are recorded as interrupted); a second
 // one, half a second or more after the first, exits at once with status 130 (the store stays
 // consistent: every commit is atomic). Signals closer to the first are the same request

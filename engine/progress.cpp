@@ -6,10 +6,20 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
+#include <string_view>
 
 namespace millflow::engine {
 namespace {
+
+// Status and log lines are best effort: a terminal that went away or a full disk under a
+// redirected stderr must not stop a campaign (its log lines are in the database and the campaign
+// log). fmt::print would throw on a failed write.
+void print_best_effort(std::FILE* out, std::string_view text) {
+  std::fwrite(text.data(), 1, text.size(), out);
+  std::fflush(out);
+}
 
 std::string format_duration(double seconds) {
   const auto total = static_cast<long>(seconds + 0.5);
@@ -129,20 +139,17 @@ void PlainProgress::refresh(const ProgressSnapshot& snapshot) {
   line_ = format_status_line(snapshot);
   if (snapshot.elapsed_s < next_status_s_) return;
   next_status_s_ = snapshot.elapsed_s + status_every_s_;
-  fmt::print(out_, "{}\n", line_);
-  std::fflush(out_);
+  print_best_effort(out_, line_ + '\n');
 }
 
 void PlainProgress::message(const std::string& line) {
   const std::lock_guard lock(mutex_);
-  fmt::print(out_, "{}\n", line);
-  std::fflush(out_);
+  print_best_effort(out_, line + '\n');
 }
 
 void PlainProgress::finish() {
   const std::lock_guard lock(mutex_);
-  if (!line_.empty()) fmt::print(out_, "{}\n", line_);
-  std::fflush(out_);
+  if (!line_.empty()) print_best_effort(out_, line_ + '\n');
 }
 
 void LiveProgress::task_event(const std::string& kind, const std::string& key,
@@ -152,22 +159,19 @@ void LiveProgress::task_event(const std::string& kind, const std::string& key,
 
 void LiveProgress::message(const std::string& line) {
   const std::lock_guard lock(mutex_);
-  fmt::print(out_, "\r\033[K{}\n{}", line, line_);
-  std::fflush(out_);
+  print_best_effort(out_, fmt::format("\r\033[K{}\n{}", line, line_));
 }
 
 void LiveProgress::refresh(const ProgressSnapshot& snapshot) {
   const std::lock_guard lock(mutex_);
   // One column short of the width: a line that fills the last column wraps on some terminals.
   line_ = format_status_line(snapshot, std::max<std::size_t>(terminal_width(out_), 2) - 1);
-  fmt::print(out_, "\r\033[K{}", line_);
-  std::fflush(out_);
+  print_best_effort(out_, "\r\033[K" + line_);
 }
 
 void LiveProgress::finish() {
   const std::lock_guard lock(mutex_);
-  fmt::print(out_, "\r\033[K{}\n", line_);
-  std::fflush(out_);
+  print_best_effort(out_, "\r\033[K" + line_ + '\n');
 }
 
 }  // namespace millflow::engine

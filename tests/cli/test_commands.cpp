@@ -512,6 +512,30 @@ TEST_F(Cli, ExitCodesForDoneFailedBadInputBusyAndInterrupted) {
   EXPECT_EQ(running_tasks(db()), 0);
 }
 
+// A closed terminal (SIGHUP) stops the campaign as Ctrl-C does; it used to kill the coordinator
+// mid-task.
+TEST_F(Cli, AHangupStopsCleanly) {
+  const pid_t coordinator = start_long_campaign();
+  ASSERT_EQ(running_tasks(db()), 2);
+  ::kill(coordinator, SIGHUP);
+  EXPECT_EQ(wait_exit_code(coordinator), 130);
+  EXPECT_EQ(read_text(dir_.path() / "long.out"), kLongInterrupted);
+  EXPECT_EQ(running_tasks(db()), 0);
+}
+
+// The status and log lines are best effort: with stderr unwritable (a full disk, a terminal gone)
+// the campaign runs to its end. It used to fail at its first line (exit 1, nothing run).
+TEST_F(Cli, AnUnwritableStderrDoesNotStopACampaign) {
+  const fs::path out = dir_.path() / "diamond.out";
+  const pid_t coordinator =
+      spawn_millflow({"submit", write_campaign("diamond", diamond_tasks()).string(), "--db",
+                      db().string(), "--jobs", "2"},
+                     out, "/dev/full");
+  EXPECT_EQ(wait_exit_code(coordinator), 0);
+  EXPECT_EQ(read_text(out).rfind("campaign diamond: ", 0), 0u) << read_text(out);
+  EXPECT_NE(read_text(out).find(" 0 failed"), std::string::npos) << read_text(out);
+}
+
 // `timeout -s INT` signals the command and then its process group, so the coordinator gets one
 // request as two signals in a row; it used to take the second as "Ctrl-C again" and exit at
 // once, leaving its tasks marked running and their work since the last checkpoint lost. (Two
