@@ -179,6 +179,15 @@ class Coordinator {
         work_root_(env_.jobs ? env_.jobs->work_root() : work_dir(env_.store.path())),
         arenas_(options.threads_per_task),
         started_(env_.clock.now()) {}
+  // Launched tasks hold `this`: whatever ends the run early (the store unable to commit on a full
+  // disk, a failing progress view), they are asked to stop and waited for before it goes. It was
+  // destroyed under them: a crash.
+  ~Coordinator() {
+    stop_.request_stop();
+    env_.launcher.wait_idle();
+  }
+  Coordinator(const Coordinator&) = delete;
+  Coordinator& operator=(const Coordinator&) = delete;
 
   RunSummary run(const std::vector<TaskSpec>& planned) {
     stored_ = find_campaign_tasks(env_.store.connection(), campaign_);

@@ -3,8 +3,17 @@
 namespace millflow::engine::sql {
 namespace {
 
+// SQLite's "database or disk is full" names neither; say which file and what to do (nothing
+// committed is lost: the failed transaction rolls back).
+std::string full_disk_hint(sqlite3* db) {
+  if (db == nullptr || sqlite3_errcode(db) != SQLITE_FULL) return "";
+  return std::string(" (") + sqlite3_db_filename(db, "main") +
+         ": free space on its disk, then run the command again; what was committed is kept)";
+}
+
 [[noreturn]] void fail(sqlite3* db, std::string_view what) {
-  throw Error(std::string(what) + ": " + (db ? sqlite3_errmsg(db) : "out of memory"));
+  throw Error(std::string(what) + ": " + (db ? sqlite3_errmsg(db) : "out of memory") +
+              full_disk_hint(db));
 }
 
 // A writer killed at the wrong moment (kill -9) can leave a WAL that needs recovery, or, in a first
@@ -53,7 +62,7 @@ void Connection::exec(std::string_view sql) {
   if (sqlite3_exec(db_, text.c_str(), nullptr, nullptr, &message) != SQLITE_OK) {
     const std::string error = message ? message : sqlite3_errmsg(db_);
     sqlite3_free(message);
-    throw Error("SQL error: " + error + " in: " + text.substr(0, 200));
+    throw Error("SQL error: " + error + full_disk_hint(db_) + " in: " + text.substr(0, 200));
   }
 }
 

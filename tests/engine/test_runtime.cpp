@@ -3,9 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <fstream>
 #include <functional>
+#include <stdexcept>
 
+#include "engine/progress.hpp"
 #include "engine/store.hpp"
 #include "support_engine.hpp"
 
@@ -351,6 +354,37 @@ TEST(Runtime, ANonFiniteResultIsAFailedAttemptWithTheReasonInTheTaskLog) {
   const auto second = submit(test_campaign("diverged", tasks), dir.db());
   EXPECT_EQ(second.failed, 0);
   EXPECT_EQ(second.done, 2);
+}
+
+// A progress view that fails once a task runs, as one writing to a terminal that went away did
+// (engine/progress.cpp writes best effort since).
+class FailingView final : public ProgressView {
+ public:
+  void task_event(const std::string&, const std::string&, const std::string&) override {}
+  void refresh(const ProgressSnapshot& snapshot) override {
+    if (!snapshot.running.empty()) throw std::runtime_error("the terminal went away");
+  }
+  void message(const std::string&) override {}
+};
+
+// Whatever ends the coordinator's loop, its running tasks hold it: it asks them to stop and
+// waits for them before it goes. It was destroyed under a running task (a segmentation fault on
+// a full disk, found by hand), or its launcher waited out the task's whole run.
+TEST(Runtime, ALoopThatFailsStopsAndWaitsForItsRunningTasks) {
+  ScratchDir dir;
+  Registry registry = testing_registry();
+  const auto campaign = test_campaign(
+      "failing-view",
+      json::array({{{"id", "long"}, {"kind", "sleep"}, {"params", {{"ms", 30000}}}}}));
+  FailingView view;
+  SubmitOptions options;
+  options.run.jobs = 1;
+  options.run.refresh_s = 0.01;
+  options.progress = &view;
+  const auto started = std::chrono::steady_clock::now();
+  EXPECT_THROW(submit_campaign(registry, campaign, dir.db(), options), std::runtime_error);
+  // Stopped at its next 2 ms step, not slept out.
+  EXPECT_LT(std::chrono::steady_clock::now() - started, std::chrono::seconds(10));
 }
 
 }  // namespace

@@ -46,6 +46,30 @@ TEST(Store, RefusesANewerSchemaWithoutTouchingIt) {
 
 // A first submit killed before it created the schema leaves an empty file: readers (status,
 // resume, query) say what happened instead of failing on a missing table.
+// A full disk (here a page limit, which SQLite reports the same way) names the database and the
+// fix; SQLite's own "database or disk is full" named neither.
+TEST(Store, AFullDiskNamesTheDatabaseAndWhatToDo) {
+  ScratchDir dir;
+  sql::Connection raw(dir.db(), sql::Access::read_write);
+  raw.exec("CREATE TABLE t (x TEXT)");
+  raw.exec("PRAGMA max_page_count = 4");
+  auto insert = raw.prepare("INSERT INTO t VALUES (?)");
+  try {
+    for (int row = 0; row < 100; ++row) {
+      insert.bind(1, std::string(1000, 'x'));
+      insert.run();
+    }
+    FAIL() << "the page limit was never reached";
+  } catch (const sql::Error& error) {
+    EXPECT_NE(std::string(error.what())
+                  .find("database or disk is full (" + dir.db().string() +
+                        ": free space on its disk, then run the command again; what was committed "
+                        "is kept)"),
+              std::string::npos)
+        << error.what();
+  }
+}
+
 TEST(Store, ReadersOfADatabaseWithoutTablesSayToSubmitAgain) {
   ScratchDir dir;
   { sql::Connection raw(dir.db(), sql::Access::read_write); }
