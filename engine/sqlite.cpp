@@ -6,7 +6,7 @@ namespace {
 // SQLite's "database or disk is full" names neither; say which file and what to do (nothing
 // committed is lost: the failed transaction rolls back).
 std::string full_disk_hint(sqlite3* db) {
-  if (db == nullptr || sqlite3_errcode(db) != SQLITE_FULL) return "";
+  if (db == nullptr || (sqlite3_errcode(db) & 0xff) != SQLITE_FULL) return "";  // any extended code
   return std::string(" (") + sqlite3_db_filename(db, "main") +
          ": free space on its disk, then run the command again; what was committed is kept)";
 }
