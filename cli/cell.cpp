@@ -89,8 +89,8 @@ void add_cell_command(CLI::App& app, std::optional<int>& exit_code) {
       tbb::task_arena arena(*threads > 0 ? *threads : tbb::task_arena::automatic);
       CellProgress progress(view, tasks::cell_spec_cost(spec).core_seconds_at_caps,
                             arena.max_concurrency());
-      // Ctrl-C or SIGTERM: the cell saves its checkpoint and returns (a second signal exits at
-      // once).
+      // Ctrl-C, SIGTERM or SIGHUP: the cell saves its checkpoint and returns (another signal half a
+      // second or more later exits at once, engine/interrupt.hpp).
       engine::install_interrupt_handlers();
       const engine::StopWatcher watcher(engine::interrupt_requested);
       const tasks::CellRunHooks hooks{

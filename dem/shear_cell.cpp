@@ -158,6 +158,11 @@ void validate(const ShearCellSetup& s) {
           "gravity off");
 }
 
+double boundary_speed_limit(const ShearCellSetup& s, double media_contact_time) {
+  const double d = s.media_diameter;
+  return s.servo_gain * d / ((nominal_gap(s) / d) * media_contact_time);
+}
+
 double size_scaled_stiffness(double reference_stiffness, double reference_diameter,
                              double diameter_a, double diameter_b) {
   if (!(reference_stiffness > 0.0) || !(reference_diameter > 0.0) || !(diameter_a > 0.0) ||

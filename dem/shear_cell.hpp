@@ -117,6 +117,11 @@ struct ShearCellPopulation {
 };
 ShearCellPopulation shear_cell_population(const ShearCellSetup& setup);
 
+// The stress control's speed limit, at which it closes the loose fill: servo_gain x d /
+// ((H / d) t_c), m/s, t_c the contact duration of two media balls. The cost model prices
+// compaction with it before any cell exists.
+double boundary_speed_limit(const ShearCellSetup& setup, double media_contact_time);
+
 // Size-scaled stiffness (k_n ~ E d, a model choice): the stiffness of a pair of diameters d_a,
 // d_b is k_ref * d_eff / d_ref with d_eff = 2 d_a d_b / (d_a + d_b) the harmonic-mean diameter.
 double size_scaled_stiffness(double reference_stiffness, double reference_diameter,

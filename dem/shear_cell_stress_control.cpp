@@ -54,7 +54,7 @@ std::unique_ptr<StressControl> ShearCell::make_stress_control() const {
       .shear_rate = setup_.shear_rate,
       .relaxation_time =
           std::max(crossing_time, kRelaxationStrain / setup_.shear_rate) / setup_.servo_gain,
-      .max_speed = setup_.servo_gain * d / crossing_time,
+      .max_speed = boundary_speed_limit(setup_, t_c),
       .interval_steps = static_cast<std::uint64_t>(setup_.steps_per_collision),
       .part_strain =
           kPartStrainOfStressOverlap * setup_.normal_stress * d / media.normal_stiffness};

@@ -31,7 +31,8 @@ nlohmann::json parse_cell_spec(std::string_view text);
 // What a running cell tells its caller, and when it should stop.
 struct CellRunHooks {
   std::function<void(std::string_view line)> log;
-  // The fraction done (dem::ShearCellRun::progress: against the strain caps) and what it does.
+  // The fraction done (dem::ShearCellRun::progress: compaction against its expected steps, the
+  // rest against the strain caps) and what it does.
   std::function<void(double fraction, std::string_view phase)> progress;
   std::stop_token stop;
 };

@@ -210,7 +210,6 @@ ShearCellSize shear_cell_size(const json& cell_params, const json& site) {
   dem::ShearCellSetup setup = shear_cell_setup(cell_params, site, "");
   apply_stiffness_policy(cell_params, setup);
   const double d = setup.media_diameter, d_p = setup.powder_diameter_ratio * d;
-  const double height = setup.size_diameters.y() * d;
   const dem::ShearCellPopulation population = dem::shear_cell_population(setup);
   ShearCellSize size;
   size.media = population.media;
@@ -242,10 +241,9 @@ ShearCellSize shear_cell_size(const json& cell_params, const json& site) {
                               std::max(cell.at("measure_strain").get<double>(),
                                        cell.at("convergence").at("max_strain").get<double>())) /
                              strain_step;
-  // Compaction: the barostat (or the servo) closes the loose fill at its speed limit
-  // gain x d / ((H / d) t_c,media).
-  const double speed_limit = setup.servo_gain * d / ((height / d) * media_contact);
-  size.compaction_steps = population.compaction_distance / speed_limit / size.time_step_s;
+  // Compaction: the barostat (or the servo) closes the loose fill at its speed limit.
+  size.compaction_steps = population.compaction_distance /
+                          dem::boundary_speed_limit(setup, media_contact) / size.time_step_s;
   return size;
 }
 
