@@ -2,6 +2,8 @@
 
 #include <stop_token>
 
+#include <tbb/task_arena.h>
+
 #include "engine/files.hpp"
 #include "engine/json_text.hpp"
 #include "engine/validation.hpp"
@@ -106,7 +108,8 @@ std::optional<json> run_cell_spec(const json& spec, const std::filesystem::path&
                               .params = params,
                               .inputs = inputs,
                               .work_dir = out_dir,
-                              .threads = 1,
+                              // The arena the caller runs this in (`millflow cell --threads`).
+                              .threads = tbb::this_task_arena::max_concurrency(),
                               .attempt = 1,
                               .stop = hooks.stop,
                               .progress = hooks.progress,

@@ -40,6 +40,7 @@ struct CellRunHooks {
 // Runs the validated spec's cell in out_dir (created; it keeps cell.vtp and result.json, and the
 // checkpoint while it runs, so an interrupted command continues where it stopped). Returns the
 // result JSON, or none when a stop was requested: the cell saved its checkpoint and stopped.
+// The cell runs on the threads of the calling task arena.
 std::optional<nlohmann::json> run_cell_spec(const nlohmann::json& spec,
                                             const std::filesystem::path& out_dir,
                                             const CellRunHooks& hooks);
