@@ -24,7 +24,9 @@
 // test passes; the cache file says "_steady" only then ("_NOTSTEADY" otherwise, never read back).
 //
 // Counters: pts_per_cpu_s (particle-steps per CPU-second of the process, every thread),
-// pts_per_s (wall), contacts_per_particle (pair and wall contacts in force), bytes_per_particle
+// pts_per_s (wall), contacts_per_particle (pair and wall contacts in force), pairs_per_particle
+// (candidate pairs), screened_per_particle_step (the candidate pairs the screening looked at per
+// particle-step: those asleep it skips, System::pairs_screened), bytes_per_particle
 // (System::memory_bytes() / particles) and its parts (System::MemoryUse): bytes_particles,
 // bytes_pairs (candidate pairs), bytes_contacts (pair and wall contacts), bytes_queues (the
 // step's queues of starting and finishing contacts), bytes_events (collision events not yet
@@ -538,6 +540,7 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   const std::size_t steps = g_options.steps.value_or(c.default_steps);
   const std::size_t particles = run.cell().system().size();
   tbb::task_arena arena(threads);
+  const std::uint64_t screened_before = run.cell().system().pairs_screened();
   double wall = 0.0, cpu = 0.0;
   std::size_t total_steps = 0;
   for (auto _ : state) {
@@ -561,6 +564,8 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
       static_cast<double>(system.active_contact_count()) / static_cast<double>(particles);
   state.counters["pairs_per_particle"] =
       static_cast<double>(system.candidate_pairs().size()) / static_cast<double>(particles);
+  state.counters["screened_per_particle_step"] =
+      static_cast<double>(system.pairs_screened() - screened_before) / particle_steps;
   // The bytes per particle, and by what they grow with (System::MemoryUse).
   const dem::System::MemoryUse memory = system.memory_use();
   const auto per_particle = [&](std::size_t bytes) {

@@ -43,6 +43,13 @@ double square(double v) {
   return v * v;
 }
 
+// What the drift finds, per particle at most: the squared displacement since the neighbour list's
+// build and the squared speed against the shear flow.
+struct DriftMaxima {
+  double moved_sq = 0.0;
+  double peculiar_speed_sq = 0.0;
+};
+
 bool finite(const Vec3& v) {
   return v.allFinite();
 }
@@ -337,6 +344,7 @@ void System::deform_affinely(int axis, double factor) {
   if (domain_.lees_edwards.enabled && domain_.lees_edwards.gradient_axis == axis)
     domain_.lees_edwards.velocity *= factor;
   contact_virial_.col(axis) *= factor;
+  approach_bound_ += std::abs(factor - 1.0) * pair_separation_bound_;
 }
 
 void System::check_overlaps(double tolerance) const {
@@ -422,18 +430,31 @@ bool System::kick_and_drift() {
   const std::array<double, 3> no_image_limit = no_image_limits();
   const double image_test_sq =
       square(std::min({no_image_limit[0], no_image_limit[1], no_image_limit[2]}));
-  // The largest displacement since the last neighbour-list build, found in the same pass (an exact
-  // maximum, so any split of the range gives the same answer).
-  const double max_displacement_sq = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), 0.0,
-      [&](const tbb::blocked_range<std::size_t>& range, double running_before) {
+  // The shear flow the particles' own speeds are taken against (pairs apart sleep by them): the
+  // image velocity over the gradient axis's length, zero about the box's middle.
+  const LeesEdwards& shear = domain_.lees_edwards;
+  const int gradient_axis = shear.enabled ? shear.gradient_axis : 1;
+  const double shear_rate = shear.enabled ? shear.velocity / domain_.length()[gradient_axis] : 0.0;
+  const double flow_centre = 0.5 * (domain_.lo[gradient_axis] + domain_.hi[gradient_axis]);
+  // The flow's velocity per unit of height (a vector, so that the pass never indexes a register).
+  Vec3 flow_per_height = Vec3::Zero();
+  if (shear.enabled) flow_per_height[shear.flow_axis] = shear_rate;
+  // The largest displacement since the last neighbour-list build and the largest speed against the
+  // shear flow, found in the same pass (exact maxima, so any split of the range gives the same
+  // answers).
+  const DriftMaxima maxima = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), DriftMaxima{},
+      [&](const tbb::blocked_range<std::size_t>& range, DriftMaxima running_before) {
         const PeriodicImages images(domain_);
         // Copies, held in registers (the stores below may alias what a reference points to).
-        double running = running_before;
+        double running = running_before.moved_sq, fastest = running_before.peculiar_speed_sq;
         const double half_step = half_dt, step = dt, image_sq = image_test_sq;
+        const double centre = flow_centre;
+        const Vec3 flow_rate = flow_per_height;
         const std::array<double, 3> limit = no_image_limit;
         const bool track = track_displacement, free_of_groups = groups_.empty();
         Vec3* const position = position_.data();
+        const double* const height_of = position_.data()->data() + gradient_axis;  // stride 3
         Vec3* const velocity = velocity_.data();
         Vec3* const angular_velocity = angular_velocity_.data();
         Vec3* const predicted_velocity = predicted_velocity_.data();
@@ -450,6 +471,8 @@ bool System::kick_and_drift() {
           v += force[p] * (inv_mass[p] * half_step);
           w += torque[p] * (inv_inertia[p] * half_step);
           if (!free_of_groups && group[p] != kFreeParticle) v = groups_[group[p] - 1].velocity;
+          const double height = height_of[3 * p] - centre;
+          fastest = std::max(fastest, (v - height * flow_rate).squaredNorm());
           Vec3 x = position[p] + v * step;
           if (!images.inside(x)) {
             // Through copies: the compiler keeps x and v in registers unless wrap() runs.
@@ -477,10 +500,19 @@ bool System::kick_and_drift() {
             running = std::max(running, moved_sq);
           }
         }
-        return running;
+        return DriftMaxima{running, fastest};
       },
-      [](double a, double b) { return std::max(a, b); });
-  return neighbors_.needs_rebuild(domain_, size(), max_displacement_sq);
+      [](const DriftMaxima& a, const DriftMaxima& b) {
+        return DriftMaxima{std::max(a.moved_sq, b.moved_sq),
+                           std::max(a.peculiar_speed_sq, b.peculiar_speed_sq)};
+      });
+  // A pair's separation changes in the drift by its two speeds against the flow and by the flow's
+  // difference across it (the shear rate times its separation along the gradient, the image's
+  // offset included).
+  approach_bound_ +=
+      (2.0 * std::sqrt(maxima.peculiar_speed_sq) + std::abs(shear_rate) * pair_separation_bound_) *
+      dt;
+  return neighbors_.needs_rebuild(domain_, size(), maxima.moved_sq);
 }
 
 double skin_cost(const SkinCandidate& c, const SkinCostModel& model) {
@@ -590,6 +622,7 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   neighbors_.build(domain_, position_, radius_);
   build_step_ = step_count_;
   const auto& pairs = neighbors_.pairs();
+  reset_sleeping_pairs();
 
   // Carry the contacts over to the new list (both lists are sorted by (i, j)), into a store laid
   // out in the new pairs' order.
@@ -648,6 +681,25 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
     if (k == 0 || pairs[k - 1].i != i) particle_first_shift_[i] = first_offset_[i] - k;
     pair_second_slot_[k] = second_fill[j];
     second_contact_slot_[second_fill[j]++] = pair_slot_[k];
+  }
+}
+
+void System::reset_sleeping_pairs() {
+  assign_on_huge_pages(pair_wake_, neighbors_.pairs().size(), 0.0f);
+  approach_bound_ = 0.0;
+  const double largest_radius =
+      radius_.empty() ? 0.0 : *std::max_element(radius_.begin(), radius_.end());
+  // A candidate pair was within its reach plus the skin at the build, and each particle moves at
+  // most half a skin before the next (NeighborSearch::travel); the factor covers rounding.
+  pair_separation_bound_ = (2.0 * largest_radius + 2.0 * skin_) * (1.0 + 1e-9);
+  // Another periodic image of a pair could close faster than the bound says (a Lees-Edwards image
+  // streams at the image velocity); it stays out of reach while every period holds two
+  // separations and more.
+  pairs_may_sleep_ = true;
+  const Vec3 length = domain_.length();
+  for (int axis = 0; axis < 3; ++axis) {
+    if (domain_.periodic[axis] && length[axis] < 2.0 * (pair_separation_bound_ + skin_))
+      pairs_may_sleep_ = false;
   }
 }
 
@@ -889,33 +941,46 @@ void System::compute_pair_forces(double dt) {
     // runs after; each pair writes only its own slots, so the order does not matter.
     constexpr std::size_t kBlock = 256;
     std::array<TouchingPair, kBlock> touching;
-    std::array<std::uint32_t, kBlock> finishing;
+    std::array<std::uint32_t, kBlock> finishing, awake;
     const NeighborPair* const pair = pairs.data();
     const Vec3* const x = position_.data();
     const double* const radius = radius_.data();
     const GroupId* const group = group_.data();
     const std::uint8_t* const was_touching = pair_touching_.data();
+    float* const wake = pair_wake_.data();
+    const double bound = approach_bound_;
+    const double sleep = pairs_may_sleep_ ? 1.0 : 0.0;
     const bool skip_wall_balls = has_groups;
     const double limit_x = no_image_limit[0], limit_y = no_image_limit[1],
                  limit_z = no_image_limit[2];
     const double image_test_sq = square(std::min({limit_x, limit_y, limit_z}));
-    const std::size_t last_pair = pairs.size() - 1;
     for (std::size_t chunk = chunks.begin(); chunk != chunks.end(); ++chunk) {
       std::vector<TouchingPair>& starting_here = queues_by_chunk_[chunk].starting;
       std::vector<std::uint32_t>& finishing_here = queues_by_chunk_[chunk].finishing;
       starting_here.clear();
+      queues_by_chunk_[chunk].screened = 0;
       const std::size_t chunk_end = std::min((chunk + 1) * kPairGrain, pairs.size());
       for (std::size_t block = chunk * kPairGrain; block < chunk_end; block += kBlock) {
         const std::size_t block_end = std::min(block + kBlock, chunk_end);
+        // The pairs of the block that may touch by now (the others sleep: their gap cannot have
+        // closed yet).
+        std::size_t awake_count = 0;
+        for (std::size_t k = block; k != block_end; ++k) {
+          awake[awake_count] = static_cast<std::uint32_t>(k);
+          awake_count += !(bound < static_cast<double>(wake[k]));
+        }
+        const std::size_t last_awake = awake_count - 1;
+        queues_by_chunk_[chunk].screened += awake_count;
         // The loop twice, with and without the kinematic groups' test (the compiler keeps the
         // test in the loop otherwise).
         const auto screen = [&](auto skip_wall_balls) {
           std::size_t touching_count = 0, finishing_count = 0;
-          for (std::size_t k = block; k != block_end; ++k) {
+          for (std::size_t a = 0; a != awake_count; ++a) {
+            const std::size_t k = awake[a];
             const auto [i, j] = pair[k];
             // A hint, which changes no result: pairs come in rows, so x[i] is mostly in the cache
             // already and x[j] is what the pass would wait for.
-            __builtin_prefetch(&x[pair[std::min(k + kScreeningLookahead, last_pair)].j]);
+            __builtin_prefetch(&x[pair[awake[std::min(a + kScreeningLookahead, last_awake)]].j]);
             if (skip_wall_balls() && group[i] != kFreeParticle && group[j] != kFreeParticle)
               continue;  // two wall balls never interact
             Vec3 d = x[j] - x[i];
@@ -941,6 +1006,10 @@ void System::compute_pair_forces(double dt) {
             // Apart now: collect_finished_contacts() records the event and clears the history.
             finishing[finishing_count] = static_cast<std::uint32_t>(k);
             finishing_count += !touches & (was_touching[k] != 0);
+            // Apart by a gap g: it sleeps until the approach bound has grown by g (a margin
+            // for rounding; a float's rounding taken off too, so that it never wakes late).
+            const double gap = std::sqrt(distance_sq) - reach * (1.0 + 1e-9);
+            wake[k] = touches ? 0.0f : static_cast<float>((bound + sleep * gap) * (1.0 - 1e-6));
           }
           return std::pair{touching_count, finishing_count};
         };
@@ -970,6 +1039,7 @@ void System::compute_pair_forces(double dt) {
   for (std::size_t chunk = 0; chunk < chunk_count; ++chunk) {
     const std::vector<TouchingPair>& here = queues_by_chunk_[chunk].starting;
     starting_.insert(starting_.end(), here.begin(), here.end());
+    pairs_screened_ += queues_by_chunk_[chunk].screened;
   }
   if (starting_.empty()) return;
   for (const TouchingPair& t : starting_) {
@@ -1400,7 +1470,8 @@ System::MemoryUse System::memory_use() const {
     use.particles += bytes_of(*array);
   use.candidate_pairs = neighbors_.pair_bytes() + bytes_of(pair_slot_) + bytes_of(pair_touching_) +
                         bytes_of(pair_second_slot_) + bytes_of(second_contact_slot_) +
-                        bytes_of(second_in_force_) + bytes_of(first_in_force_);
+                        bytes_of(second_in_force_) + bytes_of(first_in_force_) +
+                        bytes_of(pair_wake_);
   use.contacts =
       bytes_of(contact_history_) + bytes_of(contact_force_) + bytes_of(free_contact_slots_);
   use.wall_contacts = bytes_of(finished_wall_mask_);

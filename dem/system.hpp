@@ -288,7 +288,16 @@ class System {
     return contact_history_[pair_slot_[k]];
   }
   const Vec3& pair_force(std::size_t k) const { return contact_force_[pair_slot_[k]].force; }
+  // The gap candidate pair k is known to keep at least, whatever happened since it was last
+  // screened: the screening skips it while this is positive (it sleeps; 0 for a pair that is
+  // screened at the next step).
+  double pair_sleeping_gap(std::size_t k) const {
+    return std::max(static_cast<double>(pair_wake_[k]) - approach_bound_, 0.0);
+  }
   std::size_t active_contact_count() const;
+  // Candidate pairs screened since this System was made (those asleep are not; not kept in
+  // checkpoints): per particle-step, what the screening costs.
+  std::uint64_t pairs_screened() const { return pairs_screened_; }
   // Sum over the pair contacts in force of F b^T: F the force on the first particle, b the
   // minimum-image vector from its centre to the second's (the pair-contact part of -V sigma).
   // Summed in the force gather of the last step, in an order fixed by the touching pairs alone
@@ -392,6 +401,7 @@ class System {
   struct ChunkQueues {
     std::vector<TouchingPair> starting;
     std::vector<std::uint32_t> finishing;
+    std::size_t screened = 0;  // pairs screened (not asleep) in the step
   };
   std::vector<ChunkQueues> queues_by_chunk_;
   std::vector<TouchingPair> starting_;
@@ -457,6 +467,20 @@ class System {
   // pair_slot_[k] != kNoContact in one byte per pair, so that screening the pairs, most of them
   // apart, reads no more.
   std::vector<std::uint8_t> pair_touching_;
+  // Pairs that cannot touch yet are not screened (docs/benchmarks.md, "Pairs apart sleep"):
+  // approach_bound_ is the most any candidate pair's gap can have closed since the list was built
+  // (each step adds twice the fastest particle's speed relative to the shear flow, plus the
+  // shear rate times pair_separation_bound_, times dt; a stretch of the box adds its strain times
+  // that bound); a pair found apart by a gap g sleeps until the bound has grown by g, in
+  // pair_wake_ (0: screened every step). Screening the sleeping pairs would find them apart, so
+  // no result changes. Without room for that argument in the box (pairs_may_sleep_), none sleeps.
+  std::vector<float> pair_wake_;
+  double approach_bound_ = 0.0;
+  std::uint64_t pairs_screened_ = 0;
+  double pair_separation_bound_ = 0.0;  // the largest separation of a candidate pair until the next
+                                        // build: the largest reach plus twice the skin
+  bool pairs_may_sleep_ = false;
+  void reset_sleeping_pairs();
 
   // The contact store: one slot per pair that touches, in the pairs' order after each neighbour
   // rebuild, new contacts in the slots finished ones freed (or at the end). Split in what the

@@ -8,10 +8,12 @@
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cstdio>
 
 #include "dem/neighbor_search.hpp"
 #include "dem/shear_cell.hpp"
+#include "tests/dem/scenes.hpp"
 #include "tests/dem/shear_cells.hpp"
 
 namespace millflow::dem {
@@ -54,6 +56,120 @@ TEST(ContactDetection, AHeldCellWithPowderMissesNoContactThroughTheBarostatsStre
   }
   std::printf("%zu particles, %zu contacts at the last check\n", particles, last_contacts);
   EXPECT_GT(10 * last_contacts, particles) << "a compacted cell, not a gas";
+}
+
+// Steps two spheres one step at a time until `steps_after` steps after they first touch; after
+// every step the screening found the contact exactly when a brute-force search does, and what it
+// knows of their gap while the pair sleeps is never more than the gap they have. Returns how often
+// the pair was screened.
+std::uint64_t step_two_spheres_checking_their_sleep(System& s, std::size_t steps_after) {
+  s.set_neighbor_skin(0.004);
+  std::size_t asleep = 0, since_contact = 0;
+  for (std::size_t n = 0; n < 100000 && since_contact < steps_after; ++n) {
+    s.step();
+    EXPECT_EQ(s.active_contact_count(), overlapping_pairs(s)) << "at step " << s.step_count();
+    since_contact += since_contact > 0 || s.active_contact_count() > 0;
+    const auto pairs = s.candidate_pairs();
+    for (std::size_t p = 0; p < pairs.size(); ++p) {
+      const auto [i, j] = pairs[p];
+      const double gap = s.domain().separation(s.positions()[i], s.positions()[j]).norm() -
+                         (s.radii()[i] + s.radii()[j]);
+      const double slept_on = s.pair_sleeping_gap(p);
+      if (slept_on == 0.0) continue;
+      ++asleep;
+      EXPECT_GE(gap, slept_on) << "at step " << s.step_count();
+    }
+  }
+  EXPECT_EQ(since_contact, steps_after) << "they never met";
+  std::printf("%zu steps, %zu of them asleep; %llu screenings, %llu neighbour-list builds\n",
+              static_cast<std::size_t>(s.step_count()), asleep,
+              static_cast<unsigned long long>(s.pairs_screened()),
+              static_cast<unsigned long long>(s.neighbor_rebuild_count()));
+  return s.pairs_screened();
+}
+
+// Head on, at equal speeds along x: their gap closes at twice the speed, as fast as the bound
+// lets it, so the pair sleeps until the step before they touch.
+TEST(ContactDetection, SpheresMeetingHeadOnSleepUntilTheirGapCouldHaveClosed) {
+  Domain box;
+  box.hi = Vec3(0.1, 0.08, 0.06);
+  box.periodic = {true, true, true};
+  System s(testing::steel_table(0.5, 0.5), box, Vec3::Zero());
+  s.add_particle(
+      {.position = Vec3(0.04, 0.04, 0.03), .velocity = Vec3(0.5, 0, 0), .radius = 0.004});
+  s.add_particle(
+      {.position = Vec3(0.051, 0.04, 0.03), .velocity = Vec3(-0.5, 0, 0), .radius = 0.004});
+  s.set_time_step(1e-6);  // 1 um closer each step: 3,000 steps to meet
+  // Screened before the first step, then from the step they touch on: never while they approach.
+  EXPECT_EQ(step_two_spheres_checking_their_sleep(s, 20), 21u);
+}
+
+// Across the Lees-Edwards boundary, each sphere at rest in the shear flow: only the flow's
+// difference between their heights (the image velocity's share of it) brings them together.
+TEST(ContactDetection, SpheresBroughtTogetherByTheShearFlowAcrossTheImageSleepUntilTheyCouldMeet) {
+  Domain box;
+  box.hi = Vec3(0.1, 0.08, 0.06);
+  box.periodic = {true, true, true};
+  const double shear_rate = 6.25, r = 0.004;  // an image velocity of 0.5 m/s
+  box.lees_edwards = {.enabled = true, .flow_axis = 0, .gradient_axis = 1, .velocity = 0.5};
+  System s(testing::steel_table(0.5, 0.5), box, Vec3::Zero());
+  // The upper sphere 0.0036 below the top, the lower one 0.0036 above the bottom: 0.9 of the
+  // reach apart along y through the image, whose x lags the upper sphere's by 9 mm.
+  const auto at_rest_in_the_flow = [&](double x, double y) {
+    return ParticleSpec{
+        .position = Vec3(x, y, 0.03), .velocity = Vec3(shear_rate * (y - 0.04), 0, 0), .radius = r};
+  };
+  s.add_particle(at_rest_in_the_flow(0.05, 0.08 - 0.0036));
+  s.add_particle(at_rest_in_the_flow(0.041, 0.0036));
+  s.set_time_step(1e-5);
+  // 12,250 steps to meet. Each neighbour-list build (29) wakes the pair, which then sleeps while
+  // the flow's difference across the bound's separation, 2.2 times theirs, could close its gap: 77
+  // screenings in all, 319 if the flow were taken the wrong way round.
+  EXPECT_LT(step_two_spheres_checking_their_sleep(s, 20), 100u);
+}
+
+// The screening skips a candidate pair while its gap cannot have closed
+// (System::pair_sleeping_gap): in the same held cell, with its shear, its images and the barostat's
+// stretches, every sleeping pair is at least as far apart as the gap it sleeps on, checked at 40
+// moments of every phase of the barostat's interval; and most pairs apart do sleep, or the check
+// would say nothing.
+TEST(ContactDetection, APairSleepsOnlyWhileItsGapCannotHaveClosed) {
+  spdlog::set_level(spdlog::level::warn);
+  constexpr double kRatio = 0.25;
+  ShearCellSetup setup = testing::small_shear_cell(0.3, 1.0, kRatio);
+  setup.boundary = ShearCellSetup::Boundary::LeesEdwards;
+  setup.size_diameters = Vec3(4, 4, 4);
+  const double d = setup.media_diameter, k = 1e4 * setup.normal_stress * d;
+  setup.media_media.normal_stiffness = k;
+  setup.media_powder.normal_stiffness = size_scaled_stiffness(k, d, d, kRatio * d);
+  setup.powder_powder.normal_stiffness = size_scaled_stiffness(k, d, kRatio * d, kRatio * d);
+  ShearCellRun run(setup, {.warmup_strain = 0.5,
+                           .warmup_windows = 2,
+                           .max_warmup_strain = 1.0,
+                           .measure_strain = 1.0,
+                           .measure = {.samples = 20}});
+  std::size_t sleeping = 0, apart = 0;
+  double closest_call = 1.0;  // the least gap left over the gap slept on, in diameters
+  for (int check = 0; check < 40; ++check) {
+    run.advance(293);  // prime to the barostat's interval: every phase of it
+    const System& s = run.cell().system();
+    const auto pairs = s.candidate_pairs();
+    for (std::size_t p = 0; p < pairs.size(); ++p) {
+      const auto [i, j] = pairs[p];
+      const double gap = s.domain().separation(s.positions()[i], s.positions()[j]).norm() -
+                         (s.radii()[i] + s.radii()[j]);
+      if (gap <= 0.0) continue;
+      ++apart;
+      const double slept_on = s.pair_sleeping_gap(p);
+      if (slept_on == 0.0) continue;
+      ++sleeping;
+      ASSERT_GE(gap, slept_on) << "pair (" << i << ", " << j << ") at step " << s.step_count();
+      closest_call = std::min(closest_call, (gap - slept_on) / d);
+    }
+  }
+  std::printf("%zu of %zu pairs apart sleep; the closest is %.3g d beyond its gap\n", sleeping,
+              apart, closest_call);
+  EXPECT_GT(2 * sleeping, apart);
 }
 
 }  // namespace
