@@ -104,6 +104,23 @@ TEST(ContactDetection, SpheresMeetingHeadOnSleepUntilTheirGapCouldHaveClosed) {
   EXPECT_EQ(step_two_spheres_checking_their_sleep(s, 20), 21u);
 }
 
+// In a period shorter than twice the largest candidate separation and a skin (here 30 mm against
+// 2 x (16 + 4) mm), another image of a pair could come near faster than the bound allows for:
+// no pair sleeps, and every step screens the pair.
+TEST(ContactDetection, NoPairSleepsInAPeriodTooShortForTheBound) {
+  Domain box;
+  box.hi = Vec3(0.03, 0.08, 0.06);
+  box.periodic = {true, true, true};
+  System s(testing::steel_table(0.5, 0.5), box, Vec3::Zero());
+  s.add_particle(
+      {.position = Vec3(0.004, 0.04, 0.03), .velocity = Vec3(0.5, 0, 0), .radius = 0.004});
+  s.add_particle(
+      {.position = Vec3(0.015, 0.04, 0.03), .velocity = Vec3(-0.5, 0, 0), .radius = 0.004});
+  s.set_time_step(1e-6);
+  const std::uint64_t screened = step_two_spheres_checking_their_sleep(s, 20);
+  EXPECT_EQ(screened, s.step_count() + 1);
+}
+
 // Across the Lees-Edwards boundary, each sphere at rest in the shear flow: only the flow's
 // difference between their heights (the image velocity's share of it) brings them together.
 TEST(ContactDetection, SpheresBroughtTogetherByTheShearFlowAcrossTheImageSleepUntilTheyCouldMeet) {
