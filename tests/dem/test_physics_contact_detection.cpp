@@ -26,10 +26,8 @@ std::size_t overlapping_pairs(const System& s) {
 }
 
 // A 4 x 4 x 4 d Lees-Edwards cell of balls and 0.25 d powder at load 1 at the campaigns'
-// stiffness (k_n / (p d) = 1e4, the powder's by size), held at I = 0.3 from compaction on
-// (2,179 particles checked 30 times over 18,000 steps, 4 s: 40 contacts at the first check, about
-// 400 at the last).
-TEST(ContactDetection, AHeldCellWithPowderMissesNoContactThroughTheBarostatsStretches) {
+// stiffness (k_n / (p d) = 1e4, the powder's by size), held at I = 0.3 from compaction on.
+ShearCellRun held_cell_with_powder() {
   spdlog::set_level(spdlog::level::warn);
   constexpr double kRatio = 0.25;
   ShearCellSetup setup = testing::small_shear_cell(0.3, 1.0, kRatio);
@@ -39,11 +37,17 @@ TEST(ContactDetection, AHeldCellWithPowderMissesNoContactThroughTheBarostatsStre
   setup.media_media.normal_stiffness = k;
   setup.media_powder.normal_stiffness = size_scaled_stiffness(k, d, d, kRatio * d);
   setup.powder_powder.normal_stiffness = size_scaled_stiffness(k, d, kRatio * d, kRatio * d);
-  ShearCellRun run(setup, {.warmup_strain = 0.5,
-                           .warmup_windows = 2,
-                           .max_warmup_strain = 1.0,
-                           .measure_strain = 1.0,
-                           .measure = {.samples = 20}});
+  return ShearCellRun(setup, {.warmup_strain = 0.5,
+                              .warmup_windows = 2,
+                              .max_warmup_strain = 1.0,
+                              .measure_strain = 1.0,
+                              .measure = {.samples = 20}});
+}
+
+// The held cell: 2,179 particles checked 30 times over 18,000 steps, 4 s: 40 contacts at the first
+// check, 268 at the last.
+TEST(ContactDetection, AHeldCellWithPowderMissesNoContactThroughTheBarostatsStretches) {
+  ShearCellRun run = held_cell_with_powder();
   std::size_t last_contacts = 0, particles = 0;
   for (int check = 0; check < 30; ++check) {
     run.advance(599);  // prime to the barostat's interval: every phase of it
@@ -151,20 +155,8 @@ TEST(ContactDetection, SpheresBroughtTogetherByTheShearFlowAcrossTheImageSleepUn
 // moments of every phase of the barostat's interval; and most pairs apart do sleep, or the check
 // would say nothing.
 TEST(ContactDetection, APairSleepsOnlyWhileItsGapCannotHaveClosed) {
-  spdlog::set_level(spdlog::level::warn);
-  constexpr double kRatio = 0.25;
-  ShearCellSetup setup = testing::small_shear_cell(0.3, 1.0, kRatio);
-  setup.boundary = ShearCellSetup::Boundary::LeesEdwards;
-  setup.size_diameters = Vec3(4, 4, 4);
-  const double d = setup.media_diameter, k = 1e4 * setup.normal_stress * d;
-  setup.media_media.normal_stiffness = k;
-  setup.media_powder.normal_stiffness = size_scaled_stiffness(k, d, d, kRatio * d);
-  setup.powder_powder.normal_stiffness = size_scaled_stiffness(k, d, kRatio * d, kRatio * d);
-  ShearCellRun run(setup, {.warmup_strain = 0.5,
-                           .warmup_windows = 2,
-                           .max_warmup_strain = 1.0,
-                           .measure_strain = 1.0,
-                           .measure = {.samples = 20}});
+  ShearCellRun run = held_cell_with_powder();
+  const double d = run.cell().setup().media_diameter;
   std::size_t sleeping = 0, apart = 0;
   double closest_call = 1.0;  // the least gap left over the gap slept on, in diameters
   for (int check = 0; check < 40; ++check) {
