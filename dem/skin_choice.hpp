@@ -2,7 +2,8 @@
 // The neighbour skin chosen per scene by trial (issue 17; docs/shear_cells.md, "The neighbour
 // skin"): each candidate skin steps a throwaway copy of the system for a stretch of steps, and the
 // skin whose stretch cost least by a deterministic cost proxy is kept. The proxy counts work, not
-// time: the candidate pairs the step screens (summed over the stretch's steps) and the list
+// time: the candidate pairs of each step (summed over the stretch's steps; each priced as
+// screened, SkinCostModel) and the list
 // rebuilds the skin test asked for, weighed by SkinCostModel's instructions per candidate
 // pair-step and per particle-rebuild (dem/system.hpp says how they were measured). The same
 // state gives the same choice at any thread count and on every run (every count is a property of

@@ -22,11 +22,14 @@
 
 namespace millflow::dem {
 
-// Choosing the neighbour skin by a cost model (issue 17). A step screens every candidate pair
-// and a rebuild sorts every particle into cells and builds the list again, so a skin s costs,
-// per particle and step, with p(s) candidate pairs per particle,
+// Choosing the neighbour skin by a cost model (issue 17). A step screens the candidate pairs and
+// a rebuild sorts every particle into cells and builds the list again, so a skin s costs, per
+// particle and step, with p(s) candidate pairs per particle,
 //   p(s) x per_candidate_step + per_particle_rebuild / steps_per_rebuild(s).
-// A smaller skin screens fewer pairs and rebuilds more often. The constants are instructions
+// A smaller skin screens fewer pairs and rebuilds more often. The model prices every candidate
+// as screened in every step, as it was when measured; since a pair apart sleeps (not screened
+// while its gap cannot have closed), that overstates a wider skin's extra pairs (not yet
+// measured again). The constants are instructions
 // measured with callgrind as the differences between whole runs at skins 0.1-0.3 x the smallest
 // diameter (docs/benchmarks.md, "The skin chosen per scene"): a candidate pair-step 41 on
 // cement_load05 and 61 on le_media_2000 (the smaller taken: a near tie goes to the wider skin), a
