@@ -92,18 +92,26 @@ std::uint64_t step_two_spheres_checking_their_sleep(System& s, std::size_t steps
   return s.pairs_screened();
 }
 
-// Head on, at equal speeds along x: their gap closes at twice the speed, as fast as the bound
-// lets it, so the pair sleeps until the step before they touch.
-TEST(ContactDetection, SpheresMeetingHeadOnSleepUntilTheirGapCouldHaveClosed) {
+// Two spheres of 4 mm radius 3 mm apart in the middle of a periodic box `period` long along x,
+// closing head on at 0.5 m/s each: 1 um closer each step, 3,000 steps to meet.
+System spheres_head_on(double period) {
   Domain box;
-  box.hi = Vec3(0.1, 0.08, 0.06);
+  box.hi = Vec3(period, 0.08, 0.06);
   box.periodic = {true, true, true};
   System s(testing::steel_table(0.5, 0.5), box, Vec3::Zero());
-  s.add_particle(
-      {.position = Vec3(0.04, 0.04, 0.03), .velocity = Vec3(0.5, 0, 0), .radius = 0.004});
-  s.add_particle(
-      {.position = Vec3(0.051, 0.04, 0.03), .velocity = Vec3(-0.5, 0, 0), .radius = 0.004});
-  s.set_time_step(1e-6);  // 1 um closer each step: 3,000 steps to meet
+  for (const double side : {-1.0, 1.0}) {
+    s.add_particle({.position = Vec3(0.5 * period + side * 0.0055, 0.04, 0.03),
+                    .velocity = Vec3(-side * 0.5, 0, 0),
+                    .radius = 0.004});
+  }
+  s.set_time_step(1e-6);
+  return s;
+}
+
+// Their gap closes at twice the speed, as fast as the bound lets it, so the pair sleeps until the
+// step before they touch.
+TEST(ContactDetection, SpheresMeetingHeadOnSleepUntilTheirGapCouldHaveClosed) {
+  System s = spheres_head_on(0.1);
   // Screened before the first step, then from the step they touch on: never while they approach.
   EXPECT_EQ(step_two_spheres_checking_their_sleep(s, 20), 21u);
 }
@@ -112,15 +120,7 @@ TEST(ContactDetection, SpheresMeetingHeadOnSleepUntilTheirGapCouldHaveClosed) {
 // 2 x (16 + 4) mm), another image of a pair could come near faster than the bound allows for:
 // no pair sleeps, and every step screens the pair.
 TEST(ContactDetection, NoPairSleepsInAPeriodTooShortForTheBound) {
-  Domain box;
-  box.hi = Vec3(0.03, 0.08, 0.06);
-  box.periodic = {true, true, true};
-  System s(testing::steel_table(0.5, 0.5), box, Vec3::Zero());
-  s.add_particle(
-      {.position = Vec3(0.004, 0.04, 0.03), .velocity = Vec3(0.5, 0, 0), .radius = 0.004});
-  s.add_particle(
-      {.position = Vec3(0.015, 0.04, 0.03), .velocity = Vec3(-0.5, 0, 0), .radius = 0.004});
-  s.set_time_step(1e-6);
+  System s = spheres_head_on(0.03);
   const std::uint64_t screened = step_two_spheres_checking_their_sleep(s, 20);
   EXPECT_EQ(screened, s.step_count() + 1);
 }
