@@ -850,7 +850,7 @@ struct System::PairContactKernel {
     const auto [i, j] = pair[k];
     const Vec3& d = touching.separation;
     const double reach = radius[i] + radius[j];
-    const double distance = std::sqrt(touching.distance_sq);
+    const double distance = touching.distance;
     const Vec3 normal = d * (-1.0 / distance);  // from j towards i
     const double overlap = reach - distance;
     const double lever_i = radius[i] - 0.5 * overlap, lever_j = radius[j] - 0.5 * overlap;
@@ -1000,15 +1000,16 @@ void System::compute_pair_forces(double dt) {
             // slot of both queues; only those that belong there are counted (docs/benchmarks.md,
             // "Branch-free screening").
             const bool touches = distance_sq < reach * reach;
+            const double distance = std::sqrt(distance_sq);
             touching[touching_count] =
-                TouchingPair{d, distance_sq, gradient_images, static_cast<std::uint32_t>(k)};
+                TouchingPair{d, distance, gradient_images, static_cast<std::uint32_t>(k)};
             touching_count += touches;
             // Apart now: collect_finished_contacts() records the event and clears the history.
             finishing[finishing_count] = static_cast<std::uint32_t>(k);
             finishing_count += !touches & (was_touching[k] != 0);
             // Apart by a gap g: it sleeps until the approach bound has grown by g (a margin
             // for rounding; a float's rounding taken off too, so that it never wakes late).
-            const double gap = std::sqrt(distance_sq) - reach * (1.0 + 1e-9);
+            const double gap = distance - reach * (1.0 + 1e-9);
             wake[k] = touches ? 0.0f : static_cast<float>((bound + sleep * gap) * (1.0 - 1e-6));
           }
           return std::pair{touching_count, finishing_count};

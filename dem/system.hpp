@@ -393,8 +393,8 @@ class System {
   void compute_pair_forces(double dt);
   // A candidate pair found touching by the screening, with what the screening worked out.
   struct TouchingPair {
-    Vec3 separation;  // from the first particle's centre to the second's (minimum image)
-    double distance_sq;
+    Vec3 separation;         // from the first particle's centre to the second's (minimum image)
+    double distance;         // its length
     double gradient_images;  // PeriodicImages::separation's
     std::uint32_t k;         // the pair's index
   };
