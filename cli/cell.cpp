@@ -1,6 +1,6 @@
 #include "cli/cell.hpp"
 
-#include <oneapi/tbb/task_arena.h>
+#include <tbb/task_arena.h>
 
 #include <chrono>
 #include <filesystem>

@@ -292,8 +292,9 @@ class System {
   }
   const Vec3& pair_force(std::size_t k) const { return contact_force_[pair_slot_[k]].force; }
   // The gap candidate pair k is known to keep at least, whatever happened since it was last
-  // screened: the screening skips it while this is positive (it sleeps; 0 for a pair that is
-  // screened at the next step).
+  // screened; positive while it sleeps (0 for a pair that touches, and for every pair where none
+  // may sleep). The next screening skips it if the step's growth of the approach bound leaves this
+  // positive.
   double pair_sleeping_gap(std::size_t k) const {
     return std::max(static_cast<double>(pair_wake_[k]) - approach_bound_, 0.0);
   }

@@ -62,6 +62,12 @@ TEST(ContactDetection, AHeldCellWithPowderMissesNoContactThroughTheBarostatsStre
   EXPECT_GT(10 * last_contacts, particles) << "a compacted cell, not a gas";
 }
 
+// The gap between a pair's surfaces (negative where they overlap), minimum image.
+double pair_gap(const System& s, const NeighborPair& pair) {
+  return s.domain().separation(s.positions()[pair.i], s.positions()[pair.j]).norm() -
+         (s.radii()[pair.i] + s.radii()[pair.j]);
+}
+
 // Steps two spheres one step at a time until `steps_after` steps after they first touch; after
 // every step the screening found the contact exactly when a brute-force search does, and what it
 // knows of their gap while the pair sleeps is never more than the gap they have. Returns how often
@@ -75,9 +81,7 @@ std::uint64_t step_two_spheres_checking_their_sleep(System& s, std::size_t steps
     since_contact += since_contact > 0 || s.active_contact_count() > 0;
     const auto pairs = s.candidate_pairs();
     for (std::size_t p = 0; p < pairs.size(); ++p) {
-      const auto [i, j] = pairs[p];
-      const double gap = s.domain().separation(s.positions()[i], s.positions()[j]).norm() -
-                         (s.radii()[i] + s.radii()[j]);
+      const double gap = pair_gap(s, pairs[p]);
       const double slept_on = s.pair_sleeping_gap(p);
       if (slept_on == 0.0) continue;
       ++asleep;
@@ -165,8 +169,7 @@ TEST(ContactDetection, APairSleepsOnlyWhileItsGapCannotHaveClosed) {
     const auto pairs = s.candidate_pairs();
     for (std::size_t p = 0; p < pairs.size(); ++p) {
       const auto [i, j] = pairs[p];
-      const double gap = s.domain().separation(s.positions()[i], s.positions()[j]).norm() -
-                         (s.radii()[i] + s.radii()[j]);
+      const double gap = pair_gap(s, pairs[p]);
       if (gap <= 0.0) continue;
       ++apart;
       const double slept_on = s.pair_sleeping_gap(p);
