@@ -42,9 +42,9 @@
 //                             (bench/run_cell_comparison.sh)
 //   --cells_cache=DIR         where the prepared states are kept (default: none)
 //   --cells_skin_fraction=F   time with a neighbour skin of F x the smallest diameter (default:
-//                             the prepared state's); F = auto: the skin that
-//                             dem::System::choose_neighbor_skin picks among 0.1, 0.15, 0.2 and
-//                             0.3 x the smallest diameter, after 100 steps of a copy
+//                             the prepared state's); F = auto: the skin an "auto" cell picks
+//                             (dem::adopt_skin_by_trials: 100 steps of a copy at each of 0.1,
+//                             0.15, 0.2 and 0.3 x the smallest diameter)
 #include <tbb/task_arena.h>
 
 #include <benchmark/benchmark.h>
@@ -519,20 +519,14 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   dem::ShearCellRun run = prepared(c);  // every benchmark times its own copy
   if (g_options.lammps_dir) export_for_lammps(c, run);
   if (g_options.skin_auto) {
-    // The choice measures a stretch of steps, on a copy: the timed run starts from the prepared
+    // What an "auto" cell does (its trials step copies): the timed run starts from the prepared
     // state, at the chosen skin.
-    dem::ShearCellRun probe = prepared(c);
-    dem::System& probe_system = probe.cell().system();
-    const double d = dem::smallest_diameter(probe_system);
-    std::vector<double> skins;
-    for (double fraction : dem::kSkinFractionCandidates) skins.push_back(fraction * d);
-    probe_system.choose_neighbor_skin(std::move(skins), dem::kSkinTrialSteps);
+    dem::System& system = run.cell().system();
     spdlog::set_level(spdlog::level::info);  // the choice's log line
-    probe.advance(101);                      // with the cell's stress control, as the timed run
+    const dem::SkinChoice choice = dem::adopt_skin_by_trials(system);
     spdlog::set_level(spdlog::level::warn);
     fmt::print(stderr, "SKIN {} chosen {:.4g} x smallest diameter\n", c.name,
-               probe_system.neighbor_skin() / d);
-    run.cell().system().set_neighbor_skin(probe_system.neighbor_skin());
+               choice.skin_fraction());
   } else if (g_options.skin_fraction) {
     dem::System& system = run.cell().system();
     system.set_neighbor_skin(*g_options.skin_fraction * dem::smallest_diameter(system));

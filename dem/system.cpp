@@ -386,9 +386,6 @@ void System::prepare_first_step() {
 void System::step(std::size_t count) {
   if (!prepared_) prepare_first_step();
   for (std::size_t n = 0; n < count; ++n) {
-    if (!skin_choice_.empty() && step_count_ >= skin_choice_step_ + skin_choice_stretch_) {
-      finish_skin_choice();
-    }
     if (reorder_every_ > 0 && step_count_ % reorder_every_ == 0) reorder_particles();
     domain_.advance_shear(dt_);  // the image offset at t + dt, where drift() wraps positions
     const bool rebuild = kick_and_drift();
@@ -515,42 +512,6 @@ bool System::kick_and_drift() {
   return neighbors_.needs_rebuild(domain_, size(), maxima.moved_sq);
 }
 
-double skin_cost(const SkinCandidate& c, const SkinCostModel& model) {
-  return c.pairs_per_particle * model.per_candidate_step +
-         model.per_particle_rebuild / c.steps_per_rebuild;
-}
-
-std::size_t cheapest_skin(std::span<const SkinCandidate> candidates, const SkinCostModel& model) {
-  if (candidates.empty()) throw std::invalid_argument("cheapest_skin: no candidate skins");
-  std::size_t best = 0;
-  for (std::size_t k = 0; k < candidates.size(); ++k) {
-    const SkinCandidate& c = candidates[k];
-    if (!(c.skin > 0.0) || !(c.steps_per_rebuild > 0.0)) {
-      throw std::invalid_argument(fmt::format("cheapest_skin: skin {} m with {} steps per rebuild",
-                                              c.skin, c.steps_per_rebuild));
-    }
-    if (skin_cost(c, model) < skin_cost(candidates[best], model)) best = k;
-  }
-  return best;
-}
-
-void System::choose_neighbor_skin(std::vector<double> skins, std::uint64_t stretch,
-                                  SkinCostModel model) {
-  if (skins.empty() || stretch == 0) {
-    throw std::invalid_argument("choose_neighbor_skin: no skins or a zero stretch");
-  }
-  for (double s : skins) {
-    if (!(s > 0.0) || !std::isfinite(s)) {
-      throw std::invalid_argument(fmt::format("choose_neighbor_skin: skin = {} m", s));
-    }
-  }
-  skin_choice_ = std::move(skins);
-  skin_choice_step_ = step_count_;
-  skin_choice_stretch_ = stretch;
-  skin_choice_rebuilds_ = rebuild_count_;
-  skin_model_ = model;
-}
-
 double System::neighbor_travel() const {
   const std::span<const Vec3> reference = neighbors_.reference_positions();
   if (reference.empty()) return 0.0;
@@ -560,45 +521,6 @@ double System::neighbor_travel() const {
         std::max(max_displacement_sq, domain_.separation(reference[i], position_[i]).squaredNorm());
   }
   return neighbors_.travel(domain_, max_displacement_sq);
-}
-
-void System::finish_skin_choice() {
-  const std::vector<double> skins = std::move(skin_choice_);
-  skin_choice_.clear();
-  const std::uint64_t steps = step_count_ - skin_choice_step_;
-  const std::uint64_t rebuilds = std::max<std::uint64_t>(rebuild_count_ - skin_choice_rebuilds_, 1);
-  double measured_interval = static_cast<double>(steps) / static_cast<double>(rebuilds);
-  const double travel = neighbor_travel();
-  const std::uint64_t since_build = step_count_ - build_step_;
-  if (since_build > 0 && travel > 0.0) {
-    measured_interval = skin_ * static_cast<double>(since_build) / travel;
-  }
-  const double particles = static_cast<double>(std::max<std::size_t>(size(), 1));
-  skin_candidates_.clear();
-  for (double s : skins) {
-    NeighborSearch search(NeighborSearchOptions{.skin = s});
-    search.build(domain_, position_, radius_);
-    skin_candidates_.push_back(
-        {.skin = s,
-         .pairs_per_particle = static_cast<double>(search.pairs().size()) / particles,
-         .steps_per_rebuild = measured_interval * s / skin_});
-  }
-  chosen_skin_ = cheapest_skin(skin_candidates_, skin_model_);
-  std::string table;
-  for (const SkinCandidate& c : skin_candidates_) {
-    table +=
-        fmt::format(" [{:.4g} m: {:.3f} pairs/particle, {:.1f} steps/rebuild, cost {:.0f}]", c.skin,
-                    c.pairs_per_particle, c.steps_per_rebuild, skin_cost(c, skin_model_));
-  }
-  spdlog::info(
-      "neighbour skin chosen: {:.4g} m (was {:.4g} m; {} rebuilds in {} steps measured at it, "
-      "travel {:.3g} m in the {} steps since the last build, "
-      "cost model {} per candidate pair-step + {} per particle-rebuild):{}",
-      skin_candidates_[chosen_skin_].skin, skin_, rebuild_count_ - skin_choice_rebuilds_, steps,
-      travel, since_build, skin_model_.per_candidate_step, skin_model_.per_particle_rebuild, table);
-  if (skin_candidates_[chosen_skin_].skin != skin_) {
-    set_neighbor_skin(skin_candidates_[chosen_skin_].skin);
-  }
 }
 
 void System::update_neighbors(bool rebuild) {

@@ -22,44 +22,6 @@
 
 namespace millflow::dem {
 
-// Choosing the neighbour skin by a cost model (issue 17). A step screens the candidate pairs and
-// a rebuild sorts every particle into cells and builds the list again, so a skin s costs, per
-// particle and step, with p(s) candidate pairs per particle,
-//   p(s) x per_candidate_step + per_particle_rebuild / steps_per_rebuild(s).
-// A smaller skin screens fewer pairs and rebuilds more often. The model prices every candidate
-// as screened in every step, as it was when measured; since a pair apart sleeps (not screened
-// while its gap cannot have closed), that overstates a wider skin's extra pairs (not yet
-// measured again). The constants are instructions
-// measured with callgrind as the differences between whole runs at skins 0.1-0.3 x the smallest
-// diameter (docs/benchmarks.md, "The skin chosen per scene"): a candidate pair-step 41 on
-// cement_load05 and 61 on le_media_2000 (the smaller taken: a near tie goes to the wider skin), a
-// rebuild 4,500 per particle on cement_load05 (le_media_2000 rebuilds too rarely to tell). The
-// choice never reads a clock, so a run chooses the same skin every time (and no result's bits
-// depend on the skin anyway).
-struct SkinCostModel {
-  double per_candidate_step = 41.0;  // screening and gathering, per candidate pair and step
-  // A rebuild of the list, per particle. Measured directly too (callgrind, inclusive cost of
-  // System::rebuild_neighbors per call / particles, whole `millflow cell` runs of quick.json's
-  // bulk-0 cell, docs/shear_cells.md): 4,660 at skin 0.1 d and 6,680 at 0.3 d on the 131-media
-  // cell (load 0), 5,180 at 0.15 d and 5,800 at 0.2-0.3 d on the 647-particle powder cell (load 1).
-  // Kept at 4,500: the weight matters where rebuilds are frequent, the small skins, and there it
-  // is within 15% (neither cell's choice moves between 4,500 and 5,200); a rebuild grows with the
-  // pairs it finds, but not by one rule across cells (the powder cell finds fewer pairs per
-  // particle and costs more), so it is not scaled by them.
-  double per_particle_rebuild = 4500.0;
-};
-
-struct SkinCandidate {
-  double skin = 0.0;                // m
-  double pairs_per_particle = 0.0;  // candidate pairs / particles, at this skin
-  double steps_per_rebuild = 0.0;   // steps between rebuilds, at this skin
-};
-// The cost above, instructions per particle and step.
-double skin_cost(const SkinCandidate& c, const SkinCostModel& model);
-// Index of the cheapest candidate; of equal costs the first. Throws std::invalid_argument for no
-// candidates or one with a non-positive skin or interval.
-std::size_t cheapest_skin(std::span<const SkinCandidate> candidates, const SkinCostModel& model);
-
 using ParticleId = std::uint32_t;
 using GroupId = std::uint32_t;
 inline constexpr GroupId kFreeParticle = 0;
@@ -202,22 +164,6 @@ class System {
   // list's last build + the Lees-Edwards offset's change (0 before a build). The list is rebuilt
   // once it reaches the skin, so travel / skin is the part of the list's life already used.
   double neighbor_travel() const;
-  // Chooses the skin from measurement: once `stretch` more steps have run at the current skin,
-  // the next step() call counts the candidate pairs at each of `skins` (m; lists built from the
-  // positions then) and predicts each skin's steps between rebuilds from those measured in the
-  // stretch: the rebuild test's travel (2 x largest displacement + Lees-Edwards offset change)
-  // per step since the list's last build gives the current skin's interval (skin / travel per
-  // step), and the travel grows linearly over so few steps, so an interval scales with its skin
-  // (with no travel yet, stretch / rebuilds, a rebuild at least),
-  // then sets the cheapest by `model` (cheapest_skin) and logs what it derived the choice from.
-  // Deterministic: the same state and stretch choose the same skin. Throws std::invalid_argument
-  // for no skins, a skin <= 0 or a zero stretch.
-  void choose_neighbor_skin(std::vector<double> skins, std::uint64_t stretch,
-                            SkinCostModel model = {});
-  // The candidates of the last choice (empty before one), the chosen one's index in them.
-  std::span<const SkinCandidate> skin_candidates() const { return skin_candidates_; }
-  std::size_t chosen_skin() const { return chosen_skin_; }
-
   // Throws if two particles overlap by more than `tolerance` x the smaller radius, naming them.
   void check_overlaps(double tolerance) const;
 
@@ -438,14 +384,6 @@ class System {
   double skin_ = 0.0;
   std::uint64_t rebuild_count_ = 0;
   std::uint64_t build_step_ = 0;  // step_count_ at the last build of the list
-  // A pending skin choice (choose_neighbor_skin): the skins, the step it measures from and the
-  // rebuilds counted then; the last choice's candidates.
-  std::vector<double> skin_choice_;
-  std::uint64_t skin_choice_step_ = 0, skin_choice_stretch_ = 0, skin_choice_rebuilds_ = 0;
-  SkinCostModel skin_model_;
-  std::vector<SkinCandidate> skin_candidates_;
-  std::size_t chosen_skin_ = 0;
-  void finish_skin_choice();
   bool prepared_ = false;
   bool record_collisions_ = false;
   CollisionSink* collision_sink_ = nullptr;

@@ -230,64 +230,6 @@ TEST(LeesEdwards, ChangingTheSkinOfARunningSystemKeepsItsBits) {
       0);
 }
 
-TEST(SkinChoice, CheapestSkinWeighsScreeningAgainstRebuilds) {
-  const SkinCostModel model;  // the measured constants
-  // A dense, slow media cell: many more candidate pairs at a wider skin, rebuilds rare at any.
-  const std::vector<SkinCandidate> dense_slow = {
-      {.skin = 1e-3, .pairs_per_particle = 3.7, .steps_per_rebuild = 400.0},
-      {.skin = 2e-3, .pairs_per_particle = 4.6, .steps_per_rebuild = 800.0},
-      {.skin = 3e-3, .pairs_per_particle = 5.3, .steps_per_rebuild = 1200.0}};
-  EXPECT_EQ(cheapest_skin(dense_slow, model), 0u);
-  // A sparse, fast cell: few pairs gained by a narrower skin, rebuilds every few steps.
-  const std::vector<SkinCandidate> sparse_fast = {
-      {.skin = 1e-3, .pairs_per_particle = 0.50, .steps_per_rebuild = 5.0},
-      {.skin = 2e-3, .pairs_per_particle = 0.55, .steps_per_rebuild = 10.0},
-      {.skin = 3e-3, .pairs_per_particle = 0.60, .steps_per_rebuild = 15.0}};
-  EXPECT_EQ(cheapest_skin(sparse_fast, model), 2u);
-  // The cost is the documented sum.
-  EXPECT_DOUBLE_EQ(skin_cost(sparse_fast[0], model),
-                   0.5 * model.per_candidate_step + model.per_particle_rebuild / 5.0);
-  EXPECT_THROW(cheapest_skin({}, model), std::invalid_argument);
-  EXPECT_THROW(cheapest_skin(
-                   std::vector<SkinCandidate>{
-                       {.skin = 1e-3, .pairs_per_particle = 1.0, .steps_per_rebuild = 0.0}},
-                   model),
-               std::invalid_argument);
-}
-
-TEST(SkinChoice, ASystemChoosesFromMeasurementTheSameSkinEveryTimeAndKeepsItsBits) {
-  const auto run = [](bool choose) {
-    System system = dense_sheared_box();
-    system.set_reorder_interval(25);
-    const auto radii = system.radii();
-    const double d = 2.0 * *std::min_element(radii.begin(), radii.end());
-    if (choose) system.choose_neighbor_skin({0.05 * d, 0.1 * d, 0.3 * d, 0.6 * d}, 40);
-    system.step(150);
-    return system;
-  };
-  const System plain = run(false), chosen = run(true), again = run(true);
-  ASSERT_EQ(chosen.skin_candidates().size(), 4u);
-  const auto candidates = chosen.skin_candidates();
-  for (std::size_t k = 1; k < candidates.size(); ++k) {
-    // Measured pair counts grow with the skin; the predicted intervals scale with it.
-    EXPECT_GT(candidates[k].pairs_per_particle, candidates[k - 1].pairs_per_particle);
-    EXPECT_NEAR(candidates[k].steps_per_rebuild / candidates[k].skin,
-                candidates[0].steps_per_rebuild / candidates[0].skin,
-                1e-9 * candidates[0].steps_per_rebuild / candidates[0].skin);
-  }
-  EXPECT_EQ(chosen.neighbor_skin(), candidates[chosen.chosen_skin()].skin);
-  EXPECT_EQ(chosen.chosen_skin(), cheapest_skin(candidates, SkinCostModel{}));
-  EXPECT_EQ(again.neighbor_skin(), chosen.neighbor_skin());  // deterministic
-  EXPECT_EQ(again.skin_candidates()[0].steps_per_rebuild, candidates[0].steps_per_rebuild);
-  EXPECT_EQ(
-      std::memcmp(plain.positions().data(), chosen.positions().data(), plain.size() * sizeof(Vec3)),
-      0);
-  EXPECT_EQ(std::memcmp(plain.velocities().data(), chosen.velocities().data(),
-                        plain.size() * sizeof(Vec3)),
-            0);
-  EXPECT_THROW(System(dense_sheared_box()).choose_neighbor_skin({}, 10), std::invalid_argument);
-}
-
 // The contacts in force between steps, as (first, second, force on the first) in old numbers.
 std::vector<std::tuple<ParticleId, std::uint32_t, Vec3>> contacts_in_old_numbers(
     const System& system, const std::vector<ParticleId>& old_of) {

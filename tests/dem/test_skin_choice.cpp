@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
@@ -30,30 +31,78 @@ bool same_trials(const SkinChoice& a, const SkinChoice& b) {
   for (std::size_t k = 0; k < a.trials.size(); ++k) {
     const SkinTrial &x = a.trials[k], &y = b.trials[k];
     if (x.skin_fraction != y.skin_fraction || x.steps != y.steps ||
-        x.candidate_pair_steps != y.candidate_pair_steps || x.rebuilds != y.rebuilds ||
+        x.candidate_pair_steps != y.candidate_pair_steps ||
+        x.screened_pair_steps != y.screened_pair_steps || x.rebuilds != y.rebuilds ||
         x.lists_used != y.lists_used || x.particles != y.particles)
       return false;
   }
   return true;
 }
 
+TEST(SkinChoice, CheapestSkinWeighsCandidatesScreeningAndRebuilds) {
+  const SkinCostModel model;  // the measured constants
+  // A dense, slow media cell (le_media_2000's counts): a wider skin holds many more candidates,
+  // which sleep (the screened pairs barely grow), and rebuilds are rare at any skin.
+  const std::vector<SkinCandidate> dense_slow = {{.skin = 1e-3,
+                                                  .pairs_per_particle = 3.74,
+                                                  .screened_per_particle = 2.018,
+                                                  .steps_per_rebuild = 400.0},
+                                                 {.skin = 2e-3,
+                                                  .pairs_per_particle = 4.56,
+                                                  .screened_per_particle = 2.024,
+                                                  .steps_per_rebuild = 800.0},
+                                                 {.skin = 3e-3,
+                                                  .pairs_per_particle = 5.33,
+                                                  .screened_per_particle = 2.027,
+                                                  .steps_per_rebuild = 1200.0}};
+  EXPECT_EQ(cheapest_skin(dense_slow, model), 0u);
+  // A sparse, fast cell: few pairs gained by a narrower skin, rebuilds every few steps.
+  const std::vector<SkinCandidate> sparse_fast = {{.skin = 1e-3,
+                                                   .pairs_per_particle = 0.50,
+                                                   .screened_per_particle = 0.40,
+                                                   .steps_per_rebuild = 5.0},
+                                                  {.skin = 2e-3,
+                                                   .pairs_per_particle = 0.55,
+                                                   .screened_per_particle = 0.42,
+                                                   .steps_per_rebuild = 10.0},
+                                                  {.skin = 3e-3,
+                                                   .pairs_per_particle = 0.60,
+                                                   .screened_per_particle = 0.44,
+                                                   .steps_per_rebuild = 15.0}};
+  EXPECT_EQ(cheapest_skin(sparse_fast, model), 2u);
+  // The cost is the documented sum.
+  EXPECT_DOUBLE_EQ(skin_cost(sparse_fast[0], model), 0.5 * model.per_candidate_step +
+                                                         0.4 * model.per_screened_step +
+                                                         model.per_particle_rebuild / 5.0);
+  EXPECT_THROW(cheapest_skin({}, model), std::invalid_argument);
+  EXPECT_THROW(cheapest_skin(
+                   std::vector<SkinCandidate>{
+                       {.skin = 1e-3, .pairs_per_particle = 1.0, .steps_per_rebuild = 0.0}},
+                   model),
+               std::invalid_argument);
+}
+
 TEST(SkinChoice, ATrialAsTheCostModelsCandidate) {
   const SkinTrial quiet{.skin_fraction = 0.1,
                         .steps = 100,
                         .candidate_pair_steps = 4.0e5,
+                        .screened_pair_steps = 1.5e5,
                         .rebuilds = 0,
                         .particles = 1000};
   const SkinCandidate c = skin_candidate(quiet, 0.002);
   EXPECT_DOUBLE_EQ(c.skin, 2e-4);
   EXPECT_DOUBLE_EQ(c.pairs_per_particle, 4.0);
+  EXPECT_DOUBLE_EQ(c.screened_per_particle, 1.5);
   EXPECT_EQ(c.steps_per_rebuild, std::numeric_limits<double>::infinity());
-  EXPECT_DOUBLE_EQ(skin_cost(c, SkinCostModel{}), 4.0 * 41.0);
+  const SkinCostModel model;
+  const double screening = 4.0 * model.per_candidate_step + 1.5 * model.per_screened_step;
+  EXPECT_DOUBLE_EQ(skin_cost(c, model), screening);
   // The lists' lives used, not the whole rebuilds, set the interval.
   SkinTrial busy = quiet;
   busy.rebuilds = 4;
   busy.lists_used = 4.5;
-  EXPECT_DOUBLE_EQ(skin_cost(skin_candidate(busy, 0.002), SkinCostModel{}),
-                   4.0 * 41.0 + 4500.0 * 4.5 / 100.0);
+  EXPECT_DOUBLE_EQ(skin_cost(skin_candidate(busy, 0.002), model),
+                   screening + model.per_particle_rebuild * 4.5 / 100.0);
 }
 
 TEST(SkinChoice, ChoosesACandidateTheSameWayEveryTimeAndAtAnyThreadCount) {
@@ -74,7 +123,12 @@ TEST(SkinChoice, ChoosesACandidateTheSameWayEveryTimeAndAtAnyThreadCount) {
     EXPECT_EQ(one.trials[k].skin_fraction, kSkinFractionCandidates[k]);
     EXPECT_EQ(one.trials[k].steps, kSkinTrialSteps);
     EXPECT_EQ(one.trials[k].particles, system.size());
-    // A wider skin screens at least as many pairs and rebuilds no more often.
+    // Pairs apart sleep: some candidates go unscreened, and every pair was screened at the
+    // copy's first list build at least.
+    EXPECT_LT(one.trials[k].screened_pair_steps, one.trials[k].candidate_pair_steps);
+    EXPECT_GT(one.trials[k].screened_pair_steps,
+              one.trials[k].candidate_pair_steps / static_cast<double>(kSkinTrialSteps) / 2.0);
+    // A wider skin holds at least as many pairs and rebuilds no more often.
     if (k > 0) {
       EXPECT_GE(one.trials[k].candidate_pair_steps, one.trials[k - 1].candidate_pair_steps);
       EXPECT_LE(one.trials[k].rebuilds, one.trials[k - 1].rebuilds);
