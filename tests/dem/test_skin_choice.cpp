@@ -2,6 +2,7 @@
 // choice every time and at 1 and 2 threads, the original system untouched, and an "auto" cell
 // choosing at the end of its first warm-up window.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -43,32 +44,24 @@ TEST(SkinChoice, CheapestSkinWeighsCandidatesScreeningAndRebuilds) {
   const SkinCostModel model;  // the measured constants
   // A dense, slow media cell (le_media_2000's counts): a wider skin holds many more candidates,
   // which sleep (the screened pairs barely grow), and rebuilds are rare at any skin.
-  const std::vector<SkinCandidate> dense_slow = {{.skin = 1e-3,
-                                                  .pairs_per_particle = 3.74,
-                                                  .screened_per_particle = 2.018,
-                                                  .steps_per_rebuild = 400.0},
-                                                 {.skin = 2e-3,
-                                                  .pairs_per_particle = 4.56,
-                                                  .screened_per_particle = 2.024,
-                                                  .steps_per_rebuild = 800.0},
-                                                 {.skin = 3e-3,
-                                                  .pairs_per_particle = 5.33,
-                                                  .screened_per_particle = 2.027,
-                                                  .steps_per_rebuild = 1200.0}};
+  // Candidates at skins of 1, 2 and 3 mm: (candidate pairs, screened pairs) per particle-step and
+  // steps per rebuild.
+  const auto candidates = [](std::array<std::array<double, 3>, 3> counts) {
+    std::vector<SkinCandidate> out;
+    for (std::size_t k = 0; k < counts.size(); ++k) {
+      out.push_back({.skin = 1e-3 * static_cast<double>(k + 1),
+                     .pairs_per_particle = counts[k][0],
+                     .screened_per_particle = counts[k][1],
+                     .steps_per_rebuild = counts[k][2]});
+    }
+    return out;
+  };
+  const std::vector<SkinCandidate> dense_slow =
+      candidates({{{3.74, 2.018, 400.0}, {4.56, 2.024, 800.0}, {5.33, 2.027, 1200.0}}});
   EXPECT_EQ(cheapest_skin(dense_slow, model), 0u);
   // A sparse, fast cell: few pairs gained by a narrower skin, rebuilds every few steps.
-  const std::vector<SkinCandidate> sparse_fast = {{.skin = 1e-3,
-                                                   .pairs_per_particle = 0.50,
-                                                   .screened_per_particle = 0.40,
-                                                   .steps_per_rebuild = 5.0},
-                                                  {.skin = 2e-3,
-                                                   .pairs_per_particle = 0.55,
-                                                   .screened_per_particle = 0.42,
-                                                   .steps_per_rebuild = 10.0},
-                                                  {.skin = 3e-3,
-                                                   .pairs_per_particle = 0.60,
-                                                   .screened_per_particle = 0.44,
-                                                   .steps_per_rebuild = 15.0}};
+  const std::vector<SkinCandidate> sparse_fast =
+      candidates({{{0.50, 0.40, 5.0}, {0.55, 0.42, 10.0}, {0.60, 0.44, 15.0}}});
   EXPECT_EQ(cheapest_skin(sparse_fast, model), 2u);
   // The cost is the documented sum.
   EXPECT_DOUBLE_EQ(skin_cost(sparse_fast[0], model), 0.5 * model.per_candidate_step +
