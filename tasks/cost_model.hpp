@@ -42,16 +42,20 @@ namespace millflow::tasks {
 // Particle-steps per CPU-second of one core at 1 thread, each from a measurement
 // (docs/cost_model.md gives them all; docs/benchmarks.md the benches).
 //
-// A mill charge: quick.json's own run (its 1 m slices of 415-726 balls, the loaded figure 7.9 M
-// x 687 / 1158, docs/cost_model.md; bench_dem's mill_1m, 746 balls from a steady charge, 13.0 M,
-// agrees within 3%; 12.39 M on 5 December), and bench_dem's mill_4m (17,000 balls, 16 lifters,
-// steady charge: 9.40 M on 5 December, 8.06 M on 2 December before the mills' wall queries were
-// trimmed): a larger charge walks more memory per step. Between the two ball counts the cost per
-// particle-step is interpolated in log(balls); below and above, the nearer figure.
-inline constexpr double kMacroThroughput = 12.6e6;
-inline constexpr double kMacroBalls = 746.0;
-inline constexpr double kLargeMillThroughput = 9.40e6;
-inline constexpr double kLargeMillBalls = 17000.0;
+// A mill charge: the example campaigns' own macro runs (their contacts last 0.5 ms, dt 25 us),
+// each timed in the same hour as bench_dem's mill_1m and scaled by mill_1m's 12.39 M of 5
+// December (the host's speed moves by up to 2.5x from day to day): quick.json's 726-ball runs at
+// 0.61 of mill_1m, 7.6 M on that scale (its 415-ball runs 0.67); cement_ball_mill.json's 11,835-
+// ball run (4 m, 24 lifters; its measured phase) at 0.44, 5.47 M. bench_dem's mills, the figures
+// until then (12.6 M and 9.40 M), have contacts of 0.1 ms: stiffer than the campaigns', they
+// cost less per particle-step (docs/cost_model.md, "7 December: the macro runs at the campaigns'
+// own contacts"). A larger charge walks more memory per step.
+// Between the two ball counts the cost per particle-step is interpolated in log(balls); below and
+// above, the nearer figure.
+inline constexpr double kMacroThroughput = 7.6e6;
+inline constexpr double kMacroBalls = 726.0;
+inline constexpr double kLargeMillThroughput = 5.47e6;
+inline constexpr double kLargeMillBalls = 11835.0;
 // A shear cell of balls only: quick.json's own run (its 131-ball cell, 7.3 M loaded x 687 /
 // 1158). The cement campaign's 303-ball cell at the bench's dense site (bench_cells'
 // cement_load00, 1.77 contacts per particle) runs 7.8 M once scaled: its 180 load-0 cells cost
