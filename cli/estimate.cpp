@@ -1,6 +1,8 @@
 #include "cli/estimate.hpp"
 
 #include <iostream>
+#include <map>
+#include <set>
 
 #include "cli/commands.hpp"
 #include "tasks/cost_model.hpp"
@@ -41,12 +43,19 @@ void add_estimate_command(CLI::App& app, const engine::Registry& registry,
 std::string dry_run_cost(const engine::DryRun& dry) {
   std::vector<engine::TaskSpec> specs;
   std::set<std::string> would_run;
+  std::map<std::string, const nlohmann::json*> stored;
   for (const auto& task : dry.tasks) {
     specs.push_back(task.spec);
     if (!task.decision.cached() && !task.held) would_run.insert(task.spec.key);
+    if (task.result) stored[task.spec.key] = &*task.result;
   }
+  // Cells whose sites are stored are priced at them, as the ETA prices them.
   const auto by_kind = tasks::estimate_plan(
-      specs, [&would_run](const engine::TaskSpec& spec) { return would_run.contains(spec.key); });
+      specs, [&would_run](const engine::TaskSpec& spec) { return would_run.contains(spec.key); },
+      [&stored](const std::string& key) -> const nlohmann::json* {
+        const auto found = stored.find(key);
+        return found == stored.end() ? nullptr : found->second;
+      });
   if (!any_estimated(by_kind)) return {};
   return "cost of what would run:\n" + tasks::format_estimate(by_kind) + kCostNote;
 }

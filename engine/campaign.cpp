@@ -88,7 +88,7 @@ class DryRunner {
     if (!seen_.insert(spec.key).second) return;
     std::optional<StoredTask> stored;
     if (db_) stored = find_stored_task(*db_, spec.key);
-    result_.tasks.push_back({spec, judge_->decide(spec, stored, previous), declared, false});
+    result_.tasks.push_back({spec, judge_->decide(spec, stored, previous), declared, false, {}});
     if (!result_.tasks.back().decision.cached()) return;
     for (const auto& child : stored->children) add(find_task(*db_, child)->spec, true);
   }
@@ -100,11 +100,17 @@ class DryRunner {
       const auto beyond = beyond_until(graph, registry_.kinds, until);
       for (auto& task : result_.tasks) task.held = beyond.count(task.spec.key) > 0;
     }
+    std::set<std::string> priced_inputs;
     for (const auto& task : result_.tasks) {
-      if (task.decision.cached() || task.held) continue;
-      if (registry_.kinds.contains(task.spec.kind) &&
-          registry_.kinds.get(task.spec.kind).may_expand)
-        ++result_.may_expand;
+      if (task.decision.cached() || task.held || !registry_.kinds.contains(task.spec.kind))
+        continue;
+      const TaskKind& kind = registry_.kinds.get(task.spec.kind);
+      if (kind.may_expand) ++result_.may_expand;
+      if (kind.cost) priced_inputs.insert(task.spec.upstream.begin(), task.spec.upstream.end());
+    }
+    for (auto& task : result_.tasks) {
+      if (db_ && task.decision.cached() && priced_inputs.contains(task.spec.key))
+        task.result = find_result(*db_, task.spec.key);
     }
     return std::move(result_);
   }

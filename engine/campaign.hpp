@@ -12,6 +12,7 @@
 #include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -60,6 +61,9 @@ struct DryRunTask {
   CacheDecision decision;
   bool declared = false;  // declared by a cached task's result (not planned)
   bool held = false;      // beyond --until
+  // The stored result of a cached task that a task which would run, of a kind with a cost model,
+  // takes as an input (its sites, say): what the cost model prices that task from.
+  std::optional<nlohmann::json> result;
 };
 struct DryRun {
   std::string campaign;

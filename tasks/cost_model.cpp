@@ -269,12 +269,14 @@ void register_cost_models(engine::KindRegistry& kinds) {
 
 std::map<std::string, KindEstimate> estimate_plan(
     const std::vector<engine::TaskSpec>& tasks,
-    const std::function<bool(const engine::TaskSpec&)>& counted) {
+    const std::function<bool(const engine::TaskSpec&)>& counted,
+    const std::function<const json*(const std::string& key)>& result_of) {
   std::map<std::string, const engine::TaskSpec*> by_key;
   for (const auto& spec : tasks) by_key[spec.key] = &spec;
-  const engine::TaskLookup lookup = [&by_key](const std::string& key) {
+  const engine::TaskLookup lookup = [&by_key, &result_of](const std::string& key) {
     const auto found = by_key.find(key);
-    return found == by_key.end() ? engine::KnownTask{} : engine::KnownTask{found->second, nullptr};
+    if (found == by_key.end()) return engine::KnownTask{};
+    return engine::KnownTask{found->second, result_of ? result_of(key) : nullptr};
   };
   std::map<std::string, KindEstimate> by_kind;
   for (const auto& spec : tasks) {
@@ -283,15 +285,19 @@ std::map<std::string, KindEstimate> estimate_plan(
     ++kind.tasks;
     const auto cost = task_cost(spec, lookup);
     if (!cost) continue;
-    if (kind.estimated++ == 0) {
-      kind.particles_min = kind.particles_max = cost->particles;
-      kind.steps_min = cost->steps;
-      kind.steps_max = cost->steps_at_caps;
+    ++kind.estimated;
+    // A cell whose slot has no site (its sites are stored) steps nothing: not in the ranges.
+    if (cost->particles > 0.0) {
+      if (kind.sized++ == 0) {
+        kind.particles_min = kind.particles_max = cost->particles;
+        kind.steps_min = cost->steps;
+        kind.steps_max = cost->steps_at_caps;
+      }
+      kind.particles_min = std::min(kind.particles_min, cost->particles);
+      kind.particles_max = std::max(kind.particles_max, cost->particles);
+      kind.steps_min = std::min(kind.steps_min, cost->steps);
+      kind.steps_max = std::max(kind.steps_max, cost->steps_at_caps);
     }
-    kind.particles_min = std::min(kind.particles_min, cost->particles);
-    kind.particles_max = std::max(kind.particles_max, cost->particles);
-    kind.steps_min = std::min(kind.steps_min, cost->steps);
-    kind.steps_max = std::max(kind.steps_max, cost->steps_at_caps);
     kind.core_seconds += cost->core_seconds;
     kind.core_seconds_at_caps += cost->core_seconds_at_caps;
     kind.longest_task_s = std::max(kind.longest_task_s, cost->core_seconds_at_caps);

@@ -144,16 +144,20 @@ void register_cost_models(engine::KindRegistry& kinds);
 struct KindEstimate {
   int tasks = 0;
   int estimated = 0;
+  int sized = 0;  // of them, those that step particles (the ranges below are theirs)
   double particles_min = 0.0, particles_max = 0.0;
   double steps_min = 0.0, steps_max = 0.0;
   double core_seconds = 0.0, core_seconds_at_caps = 0.0;
   double longest_task_s = 0.0;  // CPU-seconds of the costliest task at its caps
 };
 // `counted` (all when empty) picks the tasks counted; the others are only looked up (the tasks
-// above a cell).
+// above a cell). `result_of` (none when empty) gives a task's stored result by key, or null: a
+// cell whose sites task has one is priced at its own site, the others at their region's typical
+// site.
 std::map<std::string, KindEstimate> estimate_plan(
     const std::vector<engine::TaskSpec>& tasks,
-    const std::function<bool(const engine::TaskSpec&)>& counted = {});
+    const std::function<bool(const engine::TaskSpec&)>& counted = {},
+    const std::function<const nlohmann::json*(const std::string& key)>& result_of = {});
 // The table `millflow estimate` prints, then per kind with a model a Slurm time limit (twice
 // its costliest task at the caps on one CPU, in whole minutes) as an /executor/slurm/per_kind
 // block to paste into the campaign.

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -202,5 +204,38 @@ TEST(CacheUntil, RunsOnlyTheKindAndWhatItNeedsThenResumeRunsTheRest) {
   EXPECT_EQ(rest.done, 3);
 }
 
+// A dry run carries the stored result of a cached task where a task that would run, of a kind
+// with a cost model, takes it as an input (a cell's sites): the cost of what would run is priced
+// from it. No other result is read.
+TEST(CacheDryRun, CarriesTheStoredResultsThatAPricedTaskWouldRead) {
+  ScratchDir dir;
+  const auto campaign = [](int value) {
+    return test_campaign(
+        "priced",
+        json::array(
+            {{{"id", "a"}, {"kind", "sum"}, {"params", {{"value", 1}}}},
+             {{"id", "b"}, {"kind", "sum"}, {"params", {{"value", value}}}, {"after", {"a"}}},
+             {{"id", "x"}, {"kind", "sum"}, {"params", {{"value", 5}}}}}));
+  };
+  submit(campaign(2), dir.db());
+  Registry registry = testing_registry();
+  // Per task, by its value: its key and the result the dry run carries.
+  const auto results = [&](const Registry& with) {
+    std::map<int, std::pair<std::string, std::optional<json>>> by_value;
+    for (const auto& task : dry_run(with, campaign(3), dir.db()).tasks)
+      by_value[task.spec.params.at("value").get<int>()] = {task.spec.key, task.result};
+    return by_value;
+  };
+  // Without a cost model nothing is read.
+  for (const auto& [value, task] : results(registry)) EXPECT_FALSE(task.second) << value;
+  registry.kinds.set_cost_model(
+      "sum", [](const TaskSpec&, const TaskLookup&) { return std::optional<double>(1.0); });
+  const auto priced = results(registry);
+  ASSERT_EQ(priced.size(), 3u);
+  ASSERT_TRUE(priced.at(1).second);  // a: cached, and b, which would run, reads it
+  EXPECT_EQ(*priced.at(1).second, result_of(dir.db(), priced.at(1).first));
+  EXPECT_FALSE(priced.at(3).second);  // b would run: no result yet
+  EXPECT_FALSE(priced.at(5).second);  // x: cached, but nothing that would run reads it
+}
 }  // namespace
 }  // namespace millflow::engine::testing

@@ -210,17 +210,35 @@ TEST(CostModel, EstimateOfAPlanCountsEveryTaskAndPricesMacroRunsAndCells) {
   EXPECT_FALSE(registry.kinds.get("average").cost);
 }
 
-TEST(CostModel, ACellOnceItsSiteIsKnownCostsThatSitesAndAnEmptySlotNothing) {
+// quick.json's plan, one of its toe cells and a site for that cell's slot (7 1/s, 3 kPa): what a
+// stored sites result would hold.
+struct PlanWithASite {
+  std::vector<engine::TaskSpec> planned;
+  std::size_t cell = 0;  // index into planned
+  json site;
+};
+PlanWithASite quick_plan_with_a_toe_site() {
   engine::Registry registry;
   tasks::register_millflow(registry);
   const auto campaign = engine::load_campaign_file(registry, source_dir / "campaigns/quick.json");
-  const auto planned = engine::plan_campaign(registry, campaign);
-  const engine::TaskSpec* cell = nullptr;
-  for (const auto& spec : planned)
-    if (spec.kind == "shear_cell" && spec.params.at("slot").at("region") == "toe") cell = &spec;
-  ASSERT_NE(cell, nullptr);
-  const std::string site_id = tasks::slot_site_id(cell->params.at("slot"));
-  const json site = {{"site_id", site_id}, {"shear_rate_per_s", 7.0}, {"normal_stress_pa", 3e3}};
+  PlanWithASite plan;
+  plan.planned = engine::plan_campaign(registry, campaign);
+  for (std::size_t k = 0; k < plan.planned.size(); ++k) {
+    const engine::TaskSpec& spec = plan.planned[k];
+    if (spec.kind == "shear_cell" && spec.params.at("slot").at("region") == "toe") plan.cell = k;
+  }
+  plan.site = {{"site_id", tasks::slot_site_id(plan.planned[plan.cell].params.at("slot"))},
+               {"shear_rate_per_s", 7.0},
+               {"normal_stress_pa", 3e3}};
+  return plan;
+}
+
+TEST(CostModel, ACellOnceItsSiteIsKnownCostsThatSitesAndAnEmptySlotNothing) {
+  const PlanWithASite plan = quick_plan_with_a_toe_site();
+  const auto& planned = plan.planned;
+  const engine::TaskSpec* cell = &planned[plan.cell];
+  ASSERT_EQ(cell->kind, "shear_cell");
+  const json& site = plan.site;
   json sites_result = {{"sites", json::array({site})}};
   const engine::TaskLookup lookup = [&](const std::string& key) {
     for (const auto& spec : planned) {
@@ -236,6 +254,54 @@ TEST(CostModel, ACellOnceItsSiteIsKnownCostsThatSitesAndAnEmptySlotNothing) {
   const auto empty = tasks::task_cost(*cell, lookup);
   ASSERT_TRUE(empty);
   EXPECT_EQ(empty->core_seconds, 0.0);
+}
+
+// With a sites task's result (the dry run of a campaign whose sites ran), its cells are priced at
+// their own sites, a slot without a site at nothing and outside the particle and step ranges; the
+// cells of the other sweep points stay at their regions' typical sites.
+TEST(CostModel, AnEstimateWithStoredSitesPricesEachCellAtItsOwnSite) {
+  const PlanWithASite plan = quick_plan_with_a_toe_site();
+  const auto& planned = plan.planned;
+  ASSERT_EQ(planned[plan.cell].kind, "shear_cell");
+  const std::string sites_key = planned[plan.cell].upstream.at(0);
+  const json& site = plan.site;
+  const json sites_result = {{"sites", json::array({site})}};
+  const auto stored = [&](const std::string& key) -> const json* {
+    return key == sites_key ? &sites_result : nullptr;
+  };
+  const auto by_kind = tasks::estimate_plan(planned, {}, stored);
+  // What each cell costs as the ETA prices it, with the same stored result.
+  const engine::TaskLookup lookup = [&](const std::string& key) {
+    for (const auto& spec : planned)
+      if (spec.key == key) return engine::KnownTask{&spec, stored(key)};
+    return engine::KnownTask{};
+  };
+  double seconds = 0.0;
+  // The sites task's cells, and of them those of the one stored site (its slot at every load,
+  // and the stiff ones of it).
+  int sized = 0, below_the_sites = 0, at_the_site = 0;
+  for (const auto& spec : planned) {
+    if (spec.kind != "shear_cell") continue;
+    const auto cost = tasks::task_cost(spec, lookup);
+    ASSERT_TRUE(cost);
+    seconds += cost->core_seconds;
+    sized += cost->particles > 0.0;
+    if (spec.upstream.at(0) != sites_key) continue;
+    ++below_the_sites;
+    if (tasks::slot_site_id(spec.params.at("slot")) == site.at("site_id")) {
+      ++at_the_site;
+      EXPECT_DOUBLE_EQ(cost->core_seconds, tasks::shear_cell_cost(spec.params, site).core_seconds);
+    }
+  }
+  const tasks::KindEstimate& cells = by_kind.at("shear_cell");
+  EXPECT_EQ(cells.estimated, 136);
+  EXPECT_EQ(cells.sized, sized);
+  EXPECT_GT(below_the_sites, at_the_site);
+  EXPECT_GE(at_the_site, 1);
+  EXPECT_EQ(sized, 136 - below_the_sites + at_the_site);
+  EXPECT_DOUBLE_EQ(cells.core_seconds, seconds);
+  EXPECT_GT(cells.particles_min, 0.0);
+  EXPECT_NE(cells.core_seconds, tasks::estimate_plan(planned).at("shear_cell").core_seconds);
 }
 
 // A campaign's fields are bounded, but nothing bounds what a cell's site asks of it: an estimate
