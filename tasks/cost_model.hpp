@@ -46,7 +46,8 @@ namespace millflow::tasks {
 // each timed in the same hour as bench_dem's mill_1m and scaled by mill_1m's 12.39 M of 5
 // December (the host's speed moves by up to 2.5x from day to day): quick.json's 726-ball runs at
 // 0.61 of mill_1m, 7.6 M on that scale (its 415-ball runs 0.67); cement_ball_mill.json's 11,835-
-// ball run (4 m, 24 lifters; its measured phase) at 0.44, 5.47 M. bench_dem's mills, the figures
+// ball run (4 m, 24 lifters; shortened to half a revolution of warm-up and half measured; its
+// measured phase) at 0.53, 6.6 M. bench_dem's mills, the figures
 // until then (12.6 M and 9.40 M), have contacts of 0.1 ms: stiffer than the campaigns', they
 // cost less per particle-step (docs/cost_model.md, "7 December: the macro runs at the campaigns'
 // own contacts"). A larger charge walks more memory per step.
@@ -54,7 +55,7 @@ namespace millflow::tasks {
 // above, the nearer figure.
 inline constexpr double kMacroThroughput = 7.6e6;
 inline constexpr double kMacroBalls = 726.0;
-inline constexpr double kLargeMillThroughput = 5.47e6;
+inline constexpr double kLargeMillThroughput = 6.6e6;
 inline constexpr double kLargeMillBalls = 11835.0;
 // A shear cell of balls only: quick.json's own run (its 131-ball cell, 7.3 M loaded x 687 /
 // 1158). The cement campaign's 303-ball cell at the bench's dense site (bench_cells'
