@@ -392,10 +392,7 @@ void System::step(std::size_t count) {
     time_ += dt_;
     for (Wall& wall : walls_) advance_wall(wall, dt_);
     update_neighbors(rebuild);
-    if (rebuild) {
-      ++rebuild_count_;
-      build_step_ = step_count_ + 1;  // the list holds the positions after this step's drift
-    }
+    if (rebuild) ++rebuild_count_;
     compute_pair_forces(dt_);
     // The closing half kick uses only this step's forces and masses: the force gather applies it
     // as it sums each particle's force, sparing a pass over the particles.
@@ -542,7 +539,6 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
 void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
                                std::span<const std::uint32_t> old_slot) {
   neighbors_.build(domain_, position_, radius_);
-  build_step_ = step_count_;
   const auto& pairs = neighbors_.pairs();
   reset_sleeping_pairs();
 

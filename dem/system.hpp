@@ -383,7 +383,6 @@ class System {
   std::uint64_t step_count_ = 0;
   double skin_ = 0.0;
   std::uint64_t rebuild_count_ = 0;
-  std::uint64_t build_step_ = 0;  // step_count_ at the last build of the list
   bool prepared_ = false;
   bool record_collisions_ = false;
   CollisionSink* collision_sink_ = nullptr;
