@@ -13,7 +13,8 @@
 // All at a site of shear rate 2 1/s (a few per second is what the cement mill's sites see) and
 // normal stress 100 kPa (the lower part of its charge); at 20 kPa, and at 10 1/s, compaction
 // stops in a hot dilute state that the barostat takes strains to close. Every scene is built by the
-// cell's own code path (tasks::shear_cell_setup from the campaign file, dem::ShearCellRun):
+// cell's own code path (tasks::shear_cell_setup from the campaign file, dem::ShearCellRun), with
+// the file's contacts unless --cells_stiffness=policy (a campaign's cell runs the policy's):
 // placement in insertion order, compaction by the barostat, a warm-up of --cells_warmup_strain, and
 // then the measurement phase, which is what is timed (the cell's per-step measurement included).
 // The prepared state is regenerated deterministically, or read from --cells_cache (a ShearCellRun
@@ -26,7 +27,8 @@
 // Counters: pts_per_cpu_s (particle-steps per CPU-second of the process, every thread),
 // pts_per_s (wall), contacts_per_particle (pair and wall contacts in force), pairs_per_particle
 // (candidate pairs), screened_per_particle_step (the candidate pairs the screening looked at per
-// particle-step: those asleep it skips, System::pairs_screened), bytes_per_particle
+// particle-step: those asleep it skips, System::pairs_screened), rebuilds_per_kstep (neighbour
+// list builds per 1,000 timed steps), strain_per_step (shear rate x time step), bytes_per_particle
 // (System::memory_bytes() / particles) and its parts (System::MemoryUse): bytes_particles,
 // bytes_pairs (candidate pairs), bytes_contacts (pair and wall contacts), bytes_queues (the
 // step's queues of starting and finishing contacts), bytes_events (collision events not yet
@@ -41,6 +43,11 @@
 //   --cells_lammps_dir=D      write each scene's state and parameters for LAMMPS into D
 //                             (bench/run_cell_comparison.sh)
 //   --cells_cache=DIR         where the prepared states are kept (default: none)
+//   --cells_stiffness=K       given (default): the contacts of the campaign file, as the scenes'
+//                             figures so far were measured; policy: those raised by the cell's
+//                             stiffness policy at the site (tasks::apply_stiffness_policy), as a
+//                             campaign's cell runs (at 100 kPa the fine powder's k_n 128 times
+//                             the given, its time step 11 times shorter)
 //   --cells_skin_fraction=F   time with a neighbour skin of F x the smallest diameter (default:
 //                             the prepared state's); F = auto: the skin an "auto" cell picks
 //                             (dem::adopt_skin_by_trials: 100 steps of a copy at each of 0.1,
@@ -96,6 +103,7 @@ struct Options {
   bool skin_auto = false;
   std::optional<std::filesystem::path> cache;
   std::optional<std::filesystem::path> lammps_dir;
+  bool stiffness_policy = false;
 };
 Options g_options;
 
@@ -190,6 +198,7 @@ dem::ShearCellSetup setup_of(const CellCase& c) {
   const json site = method::CellDrive{.shear_rate = g_options.shear_rate,
                                       .normal_stress = g_options.normal_stress};
   dem::ShearCellSetup setup = tasks::shear_cell_setup(campaign, site, "bench_cells/" + c.name);
+  if (g_options.stiffness_policy) tasks::apply_stiffness_policy(campaign, setup);
   if (c.media_only_small_balls) setup.media_solid_fraction = 0.58;
   return setup;
 }
@@ -427,6 +436,7 @@ const dem::ShearCellRun& prepared(const CellCase& c) {
   // "_NOTSTEADY" for a look, never read back.
   std::string base = fmt::format("{}_rate{}_p{}_warm{}", c.name, g_options.shear_rate,
                                  g_options.normal_stress, warmup_strain(c));
+  if (g_options.stiffness_policy) base += "_policy";
   std::string recipe;
   if (staged) {
     base += fmt::format("_powdersoft{}", c.powder_softening);
@@ -535,6 +545,7 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   const std::size_t particles = run.cell().system().size();
   tbb::task_arena arena(threads);
   const std::uint64_t screened_before = run.cell().system().pairs_screened();
+  const std::uint64_t rebuilds_before = run.cell().system().neighbor_rebuild_count();
   double wall = 0.0, cpu = 0.0;
   std::size_t total_steps = 0;
   for (auto _ : state) {
@@ -560,6 +571,10 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
       static_cast<double>(system.candidate_pairs().size()) / static_cast<double>(particles);
   state.counters["screened_per_particle_step"] =
       static_cast<double>(system.pairs_screened() - screened_before) / particle_steps;
+  state.counters["rebuilds_per_kstep"] =
+      1e3 * static_cast<double>(system.neighbor_rebuild_count() - rebuilds_before) /
+      static_cast<double>(total_steps);
+  state.counters["strain_per_step"] = run.cell().setup().shear_rate * system.time_step();
   // The bytes per particle, and by what they grow with (System::MemoryUse).
   const dem::System::MemoryUse memory = system.memory_use();
   const auto per_particle = [&](std::size_t bytes) {
@@ -598,6 +613,13 @@ int main(int argc, char** argv) {
     g_options.warmup_strain = std::stod(*v);
   if (auto v = take_flag(argc, argv, "cells_cache")) g_options.cache = *v;
   if (auto v = take_flag(argc, argv, "cells_lammps_dir")) g_options.lammps_dir = *v;
+  if (auto v = take_flag(argc, argv, "cells_stiffness")) {
+    if (*v != "given" && *v != "policy") {
+      fmt::print(stderr, "--cells_stiffness={}: expected given or policy\n", *v);
+      return 2;
+    }
+    g_options.stiffness_policy = *v == "policy";
+  }
   if (auto v = take_flag(argc, argv, "cells_skin_fraction")) {
     if (*v == "auto") {
       g_options.skin_auto = true;

@@ -75,7 +75,12 @@ inline constexpr double kMediaCellThroughput = 12.3e6;
 //   687 / 1158 = 12.8 M) and cement_load05 agree at 12.5 M, taken up to load 1; at 1.5 the figure
 //   at 1 times what bench_cells' cement_load15_d05 and 10_d05 gave in the same rounds.
 // Between the loads, and between the families in log(d_p / d), the cost per particle-step is
-// interpolated; outside them, the nearer figure.
+// interpolated; outside them, the nearer figure. The bench_cells scenes run the campaign file's
+// contacts; a campaign's cells run the stiffness policy's, and on the 0.25 d powder at the
+// benches' site those stepped 1.30-1.39x faster per particle-step (the fine powder's not
+// measured so): these figures price the cells high. Across the sites up to I = 0.16, at the
+// policy's stiffness, a cell's figure moved by less than 6% (docs/cost_model.md, "7 December:
+// the cells at the campaign's own sites, and at their own stiffness").
 inline constexpr std::array<double, 3> kPowderLoads = {0.5, 1.0, 1.5};
 struct PowderFamily {
   double diameter_ratio = 0.0;            // d_p / d
