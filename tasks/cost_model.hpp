@@ -76,11 +76,12 @@ inline constexpr double kMediaCellThroughput = 12.3e6;
 //   at 1 times what bench_cells' cement_load15_d05 and 10_d05 gave in the same rounds.
 // Between the loads, and between the families in log(d_p / d), the cost per particle-step is
 // interpolated; outside them, the nearer figure. The bench_cells scenes run the campaign file's
-// contacts; a campaign's cells run the stiffness policy's, and on the 0.25 d powder at the
-// benches' site those stepped 1.30-1.39x faster per particle-step (the fine powder's not
-// measured so): these figures price the cells high. Across the sites up to I = 0.16, at the
-// policy's stiffness, a cell's figure moved by less than 6% (docs/cost_model.md, "7 December:
-// the cells at the campaign's own sites, and at their own stiffness").
+// contacts; a campaign's cells run the stiffness policy's, and at the benches' site those
+// stepped 1.30-1.39x faster per particle-step on the 0.25 d powder and 2.08x on the fine one
+// at load 0.5 (its loads 1 and 1.5 not measured so): these figures price the cells high.
+// Across the sites up to I = 0.16, at the policy's stiffness, a cell's figure moved by less than
+// 6% (docs/cost_model.md, "7 December: the cells at the campaign's own sites, and at their own
+// stiffness").
 inline constexpr std::array<double, 3> kPowderLoads = {0.5, 1.0, 1.5};
 struct PowderFamily {
   double diameter_ratio = 0.0;            // d_p / d
