@@ -233,6 +233,16 @@ PlanWithASite quick_plan_with_a_toe_site() {
   return plan;
 }
 
+// A lookup over a plan's tasks, each with the stored result `result_of` gives it (or null).
+engine::TaskLookup lookup_in(const std::vector<engine::TaskSpec>& planned,
+                             const std::function<const json*(const engine::TaskSpec&)>& result_of) {
+  return [&planned, result_of](const std::string& key) {
+    for (const auto& spec : planned)
+      if (spec.key == key) return engine::KnownTask{&spec, result_of(spec)};
+    return engine::KnownTask{};
+  };
+}
+
 TEST(CostModel, ACellOnceItsSiteIsKnownCostsThatSitesAndAnEmptySlotNothing) {
   const PlanWithASite plan = quick_plan_with_a_toe_site();
   const auto& planned = plan.planned;
@@ -240,13 +250,9 @@ TEST(CostModel, ACellOnceItsSiteIsKnownCostsThatSitesAndAnEmptySlotNothing) {
   ASSERT_EQ(cell->kind, "shear_cell");
   const json& site = plan.site;
   json sites_result = {{"sites", json::array({site})}};
-  const engine::TaskLookup lookup = [&](const std::string& key) {
-    for (const auto& spec : planned) {
-      if (spec.key != key) continue;
-      return engine::KnownTask{&spec, spec.kind == "sites" ? &sites_result : nullptr};
-    }
-    return engine::KnownTask{};
-  };
+  const engine::TaskLookup lookup = lookup_in(planned, [&](const engine::TaskSpec& spec) {
+    return spec.kind == "sites" ? &sites_result : nullptr;
+  });
   const auto known = tasks::task_cost(*cell, lookup);
   ASSERT_TRUE(known);
   EXPECT_DOUBLE_EQ(known->core_seconds, tasks::shear_cell_cost(cell->params, site).core_seconds);
@@ -271,11 +277,8 @@ TEST(CostModel, AnEstimateWithStoredSitesPricesEachCellAtItsOwnSite) {
   };
   const auto by_kind = tasks::estimate_plan(planned, {}, stored);
   // What each cell costs as the ETA prices it, with the same stored result.
-  const engine::TaskLookup lookup = [&](const std::string& key) {
-    for (const auto& spec : planned)
-      if (spec.key == key) return engine::KnownTask{&spec, stored(key)};
-    return engine::KnownTask{};
-  };
+  const engine::TaskLookup lookup =
+      lookup_in(planned, [&](const engine::TaskSpec& spec) { return stored(spec.key); });
   double seconds = 0.0;
   // The sites task's cells, and of them those of the one stored site (its slot at every load,
   // and the stiff ones of it).
