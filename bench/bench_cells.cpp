@@ -19,10 +19,12 @@
 // then the measurement phase, which is what is timed (the cell's per-step measurement included).
 // The prepared state is regenerated deterministically, or read from --cells_cache (a ShearCellRun
 // checkpoint per scene; a checkpoint of another setup is refused and regenerated).
-// cement_load10 and cement_load15 are prepared in stages (prepare_staged): soft powder contacts,
-// then the real ones with the soft overlaps let out by a stretch of the box
+// cement_load10 and cement_load15 (and their coarser twins) are prepared in stages: soft powder
+// contacts (soft_phase), then the real ones with the soft overlaps let out by a stretch of the box
 // (dem::ShearCell::relieve_normal_stress), then windows of the measurement phase until a steady
-// test passes; the cache file says "_steady" only then ("_NOTSTEADY" otherwise, never read back).
+// test passes (stiffen_until_steady); the cache file says "_steady" only then ("_NOTSTEADY"
+// otherwise, never read back). At the policy's stiffness their soft phase is the scene's steady
+// state at the file's contacts ("_fromgiven"), which is prepared first when not in the cache.
 //
 // Counters: pts_per_cpu_s (particle-steps per CPU-second of the process, every thread),
 // pts_per_s (wall), contacts_per_particle (pair and wall contacts in force), pairs_per_particle
@@ -47,7 +49,8 @@
 //                             figures so far were measured; policy: those raised by the cell's
 //                             stiffness policy at the site (tasks::apply_stiffness_policy), as a
 //                             campaign's cell runs (at 100 kPa the fine powder's k_n 128 times
-//                             the given, its time step 11 times shorter)
+//                             the given, its time step 11 times shorter); a staged scene is
+//                             prepared from its steady state at the given contacts
 //   --cells_skin_fraction=F   time with a neighbour skin of F x the smallest diameter (default:
 //                             the prepared state's); F = auto: the skin an "auto" cell picks
 //                             (dem::adopt_skin_by_trials: 100 steps of a copy at each of 0.1,
@@ -114,12 +117,12 @@ struct CellCase {
   bool media_only_small_balls = false;  // le_media_2000
   std::size_t default_steps = 0;
   double warmup_strain = 0.05;  // the media cell, cheap, runs to a denser state
-  // Preparation with soft powder contacts (cement_load10 and 15; see prepare_staged): the powder's
-  // contacts (media-powder, powder-powder) at t_c x powder_softening (k_n / softening^2, a power
-  // of two so that stiffening back is exact) through placement, compaction and the protocol's
-  // warm-up, then at each of stiffening_stages for stage_strain, then the real contacts until
-  // steady; after each stiffening the soft overlaps are let out by stretching the box
-  // (dem::ShearCell::relieve_normal_stress) before the barostat goes on. The media-media
+  // Preparation with soft powder contacts (cement_load10 and 15; soft_phase, stiffen_until_steady):
+  // the powder's contacts (media-powder, powder-powder) at t_c x powder_softening (k_n /
+  // softening^2, a power of two so that stiffening back is exact) through placement, compaction
+  // and the protocol's warm-up, then at each of stiffening_stages for stage_strain, then the real
+  // contacts until steady; after each stiffening the soft overlaps are let out by stretching the
+  // box (dem::ShearCell::relieve_normal_stress) before the barostat goes on. The media-media
   // contacts, which set the barostat's speed limit and relaxation time, keep their real stiffness
   // throughout; their t_c is 2.5 x the powder's, so the time step gains 2.5 at most (5 us ->
   // 12.5 us at t_c x 4). 1: the plain preparation.
@@ -178,7 +181,7 @@ const std::vector<CellCase>& cases() {
 }
 
 // The cell setup the campaign's own code derives, at a fixed site.
-dem::ShearCellSetup setup_of(const CellCase& c) {
+dem::ShearCellSetup setup_of(const CellCase& c, bool stiffness_policy) {
   json campaign = tasks::load_campaign(std::filesystem::path(MILLFLOW_SOURCE_DIR) / "campaigns" /
                                        "cement_ball_mill.json");
   campaign.erase("sweep");
@@ -198,7 +201,7 @@ dem::ShearCellSetup setup_of(const CellCase& c) {
   const json site = method::CellDrive{.shear_rate = g_options.shear_rate,
                                       .normal_stress = g_options.normal_stress};
   dem::ShearCellSetup setup = tasks::shear_cell_setup(campaign, site, "bench_cells/" + c.name);
-  if (g_options.stiffness_policy) tasks::apply_stiffness_policy(campaign, setup);
+  if (stiffness_policy) tasks::apply_stiffness_policy(campaign, setup);
   if (c.media_only_small_balls) setup.media_solid_fraction = 0.58;
   return setup;
 }
@@ -330,47 +333,66 @@ struct Prepared {
   bool steady = true;
 };
 
-// Returns the run in its measurement phase at the real contacts, how it got there and whether
-// it passed the steady test. The soft phase, the costly one (about 18 CPU-minutes), is kept in
-// `soft_file` so that a preparation stopped later resumes from it.
-Prepared prepare_staged(const CellCase& c, const dem::ShearCellSetup& setup,
-                        const std::filesystem::path& soft_file) {
+// Logs a line of a scene's preparation with the CPU-seconds it has taken so far.
+class PreparationLog {
+ public:
+  explicit PreparationLog(const CellCase& c) : name_(c.name), cpu0_(process_cpu_seconds()) {}
+  void operator()(const std::string& line) const {
+    fmt::print(stderr, "bench_cells: {}: [{:.0f} CPU-s] {}\n", name_, cpu_seconds(), line);
+  }
+  double cpu_seconds() const { return process_cpu_seconds() - cpu0_; }
+
+ private:
+  std::string name_;
+  double cpu0_;
+};
+
+// The soft phase of the staged preparation: placement, compaction and the protocol's warm-up at
+// the powder's contacts softened by the scene's powder_softening. The costly part (about 18
+// CPU-minutes for cement_load15), kept in `soft_file` so that a preparation stopped later
+// resumes from it.
+Prepared soft_phase(const CellCase& c, const dem::ShearCellSetup& setup,
+                    const std::filesystem::path& soft_file, const PreparationLog& log) {
   const dem::ShearCellProtocol proto = protocol(c);
   const dem::ShearCellSetup soft = softened(setup, c.powder_softening);
   Prepared out;
-  std::unique_ptr<dem::ShearCellRun>& run = out.run;
-  const auto cpu0 = process_cpu_seconds();
-  const auto log = [&](const std::string& line) {
-    fmt::print(stderr, "bench_cells: {}: [{:.0f} CPU-s] {}\n", c.name, process_cpu_seconds() - cpu0,
-               line);
-  };
-  std::string& how = out.how;
-  how = fmt::format("powder contacts at t_c x {}: ", c.powder_softening);
-  tbb::task_arena arena(2);
+  out.how = fmt::format("powder contacts at t_c x {}: ", c.powder_softening);
   if (std::filesystem::exists(soft_file)) {
     try {
-      run = std::make_unique<dem::ShearCellRun>(dem::ShearCellRun::resume(soft, proto, soft_file));
-      how += fmt::format("compaction and warm-up to step {} (from {})",
-                         run->cell().system().step_count(), soft_file.filename().string());
+      out.run =
+          std::make_unique<dem::ShearCellRun>(dem::ShearCellRun::resume(soft, proto, soft_file));
+      out.how += fmt::format("compaction and warm-up to step {} (from {})",
+                             out.run->cell().system().step_count(), soft_file.filename().string());
+      return out;
     } catch (const std::exception& e) {
       log(fmt::format("soft phase again ({})", e.what()));
     }
   }
-  if (!run) {
-    run = std::make_unique<dem::ShearCellRun>(soft, proto);
-    arena.execute([&] {
-      while (run->phase_name() != "measuring") run->advance(1000);
-    });
-    how += fmt::format("compaction and warm-up to step {} ({:.0f} CPU-s)",
-                       run->cell().system().step_count(), process_cpu_seconds() - cpu0);
-    run->save(soft_file);
-  }
+  out.run = std::make_unique<dem::ShearCellRun>(soft, proto);
+  tbb::task_arena arena(2);
+  arena.execute([&] {
+    while (out.run->phase_name() != "measuring") out.run->advance(1000);
+  });
+  out.how += fmt::format("compaction and warm-up to step {} ({:.0f} CPU-s)",
+                         out.run->cell().system().step_count(), log.cpu_seconds());
+  out.run->save(soft_file);
+  return out;
+}
+
+// Takes the soft run of `start` through `stages` of powder softening (1: the real contacts of
+// `setup`), each one's overlaps let out by a stretch of the box, then windows of the measurement
+// phase until the steady test passes or the scene's max_real_strain. Returns the run in its
+// measurement phase at the real contacts, how it got there and whether it passed the test.
+Prepared stiffen_until_steady(const CellCase& c, const dem::ShearCellSetup& setup, Prepared start,
+                              std::span<const double> stages, const PreparationLog& log) {
+  Prepared out = std::move(start);
+  std::unique_ptr<dem::ShearCellRun>& run = out.run;
+  std::string& how = out.how;
   log(fmt::format("{}; {:.4g} Pa, {:.3f} contacts per particle", how,
                   run->cell().normal_stress_now(),
                   static_cast<double>(run->cell().system().active_contact_count()) /
                       static_cast<double>(run->cell().system().size())));
-  std::vector<double> stages = c.stiffening_stages;
-  stages.push_back(1.0);
+  tbb::task_arena arena(2);
   for (const double softening : stages) {
     const dem::ShearCellSetup next = softening == 1.0 ? setup : softened(setup, softening);
     run = std::make_unique<dem::ShearCellRun>(run->with_interactions(next));
@@ -420,26 +442,31 @@ Prepared prepare_staged(const CellCase& c, const dem::ShearCellSetup& setup,
       "{:.4f} contacts per particle ({}); step {}, {:.0f} CPU-s in all",
       strain, verdict.steady ? "steady" : "NOT steady (the cap)", last.normal_stress,
       last.solid_fraction, last.contacts, verdict.why, run->cell().system().step_count(),
-      process_cpu_seconds() - cpu0);
+      log.cpu_seconds());
   return out;
 }
 
-// The scene's run in its measurement phase, built once per process (and cached on disk).
-const dem::ShearCellRun& prepared(const CellCase& c) {
-  static std::map<std::string, std::unique_ptr<dem::ShearCellRun>> runs;
-  auto& slot = runs[c.name];
+// The scene's run in its measurement phase at the file's contacts or (stiffness_policy) the
+// policy's, built once per process (and cached on disk). A staged scene at the policy's contacts
+// starts from its state at the file's (prepared first, or read from the cache): the policy's
+// contacts are stiffer (at 100 kPa the fine powder's 128 times), so that state is its soft phase,
+// compacted and sheared already; preparing it from placement instead takes about 11 times the
+// steps (the fine powder's time step 0.44 us against 5 us).
+const dem::ShearCellRun& prepared(const CellCase& c, bool stiffness_policy) {
+  static std::map<std::pair<std::string, bool>, std::unique_ptr<dem::ShearCellRun>> runs;
+  auto& slot = runs[{c.name, stiffness_policy}];
   if (slot) return *slot;
-  const dem::ShearCellSetup setup = setup_of(c);
+  const dem::ShearCellSetup setup = setup_of(c, stiffness_policy);
   const bool staged = c.powder_softening != 1.0;
   // The staged preparation's recipe is in the name (its notes: the .txt beside), and a state is
   // kept under it only once it passed the steady test ("_steady"); one that did not is kept as
   // "_NOTSTEADY" for a look, never read back.
   std::string base = fmt::format("{}_rate{}_p{}_warm{}", c.name, g_options.shear_rate,
                                  g_options.normal_stress, warmup_strain(c));
-  if (g_options.stiffness_policy) base += "_policy";
+  if (stiffness_policy) base += "_policy";
   std::string recipe;
   if (staged) {
-    base += fmt::format("_powdersoft{}", c.powder_softening);
+    base += stiffness_policy ? "_fromgiven" : fmt::format("_powdersoft{}", c.powder_softening);
     for (const double s : c.stiffening_stages) recipe += fmt::format("x{}", s);
     recipe += fmt::format("_relieved_held{}", kReliefHoldStrain);
     if (c.steady_window_strain != CellCase{}.steady_window_strain)
@@ -463,12 +490,24 @@ const dem::ShearCellRun& prepared(const CellCase& c) {
   std::string how;
   bool steady = true;
   if (staged) {
-    // The soft phase depends on the softening only, not on what follows it.
-    const std::filesystem::path soft_file = g_options.cache
-                                                ? *g_options.cache / (base + ".soft.ckpt")
-                                                : std::filesystem::temp_directory_path() /
-                                                      fmt::format("bench_cells_{}.soft.ckpt", base);
-    Prepared p = prepare_staged(c, setup, soft_file);
+    const PreparationLog log(c);
+    Prepared soft;
+    std::vector<double> stages;
+    if (stiffness_policy) {
+      soft.run = std::make_unique<dem::ShearCellRun>(prepared(c, false));
+      soft.how = fmt::format("from the state at the file's contacts (step {})",
+                             soft.run->cell().system().step_count());
+    } else {
+      // The soft phase depends on the softening only, not on what follows it.
+      const std::filesystem::path soft_file =
+          g_options.cache ? *g_options.cache / (base + ".soft.ckpt")
+                          : std::filesystem::temp_directory_path() /
+                                fmt::format("bench_cells_{}.soft.ckpt", base);
+      soft = soft_phase(c, setup, soft_file, log);
+      stages = c.stiffening_stages;
+    }
+    stages.push_back(1.0);
+    Prepared p = stiffen_until_steady(c, setup, std::move(soft), stages, log);
     slot = std::move(p.run);
     how = std::move(p.how);
     steady = p.steady;
@@ -526,7 +565,7 @@ void export_for_lammps(const CellCase& c, const dem::ShearCellRun& run) {
 
 void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   spdlog::set_level(spdlog::level::warn);
-  dem::ShearCellRun run = prepared(c);  // every benchmark times its own copy
+  dem::ShearCellRun run = prepared(c, g_options.stiffness_policy);  // each times its own copy
   if (g_options.lammps_dir) export_for_lammps(c, run);
   if (g_options.skin_auto) {
     // What an "auto" cell does (its trials step copies): the timed run starts from the prepared

@@ -64,32 +64,37 @@ inline constexpr double kLargeMillBalls = 11835.0;
 inline constexpr double kMediaCellThroughput = 12.3e6;
 // A shear cell of balls and powder: a step costs more as the powder's contacts grow, with the
 // powder load U and with how fine the powder is (d_p / d). Three families of powder size, each at
-// the loads kPowderLoads (docs/cost_model.md gives every figure's run):
+// the loads kPowderLoads, at the stiffness a campaign's cell runs: the contacts the stiffness
+// policy raises at the site (tasks::apply_stiffness_policy; docs/cost_model.md gives every
+// figure's run):
 // - fine, 0.125 d (the cement campaign's): bench_cells' cement_load05, cement_load10 and
-//   cement_load15 (38,322 to 114,359 particles, 0.30 to 2.22 contacts per particle), steady, quiet
-//   machine;
-// - 0.25 d: bench_cells' cement_load05_d025, 10_d025 and 15_d025 (5,055 to 14,560 particles): the
-//   fine family's figure at each load times the median ratio of the two cells' throughputs timed
-//   in the same rounds (the host's speed varies from hour to hour);
+//   cement_load15 (38,322 to 114,359 particles), timed at the campaign file's contacts (steady,
+//   quiet machine: 12.5 M, 5.28 M, 4.18 M), times the median ratio of the same cell at the
+//   policy's stiffness to it, timed in the same rounds: 1.97 at U = 0.5 (8 rounds) and 1.22 at
+//   U = 1.5 (5 rounds; 0.055 and 1.28 contacts per particle against 0.32 and 2.22). At U = 1 the
+//   ratio is not measured (the policy's cell was not prepared): the smaller of its neighbours',
+//   1.22, so that the figure errs dear;
+// - 0.25 d: bench_cells' cement_load05_d025, 10_d025 and 15_d025 (5,055 to 14,560 particles) at
+//   the file's contacts, the fine family's figure at each load times the median ratio of the two
+//   cells' throughputs timed in the same rounds (the host's speed varies from hour to hour)
+//   (15.0 M, 11.3 M, 6.60 M), times the policy's gain at each load (3 rounds: 1.30, 1.36, 1.39);
 // - coarse, 0.5 d (quick.json's): quick.json's own 647-particle cell at load 1 (7.6 M loaded x
 //   687 / 1158 = 12.8 M) and cement_load05 agree at 12.5 M, taken up to load 1; at 1.5 the figure
-//   at 1 times what bench_cells' cement_load15_d05 and 10_d05 gave in the same rounds.
+//   at 1 times what bench_cells' cement_load15_d05 and 10_d05 gave in the same rounds. At the
+//   benches' site the policy leaves this powder's contacts as the file gives them (the same
+//   time step; 0.99-1.01 of the file's throughput in 5 rounds).
 // Between the loads, and between the families in log(d_p / d), the cost per particle-step is
-// interpolated; outside them, the nearer figure. The bench_cells scenes run the campaign file's
-// contacts; a campaign's cells run the stiffness policy's, and at the benches' site those
-// stepped 1.30-1.39x faster per particle-step on the 0.25 d powder and 2.08x on the fine one
-// at load 0.5 (its loads 1 and 1.5 not measured so): these figures price the cells high.
-// Across the sites up to I = 0.16, at the policy's stiffness, a cell's figure moved by less than
-// 6% (docs/cost_model.md, "7 December: the cells at the campaign's own sites, and at their own
-// stiffness").
+// interpolated; outside them, the nearer figure. Across the sites up to I = 0.16, at the policy's
+// stiffness, a cell's figure moved by less than 6% on the 0.25 d powder (docs/cost_model.md,
+// "7 December: the cells at the campaign's own sites, and at their own stiffness").
 inline constexpr std::array<double, 3> kPowderLoads = {0.5, 1.0, 1.5};
 struct PowderFamily {
   double diameter_ratio = 0.0;            // d_p / d
   std::array<double, 3> throughput = {};  // at kPowderLoads
 };
 inline constexpr std::array<PowderFamily, 3> kPowderFamilies = {{
-    {.diameter_ratio = 0.125, .throughput = {12.5e6, 5.28e6, 4.18e6}},
-    {.diameter_ratio = 0.25, .throughput = {15.0e6, 11.3e6, 6.60e6}},
+    {.diameter_ratio = 0.125, .throughput = {24.6e6, 6.44e6, 5.10e6}},
+    {.diameter_ratio = 0.25, .throughput = {19.5e6, 15.4e6, 9.19e6}},
     {.diameter_ratio = 0.5, .throughput = {12.5e6, 12.5e6, 11.4e6}},
 }};
 // A cell's compaction runs this many times its cell's throughput above (the bed is loose for
