@@ -18,7 +18,9 @@
 #   env: REPS=3, SCENES="le_media_2000 cement_load05", STEPS=2000 (media cell),
 #        MIX_STEPS=100 (mixture), CELLS_CACHE=WORK_DIR/cache, LMP=lmp,
 #        WARMUP_STRAIN (passed as --cells_warmup_strain, to time a state prepared with a
-#        shorter warm-up than bench_cells' default; unset: the default)
+#        shorter warm-up than bench_cells' default; unset: the default),
+#        STIFFNESS (passed as --cells_stiffness: policy times the cells at the contacts a
+#        campaign's cell runs, and LAMMPS gets those; unset: the campaign file's)
 set -euo pipefail
 
 here=$(cd "$(dirname "$0")" && pwd)
@@ -28,8 +30,9 @@ reps=${REPS:-3}
 scenes=${SCENES:-le_media_2000 cement_load05}
 lmp=${LMP:-lmp}
 cache=${CELLS_CACHE:-$work/cache}
-warmup=()
-[[ -n ${WARMUP_STRAIN:-} ]] && warmup=(--cells_warmup_strain="$WARMUP_STRAIN")
+cell_flags=()
+[[ -n ${WARMUP_STRAIN:-} ]] && cell_flags=(--cells_warmup_strain="$WARMUP_STRAIN")
+[[ -n ${STIFFNESS:-} ]] && cell_flags+=(--cells_stiffness="$STIFFNESS")
 bench_cells=$build/bench/bench_cells
 [[ -x $bench_cells ]] || { echo "no $bench_cells: build the bench_cells target first" >&2; exit 1; }
 command -v "$lmp" >/dev/null || { echo "no LAMMPS binary '$lmp': apt-get install -y lammps" >&2; exit 1; }
@@ -53,7 +56,7 @@ for ((r = 0; r < reps; ++r)); do
     steps=$(steps_of "$scene")
     # RESULT scene threads particles steps wall-s cpu-s state HASH
     "$bench_cells" --benchmark_filter="^$scene/threads:1" --cells_steps="$steps" \
-      --cells_cache="$cache" --cells_lammps_dir="$work" --benchmark_min_time=0 "${warmup[@]}" \
+      --cells_cache="$cache" --cells_lammps_dir="$work" --benchmark_min_time=0 "${cell_flags[@]}" \
       >"$work/millflow.$scene.$r.log" 2>&1
     keep_fastest "m_$scene" 4 "$(awk -v s="$scene" '$1 == "RESULT" && $2 == s && $3 == 1 {print $4, $5, $6, $7}' "$work/millflow.$scene.$r.log" | tail -1)"
     log=$work/lammps.$scene.$r.log
