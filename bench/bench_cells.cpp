@@ -90,6 +90,7 @@
 namespace {
 
 using namespace millflow;
+using bench::contacts_per_particle;
 using bench::process_cpu_seconds;
 using bench::state_hash;
 using nlohmann::json;
@@ -217,6 +218,15 @@ dem::ShearCellProtocol protocol(const CellCase& c) {
           .measure = {}};
 }
 
+// Placement, compaction and the protocol's warm-up, on 2 threads: the run ends in its
+// measurement phase.
+void run_to_measurement(dem::ShearCellRun& run) {
+  tbb::task_arena arena(2);
+  arena.execute([&] {
+    while (run.phase_name() != "measuring") run.advance(1000);
+  });
+}
+
 // --- The staged preparation (cement_load10, cement_load15) -------------------------------------
 // A soft run goes on at the next stiffness through dem::ShearCellRun::with_interactions (the
 // same state, every contact's dashpot and the time step worked out again from the new contacts).
@@ -259,8 +269,7 @@ Chunk run_chunk(dem::ShearCellRun& run, double strain) {
     chunk.normal_stress += cell.normal_stress_now();
     chunk.shear_stress += cell.shear_stress_now();
     chunk.solid_fraction += solid / system.domain().length().prod();
-    chunk.contacts +=
-        static_cast<double>(system.active_contact_count()) / static_cast<double>(system.size());
+    chunk.contacts += contacts_per_particle(system);
     samples += 1.0;
   }
   chunk.normal_stress /= samples;
@@ -369,10 +378,7 @@ Prepared soft_phase(const CellCase& c, const dem::ShearCellSetup& setup,
     }
   }
   out.run = std::make_unique<dem::ShearCellRun>(soft, proto);
-  tbb::task_arena arena(2);
-  arena.execute([&] {
-    while (out.run->phase_name() != "measuring") out.run->advance(1000);
-  });
+  run_to_measurement(*out.run);
   out.how += fmt::format("compaction and warm-up to step {} ({:.0f} CPU-s)",
                          out.run->cell().system().step_count(), log.cpu_seconds());
   out.run->save(soft_file);
@@ -389,9 +395,7 @@ Prepared stiffen_until_steady(const CellCase& c, const dem::ShearCellSetup& setu
   std::unique_ptr<dem::ShearCellRun>& run = out.run;
   std::string& how = out.how;
   log(fmt::format("{}; {:.4g} Pa, {:.3f} contacts per particle", how,
-                  run->cell().normal_stress_now(),
-                  static_cast<double>(run->cell().system().active_contact_count()) /
-                      static_cast<double>(run->cell().system().size())));
+                  run->cell().normal_stress_now(), contacts_per_particle(run->cell().system())));
   tbb::task_arena arena(2);
   for (const double softening : stages) {
     const dem::ShearCellSetup next = softening == 1.0 ? setup : softened(setup, softening);
@@ -513,10 +517,7 @@ const dem::ShearCellRun& prepared(const CellCase& c, bool stiffness_policy) {
     steady = p.steady;
   } else {
     slot = std::make_unique<dem::ShearCellRun>(setup, protocol(c));
-    tbb::task_arena arena(2);
-    arena.execute([&] {
-      while (slot->phase_name() != "measuring") slot->advance(1000);
-    });
+    run_to_measurement(*slot);
   }
   fmt::print(stderr, "bench_cells: {}: {} particles prepared in {:.1f} s (step {})\n", c.name,
              slot->cell().system().size(),
@@ -604,8 +605,7 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   state.counters["particles"] = static_cast<double>(particles);
   state.counters["pts_per_s"] = particle_steps / wall;
   state.counters["pts_per_cpu_s"] = particle_steps / cpu;
-  state.counters["contacts_per_particle"] =
-      static_cast<double>(system.active_contact_count()) / static_cast<double>(particles);
+  state.counters["contacts_per_particle"] = contacts_per_particle(system);
   state.counters["pairs_per_particle"] =
       static_cast<double>(system.candidate_pairs().size()) / static_cast<double>(particles);
   state.counters["screened_per_particle_step"] =

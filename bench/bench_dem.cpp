@@ -68,6 +68,7 @@ namespace {
 using namespace millflow::dem;
 using Clock = std::chrono::steady_clock;
 using millflow::bench::add_contact_params;
+using millflow::bench::contacts_per_particle;
 using millflow::bench::LammpsParams;
 using millflow::bench::peak_rss_mib;
 using millflow::bench::process_cpu_seconds;
@@ -188,10 +189,6 @@ System with_materials(const System& source, MaterialTable materials) {
 double mill_speed(const MillSetup& setup) {
   return setup.speed_fraction *
          critical_speed(2.0 * setup.shell.radius, setup.ball_diameter, setup.gravity);
-}
-
-double contacts_per_particle(const System& system) {
-  return static_cast<double>(system.active_contact_count()) / static_cast<double>(system.size());
 }
 
 // Mean shell power (work the shell does on the charge per second, W) and contacts per particle

@@ -1,7 +1,7 @@
 #pragma once
 // What every benchmark program measures of itself: CPU time and peak memory of the process
-// (getrusage), and a hash of a scene's state, so that two builds or a fresh and a cached scene
-// can be shown to step the same bits.
+// (getrusage), a scene's contacts per particle, and a hash of its state, so that two builds or a
+// fresh and a cached scene can be shown to step the same bits.
 #include <sys/resource.h>
 
 #include <cstdint>
@@ -25,6 +25,11 @@ inline double peak_rss_mib() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+// Pair and wall contacts in force per particle.
+inline double contacts_per_particle(const dem::System& system) {
+  return static_cast<double>(system.active_contact_count()) / static_cast<double>(system.size());
 }
 
 // FNV-1a over the bytes of the positions and velocities.
