@@ -57,11 +57,14 @@ inline constexpr double kMacroThroughput = 7.6e6;
 inline constexpr double kMacroBalls = 726.0;
 inline constexpr double kLargeMillThroughput = 6.6e6;
 inline constexpr double kLargeMillBalls = 11835.0;
-// A shear cell of balls only: quick.json's own run (its 131-ball cell, 7.3 M loaded x 687 /
-// 1158). The cement campaign's 303-ball cell at the bench's dense site (bench_cells'
-// cement_load00, 1.77 contacts per particle) runs 7.8 M once scaled: its 180 load-0 cells cost
-// about 1.6 times what this figure gives them, 0.3-0.75 core-hours of its 7,561-17,612.
-inline constexpr double kMediaCellThroughput = 12.3e6;
+// A shear cell of balls only: quick.json's own 131-ball cell at its site bulk-0 (2.10 1/s,
+// 7.62 kPa; `millflow cell`), the CPU time of 2 more strains measured (76,190 steps), timed at
+// one thread beside mill_1m in 5 rounds and scaled by mill_1m's 12.39 M: 9.3 M (12.3 M until 7
+// December, from the first calibration's whole run, "7.3 M loaded x 687 / 1158"). The cement
+// campaign's 303-ball cell at the bench's dense site (bench_cells' cement_load00, 1.77 contacts
+// per particle) runs 7.8 M once scaled: its 180 load-0 cells cost about 1.2 times what this
+// figure gives them.
+inline constexpr double kMediaCellThroughput = 9.3e6;
 // A shear cell of balls and powder: a step costs more as the powder's contacts grow, with the
 // powder load U and with how fine the powder is (d_p / d). Three families of powder size, each at
 // the loads kPowderLoads, at the stiffness a campaign's cell runs: the contacts the stiffness
