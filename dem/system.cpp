@@ -393,6 +393,10 @@ void System::step(std::size_t count) {
     for (Wall& wall : walls_) advance_wall(wall, dt_);
     update_neighbors(rebuild);
     if (rebuild) ++rebuild_count_;
+    const std::size_t in_force = contact_history_.size() - free_contact_slots_.size();
+    if (2 * contacts_placed_since_compaction_ > in_force &&
+        256 * contacts_placed_since_compaction_ > neighbors_.pairs().size())
+      compact_contacts();
     compute_pair_forces(dt_);
     // The closing half kick uses only this step's forces and masses: the force gather applies it
     // as it sums each particle's force, sparing a pass over the particles.
@@ -570,6 +574,7 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   contact_history_ = std::move(history);
   contact_force_ = std::move(force);
   free_contact_slots_.clear();
+  contacts_placed_since_compaction_ = 0;
   particle_in_contact_.assign(size(), 0);
 
   // Per-particle pair lists in pair order, so force sums run in a fixed order; each list starts at
@@ -635,6 +640,7 @@ void System::restore_pair_forces(std::span<const NeighborPair> pairs,
 }
 
 std::uint32_t System::allocate_contact() {
+  ++contacts_placed_since_compaction_;
   std::uint32_t slot;
   if (!free_contact_slots_.empty()) {
     slot = free_contact_slots_.back();
@@ -646,6 +652,39 @@ std::uint32_t System::allocate_contact() {
     resize_with_room(contact_force_, slot + 1);
   }
   return slot;
+}
+
+void System::compact_contacts() {
+  const std::size_t store = contact_history_.size();
+  // The slot each one moves to: the pairs in force in pair order first, the free slots after.
+  std::vector<std::uint32_t> target(store, kNoContact);
+  std::uint32_t next = 0;
+  for (std::size_t k = 0; k < pair_slot_.size(); ++k) {
+    const std::uint32_t slot = pair_slot_[k];
+    if (slot == kNoContact) continue;
+    target[slot] = next;
+    pair_slot_[k] = next;
+    second_contact_slot_[pair_second_slot_[k]] = next;
+    ++next;
+  }
+  const std::uint32_t in_force = next;
+  for (std::uint32_t& t : target) {
+    if (t == kNoContact) t = next++;
+  }
+  // The permutation in place, cycle by cycle: no second store (bytes_per_particle stays).
+  for (std::uint32_t s = 0; s < store; ++s) {
+    while (target[s] != s) {
+      const std::uint32_t t = target[s];
+      std::swap(contact_history_[s], contact_history_[t]);
+      std::swap(contact_force_[s], contact_force_[t]);
+      std::swap(target[s], target[t]);
+    }
+  }
+  contact_history_.resize(in_force);
+  contact_force_.resize(in_force);
+  free_contact_slots_.clear();
+  contacts_placed_since_compaction_ = 0;
+  ++compaction_count_;
 }
 
 namespace {

@@ -160,6 +160,16 @@ class System {
   // Neighbour rebuilds the skin test asked for since the first step (not those of a new skin or a
   // renumbering).
   std::uint64_t neighbor_rebuild_count() const { return rebuild_count_; }
+  // Lays the contact store out in pair order again, in place, as a neighbour rebuild does. Between
+  // rebuilds a contact that starts takes the slot of one that finished, anywhere in the store, so
+  // a cell whose contacts come and go (a sparse one: at the stiffness policy's contacts the list
+  // may go thousands of steps unbuilt) reads its contacts from all over memory; a step calls this
+  // once contacts placed since the store was last in order exceed half of those in force and a
+  // 256th of the candidate pairs (so that in a cell of few contacts the pass over the pairs stays
+  // a small part of the steps). Moves no result (every sum runs in pair order), only the time a
+  // step takes (docs/benchmarks.md, "The contact store kept in pair order").
+  void compact_contacts();
+  std::uint64_t contact_compaction_count() const { return compaction_count_; }
   // What the rebuild test compares with the skin now: 2 x the largest displacement since the
   // list's last build + the Lees-Edwards offset's change (0 before a build). The list is rebuilt
   // once it reaches the skin, so travel / skin is the part of the list's life already used.
@@ -383,6 +393,9 @@ class System {
   std::uint64_t step_count_ = 0;
   double skin_ = 0.0;
   std::uint64_t rebuild_count_ = 0;
+  std::uint64_t compaction_count_ = 0;
+  // Contacts given a slot since the store was last laid out in pair order.
+  std::size_t contacts_placed_since_compaction_ = 0;
   bool prepared_ = false;
   bool record_collisions_ = false;
   CollisionSink* collision_sink_ = nullptr;

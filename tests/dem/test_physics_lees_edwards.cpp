@@ -191,6 +191,38 @@ TEST(LeesEdwards, ReorderingCarriesEveryContactAlong) {
   EXPECT_LT(worst, 1e-12 * largest) << "the same contacts, springs and forces, renumbered";
 }
 
+bool same_bits(std::span<const Vec3> a, std::span<const Vec3> b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
+}
+
+TEST(LeesEdwards, TheContactStoreLaidOutAgainMovesNoBit) {
+  System automatic = dense_sheared_box();
+  automatic.step(100);  // contacts with loaded tangential springs, some slots reused
+  const std::uint64_t compactions_before = automatic.contact_compaction_count();
+  System forced = automatic;
+  for (int n = 0; n < 200; ++n) {
+    forced.compact_contacts();
+    forced.step();
+  }
+  automatic.step(200);
+  EXPECT_GE(forced.contact_compaction_count(), compactions_before + 200);
+  EXPECT_TRUE(same_bits(forced.positions(), automatic.positions()));
+  EXPECT_TRUE(same_bits(forced.velocities(), automatic.velocities()));
+  EXPECT_TRUE(same_bits(forced.angular_velocities(), automatic.angular_velocities()));
+  EXPECT_TRUE(same_bits(forced.forces(), automatic.forces()));
+  EXPECT_TRUE(same_bits(forced.contact_virial(), automatic.contact_virial()));
+  EXPECT_EQ(forced.active_contact_count(), automatic.active_contact_count());
+  const EnergyBudget a = automatic.energy(), f = forced.energy();
+  EXPECT_EQ(std::memcmp(&a, &f, sizeof a), 0) << "the same energy books to the bit";
+}
+
+TEST(LeesEdwards, AStepLaysTheContactStoreOutAgainOnceItsContactsHaveComeAndGone) {
+  System system = dense_sheared_box();
+  system.step(400);
+  // Between the rebuilds (which lay the store out too, and are not counted here).
+  EXPECT_GT(system.contact_compaction_count(), 0u);
+}
+
 TEST(LeesEdwards, ReorderedRunsHaveTheSameBitsAtAnyThreadCountAndAcrossACheckpoint) {
   const auto run = [](int threads, std::size_t pause) {
     System system = dense_sheared_box();
