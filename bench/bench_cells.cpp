@@ -30,11 +30,12 @@
 // pts_per_s (wall), contacts_per_particle (pair and wall contacts in force), pairs_per_particle
 // (candidate pairs), screened_per_particle_step (the candidate pairs the screening looked at per
 // particle-step: those asleep it skips, System::pairs_screened), rebuilds_per_kstep (neighbour
-// list builds per 1,000 timed steps), strain_per_step (shear rate x time step), bytes_per_particle
-// (System::memory_bytes() / particles) and its parts (System::MemoryUse): bytes_particles,
-// bytes_pairs (candidate pairs), bytes_contacts (pair and wall contacts), bytes_queues (the
-// step's queues of starting and finishing contacts), bytes_events (collision events not yet
-// taken).
+// list builds per 1,000 timed steps), layouts_per_kstep (the contact store laid out in pair order
+// again between builds, per 1,000 timed steps: System::compact_contacts), strain_per_step (shear
+// rate x time step), bytes_per_particle (System::memory_bytes() / particles) and its parts
+// (System::MemoryUse): bytes_particles, bytes_pairs (candidate pairs), bytes_contacts (pair and
+// wall contacts), bytes_queues (the step's queues of starting and finishing contacts),
+// bytes_events (collision events not yet taken).
 //
 // Extra flags (before Google Benchmark's own):
 //   --cells_steps=N           steps per timed iteration (default: per scene)
@@ -586,6 +587,7 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
   tbb::task_arena arena(threads);
   const std::uint64_t screened_before = run.cell().system().pairs_screened();
   const std::uint64_t rebuilds_before = run.cell().system().neighbor_rebuild_count();
+  const std::uint64_t layouts_before = run.cell().system().contact_compaction_count();
   double wall = 0.0, cpu = 0.0;
   std::size_t total_steps = 0;
   for (auto _ : state) {
@@ -612,6 +614,9 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
       static_cast<double>(system.pairs_screened() - screened_before) / particle_steps;
   state.counters["rebuilds_per_kstep"] =
       1e3 * static_cast<double>(system.neighbor_rebuild_count() - rebuilds_before) /
+      static_cast<double>(total_steps);
+  state.counters["layouts_per_kstep"] =
+      1e3 * static_cast<double>(system.contact_compaction_count() - layouts_before) /
       static_cast<double>(total_steps);
   state.counters["strain_per_step"] = run.cell().setup().shear_rate * system.time_step();
   // The bytes per particle, and by what they grow with (System::MemoryUse).
