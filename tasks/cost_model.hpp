@@ -89,9 +89,10 @@ inline constexpr double kMediaCellThroughput = 9.3e6;
 // interpolated; outside them, the nearer figure. Across the sites up to I = 0.16, at the policy's
 // stiffness, a cell's figure moved by less than 6% on the 0.25 d powder (docs/cost_model.md,
 // "7 December: the cells at the campaign's own sites, and at their own stiffness"), and at the
-// shoulder's I = 0.40 it ran 1.01-1.27x faster (fewer contacts), so one figure serves every
-// site. The fine gains, timed again over 1,000 steps with the contact store kept in pair order,
-// came out the same (1.86, 2.04, 1.23; "7 December (midday)").
+// shoulder's I = 0.40 it ran 1.01-1.27x faster (fewer contacts; the fine powder at load 0.5
+// 0.87x, about 0.1% of the cement campaign), so one figure serves every site. The fine gains,
+// timed again over 1,000 steps with the contact store kept in pair order, came out the same
+// (1.86, 2.04, 1.23; "7 December (midday)").
 inline constexpr std::array<double, 3> kPowderLoads = {0.5, 1.0, 1.5};
 struct PowderFamily {
   double diameter_ratio = 0.0;            // d_p / d
