@@ -612,12 +612,13 @@ void run_cell(benchmark::State& state, const CellCase& c, int threads) {
       static_cast<double>(system.candidate_pairs().size()) / static_cast<double>(particles);
   state.counters["screened_per_particle_step"] =
       static_cast<double>(system.pairs_screened() - screened_before) / particle_steps;
+  const auto per_kstep = [&](std::uint64_t count) {
+    return 1e3 * static_cast<double>(count) / static_cast<double>(total_steps);
+  };
   state.counters["rebuilds_per_kstep"] =
-      1e3 * static_cast<double>(system.neighbor_rebuild_count() - rebuilds_before) /
-      static_cast<double>(total_steps);
+      per_kstep(system.neighbor_rebuild_count() - rebuilds_before);
   state.counters["layouts_per_kstep"] =
-      1e3 * static_cast<double>(system.contact_compaction_count() - layouts_before) /
-      static_cast<double>(total_steps);
+      per_kstep(system.contact_compaction_count() - layouts_before);
   state.counters["strain_per_step"] = run.cell().setup().shear_rate * system.time_step();
   // The bytes per particle, and by what they grow with (System::MemoryUse).
   const dem::System::MemoryUse memory = system.memory_use();
