@@ -19,6 +19,7 @@
 
 #include "dem/array_growth.hpp"
 #include "dem/contact_law.hpp"
+#include "dem/drift.hpp"
 
 namespace millflow::dem {
 namespace {
@@ -42,13 +43,6 @@ constexpr double kDefaultSkinPerSmallestRadius = 0.6;
 double square(double v) {
   return v * v;
 }
-
-// What the drift finds, per particle at most: the squared displacement since the neighbour list's
-// build and the squared speed against the shear flow.
-struct DriftMaxima {
-  double moved_sq = 0.0;
-  double peculiar_speed_sq = 0.0;
-};
 
 bool finite(const Vec3& v) {
   return v.allFinite();
@@ -421,10 +415,28 @@ std::array<double, 3> System::no_image_limits() const {
 // vector stores may alias anything, which would otherwise make the compiler reload every array's
 // address and the box after each store.
 
+DriftArrays System::drift_arrays() {
+  DriftArrays arrays;
+  arrays.position = position_.data();
+  arrays.velocity = velocity_.data();
+  arrays.angular_velocity = angular_velocity_.data();
+  arrays.predicted_velocity = predicted_velocity_.data();
+  arrays.predicted_angular_velocity = predicted_angular_velocity_.data();
+  arrays.force = force_.data();
+  arrays.torque = torque_.data();
+  arrays.inv_mass = inv_mass_.data();
+  arrays.inv_inertia = inv_inertia_.data();
+  if (!groups_.empty()) {
+    arrays.group = group_.data();
+    arrays.groups = groups_.data();
+  }
+  const std::span<const Vec3> reference = neighbors_.reference_positions();
+  if (reference.size() == size()) arrays.reference_position = reference.data();
+  return arrays;
+}
+
 bool System::kick_and_drift() {
   const double half_dt = 0.5 * dt_, dt = dt_;
-  const std::span<const Vec3> reference = neighbors_.reference_positions();
-  const bool track_displacement = reference.size() == size();
   const std::array<double, 3> no_image_limit = no_image_limits();
   const double image_test_sq =
       square(std::min({no_image_limit[0], no_image_limit[1], no_image_limit[2]}));
@@ -437,68 +449,20 @@ bool System::kick_and_drift() {
   // The flow's velocity per unit of height (a vector, so that the pass never indexes a register).
   Vec3 flow_per_height = Vec3::Zero();
   if (shear.enabled) flow_per_height[shear.flow_axis] = shear_rate;
-  // The largest displacement since the last neighbour-list build and the largest speed against the
-  // shear flow, found in the same pass (exact maxima, so any split of the range gives the same
-  // answers).
+  const DriftArrays arrays = drift_arrays();
+  DriftParameters parameters;
+  parameters.half_dt = half_dt;
+  parameters.dt = dt;
+  parameters.gradient_axis = gradient_axis;
+  parameters.flow_centre = flow_centre;
+  parameters.flow_per_height = flow_per_height;
+  parameters.no_image_limit = no_image_limit;
+  parameters.image_test_sq = image_test_sq;
   const DriftMaxima maxima = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, size(), kParticleGrain), DriftMaxima{},
       [&](const tbb::blocked_range<std::size_t>& range, DriftMaxima running_before) {
-        const PeriodicImages images(domain_);
-        // Copies, held in registers (the stores below may alias what a reference points to).
-        double running = running_before.moved_sq, fastest = running_before.peculiar_speed_sq;
-        const double half_step = half_dt, step = dt, image_sq = image_test_sq;
-        const double centre = flow_centre;
-        const Vec3 flow_rate = flow_per_height;
-        const std::array<double, 3> limit = no_image_limit;
-        const bool track = track_displacement, free_of_groups = groups_.empty();
-        Vec3* const position = position_.data();
-        const double* const height_of = position_.data()->data() + gradient_axis;  // stride 3
-        Vec3* const velocity = velocity_.data();
-        Vec3* const angular_velocity = angular_velocity_.data();
-        Vec3* const predicted_velocity = predicted_velocity_.data();
-        Vec3* const predicted_angular_velocity = predicted_angular_velocity_.data();
-        const Vec3* const force = force_.data();
-        const Vec3* const torque = torque_.data();
-        const double* const inv_mass = inv_mass_.data();
-        const double* const inv_inertia = inv_inertia_.data();
-        const GroupId* const group = group_.data();
-        const Vec3* const reference_position = reference.data();
-        for (std::size_t p = range.begin(), end = range.end(); p != end; ++p) {
-          Vec3 v = velocity[p];
-          Vec3 w = angular_velocity[p];
-          v += force[p] * (inv_mass[p] * half_step);
-          w += torque[p] * (inv_inertia[p] * half_step);
-          if (!free_of_groups && group[p] != kFreeParticle) v = groups_[group[p] - 1].velocity;
-          const double height = height_of[3 * p] - centre;
-          fastest = std::max(fastest, (v - height * flow_rate).squaredNorm());
-          Vec3 x = position[p] + v * step;
-          if (!images.inside(x)) {
-            // Through copies: the compiler keeps x and v in registers unless wrap() runs.
-            Vec3 x_wrapped = x, v_wrapped = v;
-            images.wrap(x_wrapped, v_wrapped);
-            x = x_wrapped;
-            v = v_wrapped;
-          }
-          // Dashpots act on the velocity at the end of the step, predicted from the last forces.
-          predicted_velocity[p] = v + force[p] * (inv_mass[p] * half_step);
-          predicted_angular_velocity[p] = w + torque[p] * (inv_inertia[p] * half_step);
-          position[p] = x;
-          velocity[p] = v;
-          angular_velocity[p] = w;
-          if (track) {
-            Vec3 moved = x - reference_position[p];
-            double moved_sq = moved.squaredNorm();
-            if (!(moved_sq < image_sq) &&  // below it, no axis can reach its limit
-                !(std::abs(moved[0]) < limit[0] && std::abs(moved[1]) < limit[1] &&
-                  std::abs(moved[2]) < limit[2])) {
-              double gradient_images;
-              moved = images.separation(reference_position[p], x, gradient_images);
-              moved_sq = moved.squaredNorm();
-            }
-            running = std::max(running, moved_sq);
-          }
-        }
-        return DriftMaxima{running, fastest};
+        return drift_particles(arrays, parameters, domain_, range.begin(), range.end(),
+                               running_before);
       },
       [](const DriftMaxima& a, const DriftMaxima& b) {
         return DriftMaxima{std::max(a.moved_sq, b.moved_sq),
@@ -1044,6 +1008,7 @@ template <class Add>
 
 void System::compute_particle_forces(double dt, bool closing_kick) {
   const double half_dt = 0.5 * dt_;
+  const DriftArrays particles = drift_arrays();
   const WallSlots& before = wall_slots_[wall_current_];
   WallSlots& after = wall_slots_[1 - wall_current_];
   std::vector<WallPose> poses;
@@ -1107,24 +1072,16 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
               });
           return sum;
         };
-        // The sums, and the closing half kick with them (as a pass of its own would: every
-        // particle).
+        // The sums; then, over the chunk, the closing half kick from them (on four lanes,
+        // dem/drift.hpp), while the chunk's forces are still in the cache.
         Vec3* const force_of = force_.data();
         Vec3* const torque_of = torque_.data();
-        Vec3* const velocity = velocity_.data();
-        Vec3* const angular_velocity = angular_velocity_.data();
-        const double* const inv_mass = inv_mass_.data();
-        const double* const inv_inertia = inv_inertia_.data();
-        // Copies, held in registers (the stores may alias what a reference points to).
-        const bool kick = closing_kick;
-        const double kick_dt = half_dt;
         const auto store = [&](std::size_t p, const Vec3& force, const Vec3& torque) {
           force_of[p] = force;
           torque_of[p] = torque;
-          if (kick) {
-            velocity[p] += force * (inv_mass[p] * kick_dt);
-            angular_velocity[p] += torque * (inv_inertia[p] * kick_dt);
-          }
+        };
+        const auto kick = [&] {
+          if (closing_kick) kick_particles(particles, half_dt, range.begin(), range.end());
         };
         if (walls_.empty()) {  // a loop of its own: without the wall code it keeps its values in
                                // registers
@@ -1132,6 +1089,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
             const auto [force, torque] = pair_sum(p);
             store(p, force, torque);
           }
+          kick();
           return virial();
         }
         std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
@@ -1225,6 +1183,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
           finished_mask[p] = static_cast<std::uint8_t>(~matched & ((1u << old_count) - 1u));
           store(p, force, torque);
         }
+        kick();
         return virial();
       },
       [](const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) -> Eigen::Matrix3d { return a + b; });

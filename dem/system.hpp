@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "dem/domain.hpp"
+#include "dem/drift.hpp"
 #include "dem/material.hpp"
 #include "dem/neighbor_search.hpp"
 #include "dem/rng.hpp"
@@ -323,6 +324,8 @@ class System {
   // The first half kick and the drift in one pass; returns whether the neighbour list must be
   // rebuilt.
   bool kick_and_drift();
+  // The particle arrays of the drift and the kicks (dem/drift.hpp).
+  DriftArrays drift_arrays();
   void update_neighbors(bool rebuild);
   // After rebuild_neighbors from the touching pairs `pairs` (sorted): marks them in force and
   // puts their forces back (`forces`, or the ones their contacts hold when empty), so that what
