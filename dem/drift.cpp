@@ -220,9 +220,39 @@ void kick_on_lanes(const DriftArrays& arrays, double half_dt, std::size_t begin,
   kick_particles_one_at_a_time(a, half_dt, p, end);
 }
 
+void weights_on_lanes(Vec3* force, Vec3* torque, const double* mass, const Vec3& gravity,
+                      std::size_t begin, std::size_t end) {
+  const Flat g = repeated(gravity);
+  const Flat zero{{_mm256_setzero_pd(), _mm256_setzero_pd(), _mm256_setzero_pd()}};
+  std::size_t p = begin;
+  for (; p + 4 <= end; p += 4) {
+    const Flat m = per_component(_mm256_loadu_pd(mass + p));
+    Flat weight;
+    for (int k = 0; k < 3; ++k) weight.r[k] = _mm256_mul_pd(m.r[k], g.r[k]);
+    store(force + p, weight);
+    store(torque + p, zero);
+  }
+  for (; p != end; ++p) {
+    force[p] = mass[p] * gravity;
+    torque[p] = Vec3::Zero();
+  }
+}
+
 #endif
 
 }  // namespace
+
+void set_weights(Vec3* force, Vec3* torque, const double* mass, const Vec3& gravity,
+                 std::size_t begin, std::size_t end) {
+#if defined(__AVX2__)
+  weights_on_lanes(force, torque, mass, gravity, begin, end);
+#else
+  for (std::size_t p = begin; p != end; ++p) {
+    force[p] = mass[p] * gravity;
+    torque[p] = Vec3::Zero();
+  }
+#endif
+}
 
 void kick_particles_one_at_a_time(const DriftArrays& arrays, double half_dt, std::size_t begin,
                                   std::size_t end) {

@@ -1,10 +1,10 @@
 #pragma once
 // The per-particle passes of velocity Verlet over a range of particles (System::step): the first
-// half kick and the drift, with the two maxima the neighbour list needs, and the closing half
-// kick. Passes over seven arrays of 3-vectors per particle, a third of the step of a sparse cell
-// (docs/benchmarks.md, "The drift and the kick on four lanes"): where the build has AVX2, four
-// particles at a time, with the same IEEE operations in the same order as one at a time, so the
-// bits do not depend on the instruction set.
+// half kick and the drift, with the two maxima the neighbour list needs, the weights the force
+// gather starts from, and the closing half kick. Passes over seven arrays of 3-vectors per
+// particle, a third of the step of a sparse cell (docs/benchmarks.md, "The drift and the kick on
+// four lanes"): where the build has AVX2, four particles at a time, with the same IEEE operations
+// in the same order as one at a time, so the bits do not depend on the instruction set.
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -70,8 +70,13 @@ void kick_particles(const DriftArrays& arrays, double half_dt, std::size_t begin
 void kick_particles_one_at_a_time(const DriftArrays& arrays, double half_dt, std::size_t begin,
                                   std::size_t end);
 
-// Whether drift_particles and kick_particles run on four lanes in this build (the DEM library built
-// for AVX2).
+// Each particle's weight as its force, m g, and no torque, over particles [begin, end): where
+// the force gather starts, so that it need visit only the particles with a contact in force.
+void set_weights(Vec3* force, Vec3* torque, const double* mass, const Vec3& gravity,
+                 std::size_t begin, std::size_t end);
+
+// Whether drift_particles, kick_particles and set_weights run on four lanes in this build (the DEM
+// library built for AVX2).
 bool drift_uses_lanes();
 
 // The same one particle at a time: what the four lanes must match bit for bit (tests).

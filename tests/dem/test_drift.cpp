@@ -1,7 +1,7 @@
-// The drift and the closing kick on four lanes against the same one particle at a time: the same
-// bits in every array and the same maxima, whatever the range's length, with particles that
-// leave the box through every face (Lees-Edwards included), displacements that need a periodic
-// image, and a NaN.
+// The drift, the closing kick and the weights on four lanes against the same one particle at a
+// time: the same bits in every array and the same maxima, whatever the range's length, with
+// particles that leave the box through every face (Lees-Edwards included), displacements that need
+// a periodic image, and a NaN.
 #include "dem/drift.hpp"
 
 #include <gtest/gtest.h>
@@ -168,6 +168,24 @@ TEST(Drift, TheClosingKickOnLanesGivesTheBitsOfOneParticleAtATime) {
     EXPECT_TRUE(same_bits(lanes.angular_velocity, one_at_a_time.angular_velocity))
         << n << " particles";
   }
+}
+
+TEST(Drift, WeightsOnLanesAreEachParticlesMassTimesGravity) {
+  if (!drift_uses_lanes()) GTEST_SKIP() << "the DEM library is built without AVX2: one path only";
+  const Vec3 gravity(0.3, -9.81, 1e-3);
+  const Particles particles(11, 5, sheared_box());
+  std::vector<double> mass;
+  for (const double inv : particles.inv_mass) mass.push_back(1.0 / inv);
+  std::vector<Vec3> force(11, Vec3::Ones()), torque(11, Vec3::Ones()), want_force, want_torque;
+  set_weights(force.data(), torque.data(), mass.data(), gravity, 1, 11);
+  want_force.push_back(Vec3::Ones());
+  want_torque.push_back(Vec3::Ones());
+  for (std::size_t p = 1; p < 11; ++p) {
+    want_force.push_back(mass[p] * gravity);
+    want_torque.push_back(Vec3::Zero());
+  }
+  EXPECT_TRUE(same_bits(force, want_force));
+  EXPECT_TRUE(same_bits(torque, want_torque));
 }
 
 }  // namespace
