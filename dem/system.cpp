@@ -1089,13 +1089,11 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
             // Every particle's weight first (on four lanes), then the sums of those with a pair
             // in force: in a sparse cell, most particles have none.
             set_weights(force_of, torque_of, mass, gravity, range.begin(), range.end());
-            for_each_nonzero(
-                std::span<const std::uint8_t>(in_contact + range.begin(), range.size()),
-                [&](std::size_t k) {
-                  const std::size_t p = range.begin() + k;
-                  const auto [force, torque] = pair_sum(p);
-                  store(p, force, torque);
-                });
+            for (std::size_t p = range.begin(); p != range.end(); ++p) {
+              if (!in_contact[p]) continue;
+              const auto [force, torque] = pair_sum(p);
+              store(p, force, torque);
+            }
           } else {
             for (std::size_t p = range.begin(); p != range.end(); ++p) {
               const auto [force, torque] = pair_sum(p);
