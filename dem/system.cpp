@@ -18,6 +18,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "dem/array_growth.hpp"
+#include "dem/awake_pairs.hpp"
 #include "dem/contact_law.hpp"
 #include "dem/drift.hpp"
 
@@ -885,11 +886,8 @@ void System::compute_pair_forces(double dt) {
         const std::size_t block_end = std::min(block + kBlock, chunk_end);
         // The pairs of the block that may touch by now (the others sleep: their gap cannot have
         // closed yet).
-        std::size_t awake_count = 0;
-        for (std::size_t k = block; k != block_end; ++k) {
-          awake[awake_count] = static_cast<std::uint32_t>(k);
-          awake_count += !(bound < static_cast<double>(wake[k]));
-        }
+        const std::size_t awake_count =
+            collect_awake_pairs(wake, bound, block, block_end, awake.data());
         const std::size_t last_awake = awake_count - 1;
         queues_by_chunk_[chunk].screened += awake_count;
         // The loop twice, with and without the kinematic groups' test (the compiler keeps the
