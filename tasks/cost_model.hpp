@@ -92,9 +92,10 @@ inline constexpr double kMediaCellThroughput = 9.3e6;
 // shoulder's I = 0.40 it ran 1.01-1.27x faster (fewer contacts; the fine powder at load 0.5
 // 0.87x, about 0.1% of the cement campaign), so one figure serves every site. The fine gains,
 // timed again over 1,000 steps with the contact store kept in pair order, came out the same
-// (1.86, 2.04, 1.23; "7 December (midday)"). Since the drift and the kicks run on four lanes the
-// fine load-0.5 cell runs 1.15-1.25x faster than its figure (about 1% of the cement campaign); the
-// figures are not raised, loads 1 and 1.5 not timed again ("7 December (afternoon)").
+// (1.86, 2.04, 1.23; "7 December (midday)"). Since the drift, the kicks and the sleeping pairs'
+// test run on four lanes the fine load-0.5 cell runs 1.15-1.25x faster than its figure (about 1% of
+// the cement campaign); the figures are not raised, loads 1 and 1.5 not timed again ("7 December
+// (afternoon)").
 inline constexpr std::array<double, 3> kPowderLoads = {0.5, 1.0, 1.5};
 struct PowderFamily {
   double diameter_ratio = 0.0;            // d_p / d
