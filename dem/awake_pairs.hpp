@@ -3,7 +3,7 @@
 // found apart sleeps while the approach bound stays below its wake threshold (docs/benchmarks.md,
 // "Pairs apart sleep"). Most of a sparse cell's pairs sleep, and this test runs on every candidate
 // pair every step: where the build has AVX2, four pairs at a time (docs/benchmarks.md, "The
-// sleeping pairs' test on four lanes"), with the same answer as one at a time.
+// drift and the kick on four lanes"), with the same answer as one at a time.
 #include <cstddef>
 #include <cstdint>
 
