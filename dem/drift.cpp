@@ -66,6 +66,15 @@ class ParticleDrift {
   const PeriodicImages images_;
 };
 
+// Each particle's weight and no torque: what the lanes of set_weights must match.
+void weights_one_at_a_time(Vec3* force, Vec3* torque, const double* mass, const Vec3& gravity,
+                           std::size_t begin, std::size_t end) {
+  for (std::size_t p = begin; p != end; ++p) {
+    force[p] = mass[p] * gravity;
+    torque[p] = Vec3::Zero();
+  }
+}
+
 #if defined(__AVX2__)
 
 // Four particles' 3-vectors as they lie in memory, twelve doubles in three registers:
@@ -232,10 +241,7 @@ void weights_on_lanes(Vec3* force, Vec3* torque, const double* mass, const Vec3&
     store(force + p, weight);
     store(torque + p, zero);
   }
-  for (; p != end; ++p) {
-    force[p] = mass[p] * gravity;
-    torque[p] = Vec3::Zero();
-  }
+  weights_one_at_a_time(force, torque, mass, gravity, p, end);
 }
 
 #endif
@@ -247,10 +253,7 @@ void set_weights(Vec3* force, Vec3* torque, const double* mass, const Vec3& grav
 #if defined(__AVX2__)
   weights_on_lanes(force, torque, mass, gravity, begin, end);
 #else
-  for (std::size_t p = begin; p != end; ++p) {
-    force[p] = mass[p] * gravity;
-    torque[p] = Vec3::Zero();
-  }
+  weights_one_at_a_time(force, torque, mass, gravity, begin, end);
 #endif
 }
 
