@@ -2,24 +2,22 @@
 // take_collision_events would hold, in its order, bit for bit, and nothing is buffered.
 #include <gtest/gtest.h>
 
-#include <cstring>
 #include <vector>
 
 #include "dem/mill_setup.hpp"
+#include "tests/dem/same_bits.hpp"
 #include "tests/dem/scenes.hpp"
 
 namespace millflow::dem {
 namespace {
+
+using testing::same_bits;
 
 class CollectingSink final : public CollisionSink {
  public:
   void add(const CollisionEvent& event) override { events.push_back(event); }
   std::vector<CollisionEvent> events;
 };
-
-bool same_bits(double a, double b) {
-  return std::memcmp(&a, &b, sizeof a) == 0;
-}
 
 void expect_same_events(const std::vector<CollisionEvent>& a,
                         const std::vector<CollisionEvent>& b) {

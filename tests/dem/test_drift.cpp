@@ -3,18 +3,20 @@
 // particles that leave the box through every face (Lees-Edwards included), displacements that need
 // a periodic image, and a NaN.
 #include "dem/drift.hpp"
+#include "tests/dem/same_bits.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <random>
 #include <vector>
 
 namespace millflow::dem {
 namespace {
+
+using testing::same_bits;
 
 // A Lees-Edwards box of 0.1 m with particles of the cells' scale: 5 mm, 1 m/s, dt 1e-5 s.
 struct Particles {
@@ -84,14 +86,6 @@ DriftParameters parameters_for(const Domain& d) {
   return prm;
 }
 
-bool same_bits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
-}
-
-bool same_bits(double a, double b) {
-  return std::memcmp(&a, &b, sizeof a) == 0;
-}
-
 // Drifts [begin, end) in chunks of `chunk` particles both ways and compares every chunk's maxima
 // (one particle's squared norm decides a chunk's) and then every array.
 void expect_lanes_match(Particles lanes, Particles one_at_a_time, const Domain& domain,
@@ -123,7 +117,7 @@ TEST(Drift, FourLanesGiveTheBitsOfOneParticleAtATime) {
   for (const std::size_t n : {1u, 3u, 4u, 7u, 64u, 1001u}) {
     const Particles particles(n, 40 + n, domain);
     for (const bool track : {true, false}) {
-      SCOPED_TRACE(testing::Message() << n << " particles, tracking " << track);
+      SCOPED_TRACE(::testing::Message() << n << " particles, tracking " << track);
       for (const std::size_t chunk : {std::size_t{4}, std::size_t{5}, n}) {
         expect_lanes_match(particles, particles, domain, 0, n, chunk, track);
         if (n > 2) expect_lanes_match(particles, particles, domain, 1, n - 1, chunk, track);

@@ -10,11 +10,13 @@
 #include "dem/checkpoint.hpp"
 #include "dem/rng.hpp"
 #include "dem/system.hpp"
+#include "tests/dem/same_bits.hpp"
 #include "tests/dem/scenes.hpp"
 
 namespace millflow::dem {
 namespace {
 
+using testing::same_bits;
 using testing::steel_table;
 using testing::with_threads;
 
@@ -139,10 +141,6 @@ System dense_sheared_box() {
   return system;
 }
 
-bool same_bits(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  return std::memcmp(a.data(), b.data(), sizeof(double) * 9) == 0;
-}
-
 TEST(LeesEdwards, ContactVirialIsTheSumOverContactsInForceWithTheSameBitsAtAnyThreadCount) {
   const auto expected_virial = [](const System& system) {
     Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
@@ -189,10 +187,6 @@ TEST(LeesEdwards, ReorderingCarriesEveryContactAlong) {
     worst = std::max(worst, (reordered.positions()[p] - original.positions()[old_of[p]]).norm());
   }
   EXPECT_LT(worst, 1e-12 * largest) << "the same contacts, springs and forces, renumbered";
-}
-
-bool same_bits(std::span<const Vec3> a, std::span<const Vec3> b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
 }
 
 TEST(LeesEdwards, TheContactStoreLaidOutAgainMovesNoBit) {

@@ -3,18 +3,19 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstring>
 #include <filesystem>
 #include <numbers>
 
 #include "dem/binary_io.hpp"
 #include "dem/checkpoint.hpp"
 #include "dem/mill_setup.hpp"
+#include "tests/dem/same_bits.hpp"
 #include "tests/dem/scenes.hpp"
 
 namespace millflow::dem {
 namespace {
 
+using testing::same_bits;
 using testing::small_mill;
 using testing::with_threads;
 
@@ -23,11 +24,6 @@ System settled_mill(double fill) {
   system.set_time_step_from_collisions(20);
   settle_charge(system, 1.0, 1e-6);
   return system;
-}
-
-template <class T>
-bool same_bits(std::span<const T> a, std::span<const T> b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size_bytes()) == 0;
 }
 
 TEST(MillPhysics, SlowMillCarriesTheBedAsARigidBody) {

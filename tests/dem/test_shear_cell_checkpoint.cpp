@@ -6,7 +6,6 @@
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
 
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -15,10 +14,13 @@
 #include "dem/checkpoint.hpp"
 #include "dem/shear_cell.hpp"
 #include "tests/common/scratch_dir.hpp"
+#include "tests/dem/same_bits.hpp"
 #include "tests/dem/shear_cells.hpp"
 
 namespace millflow::dem {
 namespace {
+
+using testing::same_bits;
 
 using testing::small_shear_cell;
 
@@ -36,10 +38,6 @@ ShearCellProtocol tiny_protocol() {
           .max_warmup_strain = 0.2,
           .measure_strain = 0.3,
           .measure = {.samples = 20, .max_strain = 0.4}};
-}
-
-bool same_bits(double a, double b) {
-  return std::memcmp(&a, &b, sizeof a) == 0;
 }
 
 void expect_same_histogram(const LogHistogram& a, const LogHistogram& b, const std::string& what) {
