@@ -32,17 +32,21 @@
 // (campaigns/README.md). In a sticking step friction's share is small and of either sign; over a
 // contact it sums to what the slips' edges and the parting take.
 #include <cmath>
+#include <type_traits>
 
 #include "dem/material.hpp"
 #include "dem/vec.hpp"
 
 namespace millflow::dem {
 
-struct ContactGeometry {
-  Vec3 normal;           // unit, from body b towards body a
+// The law's vectors are of a type V: Vec3, or the pair pass's PackedVec3 (dem/packed_vec3.hpp),
+// whose operations give Vec3's bits.
+template <class V>
+struct ContactGeometryOf {
+  V normal;              // unit, from body b towards body a
   double overlap = 0.0;  // > 0 while touching, m
   // Velocity of a's contact point minus b's, m/s, at the end of the step: the dashpots act on it.
-  Vec3 relative_velocity;
+  V relative_velocity;
   // The same over the step (the half-step velocities that moved the bodies): the contact points'
   // relative displacement in the step over dt, which the tangential spring follows, as the overlap
   // follows the positions. A spring advanced by the end-of-step velocity instead (millflow until 6
@@ -50,13 +54,15 @@ struct ContactGeometry {
   // a tangential rebound 11% short of the converged law, where LAMMPS's, which advances its spring
   // by the half-step velocity, was 1.5% short (docs/cell_validation.md, "The tangential spring's
   // increment").
-  Vec3 step_velocity;
+  V step_velocity;
 };
+using ContactGeometry = ContactGeometryOf<Vec3>;
 
-struct ContactResponse {
-  Vec3 force_on_a = Vec3::Zero();  // body b gets the opposite force
-  Vec3 spring = Vec3::Zero();      // updated tangential spring s, m
-  double normal_force = 0.0;       // signed magnitude along the normal, N
+template <class V>
+struct ContactResponseOf {
+  V force_on_a = V::Zero();   // body b gets the opposite force
+  V spring = V::Zero();       // updated tangential spring s, m
+  double normal_force = 0.0;  // signed magnitude along the normal, N
   bool sliding = false;
   // Energy dissipated during this step, J. The dashpots' >= 0. Friction's is the tangential work
   // the contact absorbs less the change of its spring energy and the tangential dashpot's share
@@ -70,6 +76,7 @@ struct ContactResponse {
   double dissipated_friction = 0.0;
   double elastic_energy = 0.0;  // stored in both springs after the step, J
 };
+using ContactResponse = ContactResponseOf<Vec3>;
 
 // Both functions are inline: they run for every contact and step, and the caller uses only part
 // of the response (the compiler drops the rest).
@@ -85,44 +92,46 @@ inline constexpr double kSpringTurnSeriesLimit = 1e-4;
 // a step the series 1 + c/2 + 3c^2/8 + 5c^3/16, whose one division (by |s|^2) does not wait for
 // the normal, instead of a division and a square root in a row on every contact's path to its
 // force (docs/benchmarks.md, "The spring's turn by a series").
-[[gnu::always_inline]] inline Vec3 rotate_spring_into_tangent_plane(const Vec3& spring,
-                                                                    const Vec3& normal) {
+template <class V>
+[[gnu::always_inline]] inline V rotate_spring_into_tangent_plane(
+    const V& spring, const std::type_identity_t<V>& normal) {
   const double length_sq = spring.squaredNorm();
   if (length_sq == 0.0) return spring;
   const double along = spring.dot(normal);
-  const Vec3 projected = spring - along * normal;
+  const V projected = spring - along * normal;
   const double turn = along * along / length_sq;
   if (turn < kSpringTurnSeriesLimit) {
     return projected * (1.0 + turn * (0.5 + turn * (0.375 + turn * 0.3125)));
   }
   const double projected_sq = projected.squaredNorm();
-  if (projected_sq == 0.0) return Vec3::Zero();
+  if (projected_sq == 0.0) return V::Zero();
   return projected * std::sqrt(length_sq / projected_sq);
 }
 
 // One step of the linear spring-dashpot law with Coulomb friction, given the normal dashpot's
 // coefficient C_n (normal_damping_coefficient of the pair's effective mass: a contact works it
 // out once, at first touch, instead of a square root and a division every step).
-[[gnu::always_inline]] inline ContactResponse linear_spring_dashpot_damped(
-    const PairParams& params, double damping_n, const ContactGeometry& geometry, const Vec3& spring,
-    double dt) {
-  ContactResponse out;
-  const Vec3& n = geometry.normal;
+template <class V>
+[[gnu::always_inline]] inline ContactResponseOf<V> linear_spring_dashpot_damped(
+    const PairParams& params, double damping_n, const ContactGeometryOf<V>& geometry,
+    const std::type_identity_t<V>& spring, double dt) {
+  ContactResponseOf<V> out;
+  const V& n = geometry.normal;
   const double damping_t = params.tangential_damping_ratio * damping_n;
 
   const double v_n = geometry.relative_velocity.dot(n);
   out.normal_force = params.normal_stiffness * geometry.overlap - damping_n * v_n;
   out.dissipated_normal = damping_n * v_n * v_n * dt;
 
-  const Vec3 v_t = geometry.relative_velocity - v_n * n;
-  const Vec3 slip = (geometry.step_velocity - geometry.step_velocity.dot(n) * n) * dt;
-  const Vec3 turned_spring = rotate_spring_into_tangent_plane(spring, n);
-  const Vec3 trial_spring = turned_spring + slip;
-  const Vec3 trial_force = -params.tangential_stiffness * trial_spring - damping_t * v_t;
+  const V v_t = geometry.relative_velocity - v_n * n;
+  const V slip = (geometry.step_velocity - geometry.step_velocity.dot(n) * n) * dt;
+  const V turned_spring = rotate_spring_into_tangent_plane(spring, n);
+  const V trial_spring = turned_spring + slip;
+  const V trial_force = -params.tangential_stiffness * trial_spring - damping_t * v_t;
   const double limit = params.friction * std::abs(out.normal_force);
   const double trial_sq = trial_force.squaredNorm();
 
-  Vec3 tangential_force;
+  V tangential_force;
   if (trial_sq > limit * limit) {
     // Sliding: the force sits on the Coulomb limit, and the spring is reset so that spring and
     // dashpot together give it, F_t = -(k_t s + C_t v_t), as LAMMPS and MercuryDPM reset theirs.
@@ -130,8 +139,8 @@ inline constexpr double kSpringTurnSeriesLimit = 1e-4;
     out.sliding = true;
     tangential_force = trial_force * (limit / std::sqrt(trial_sq));
     out.spring = limit > 0.0
-                     ? Vec3(-(tangential_force + damping_t * v_t) / params.tangential_stiffness)
-                     : Vec3::Zero();
+                     ? V(-(tangential_force + damping_t * v_t) / params.tangential_stiffness)
+                     : V(V::Zero());
   } else {
     tangential_force = trial_force;
     out.spring = trial_spring;
@@ -150,10 +159,10 @@ inline constexpr double kSpringTurnSeriesLimit = 1e-4;
 }
 
 // The same with C_n worked out from the pair's effective mass.
-[[gnu::always_inline]] inline ContactResponse linear_spring_dashpot(const PairParams& params,
-                                                                    double effective_mass,
-                                                                    const ContactGeometry& geometry,
-                                                                    const Vec3& spring, double dt) {
+template <class V>
+[[gnu::always_inline]] inline ContactResponseOf<V> linear_spring_dashpot(
+    const PairParams& params, double effective_mass, const ContactGeometryOf<V>& geometry,
+    const std::type_identity_t<V>& spring, double dt) {
   return linear_spring_dashpot_damped(
       params,
       normal_damping_coefficient(params.normal_stiffness, effective_mass, params.damping_ratio),

@@ -21,6 +21,7 @@
 #include "dem/awake_pairs.hpp"
 #include "dem/contact_law.hpp"
 #include "dem/drift.hpp"
+#include "dem/packed_vec3.hpp"
 
 namespace millflow::dem {
 namespace {
@@ -768,22 +769,28 @@ struct System::PairContactKernel {
         dt(step_dt) {}
 
   [[gnu::always_inline]] void operator()(const TouchingPair& touching) const {
+    using V = ContactVec3;
     const std::size_t k = touching.k;
     const auto [i, j] = pair[k];
-    const Vec3& d = touching.separation;
     const double reach = radius[i] + radius[j];
     const double distance = touching.distance;
-    const Vec3 normal = d * (-1.0 / distance);  // from j towards i
+    const V normal =
+        load_contact_vec3(touching.separation) * (-1.0 / distance);  // from j towards i
     const double overlap = reach - distance;
     const double lever_i = radius[i] - 0.5 * overlap, lever_j = radius[j] - 0.5 * overlap;
-    const Vec3 arm_i = -lever_i * normal;  // the contact point from i's centre (j's: lever_j n)
-    const Vec3 image_velocity = images.image_velocity(touching.gradient_images);
+    const V arm_i = -lever_i * normal;  // the contact point from i's centre (j's: lever_j n)
+    // Zero but across the Lees-Edwards boundary (built in registers, not read back from memory).
+    const V image_velocity =
+        touching.gradient_images == 0.0
+            ? V(V::Zero())
+            : V(load_contact_vec3(images.image_velocity(touching.gradient_images)));
     // Contact point i minus contact point j: the two spins' parts w_i x (-lever_i n) -
     // w_j x (lever_j n) are one cross product, n x (lever_i w_i + lever_j w_j).
-    const auto relative_velocity = [&](const Vec3* v, const Vec3* w) -> Vec3 {
-      return v[i] - v[j] - image_velocity + normal.cross(lever_i * w[i] + lever_j * w[j]);
+    const auto relative_velocity = [&](const Vec3* v, const Vec3* w) -> V {
+      return load_contact_vec3(v[i]) - load_contact_vec3(v[j]) - image_velocity +
+             normal.cross(lever_i * load_contact_vec3(w[i]) + lever_j * load_contact_vec3(w[j]));
     };
-    const ContactGeometry geometry{
+    const ContactGeometryOf<V> geometry{
         normal, overlap, relative_velocity(predicted_velocity, predicted_angular_velocity),
         relative_velocity(step_velocity, step_angular_velocity)};
     const std::uint32_t slot = slot_of[k];
@@ -796,14 +803,14 @@ struct System::PairContactKernel {
       history.impact_speed = std::max(-v_n, 0.0);
       history.impact_energy = 0.5 * system.pair_effective_mass(i, j) * v_n * v_n;
     }
-    const ContactResponse response =
-        linear_spring_dashpot_damped(params[material[i] * material_count + material[j]],
-                                     history.normal_damping, geometry, history.spring, dt);
-    history.spring = response.spring;
+    const ContactResponseOf<V> response = linear_spring_dashpot_damped(
+        params[material[i] * material_count + material[j]], history.normal_damping, geometry,
+        load_contact_vec3(history.spring), dt);
+    store_contact_vec3(history.spring, response.spring);
     history.elastic_energy = response.elastic_energy;
     history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
                                       response.dissipated_friction};
-    history.point = position[i] + arm_i;
+    store_contact_vec3(history.point, load_contact_vec3(position[i]) + arm_i);
     // Each slot belongs to one pair: no other task writes it.
     first_in_force[k + first_shift[i]] = 1;
     second_in_force[second_slot[k]] = 1;
@@ -811,12 +818,12 @@ struct System::PairContactKernel {
     std::atomic_ref<std::uint8_t>(in_contact[i]).store(1, std::memory_order_relaxed);
     std::atomic_ref<std::uint8_t>(in_contact[j]).store(1, std::memory_order_relaxed);
     ContactForce& out = force_of[slot];
-    out.force = response.force_on_a;
-    out.branch = d;
+    store_contact_vec3(out.force, response.force_on_a);
+    out.branch = touching.separation;
     // arm_i x F and arm_j x (-F) are both multiples of F x n.
-    const Vec3 turning = response.force_on_a.cross(normal);
-    out.torque_a = lever_i * turning;
-    out.torque_b = lever_j * turning;
+    const V turning = response.force_on_a.cross(normal);
+    store_contact_vec3(out.torque_a, lever_i * turning);
+    store_contact_vec3(out.torque_b, lever_j * turning);
   }
 
   const System& system;
@@ -1022,11 +1029,17 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
         // columns: the compiler keeps a column in registers (a whole matrix it keeps in memory,
         // loaded and stored for every contact). virial.col(c) += F b_c is what Eigen's outer
         // product does, element by element: the same bits.
-        Vec3 virial_x = virial_before.col(0), virial_y = virial_before.col(1),
-             virial_z = virial_before.col(2);
+        using V = ContactVec3;
+        V virial_x = load_contact_vec3(virial_before.col(0)),
+          virial_y = load_contact_vec3(virial_before.col(1)),
+          virial_z = load_contact_vec3(virial_before.col(2));
         const auto virial = [&] {
+          Vec3 x, y, z;
+          store_contact_vec3(x, virial_x);
+          store_contact_vec3(y, virial_y);
+          store_contact_vec3(z, virial_z);
           Eigen::Matrix3d sum;
-          sum << virial_x, virial_y, virial_z;
+          sum << x, y, z;
           return sum;
         };
         const bool free_of_groups = groups_.empty();
@@ -1043,30 +1056,32 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
         std::uint8_t* const in_contact = particle_in_contact_.data();
         // Gravity plus the pairs in force on p, in pair order: those p is second of, then its row.
         struct ForceAndTorque {
-          Vec3 force, torque;
+          V force, torque;
         };
+        const V packed_gravity = load_contact_vec3(gravity);
         const auto pair_sum = [&](std::size_t p) __attribute__((always_inline)) {
-          ForceAndTorque sum{free_of_groups || is_free(p) ? Vec3(mass[p] * gravity) : Vec3::Zero(),
-                             Vec3::Zero()};
+          ForceAndTorque sum{free_of_groups || is_free(p) ? V(mass[p] * packed_gravity) : V::Zero(),
+                             V::Zero()};
           if (!in_contact[p]) return sum;  // no pair in force: nothing to add
           in_contact[p] = 0;
           for_each_in_force(
               second_in_force, second_offset[p],
               second_offset[p + 1], [&](std::uint32_t s) __attribute__((always_inline)) {
                 const ContactForce& c = contact[second_contact_slot[s]];
-                sum.force -= c.force;
-                sum.torque += c.torque_b;
+                sum.force -= load_contact_vec3(c.force);
+                sum.torque += load_contact_vec3(c.torque_b);
               });
           const std::uint32_t shift = first_shift[p];
           for_each_in_force(
               first_in_force, first_offset[p],
               first_offset[p + 1], [&](std::uint32_t s) __attribute__((always_inline)) {
                 const ContactForce& c = contact[slot_of[s - shift]];
-                sum.force += c.force;
-                sum.torque += c.torque_a;
-                virial_x += c.force * c.branch[0];
-                virial_y += c.force * c.branch[1];
-                virial_z += c.force * c.branch[2];
+                const V force = load_contact_vec3(c.force);
+                sum.force += force;
+                sum.torque += load_contact_vec3(c.torque_a);
+                virial_x += force * c.branch[0];
+                virial_y += force * c.branch[1];
+                virial_z += force * c.branch[2];
               });
           return sum;
         };
@@ -1074,9 +1089,9 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
         // dem/drift.hpp), while the chunk's forces are still in the cache.
         Vec3* const force_of = force_.data();
         Vec3* const torque_of = torque_.data();
-        const auto store = [&](std::size_t p, const Vec3& force, const Vec3& torque) {
-          force_of[p] = force;
-          torque_of[p] = torque;
+        const auto store = [&](std::size_t p, const V& force, const V& torque) {
+          store_contact_vec3(force_of[p], force);
+          store_contact_vec3(torque_of[p], torque);
         };
         const auto kick = [&] {
           if (closing_kick) kick_particles(particles, half_dt, range.begin(), range.end());
@@ -1101,6 +1116,10 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
           kick();
           return virial();
         }
+        const auto store_sums = [&](std::size_t p, const Vec3& force, const Vec3& torque) {
+          force_of[p] = force;
+          torque_of[p] = torque;
+        };
         std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
         // Copies, held in registers (the byte stores below may alias any member).
         const Wall* const walls = walls_.data();
@@ -1120,15 +1139,18 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
           return true;
         };
         for (std::size_t p = range.begin(); p != range.end(); ++p) {
-          auto [force, torque] = pair_sum(p);
+          const auto [pairs_force, pairs_torque] = pair_sum(p);
+          Vec3 force, torque;
+          store_contact_vec3(force, pairs_force);
+          store_contact_vec3(torque, pairs_torque);
           if (!is_free(p)) {  // no wall slots in use, in either buffer
-            store(p, force, torque);
+            store_sums(p, force, torque);
             continue;
           }
           if (off_the_walls(p)) {
             count_of[p] = 0;
             finished_mask[p] = 0;
-            store(p, force, torque);
+            store_sums(p, force, torque);
             continue;
           }
           const int old_count = old_count_of[p];
@@ -1190,7 +1212,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
           }
           count_of[p] = static_cast<std::uint8_t>(count);
           finished_mask[p] = static_cast<std::uint8_t>(~matched & ((1u << old_count) - 1u));
-          store(p, force, torque);
+          store_sums(p, force, torque);
         }
         kick();
         return virial();
