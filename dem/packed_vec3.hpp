@@ -98,11 +98,13 @@ using ContactVec3 = Vec3;
 inline const Vec3& load_contact_vec3(const Vec3& a) {
   return a;
 }
+
+#endif
+
+// Either type stores (the force gather's sums are a Vec3 once a wall's contact is added).
 inline void store_contact_vec3(Vec3& out, const Vec3& a) {
   out = a;
 }
-
-#endif
 
 // For the tests, which are built without the library's instruction set: whether the library's
 // ContactVec3 is PackedVec3, each of its operations on Vec3s loaded into it, and the contact law

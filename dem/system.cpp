@@ -1089,7 +1089,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
         // dem/drift.hpp), while the chunk's forces are still in the cache.
         Vec3* const force_of = force_.data();
         Vec3* const torque_of = torque_.data();
-        const auto store = [&](std::size_t p, const V& force, const V& torque) {
+        const auto store = [&](std::size_t p, const auto& force, const auto& torque) {
           store_contact_vec3(force_of[p], force);
           store_contact_vec3(torque_of[p], torque);
         };
@@ -1116,10 +1116,6 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
           kick();
           return virial();
         }
-        const auto store_sums = [&](std::size_t p, const Vec3& force, const Vec3& torque) {
-          force_of[p] = force;
-          torque_of[p] = torque;
-        };
         std::vector<SurfaceContact> surface;  // reused for every particle of this chunk
         // Copies, held in registers (the byte stores below may alias any member).
         const Wall* const walls = walls_.data();
@@ -1144,13 +1140,13 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
           store_contact_vec3(force, pairs_force);
           store_contact_vec3(torque, pairs_torque);
           if (!is_free(p)) {  // no wall slots in use, in either buffer
-            store_sums(p, force, torque);
+            store(p, force, torque);
             continue;
           }
           if (off_the_walls(p)) {
             count_of[p] = 0;
             finished_mask[p] = 0;
-            store_sums(p, force, torque);
+            store(p, force, torque);
             continue;
           }
           const int old_count = old_count_of[p];
@@ -1212,7 +1208,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
           }
           count_of[p] = static_cast<std::uint8_t>(count);
           finished_mask[p] = static_cast<std::uint8_t>(~matched & ((1u << old_count) - 1u));
-          store_sums(p, force, torque);
+          store(p, force, torque);
         }
         kick();
         return virial();
