@@ -1,5 +1,7 @@
 #include "dem/packed_vec3.hpp"
 
+#include <type_traits>
+
 namespace millflow::dem {
 namespace {
 
@@ -12,7 +14,7 @@ Vec3 stored(const ContactVec3& a) {
 }  // namespace
 
 bool contact_vec3_is_packed() {
-  return kContactVec3IsPacked;
+  return !std::is_same_v<ContactVec3, Vec3>;
 }
 
 ContactVec3Operations contact_vec3_operations(const Vec3& a, const Vec3& b, double s) {

@@ -82,7 +82,6 @@ class PackedVec3 {
   __m256d lanes_;
 };
 
-inline constexpr bool kContactVec3IsPacked = true;
 using ContactVec3 = PackedVec3;
 inline PackedVec3 load_contact_vec3(const Vec3& a) {
   return PackedVec3::load(a);
@@ -93,7 +92,6 @@ inline void store_contact_vec3(Vec3& out, const PackedVec3& a) {
 
 #else
 
-inline constexpr bool kContactVec3IsPacked = false;
 using ContactVec3 = Vec3;
 inline const Vec3& load_contact_vec3(const Vec3& a) {
   return a;
