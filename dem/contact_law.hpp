@@ -33,18 +33,35 @@
 // contact it sums to what the slips' edges and the parting take.
 #include <cmath>
 #include <type_traits>
+#include <utility>
 
 #include "dem/material.hpp"
 #include "dem/vec.hpp"
 
 namespace millflow::dem {
 
-// The law's vectors are of a type V: Vec3, or the pair pass's PackedVec3 (dem/packed_vec3.hpp),
-// whose operations give Vec3's bits.
+// The law is written once for one contact and for four in the lanes of AVX2 registers. Its
+// vectors are of a type V: Vec3, the pair pass's PackedVec3 (one contact, dem/packed_vec3.hpp) or
+// Vec3Lanes (four, dem/contact_lanes.hpp), whose operations give Vec3's bits, element by element.
+// V::Scalar is double or Lanes4, and a condition on it a bool or a mask of lanes: the law's
+// branches are selections, and its slow paths run when any() lane needs them.
+template <class V>
+using LawScalar = typename V::Scalar;
+template <class V>
+using LawMask = decltype(std::declval<LawScalar<V>>() < std::declval<LawScalar<V>>());
+
+inline bool any(bool condition) {
+  return condition;
+}
+template <class T>
+[[gnu::always_inline]] inline T select(bool condition, const T& if_true, const T& if_false) {
+  return condition ? if_true : if_false;
+}
+
 template <class V>
 struct ContactGeometryOf {
-  V normal;              // unit, from body b towards body a
-  double overlap = 0.0;  // > 0 while touching, m
+  V normal;                                  // unit, from body b towards body a
+  LawScalar<V> overlap = LawScalar<V>(0.0);  // > 0 while touching, m
   // Velocity of a's contact point minus b's, m/s, at the end of the step: the dashpots act on it.
   V relative_velocity;
   // The same over the step (the half-step velocities that moved the bodies): the contact points'
@@ -60,10 +77,11 @@ using ContactGeometry = ContactGeometryOf<Vec3>;
 
 template <class V>
 struct ContactResponseOf {
-  V force_on_a = V::Zero();   // body b gets the opposite force
-  V spring = V::Zero();       // updated tangential spring s, m
-  double normal_force = 0.0;  // signed magnitude along the normal, N
-  bool sliding = false;
+  using S = LawScalar<V>;
+  V force_on_a = V::Zero();  // body b gets the opposite force
+  V spring = V::Zero();      // updated tangential spring s, m
+  S normal_force = S(0.0);   // signed magnitude along the normal, N
+  LawMask<V> sliding{};
   // Energy dissipated during this step, J. The dashpots' >= 0. Friction's is the tangential work
   // the contact absorbs less the change of its spring energy and the tangential dashpot's share
   // (above): it can be negative, in a sticking step, or in a sliding one where the tangential
@@ -71,10 +89,10 @@ struct ContactResponseOf {
   // contact's tail), as the spring is then reset to the limit force less the dashpot's, which may
   // point back; that energy is given back or dissipated later (a spring left when a contact ends
   // counts as friction).
-  double dissipated_normal = 0.0;
-  double dissipated_tangential = 0.0;
-  double dissipated_friction = 0.0;
-  double elastic_energy = 0.0;  // stored in both springs after the step, J
+  S dissipated_normal = S(0.0);
+  S dissipated_tangential = S(0.0);
+  S dissipated_friction = S(0.0);
+  S elastic_energy = S(0.0);  // stored in both springs after the step, J
 };
 using ContactResponse = ContactResponseOf<Vec3>;
 
@@ -91,35 +109,44 @@ inline constexpr double kSpringTurnSeriesLimit = 1e-4;
 // projection has length |s| sqrt(1 - c), so the rescale is (1 - c)^(-1/2): for the small turns of
 // a step the series 1 + c/2 + 3c^2/8 + 5c^3/16, whose one division (by |s|^2) does not wait for
 // the normal, instead of a division and a square root in a row on every contact's path to its
-// force (docs/benchmarks.md, "The spring's turn by a series").
+// force (docs/benchmarks.md, "The spring's turn by a series"). A spring of length 0 stays 0.
 template <class V>
 [[gnu::always_inline]] inline V rotate_spring_into_tangent_plane(
     const V& spring, const std::type_identity_t<V>& normal) {
-  const double length_sq = spring.squaredNorm();
-  if (length_sq == 0.0) return spring;
-  const double along = spring.dot(normal);
+  using S = LawScalar<V>;
+  using std::sqrt;
+  const S length_sq = spring.squaredNorm();
+  const S along = spring.dot(normal);
   const V projected = spring - along * normal;
-  const double turn = along * along / length_sq;
-  if (turn < kSpringTurnSeriesLimit) {
-    return projected * (1.0 + turn * (0.5 + turn * (0.375 + turn * 0.3125)));
+  const S turn = along * along / length_sq;  // NaN for a spring of length 0, not used then
+  V turned = projected * (1.0 + turn * (0.5 + turn * (0.375 + turn * 0.3125)));
+  const LawMask<V> beyond_series = !((turn < kSpringTurnSeriesLimit) | (length_sq == 0.0));
+  if (any(beyond_series)) {
+    const S projected_sq = projected.squaredNorm();
+    turned = select(
+        beyond_series,
+        select(projected_sq == 0.0, V(V::Zero()), V(projected * sqrt(length_sq / projected_sq))),
+        turned);
   }
-  const double projected_sq = projected.squaredNorm();
-  if (projected_sq == 0.0) return V::Zero();
-  return projected * std::sqrt(length_sq / projected_sq);
+  return select(length_sq == 0.0, spring, turned);
 }
 
 // One step of the linear spring-dashpot law with Coulomb friction, given the normal dashpot's
 // coefficient C_n (normal_damping_coefficient of the pair's effective mass: a contact works it
-// out once, at first touch, instead of a square root and a division every step).
-template <class V>
+// out once, at first touch, instead of a square root and a division every step). Params: a
+// PairParams, or for four contacts in lanes the same fields as Lanes4.
+template <class V, class Params>
 [[gnu::always_inline]] inline ContactResponseOf<V> linear_spring_dashpot_damped(
-    const PairParams& params, double damping_n, const ContactGeometryOf<V>& geometry,
-    const std::type_identity_t<V>& spring, double dt) {
+    const Params& params, const std::type_identity_t<LawScalar<V>>& damping_n,
+    const ContactGeometryOf<V>& geometry, const std::type_identity_t<V>& spring, double dt) {
+  using S = LawScalar<V>;
+  using std::abs;
+  using std::sqrt;
   ContactResponseOf<V> out;
   const V& n = geometry.normal;
-  const double damping_t = params.tangential_damping_ratio * damping_n;
+  const S damping_t = params.tangential_damping_ratio * damping_n;
 
-  const double v_n = geometry.relative_velocity.dot(n);
+  const S v_n = geometry.relative_velocity.dot(n);
   out.normal_force = params.normal_stiffness * geometry.overlap - damping_n * v_n;
   out.dissipated_normal = damping_n * v_n * v_n * dt;
 
@@ -128,23 +155,24 @@ template <class V>
   const V turned_spring = rotate_spring_into_tangent_plane(spring, n);
   const V trial_spring = turned_spring + slip;
   const V trial_force = -params.tangential_stiffness * trial_spring - damping_t * v_t;
-  const double limit = params.friction * std::abs(out.normal_force);
-  const double trial_sq = trial_force.squaredNorm();
+  const S limit = params.friction * abs(out.normal_force);
+  const S trial_sq = trial_force.squaredNorm();
 
-  V tangential_force;
-  if (trial_sq > limit * limit) {
+  out.sliding = trial_sq > limit * limit;
+  V tangential_force = trial_force;
+  out.spring = trial_spring;
+  out.dissipated_tangential = select(out.sliding, S(0.0), S(damping_t * v_t.squaredNorm() * dt));
+  if (any(out.sliding)) {
     // Sliding: the force sits on the Coulomb limit, and the spring is reset so that spring and
     // dashpot together give it, F_t = -(k_t s + C_t v_t), as LAMMPS and MercuryDPM reset theirs.
     // A contact that cannot hold a tangential force keeps no spring.
-    out.sliding = true;
-    tangential_force = trial_force * (limit / std::sqrt(trial_sq));
-    out.spring = limit > 0.0
-                     ? V(-(tangential_force + damping_t * v_t) / params.tangential_stiffness)
-                     : V(V::Zero());
-  } else {
-    tangential_force = trial_force;
-    out.spring = trial_spring;
-    out.dissipated_tangential = damping_t * v_t.squaredNorm() * dt;
+    const V on_limit = trial_force * (limit / sqrt(trial_sq));
+    tangential_force = select(out.sliding, on_limit, trial_force);
+    out.spring =
+        select(out.sliding,
+               select(limit > 0.0, V(-(on_limit + damping_t * v_t) / params.tangential_stiffness),
+                      V(V::Zero())),
+               trial_spring);
   }
   // The tangential books of every step, sliding or not: the work the contact absorbs, less what
   // its spring stores more than before and what its dashpot took, is friction's.

@@ -23,6 +23,7 @@ namespace millflow::dem {
 
 class PackedVec3 {
  public:
+  using Scalar = double;
   PackedVec3() = default;  // uninitialised, as a Vec3
   static PackedVec3 Zero() { return PackedVec3(_mm256_setzero_pd()); }
   // Two loads, x and y then z: the element after a Vec3 may lie past the end of its array (a

@@ -19,6 +19,7 @@
 
 #include "dem/array_growth.hpp"
 #include "dem/awake_pairs.hpp"
+#include "dem/contact_lanes.hpp"
 #include "dem/contact_law.hpp"
 #include "dem/drift.hpp"
 #include "dem/packed_vec3.hpp"
@@ -826,6 +827,88 @@ struct System::PairContactKernel {
     store_contact_vec3(out.torque_b, lever_j * turning);
   }
 
+#if defined(__AVX2__)
+  // Four contacts in force, one per lane (dem/contact_lanes.hpp): the same operations as above
+  // on each, so each gets the bits it gets alone. Contacts that start go one at a time, above.
+  [[gnu::always_inline]] void operator()(
+      const std::array<const TouchingPair*, kContactLanes>& four) const {
+    using V = Vec3Lanes;
+    using S = Lanes4;
+    // Lane l's number or vector is *at[l].
+    const auto lanes = [](const auto& at) { return S::of(*at[0], *at[1], *at[2], *at[3]); };
+    const auto vectors = [](const auto& at) { return V::gather(*at[0], *at[1], *at[2], *at[3]); };
+    const auto scatter = [](const V& v, const auto& at) {
+      v.scatter(*at[0], *at[1], *at[2], *at[3]);
+    };
+    const auto member = [](const auto& of, auto field) {
+      return std::array{&(of[0]->*field), &(of[1]->*field), &(of[2]->*field), &(of[3]->*field)};
+    };
+    std::array<NeighborPair, kContactLanes> ij;
+    std::array<ContactHistory*, kContactLanes> history;
+    std::array<ContactForce*, kContactLanes> out;
+    for (std::size_t l = 0; l < kContactLanes; ++l) {
+      ij[l] = pair[four[l]->k];
+      history[l] = &history_of[slot_of[four[l]->k]];
+      out[l] = &force_of[slot_of[four[l]->k]];
+    }
+    const auto of_i = [&](const auto* array) {
+      return std::array{&array[ij[0].i], &array[ij[1].i], &array[ij[2].i], &array[ij[3].i]};
+    };
+    const auto of_j = [&](const auto* array) {
+      return std::array{&array[ij[0].j], &array[ij[1].j], &array[ij[2].j], &array[ij[3].j]};
+    };
+    const S radius_i = lanes(of_i(radius)), radius_j = lanes(of_j(radius));
+    const S reach = radius_i + radius_j;
+    const S distance = lanes(member(four, &TouchingPair::distance));
+    const V normal =
+        vectors(member(four, &TouchingPair::separation)) * (-1.0 / distance);  // from j towards i
+    const S overlap = reach - distance;
+    const S lever_i = radius_i - 0.5 * overlap, lever_j = radius_j - 0.5 * overlap;
+    const V arm_i = -lever_i * normal;
+    V image_velocity = V::Zero();
+    if (four[0]->gradient_images != 0.0 || four[1]->gradient_images != 0.0 ||
+        four[2]->gradient_images != 0.0 || four[3]->gradient_images != 0.0) [[unlikely]] {
+      const auto image = [&](int l) { return images.image_velocity(four[l]->gradient_images); };
+      image_velocity = V::gather(image(0), image(1), image(2), image(3));
+    }
+    const auto relative_velocity = [&](const Vec3* v, const Vec3* w) -> V {
+      return vectors(of_i(v)) - vectors(of_j(v)) - image_velocity +
+             normal.cross(lever_i * vectors(of_i(w)) + lever_j * vectors(of_j(w)));
+    };
+    const ContactGeometryOf<V> geometry{
+        normal, overlap, relative_velocity(predicted_velocity, predicted_angular_velocity),
+        relative_velocity(step_velocity, step_angular_velocity)};
+    const auto law_params = [&](int l) -> const PairParams& {
+      return params[material[ij[l].i] * material_count + material[ij[l].j]];
+    };
+    const ContactResponseOf<V> response = linear_spring_dashpot_damped(
+        gather_pair_params(law_params(0), law_params(1), law_params(2), law_params(3)),
+        lanes(member(history, &ContactHistory::normal_damping)), geometry,
+        vectors(member(history, &ContactHistory::spring)), dt);
+    scatter(response.spring, member(history, &ContactHistory::spring));
+    scatter(vectors(of_i(position)) + arm_i, member(history, &ContactHistory::point));
+    scatter(response.force_on_a, member(out, &ContactForce::force));
+    const V turning = response.force_on_a.cross(normal);
+    scatter(lever_i * turning, member(out, &ContactForce::torque_a));
+    scatter(lever_j * turning, member(out, &ContactForce::torque_b));
+    const std::array<double, 4> elastic = response.elastic_energy.values(),
+                                normal_loss = response.dissipated_normal.values(),
+                                tangential_loss = response.dissipated_tangential.values(),
+                                friction_loss = response.dissipated_friction.values();
+    for (std::size_t l = 0; l < kContactLanes; ++l) {
+      history[l]->elastic_energy = elastic[l];
+      history[l]->dissipated += Dissipation{normal_loss[l], tangential_loss[l], friction_loss[l]};
+      out[l]->branch = four[l]->separation;
+      const std::size_t k = four[l]->k;
+      const auto [i, j] = ij[l];
+      first_in_force[k + first_shift[i]] = 1;
+      second_in_force[second_slot[k]] = 1;
+      std::atomic_ref<std::uint8_t>(in_contact[i]).store(1, std::memory_order_relaxed);
+      std::atomic_ref<std::uint8_t>(in_contact[j]).store(1, std::memory_order_relaxed);
+    }
+  }
+#endif
+
   const System& system;
   const PeriodicImages images;
   const NeighborPair* const pair;
@@ -871,6 +954,11 @@ void System::compute_pair_forces(double dt) {
     constexpr std::size_t kBlock = 256;
     std::array<TouchingPair, kBlock> touching;
     std::array<std::uint32_t, kBlock> finishing, awake;
+#if defined(__AVX2__)
+    // The contacts in force of a block, four at a time through the law in lanes.
+    std::array<const TouchingPair*, kContactLanes> in_force;
+    std::size_t in_force_count = 0;
+#endif
     const NeighborPair* const pair = pairs.data();
     const Vec3* const x = position_.data();
     const double* const radius = radius_.data();
@@ -952,11 +1040,24 @@ void System::compute_pair_forces(double dt) {
             __builtin_prefetch(&contact.step_velocity[ahead]);
             __builtin_prefetch(&contact.step_angular_velocity[ahead]);
           }
-          if (was_touching[touching[t].k])
-            contact(touching[t]);
-          else
+          if (!was_touching[touching[t].k]) {
             starting_here.push_back(touching[t]);  // no contact slot yet
+            continue;
+          }
+#if defined(__AVX2__)
+          in_force[in_force_count++] = &touching[t];
+          if (in_force_count == kContactLanes) {
+            contact(in_force);
+            in_force_count = 0;
+          }
+#else
+          contact(touching[t]);
+#endif
         }
+#if defined(__AVX2__)
+        for (std::size_t r = 0; r < in_force_count; ++r) contact(*in_force[r]);
+        in_force_count = 0;
+#endif
       }
     }
   });
