@@ -1,5 +1,6 @@
 #pragma once
-// The 3-vector the pair pass computes with (System::PairContactKernel and the force gather). Eigen
+// The 3-vector of the pair pass's contacts taken one at a time (those that start, a block's last
+// few; the others go four at a time, dem/contact_lanes.hpp) and of the force gather. Eigen
 // keeps a Vector3d in three scalars, and GCC packs few of the law's operations, so a contact ran
 // about 180 scalar multiplications, additions, subtractions and loads (docs/benchmarks.md, "One
 // contact's vectors in one register"). Where the build has AVX2, PackedVec3 holds x, y and z in

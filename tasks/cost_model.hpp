@@ -63,8 +63,10 @@ inline constexpr double kLargeMillBalls = 11835.0;
 // December, from the first calibration's whole run, "7.3 M loaded x 687 / 1158"). The cement
 // campaign's 303-ball cell at the bench's dense site (bench_cells' cement_load00, 1.77 contacts
 // per particle) runs 7.8 M once scaled: its 180 load-0 cells cost about 1.2 times what this
-// figure gives them.
-inline constexpr double kMediaCellThroughput = 9.3e6;
+// figure gives them. Since the pair pass runs its contacts in force four at a time in lanes, the
+// same cell runs 1.165x the build the figure was made with (the median of 12 paired whole runs;
+// cement_load00 1.173x in 12 rounds): 10.8 M (docs/cost_model.md, "7 December (night)").
+inline constexpr double kMediaCellThroughput = 10.8e6;
 // A shear cell of balls and powder: a step costs more as the powder's contacts grow, with the
 // powder load U and with how fine the powder is (d_p / d). Three families of powder size, each at
 // the loads kPowderLoads, at the stiffness a campaign's cell runs: the contacts the stiffness
