@@ -19,12 +19,14 @@
 #include "dem/packed_vec3.hpp"
 #include "dem/vec.hpp"
 
+namespace millflow::dem {
+inline constexpr std::size_t kContactLanes = 4;  // contacts at once where the build has AVX2
+}  // namespace millflow::dem
+
 #if defined(__AVX2__)
 #include <immintrin.h>
 
 namespace millflow::dem {
-
-inline constexpr std::size_t kContactLanes = 4;
 
 class Mask4 {
  public:

@@ -92,10 +92,15 @@ System::System(MaterialTable materials, Domain domain, Vec3 gravity)
     : materials_(std::move(materials)),
       domain_(domain),
       gravity_(gravity),
-      neighbors_(NeighborSearchOptions{}) {
+      neighbors_(NeighborSearchOptions{}),
+      contacts_in_lanes_(contact_lanes_available()) {
   domain_.validate();
   if (!finite(gravity_)) throw std::invalid_argument("gravity is not finite");
   finished_dissipation_.resize(category_count());
+}
+
+void System::set_contacts_in_lanes(bool on) {
+  contacts_in_lanes_ = on && contact_lanes_available();
 }
 
 ParticleId System::add_particle(const ParticleSpec& spec) {
@@ -830,8 +835,7 @@ struct System::PairContactKernel {
 #if defined(__AVX2__)
   // Four contacts in force, one per lane (dem/contact_lanes.hpp): the same operations as above
   // on each, so each gets the bits it gets alone. Contacts that start go one at a time, above.
-  [[gnu::always_inline]] void operator()(
-      const std::array<const TouchingPair*, kContactLanes>& four) const {
+  [[gnu::always_inline]] void operator()(const TouchingPair* const* four) const {
     using V = Vec3Lanes;
     using S = Lanes4;
     // Lane l's number or vector is *at[l].
@@ -954,11 +958,12 @@ void System::compute_pair_forces(double dt) {
     constexpr std::size_t kBlock = 256;
     std::array<TouchingPair, kBlock> touching;
     std::array<std::uint32_t, kBlock> finishing, awake;
-#if defined(__AVX2__)
-    // The contacts in force of a block, four at a time through the law in lanes.
-    std::array<const TouchingPair*, kContactLanes> in_force;
+    // The contacts in force of a block, four at a time through the law in lanes, the last few
+    // each alone; every one alone where the lanes are off (the tests compare the two) or not built.
+    std::array<const TouchingPair*, kBlock> in_force;
     std::size_t in_force_count = 0;
-#endif
+    [[maybe_unused]] const std::size_t lanes_group =
+        contacts_in_lanes_ ? kContactLanes : kBlock + 1;
     const NeighborPair* const pair = pairs.data();
     const Vec3* const x = position_.data();
     const double* const radius = radius_.data();
@@ -1044,20 +1049,16 @@ void System::compute_pair_forces(double dt) {
             starting_here.push_back(touching[t]);  // no contact slot yet
             continue;
           }
-#if defined(__AVX2__)
           in_force[in_force_count++] = &touching[t];
-          if (in_force_count == kContactLanes) {
-            contact(in_force);
+#if defined(__AVX2__)
+          if (in_force_count == lanes_group) {
+            contact(in_force.data());
             in_force_count = 0;
           }
-#else
-          contact(touching[t]);
 #endif
         }
-#if defined(__AVX2__)
         for (std::size_t r = 0; r < in_force_count; ++r) contact(*in_force[r]);
         in_force_count = 0;
-#endif
       }
     }
   });

@@ -256,6 +256,11 @@ class System {
     return std::max(static_cast<double>(pair_wake_[k]) - approach_bound_, 0.0);
   }
   std::size_t active_contact_count() const;
+  // Whether the pair pass takes a block's contacts in force four at a time, one per AVX2 lane
+  // (dem/contact_lanes.hpp; the default where the library has AVX2), or each alone: the same bits
+  // either way, which the tests check by switching it off. Not kept in checkpoints.
+  bool contacts_in_lanes() const { return contacts_in_lanes_; }
+  void set_contacts_in_lanes(bool on);
   // Candidate pairs screened since this System was made (those asleep are not; not kept in
   // checkpoints): per particle-step, what the screening costs.
   std::uint64_t pairs_screened() const { return pairs_screened_; }
@@ -437,6 +442,7 @@ class System {
   double pair_separation_bound_ = 0.0;  // the largest separation of a candidate pair until the next
                                         // build: the largest reach plus twice the skin
   bool pairs_may_sleep_ = false;
+  bool contacts_in_lanes_ = false;  // set by the constructor, where the library's ISA is known
   void reset_sleeping_pairs();
 
   // The contact store: one slot per pair that touches, in the pairs' order after each neighbour

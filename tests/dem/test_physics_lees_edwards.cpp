@@ -167,6 +167,28 @@ TEST(LeesEdwards, ContactVirialIsTheSumOverContactsInForceWithTheSameBitsAtAnyTh
   EXPECT_TRUE(same_bits(virial[0], virial[1]));
 }
 
+// The pair pass's contacts in force four at a time in lanes against each alone, over a run long
+// enough for contacts to start, slide, cross the boundary and end: the same bits.
+TEST(LeesEdwards, ContactsInLanesGiveTheBitsOfEachContactAlone) {
+  System lanes = dense_sheared_box();
+  if (!lanes.contacts_in_lanes()) GTEST_SKIP() << "the DEM library is built without AVX2 lanes";
+  System alone = lanes;
+  alone.set_contacts_in_lanes(false);
+  ASSERT_FALSE(alone.contacts_in_lanes());
+  lanes.step(100);
+  alone.step(100);
+  ASSERT_GT(lanes.active_contact_count(), lanes.size()) << "the box should be dense";
+  lanes.step(200);
+  alone.step(200);
+  EXPECT_TRUE(same_bits(lanes.positions(), alone.positions()));
+  EXPECT_TRUE(same_bits(lanes.velocities(), alone.velocities()));
+  EXPECT_TRUE(same_bits(lanes.angular_velocities(), alone.angular_velocities()));
+  EXPECT_TRUE(same_bits(lanes.forces(), alone.forces()));
+  EXPECT_TRUE(same_bits(lanes.contact_virial(), alone.contact_virial()));
+  const EnergyBudget a = lanes.energy(), b = alone.energy();
+  EXPECT_EQ(std::memcmp(&a, &b, sizeof a), 0) << "the same energy books to the bit";
+}
+
 TEST(LeesEdwards, ReorderingCarriesEveryContactAlong) {
   System original = dense_sheared_box();
   original.step(100);  // contacts with loaded tangential springs
