@@ -774,6 +774,16 @@ struct System::PairContactKernel {
         time(s.time_),
         dt(step_dt) {}
 
+  // The flags of pair k (particles i, j) in force. Each slot belongs to one pair: no other task
+  // writes it; another task may mark the same particle: both store 1, so the order does not
+  // matter.
+  [[gnu::always_inline]] void mark_in_force(std::size_t k, ParticleId i, ParticleId j) const {
+    first_in_force[k + first_shift[i]] = 1;
+    second_in_force[second_slot[k]] = 1;
+    std::atomic_ref<std::uint8_t>(in_contact[i]).store(1, std::memory_order_relaxed);
+    std::atomic_ref<std::uint8_t>(in_contact[j]).store(1, std::memory_order_relaxed);
+  }
+
   [[gnu::always_inline]] void operator()(const TouchingPair& touching) const {
     using V = ContactVec3;
     const std::size_t k = touching.k;
@@ -817,12 +827,7 @@ struct System::PairContactKernel {
     history.dissipated += Dissipation{response.dissipated_normal, response.dissipated_tangential,
                                       response.dissipated_friction};
     store_contact_vec3(history.point, load_contact_vec3(position[i]) + arm_i);
-    // Each slot belongs to one pair: no other task writes it.
-    first_in_force[k + first_shift[i]] = 1;
-    second_in_force[second_slot[k]] = 1;
-    // Another task may mark the same particle: both store 1, so the order does not matter.
-    std::atomic_ref<std::uint8_t>(in_contact[i]).store(1, std::memory_order_relaxed);
-    std::atomic_ref<std::uint8_t>(in_contact[j]).store(1, std::memory_order_relaxed);
+    mark_in_force(k, i, j);
     ContactForce& out = force_of[slot];
     store_contact_vec3(out.force, response.force_on_a);
     out.branch = touching.separation;
@@ -903,12 +908,7 @@ struct System::PairContactKernel {
       history[l]->elastic_energy = elastic[l];
       history[l]->dissipated += Dissipation{normal_loss[l], tangential_loss[l], friction_loss[l]};
       out[l]->branch = four[l]->separation;
-      const std::size_t k = four[l]->k;
-      const auto [i, j] = ij[l];
-      first_in_force[k + first_shift[i]] = 1;
-      second_in_force[second_slot[k]] = 1;
-      std::atomic_ref<std::uint8_t>(in_contact[i]).store(1, std::memory_order_relaxed);
-      std::atomic_ref<std::uint8_t>(in_contact[j]).store(1, std::memory_order_relaxed);
+      mark_in_force(four[l]->k, ij[l].i, ij[l].j);
     }
   }
 #endif
