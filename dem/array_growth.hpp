@@ -2,8 +2,12 @@
 // How the arrays a step works on grow: by 1/16 beyond what they must hold, not by doubling.
 // std::vector's push_back and resize double a full array, so a dense cell's per-pair and contact
 // arrays held up to twice their bytes (the neighbour list of cement_load15: 55 bytes per candidate
-// pair where 27 are used). And where they live: the large ones on huge pages, where the system
-// offers them (docs/benchmarks.md, "The pair pass asks for its particles ahead").
+// pair where 27 are used). And where they live: the large ones advised onto huge pages, where the
+// system offers them (docs/benchmarks.md, "The pair pass asks for its particles ahead"). The
+// advice takes only on memory not touched before: a buffer the C library carves from memory it
+// handed out earlier keeps its small pages (on the campaign's fine cell at load 1, 4 MiB of
+// 82 MiB were on huge pages; all of them there did not change its speed measurably:
+// docs/benchmarks.md, "Where the campaign's fine cells spend their step").
 #include <cstddef>
 #include <iterator>
 #include <vector>
