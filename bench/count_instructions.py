@@ -1,0 +1,147 @@
+#!/usr/bin/env python3
+"""What one or more builds of a bench program execute per particle-step, whatever the host's speed.
+
+Runs each build once under callgrind (valgrind) with its cache model, counting only inside the
+timed steps, and prints per particle-step the instructions and the last-level cache misses (read,
+written) of the whole step and of its passes: the pair pass, the force gather (with the closing
+kick), the drift (with the opening kick) and the neighbour rebuilds. Instructions are exact and the
+cache model deterministic, so two builds compare without the host's jitter (which the CPU-seconds
+of bench/compare_builds.py carry); a memory-bound cell's speed follows its misses more than its
+instructions (docs/benchmarks.md). Checks that the builds end in the same state hash unless told.
+
+    bench/count_instructions.py [--collect PATTERN] [--ll BYTES] [--label NAME]... BIN... \\
+        -- BENCH_ARGS...
+
+e.g. 20 steps of cement_load15, an old build against this one:
+
+    bench/count_instructions.py /tmp/old/bench/bench_cells build/bench/bench_cells -- \\
+        --cells_cache=DIR --cells_steps=20 --benchmark_filter='^cement_load15/threads:1/' \\
+        --benchmark_min_time=0
+
+--collect is the function whose calls are counted: '*ShearCellRun::advance*' (bench_cells, the
+default) or '*System::step*' (bench_dem). --ll is the modelled last-level cache (default 1 MiB,
+a core's L2: the host's L3 is shared). VALGRIND and CALLGRIND_ANNOTATE name the two programs.
+Exit status 0, 2 when the builds' state hashes differ (without --other-bits), 1 on an error.
+"""
+import argparse
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from compare_builds import parse_results  # noqa: E402
+
+# The step's passes: a function of each, whose inclusive counts are the pass's.
+PASSES = [
+    ("pair pass", "System::compute_pair_forces(double)"),
+    ("force gather", "System::compute_particle_forces(double, bool)"),
+    ("drift", "System::kick_and_drift()"),
+    ("rebuilds", "System::update_neighbors(bool)"),
+]
+
+LINE = re.compile(r"^\s*([\d,]+)\s+\([^)]*\)\s+([\d,]+)\s+\([^)]*\)\s+([\d,]+)\s+\([^)]*\)\s+(.*)$")
+
+
+def parse_annotation(text):
+    """{name: (instructions, ll_read_misses, ll_write_misses)} for the total and each pass, from
+    `callgrind_annotate --inclusive=yes --show=Ir,DLmr,DLmw`. A function listed under several
+    files (inlined parts) counts by its largest line, the outermost call."""
+    counts = {}
+    for line in text.splitlines():
+        match = LINE.match(line)
+        if not match:
+            continue
+        numbers = tuple(int(match.group(k).replace(",", "")) for k in (1, 2, 3))
+        where = match.group(4)
+        if where.startswith("PROGRAM TOTALS"):
+            counts["step"] = numbers
+            continue
+        for name, function in PASSES:
+            if where.split(" [")[0].endswith("::" + function):
+                if name not in counts or numbers[0] > counts[name][0]:
+                    counts[name] = numbers
+    if "step" not in counts:
+        raise ValueError("callgrind_annotate printed no PROGRAM TOTALS")
+    return counts
+
+
+def count_once(binary, bench_args, collect, ll_bytes, folder):
+    out = os.path.join(folder, "callgrind.out")
+    valgrind = os.environ.get("VALGRIND", "valgrind")
+    annotate = os.environ.get("CALLGRIND_ANNOTATE", "callgrind_annotate")
+    command = [valgrind, "--tool=callgrind", "--cache-sim=yes", "--D1=49152,12,64",
+               f"--LL={ll_bytes},16,64", f"--toggle-collect={collect}",
+               f"--callgrind-out-file={out}", binary] + bench_args
+    done = subprocess.run(command, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"{' '.join(command)} exited with {done.returncode}:\n"
+                           f"{done.stderr[-2000:]}")
+    results = parse_results(done.stdout + "\n" + done.stderr)
+    if len(results) != 1:
+        raise RuntimeError(f"{binary}: {len(results)} RESULT lines; filter the benchmark to one case")
+    (case, (particles, steps, _, state)), = results.items()
+    shown = subprocess.run([annotate, "--inclusive=yes", "--show=Ir,DLmr,DLmw", out],
+                           capture_output=True, text=True)
+    if shown.returncode != 0:
+        raise RuntimeError(f"{annotate} exited with {shown.returncode}: {shown.stderr[-2000:]}")
+    return case, particles * steps, state, parse_annotation(shown.stdout)
+
+
+def main(argv):
+    split = argv.index("--") if "--" in argv else len(argv)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("binaries", nargs="+", metavar="BIN", help="the builds' bench programs")
+    parser.add_argument("--collect", default="*ShearCellRun::advance*",
+                        help="the function whose calls are counted")
+    parser.add_argument("--ll", type=int, default=1 << 20, help="modelled last-level cache, bytes")
+    parser.add_argument("--label", action="append", default=[],
+                        help="a name per build, in order (default: the paths)")
+    parser.add_argument("--other-bits", action="store_true",
+                        help="the change moves the bits: differing state hashes are no error")
+    options = parser.parse_args(argv[:split])
+    bench_args = argv[split + 1:]
+    if options.label and len(options.label) != len(options.binaries):
+        parser.error(f"{len(options.label)} labels for {len(options.binaries)} builds")
+    labels = options.label or options.binaries
+    counted = []
+    for binary in options.binaries:
+        with tempfile.TemporaryDirectory() as folder:
+            counted.append(count_once(binary, bench_args, options.collect, options.ll, folder))
+    case = counted[0][0]
+    print(f"{case[0]}/threads:{case[1]}, per particle-step (last level {options.ll} bytes): "
+          f"instructions, misses read + written")
+    names = ["step"] + [name for name, _ in PASSES]
+    for label, (_, work, state, counts) in zip(labels, counted):
+        parts = []
+        for name in names:
+            if name in counts:
+                ir, read, written = (value / work for value in counts[name])
+                parts.append(f"{name} {ir:.1f}, {read:.2f} + {written:.2f}")
+        print(f"  {label} (state {state}): " + "; ".join(parts))
+    base_label, (_, base_work, _, base) = labels[0], counted[0]
+    for label, (_, work, _, counts) in zip(labels[1:], counted[1:]):
+        ratios = []
+        for name in names:
+            if name in counts and name in base and base[name][0] > 0:
+                instructions = (counts[name][0] / work) / (base[name][0] / base_work)
+                misses = ((counts[name][1] + counts[name][2]) / work) / max(
+                    (base[name][1] + base[name][2]) / base_work, 1e-300)
+                ratios.append(f"{name} {instructions:.3f}, {misses:.3f}")
+        print(f"  {label} / {base_label}: instructions, misses: " + "; ".join(ratios))
+    states = {state for _, _, state, _ in counted}
+    if len(states) > 1:
+        print(f"  the builds' states differ: "
+              f"{'; '.join(f'{l} {s}' for l, (_, _, s, _) in zip(labels, counted))}")
+        return 0 if options.other_bits else 2
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main(sys.argv[1:]))
+    except (RuntimeError, ValueError, OSError) as error:
+        print(f"count_instructions.py: {error}", file=sys.stderr)
+        sys.exit(1)
