@@ -108,29 +108,40 @@ def summarise(labels, rounds, out):
     return same_bits
 
 
-def main(argv):
-    split = argv.index("--") if "--" in argv else len(argv)
+def builds_parser(description):
+    """The arguments of this script and bench/count_instructions.py: the builds' bench programs,
+    a name each, --other-bits; the bench program's own arguments follow "--"."""
     parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+        description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("binaries", nargs="+", metavar="BIN", help="the builds' bench programs")
-    parser.add_argument("--rounds", type=int, default=6, help="rounds (default 6)")
-    parser.add_argument("--core", type=int, default=None,
-                        help="pin every run to this core with taskset (default: no pinning)")
     parser.add_argument("--label", action="append", default=[],
                         help="a name per build, in order (default: the paths)")
     parser.add_argument("--other-bits", action="store_true",
                         help="the change moves the bits: differing state hashes are no error")
+    return parser
+
+
+def parse_builds(parser, argv):
+    """(options, the bench program's arguments, a label per build)."""
+    split = argv.index("--") if "--" in argv else len(argv)
     options = parser.parse_args(argv[:split])
-    bench_args = argv[split + 1:]
+    if options.label and len(options.label) != len(options.binaries):
+        parser.error(f"{len(options.label)} labels for {len(options.binaries)} builds")
+    return options, argv[split + 1:], options.label or options.binaries
+
+
+def main(argv):
+    parser = builds_parser(__doc__)
+    parser.add_argument("--rounds", type=int, default=6, help="rounds (default 6)")
+    parser.add_argument("--core", type=int, default=None,
+                        help="pin every run to this core with taskset (default: no pinning)")
+    options, bench_args, labels = parse_builds(parser, argv)
     if len(options.binaries) < 2:
         parser.error("give two builds or more")
     if options.rounds < 1:
         parser.error(f"--rounds {options.rounds}: give at least 1")
-    if options.label and len(options.label) != len(options.binaries):
-        parser.error(f"{len(options.label)} labels for {len(options.binaries)} builds")
     if options.core is not None and shutil.which("taskset") is None:
         parser.error("--core needs taskset (util-linux)")
-    labels = options.label or options.binaries
     rounds = []
     for r in range(options.rounds):
         order = [(r + k) % len(labels) for k in range(len(labels))]
@@ -143,9 +154,14 @@ def main(argv):
     return 0 if same_bits or options.other_bits else 2
 
 
-if __name__ == "__main__":
+def run_script(main_of_script, name):
+    """Exits with what main_of_script(the arguments) returns, or 1 after a line naming the error."""
     try:
-        sys.exit(main(sys.argv[1:]))
+        sys.exit(main_of_script(sys.argv[1:]))
     except (RuntimeError, ValueError, OSError) as error:
-        print(f"compare_builds.py: {error}", file=sys.stderr)
+        print(f"{name}: {error}", file=sys.stderr)
         sys.exit(1)
+
+
+if __name__ == "__main__":
+    run_script(main, "compare_builds.py")

@@ -23,7 +23,6 @@ default) or '*System::step*' (bench_dem). --ll is the modelled last-level cache 
 a core's L2: the host's L3 is shared). VALGRIND and CALLGRIND_ANNOTATE name the two programs.
 Exit status 0, 2 when the builds' state hashes differ (without --other-bits), 1 on an error.
 """
-import argparse
 import os
 import re
 import subprocess
@@ -31,7 +30,7 @@ import sys
 import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from compare_builds import parse_results  # noqa: E402
+from compare_builds import builds_parser, parse_builds, parse_results, run_script  # noqa: E402
 
 # The step's passes: a function of each, whose inclusive counts are the pass's.
 PASSES = [
@@ -90,22 +89,11 @@ def count_once(binary, bench_args, collect, ll_bytes, folder):
 
 
 def main(argv):
-    split = argv.index("--") if "--" in argv else len(argv)
-    parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("binaries", nargs="+", metavar="BIN", help="the builds' bench programs")
+    parser = builds_parser(__doc__)
     parser.add_argument("--collect", default="*ShearCellRun::advance*",
                         help="the function whose calls are counted")
     parser.add_argument("--ll", type=int, default=1 << 20, help="modelled last-level cache, bytes")
-    parser.add_argument("--label", action="append", default=[],
-                        help="a name per build, in order (default: the paths)")
-    parser.add_argument("--other-bits", action="store_true",
-                        help="the change moves the bits: differing state hashes are no error")
-    options = parser.parse_args(argv[:split])
-    bench_args = argv[split + 1:]
-    if options.label and len(options.label) != len(options.binaries):
-        parser.error(f"{len(options.label)} labels for {len(options.binaries)} builds")
-    labels = options.label or options.binaries
+    options, bench_args, labels = parse_builds(parser, argv)
     counted = []
     for binary in options.binaries:
         with tempfile.TemporaryDirectory() as folder:
@@ -140,8 +128,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main(sys.argv[1:]))
-    except (RuntimeError, ValueError, OSError) as error:
-        print(f"count_instructions.py: {error}", file=sys.stderr)
-        sys.exit(1)
+    run_script(main, "count_instructions.py")

@@ -5,10 +5,12 @@ ratios and medians it prints, and its exit status when the builds' bits differ o
 Usage: test_compare_builds.py SOURCE_DIR
 """
 import os
-import stat
 import subprocess
 import sys
 import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from fakes import expect, make_executable  # noqa: E402
 
 FAKE = """#!/usr/bin/env python3
 # A bench program that prints one RESULT line per call, its CPU-seconds the next of a list, and
@@ -33,22 +35,13 @@ else:
 
 
 def make_fake(folder, name, seconds, state="00000000000000aa", fail=False, dem_format=False):
-    path = os.path.join(folder, name)
-    with open(path, "w") as f:
-        f.write(FAKE.format(seconds=seconds, state=state, fail=fail, dem_format=dem_format))
-    os.chmod(path, os.stat(path).st_mode | stat.S_IXUSR)
-    return path
+    return make_executable(
+        folder, name, FAKE.format(seconds=seconds, state=state, fail=fail, dem_format=dem_format))
 
 
 def run(script, binaries, extra=()):
     return subprocess.run([sys.executable, script, "--rounds", "3", *extra, *binaries, "--",
                            "--cells_steps=10"], capture_output=True, text=True)
-
-
-def expect(condition, message):
-    if not condition:
-        print("FAIL:", message)
-        sys.exit(1)
 
 
 def main():

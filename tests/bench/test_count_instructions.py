@@ -6,10 +6,12 @@ status when the builds' bits differ or a run fails.
 Usage: test_count_instructions.py SOURCE_DIR
 """
 import os
-import stat
 import subprocess
 import sys
 import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from fakes import expect, make_executable  # noqa: E402
 
 # The fake valgrind runs nothing: it prints the RESULT line of the build named last before "--"...
 # which is the bench program's path; its name picks the state hash and the counts' scale.
@@ -50,14 +52,6 @@ print("500,000 (5.0%) 10,000 (10.0%) 5,000 (10.0%)  "
 """
 
 
-def make(folder, name, text):
-    path = os.path.join(folder, name)
-    with open(path, "w") as f:
-        f.write(text)
-    os.chmod(path, os.stat(path).st_mode | stat.S_IXUSR)
-    return path
-
-
 def run(script, folder, binaries, extra=()):
     env = dict(os.environ, VALGRIND=os.path.join(folder, "valgrind"),
                CALLGRIND_ANNOTATE=os.path.join(folder, "callgrind_annotate"))
@@ -66,17 +60,11 @@ def run(script, folder, binaries, extra=()):
                           capture_output=True, text=True, env=env)
 
 
-def expect(condition, message):
-    if not condition:
-        print("FAIL:", message)
-        sys.exit(1)
-
-
 def main():
     script = os.path.join(sys.argv[1], "bench", "count_instructions.py")
     with tempfile.TemporaryDirectory() as folder:
-        make(folder, "valgrind", FAKE_VALGRIND)
-        make(folder, "callgrind_annotate", FAKE_ANNOTATE)
+        make_executable(folder, "valgrind", FAKE_VALGRIND)
+        make_executable(folder, "callgrind_annotate", FAKE_ANNOTATE)
         done = run(script, folder, ["old", "new"], ["--label", "old", "--label", "new"])
         expect(done.returncode == 0, f"exit {done.returncode}: {done.stderr}")
         want = [
