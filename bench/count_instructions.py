@@ -40,7 +40,13 @@ PASSES = [
     ("rebuilds", "System::update_neighbors(bool)"),
 ]
 
-LINE = re.compile(r"^\s*([\d,]+)\s+\([^)]*\)\s+([\d,]+)\s+\([^)]*\)\s+([\d,]+)\s+\([^)]*\)\s+(.*)$")
+# A count and its share ("1,234 (5.6%)"), or "." for none; three of them, then where.
+COUNT = r"([\d,]+\s+\([^)]*\)|\.)"
+LINE = re.compile(rf"^\s*{COUNT}\s+{COUNT}\s+{COUNT}\s+(.*)$")
+
+
+def count_of(column):
+    return 0 if column == "." else int(column.split()[0].replace(",", ""))
 
 
 def parse_annotation(text):
@@ -52,7 +58,7 @@ def parse_annotation(text):
         match = LINE.match(line)
         if not match:
             continue
-        numbers = tuple(int(match.group(k).replace(",", "")) for k in (1, 2, 3))
+        numbers = tuple(count_of(match.group(k)) for k in (1, 2, 3))
         where = match.group(4)
         if where.startswith("PROGRAM TOTALS"):
             counts["step"] = numbers
