@@ -51,15 +51,27 @@ def parse_results(text):
     return found
 
 
-def run_once(binary, bench_args, core):
-    command = [binary] + bench_args
-    if core is not None:
-        command = ["taskset", "-c", str(core)] + command
+def run_checked(command):
+    """The finished command (its output captured); RuntimeError with its error output if it
+    failed."""
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"{' '.join(command)} exited with {done.returncode}:\n"
                            f"{done.stderr[-2000:]}")
-    results = parse_results(done.stdout + "\n" + done.stderr)
+    return done
+
+
+def run_bench(command):
+    """The RESULT lines of a bench program run by `command` (parse_results)."""
+    done = run_checked(command)
+    return parse_results(done.stdout + "\n" + done.stderr)
+
+
+def run_once(binary, bench_args, core):
+    command = [binary] + bench_args
+    if core is not None:
+        command = ["taskset", "-c", str(core)] + command
+    results = run_bench(command)
     if not results:
         raise RuntimeError(f"{' '.join(command)} printed no RESULT line")
     return results

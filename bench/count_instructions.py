@@ -25,12 +25,12 @@ Exit status 0, 2 when the builds' state hashes differ (without --other-bits), 1 
 """
 import os
 import re
-import subprocess
 import sys
 import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from compare_builds import builds_parser, parse_builds, parse_results, run_script  # noqa: E402
+from compare_builds import (  # noqa: E402
+    builds_parser, parse_builds, run_bench, run_checked, run_script)
 
 # The step's passes: a function of each, whose inclusive counts are the pass's.
 PASSES = [
@@ -79,18 +79,11 @@ def count_once(binary, bench_args, collect, ll_bytes, folder):
     command = [valgrind, "--tool=callgrind", "--cache-sim=yes", "--D1=49152,12,64",
                f"--LL={ll_bytes},16,64", f"--toggle-collect={collect}",
                f"--callgrind-out-file={out}", binary] + bench_args
-    done = subprocess.run(command, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise RuntimeError(f"{' '.join(command)} exited with {done.returncode}:\n"
-                           f"{done.stderr[-2000:]}")
-    results = parse_results(done.stdout + "\n" + done.stderr)
+    results = run_bench(command)
     if len(results) != 1:
         raise RuntimeError(f"{binary}: {len(results)} RESULT lines; filter the benchmark to one case")
     (case, (particles, steps, _, state)), = results.items()
-    shown = subprocess.run([annotate, "--inclusive=yes", "--show=Ir,DLmr,DLmw", out],
-                           capture_output=True, text=True)
-    if shown.returncode != 0:
-        raise RuntimeError(f"{annotate} exited with {shown.returncode}: {shown.stderr[-2000:]}")
+    shown = run_checked([annotate, "--inclusive=yes", "--show=Ir,DLmr,DLmw", out])
     return case, particles * steps, state, parse_annotation(shown.stdout)
 
 
