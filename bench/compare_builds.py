@@ -11,9 +11,9 @@ builds give the same state hash (the same bits) unless told the change moves the
 
 e.g. the media cell, 20 rounds, an old build against this one:
 
-    bench/compare_builds.py --rounds 20 --core 0 /tmp/old/bench/bench_cells build/bench/bench_cells \\
-        -- --cells_cache=DIR --cells_steps=2000 --benchmark_filter='^le_media_2000/threads:1/' \\
-        --benchmark_min_time=0
+    bench/compare_builds.py --rounds 20 --core 0 /tmp/old/bench/bench_cells \\
+        build/bench/bench_cells -- --cells_cache=DIR --cells_steps=2000 \\
+        --benchmark_filter='^le_media_2000/threads:1/' --benchmark_min_time=0
 
 Prints, per case (scene and threads) and build: the median CPU-seconds with their range, the
 particle-steps per CPU-second at the median, the state hash, and for every build after the

@@ -81,7 +81,8 @@ def count_once(binary, bench_args, collect, ll_bytes, folder):
                f"--callgrind-out-file={out}", binary] + bench_args
     results = run_bench(command)
     if len(results) != 1:
-        raise RuntimeError(f"{binary}: {len(results)} RESULT lines; filter the benchmark to one case")
+        raise RuntimeError(
+            f"{binary}: {len(results)} RESULT lines; filter the benchmark to one case")
     (case, (particles, steps, _, state)), = results.items()
     shown = run_checked([annotate, "--inclusive=yes", "--show=Ir,DLmr,DLmw", out])
     return case, particles * steps, state, parse_annotation(shown.stdout)

@@ -29,8 +29,8 @@ print(f"RESULT le_media_2000 1 1000 10 0.5 0.5 state {state}", file=sys.stderr)
 """
 
 # Counts for 10,000 particle-steps; the build named "new" executes 10% fewer instructions in the
-# pair pass and misses half as often in the gather; "." is callgrind_annotate's zero. The pair pass is listed twice (an inlined part
-# under another file): the larger line counts.
+# pair pass and misses half as often in the gather; "." is callgrind_annotate's zero. The pair pass
+# is listed twice (an inlined part under another file): the larger line counts.
 FAKE_ANNOTATE = """#!/usr/bin/env python3
 import sys
 name = open(sys.argv[-1]).read()
