@@ -115,9 +115,11 @@ def main(argv):
         for name in names:
             if name in counts and name in base and base[name][0] > 0:
                 instructions = (counts[name][0] / work) / (base[name][0] / base_work)
-                misses = ((counts[name][1] + counts[name][2]) / work) / max(
-                    (base[name][1] + base[name][2]) / base_work, 1e-300)
-                ratios.append(f"{name} {instructions:.3f}, {misses:.3f}")
+                base_misses = (base[name][1] + base[name][2]) / base_work
+                these_misses = (counts[name][1] + counts[name][2]) / work
+                # "-": the first build has none to compare with.
+                misses = f"{these_misses / base_misses:.3f}" if base_misses > 0 else "-"
+                ratios.append(f"{name} {instructions:.3f}, {misses}")
         print(f"  {label} / {base_label}: instructions, misses: " + "; ".join(ratios))
     states = {state for _, _, state, _ in counted}
     if len(states) > 1:
