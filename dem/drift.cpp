@@ -66,15 +66,6 @@ class ParticleDrift {
   const PeriodicImages images_;
 };
 
-// Each particle's weight and no torque: what the lanes of set_weights must match.
-void weights_one_at_a_time(Vec3* force, Vec3* torque, const double* mass, const Vec3& gravity,
-                           std::size_t begin, std::size_t end) {
-  for (std::size_t p = begin; p != end; ++p) {
-    force[p] = mass[p] * gravity;
-    torque[p] = Vec3::Zero();
-  }
-}
-
 #if defined(__AVX2__)
 
 // Four particles' 3-vectors as they lie in memory, twelve doubles in three registers:
@@ -151,6 +142,12 @@ bool all_inside(const Flat& x, const Flat& lo, const Flat& hi) {
   return _mm256_movemask_pd(ok) == 0b1111;
 }
 
+// Whether particles p .. p + 3 are all marked kWeightOnly (force_state given: no force, no
+// torque), so that their kicks, by zero, can be passed by.
+bool four_unforced(const std::uint8_t* force_state, std::size_t p) {
+  return force_state != nullptr && all_weight_only<4>(force_state + p);
+}
+
 // Four free particles at a time. A block with a particle that leaves the box, or a displacement
 // that may need a periodic image, goes one particle at a time instead (nothing of it is stored
 // before that is known), as does a NaN anywhere (it fails the tests, which are ordered compares).
@@ -169,12 +166,20 @@ DriftMaxima drift_on_lanes(const DriftArrays& arrays, const DriftParameters& prm
   __m256d farthest = _mm256_set1_pd(running.moved_sq);
   std::size_t p = begin;
   for (; p + 4 <= end; p += 4) {
-    const Flat force = load(a.force + p), torque = load(a.torque + p);
+    // Four particles without force or torque are not kicked: their forces, torques and inverse
+    // masses, a third of what the pass reads, stay unread.
+    const bool unforced = four_unforced(a.force_state, p);
+    Flat force, torque, kick, turn;
+    Flat v = load(a.velocity + p), w = load(a.angular_velocity + p);
+    if (!unforced) {
+      force = load(a.force + p);
+      torque = load(a.torque + p);
+      kick = per_component(_mm256_mul_pd(_mm256_loadu_pd(a.inv_mass + p), half_dt));
+      turn = per_component(_mm256_mul_pd(_mm256_loadu_pd(a.inv_inertia + p), half_dt));
+      v = add_product(v, force, kick);
+      w = add_product(w, torque, turn);
+    }
     const Flat position = load(a.position + p);
-    const Flat kick = per_component(_mm256_mul_pd(_mm256_loadu_pd(a.inv_mass + p), half_dt));
-    const Flat turn = per_component(_mm256_mul_pd(_mm256_loadu_pd(a.inv_inertia + p), half_dt));
-    const Flat v = add_product(load(a.velocity + p), force, kick);
-    const Flat w = add_product(load(a.angular_velocity + p), torque, turn);
     const Flat height =
         per_component(_mm256_sub_pd(component(position, prm.gradient_axis), centre));
     Flat peculiar;
@@ -198,11 +203,13 @@ DriftMaxima drift_on_lanes(const DriftArrays& arrays, const DriftParameters& prm
     }
     fastest = _mm256_max_pd(squared_norms(peculiar), fastest);
     farthest = _mm256_max_pd(moved_sq, farthest);
-    store(a.predicted_velocity + p, add_product(v, force, kick));
-    store(a.predicted_angular_velocity + p, add_product(w, torque, turn));
+    store(a.predicted_velocity + p, unforced ? v : add_product(v, force, kick));
+    store(a.predicted_angular_velocity + p, unforced ? w : add_product(w, torque, turn));
     store(a.position + p, x);
-    store(a.velocity + p, v);
-    store(a.angular_velocity + p, w);
+    if (!unforced) {  // unkicked, they are what was read: their lines stay clean
+      store(a.velocity + p, v);
+      store(a.angular_velocity + p, w);
+    }
   }
   for (; p != end; ++p) one(p, running);
   alignas(32) double lanes[4];
@@ -220,6 +227,7 @@ void kick_on_lanes(const DriftArrays& arrays, double half_dt, std::size_t begin,
   const __m256d step = _mm256_set1_pd(half_dt);
   std::size_t p = begin;
   for (; p + 4 <= end; p += 4) {
+    if (four_unforced(a.force_state, p)) continue;
     const Flat kick = per_component(_mm256_mul_pd(_mm256_loadu_pd(a.inv_mass + p), step));
     const Flat turn = per_component(_mm256_mul_pd(_mm256_loadu_pd(a.inv_inertia + p), step));
     store(a.velocity + p, add_product(load(a.velocity + p), load(a.force + p), kick));
@@ -229,33 +237,9 @@ void kick_on_lanes(const DriftArrays& arrays, double half_dt, std::size_t begin,
   kick_particles_one_at_a_time(a, half_dt, p, end);
 }
 
-void weights_on_lanes(Vec3* force, Vec3* torque, const double* mass, const Vec3& gravity,
-                      std::size_t begin, std::size_t end) {
-  const Flat g = repeated(gravity);
-  const Flat zero{{_mm256_setzero_pd(), _mm256_setzero_pd(), _mm256_setzero_pd()}};
-  std::size_t p = begin;
-  for (; p + 4 <= end; p += 4) {
-    const Flat m = per_component(_mm256_loadu_pd(mass + p));
-    Flat weight;
-    for (int k = 0; k < 3; ++k) weight.r[k] = _mm256_mul_pd(m.r[k], g.r[k]);
-    store(force + p, weight);
-    store(torque + p, zero);
-  }
-  weights_one_at_a_time(force, torque, mass, gravity, p, end);
-}
-
 #endif
 
 }  // namespace
-
-void set_weights(Vec3* force, Vec3* torque, const double* mass, const Vec3& gravity,
-                 std::size_t begin, std::size_t end) {
-#if defined(__AVX2__)
-  weights_on_lanes(force, torque, mass, gravity, begin, end);
-#else
-  weights_one_at_a_time(force, torque, mass, gravity, begin, end);
-#endif
-}
 
 void kick_particles_one_at_a_time(const DriftArrays& arrays, double half_dt, std::size_t begin,
                                   std::size_t end) {

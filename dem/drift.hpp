@@ -8,6 +8,8 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
+#include <type_traits>
 
 #include "dem/domain.hpp"
 #include "dem/vec.hpp"
@@ -23,6 +25,27 @@ struct DriftMaxima {
   double moved_sq = 0.0;
   double peculiar_speed_sq = 0.0;
 };
+
+// What a particle's force and torque hold, one byte per particle (System::particle_force_state_).
+// The contact law marks the particles with a pair in force; the force gather then sums their
+// forces and marks them summed, and writes the weight over a summed particle's force once its
+// pairs are out of force. A particle on its weight alone keeps it, unwritten, step after step: in
+// the campaign's fine cells nine particles in ten touch nothing (docs/benchmarks.md, "Particles
+// that touch nothing are passed by").
+enum ParticleForceState : std::uint8_t {
+  kWeightOnly = 0,   // force is exactly m g, torque zero
+  kPairInForce = 1,  // a pair in force this step: the gather sums its force
+  kForceSummed = 2,  // force and torque hold a sum (or are not known: written by the next gather)
+};
+
+// Whether the N particles whose states start at `state` are all kWeightOnly: one load of a word.
+template <std::size_t N>
+inline bool all_weight_only(const std::uint8_t* state) {
+  static_assert(N == 4 || N == 8);
+  std::conditional_t<N == 4, std::uint32_t, std::uint64_t> word;
+  std::memcpy(&word, state, N);
+  return word == 0;
+}
 
 // The particle arrays the pass reads and writes (System's structure of arrays).
 struct DriftArrays {
@@ -41,6 +64,10 @@ struct DriftArrays {
   const KinematicGroup* groups = nullptr;
   // Where the neighbour list was built, per particle; nullptr: no displacement tracked.
   const Vec3* reference_position = nullptr;
+  // Per particle its ParticleForceState, given only where gravity is zero: a kWeightOnly particle
+  // then has no force and no torque, and the kicks on lanes pass four such by (their velocities
+  // stay what a kick by zero leaves them, to the bit but for a zero's sign).
+  const std::uint8_t* force_state = nullptr;
 };
 
 struct DriftParameters {
@@ -65,18 +92,14 @@ DriftMaxima drift_particles(const DriftArrays& arrays, const DriftParameters& pa
                             DriftMaxima running);
 
 // The step's closing half kick over particles [begin, end): velocity and angular velocity from
-// force and torque (the other arrays are not read), on four lanes where the build has AVX2.
+// force and torque (the other arrays are not read but force_state), on four lanes where the build
+// has AVX2.
 void kick_particles(const DriftArrays& arrays, double half_dt, std::size_t begin, std::size_t end);
 void kick_particles_one_at_a_time(const DriftArrays& arrays, double half_dt, std::size_t begin,
                                   std::size_t end);
 
-// Each particle's weight as its force, m g, and no torque, over particles [begin, end): where
-// the force gather starts, so that it need visit only the particles with a contact in force.
-void set_weights(Vec3* force, Vec3* torque, const double* mass, const Vec3& gravity,
-                 std::size_t begin, std::size_t end);
-
-// Whether drift_particles, kick_particles and set_weights run on four lanes in this build (the DEM
-// library built for AVX2).
+// Whether drift_particles and kick_particles run on four lanes in this build (the DEM library
+// built for AVX2).
 bool drift_uses_lanes();
 
 // The same one particle at a time: what the four lanes must match bit for bit (tests).

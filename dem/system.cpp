@@ -440,6 +440,8 @@ DriftArrays System::drift_arrays() {
   }
   const std::span<const Vec3> reference = neighbors_.reference_positions();
   if (reference.size() == size()) arrays.reference_position = reference.data();
+  if (gravity_.isZero(0.0) && particle_force_state_.size() == size())
+    arrays.force_state = particle_force_state_.data();
   return arrays;
 }
 
@@ -547,7 +549,9 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   contact_force_ = std::move(force);
   free_contact_slots_.clear();
   contacts_placed_since_compaction_ = 0;
-  particle_in_contact_.assign(size(), 0);
+  // The forces of the particles in their new order are not known to be their weights: the next
+  // gather writes them all.
+  particle_force_state_.assign(size(), kForceSummed);
 
   // Per-particle pair lists in pair order, so force sums run in a fixed order; each list starts at
   // a multiple of 8 slots, so that the force gather reads its in-force bytes 8 at a time without
@@ -770,18 +774,18 @@ struct System::PairContactKernel {
         second_slot(s.pair_second_slot_.data()),
         first_in_force(s.first_in_force_.data()),
         second_in_force(s.second_in_force_.data()),
-        in_contact(s.particle_in_contact_.data()),
+        force_state(s.particle_force_state_.data()),
         time(s.time_),
         dt(step_dt) {}
 
   // The flags of pair k (particles i, j) in force. Each slot belongs to one pair: no other task
-  // writes it; another task may mark the same particle: both store 1, so the order does not
-  // matter.
+  // writes it; another task may mark the same particle: both store kPairInForce, so the order
+  // does not matter.
   [[gnu::always_inline]] void mark_in_force(std::size_t k, ParticleId i, ParticleId j) const {
     first_in_force[k + first_shift[i]] = 1;
     second_in_force[second_slot[k]] = 1;
-    std::atomic_ref<std::uint8_t>(in_contact[i]).store(1, std::memory_order_relaxed);
-    std::atomic_ref<std::uint8_t>(in_contact[j]).store(1, std::memory_order_relaxed);
+    std::atomic_ref<std::uint8_t>(force_state[i]).store(kPairInForce, std::memory_order_relaxed);
+    std::atomic_ref<std::uint8_t>(force_state[j]).store(kPairInForce, std::memory_order_relaxed);
   }
 
   [[gnu::always_inline]] void operator()(const TouchingPair& touching) const {
@@ -935,7 +939,7 @@ struct System::PairContactKernel {
   const std::uint32_t* const second_slot;
   std::uint8_t* const first_in_force;
   std::uint8_t* const second_in_force;
-  std::uint8_t* const in_contact;
+  std::uint8_t* const force_state;
   const double time;
   const double dt;
 };
@@ -1155,7 +1159,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
         std::uint8_t* const first_in_force = first_in_force_.data();
         const std::uint32_t* const slot_of = pair_slot_.data();
         const ContactForce* const contact = contact_force_.data();
-        std::uint8_t* const in_contact = particle_in_contact_.data();
+        std::uint8_t* const force_state = particle_force_state_.data();
         // Gravity plus the pairs in force on p, in pair order: those p is second of, then its row.
         struct ForceAndTorque {
           V force, torque;
@@ -1164,8 +1168,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
         const auto pair_sum = [&](std::size_t p) __attribute__((always_inline)) {
           ForceAndTorque sum{free_of_groups || is_free(p) ? V(mass[p] * packed_gravity) : V::Zero(),
                              V::Zero()};
-          if (!in_contact[p]) return sum;  // no pair in force: nothing to add
-          in_contact[p] = 0;
+          if (force_state[p] != kPairInForce) return sum;  // no pair in force: nothing to add
           for_each_in_force(
               second_in_force, second_offset[p],
               second_offset[p + 1], [&](std::uint32_t s) __attribute__((always_inline)) {
@@ -1194,6 +1197,7 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
         const auto store = [&](std::size_t p, const auto& force, const auto& torque) {
           store_contact_vec3(force_of[p], force);
           store_contact_vec3(torque_of[p], torque);
+          force_state[p] = kForceSummed;
         };
         const auto kick = [&] {
           if (closing_kick) kick_particles(particles, half_dt, range.begin(), range.end());
@@ -1201,13 +1205,21 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
         if (walls_.empty()) {  // a loop of its own: without the wall code it keeps its values in
                                // registers
           if (free_of_groups) {
-            // Every particle's weight first (on four lanes), then the sums of those with a pair
-            // in force: in a sparse cell, most particles have none.
-            set_weights(force_of, torque_of, mass, gravity, range.begin(), range.end());
+            // The sums of the particles with a pair in force, and the weight of those whose
+            // pairs all left force; the rest (in a sparse cell, most) hold their weight already.
             for (std::size_t p = range.begin(); p != range.end(); ++p) {
-              if (!in_contact[p]) continue;
-              const auto [force, torque] = pair_sum(p);
-              store(p, force, torque);
+              if (p + 8 <= range.end() && all_weight_only<8>(force_state + p)) {
+                p += 7;
+                continue;
+              }
+              if (force_state[p] == kWeightOnly) continue;
+              if (force_state[p] == kPairInForce) {
+                const auto [force, torque] = pair_sum(p);
+                store(p, force, torque);
+              } else {
+                store(p, V(mass[p] * packed_gravity), V::Zero());
+                force_state[p] = kWeightOnly;
+              }
             }
           } else {
             for (std::size_t p = range.begin(); p != range.end(); ++p) {
@@ -1508,7 +1520,7 @@ System::MemoryUse System::memory_use() const {
   MemoryUse use;
   use.particles = neighbors_.reference_bytes() + bytes_of(material_) + bytes_of(group_) +
                   bytes_of(second_offset_) + bytes_of(first_offset_) +
-                  bytes_of(particle_first_shift_) + bytes_of(particle_in_contact_);
+                  bytes_of(particle_first_shift_) + bytes_of(particle_force_state_);
   for (const auto* array : {&position_, &velocity_, &angular_velocity_, &force_, &torque_,
                             &predicted_velocity_, &predicted_angular_velocity_})
     use.particles += bytes_of(*array);

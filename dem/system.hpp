@@ -470,8 +470,8 @@ class System {
   // finds a pair's two slots: k + particle_first_shift_[i] and pair_second_slot_[k].
   std::vector<std::uint8_t> second_in_force_, first_in_force_;
   std::vector<std::uint32_t> pair_second_slot_, particle_first_shift_;
-  std::vector<std::uint8_t>
-      particle_in_contact_;  // has a pair in force this step (reset when summed)
+  // Per particle what its force and torque hold (ParticleForceState, dem/drift.hpp).
+  std::vector<std::uint8_t> particle_force_state_;
 
   // Wall contacts, kMaxWallContactsPerParticle slots per particle, double-buffered: each step
   // fills one buffer from the other, so no slot is copied or cleared for particles off the walls.

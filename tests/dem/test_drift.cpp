@@ -1,7 +1,7 @@
-// The drift, the closing kick and the weights on four lanes against the same one particle at a
-// time: the same bits in every array and the same maxima, whatever the range's length, with
-// particles that leave the box through every face (Lees-Edwards included), displacements that need
-// a periodic image, and a NaN.
+// The drift and the closing kick on four lanes against the same one particle at a time: the same
+// bits in every array and the same maxima, whatever the range's length, with particles that leave
+// the box through every face (Lees-Edwards included), displacements that need a periodic image, a
+// NaN, and particles without force that the lanes pass by.
 #include "dem/drift.hpp"
 #include "tests/dem/same_bits.hpp"
 
@@ -164,22 +164,69 @@ TEST(Drift, TheClosingKickOnLanesGivesTheBitsOfOneParticleAtATime) {
   }
 }
 
-TEST(Drift, WeightsOnLanesAreEachParticlesMassTimesGravity) {
-  if (!drift_uses_lanes()) GTEST_SKIP() << "the DEM library is built without AVX2: one path only";
-  const Vec3 gravity(0.3, -9.81, 1e-3);
-  const Particles particles(11, 5, sheared_box());
-  std::vector<double> mass;
-  for (const double inv : particles.inv_mass) mass.push_back(1.0 / inv);
-  std::vector<Vec3> force(11, Vec3::Ones()), torque(11, Vec3::Ones()), want_force, want_torque;
-  set_weights(force.data(), torque.data(), mass.data(), gravity, 1, 11);
-  want_force.push_back(Vec3::Ones());
-  want_torque.push_back(Vec3::Ones());
-  for (std::size_t p = 1; p < 11; ++p) {
-    want_force.push_back(mass[p] * gravity);
-    want_torque.push_back(Vec3::Zero());
+// Marks particles as on their weight alone (no gravity: no force, no torque), in runs of 1 to 9
+// so that blocks of four are wholly, partly and not at all marked, whatever the range's start.
+std::vector<std::uint8_t> weight_only_runs(Particles& particles) {
+  const std::size_t n = particles.position.size();
+  std::vector<std::uint8_t> state(n, kForceSummed);
+  std::size_t p = 0;
+  for (std::size_t run = 1; p < n; run = run % 9 + 1) {
+    for (std::size_t q = p; q < std::min(p + run, n); ++q) {
+      state[q] = kWeightOnly;
+      particles.force[q] = Vec3::Zero();
+      particles.torque[q] = Vec3::Zero();
+    }
+    p += 2 * run;  // then as many not marked
   }
-  EXPECT_TRUE(same_bits(force, want_force));
-  EXPECT_TRUE(same_bits(torque, want_torque));
+  return state;
+}
+
+TEST(Drift, ParticlesWithoutForcePassedByOnLanesKeepTheBitsOfOneParticleAtATime) {
+  if (!drift_uses_lanes()) GTEST_SKIP() << "the DEM library is built without AVX2: one path only";
+  const Domain domain = sheared_box();
+  const DriftParameters prm = parameters_for(domain);
+  for (const std::size_t n : {5u, 64u, 1001u}) {
+    SCOPED_TRACE(::testing::Message() << n << " particles");
+    Particles marked(n, 60 + n, domain);
+    const std::vector<std::uint8_t> state = weight_only_runs(marked);
+    Particles one_at_a_time = marked;
+    for (const std::size_t begin : {std::size_t{0}, std::size_t{1}, std::size_t{2}}) {
+      DriftArrays lanes = marked.arrays(true);
+      lanes.force_state = state.data();
+      drift_particles(lanes, prm, domain, begin, n, DriftMaxima{});
+      kick_particles(lanes, prm.half_dt, begin, n);
+      drift_particles_one_at_a_time(one_at_a_time.arrays(true), prm, domain, begin, n,
+                                    DriftMaxima{});
+      kick_particles_one_at_a_time(one_at_a_time.arrays(true), prm.half_dt, begin, n);
+    }
+    EXPECT_TRUE(same_bits(marked.position, one_at_a_time.position));
+    EXPECT_TRUE(same_bits(marked.velocity, one_at_a_time.velocity));
+    EXPECT_TRUE(same_bits(marked.angular_velocity, one_at_a_time.angular_velocity));
+    EXPECT_TRUE(same_bits(marked.predicted_velocity, one_at_a_time.predicted_velocity));
+    EXPECT_TRUE(
+        same_bits(marked.predicted_angular_velocity, one_at_a_time.predicted_angular_velocity));
+  }
+}
+
+// What the marks mean: a particle marked as on its weight is not kicked, so a mark on a particle
+// with a force would be a wrong answer (this test fails if the marks were ignored, or if the
+// lanes passed by a block with one particle unmarked).
+TEST(Drift, TheKicksOnLanesPassByOnlyBlocksOfFourMarkedParticles) {
+  if (!drift_uses_lanes()) GTEST_SKIP() << "the DEM library is built without AVX2: one path only";
+  const Domain domain = sheared_box();
+  Particles particles(12, 3, domain);  // every force and torque non-zero
+  const Particles before = particles;
+  std::vector<std::uint8_t> state(12, kWeightOnly);
+  state[6] = kForceSummed;  // the second block of four
+  DriftArrays arrays = particles.arrays(true);
+  arrays.force_state = state.data();
+  kick_particles(arrays, 5e-6, 0, 12);
+  for (std::size_t p = 0; p < 12; ++p) {
+    const bool kicked = p >= 4 && p < 8;
+    EXPECT_EQ(particles.velocity[p] != before.velocity[p], kicked) << "particle " << p;
+    EXPECT_EQ(particles.angular_velocity[p] != before.angular_velocity[p], kicked)
+        << "particle " << p;
+  }
 }
 
 }  // namespace

@@ -312,5 +312,48 @@ TEST(Collisions, ContactVirialSplitsByCategoryOfMaterials) {
             1e-12 * system.contact_virial().norm());
 }
 
+// Two balls meet obliquely, spin each other up and part, in free space and under gravity. While
+// they touch their forces are equal and opposite beside the weights; from the step they part,
+// each force is exactly its weight and, after the step that kicks by the last contact force, the
+// spin stays: the force gather writes a particle's weight once when its last contact ends and
+// leaves it unwritten after, so this checks that what it leaves is right.
+TEST(Collisions, APartedBallsForceIsItsWeightToTheBit) {
+  for (const Vec3& gravity : {Vec3(Vec3::Zero()), Vec3(0.0, -9.81, 0.0)}) {
+    SCOPED_TRACE(::testing::Message() << "gravity " << gravity.transpose());
+    System system(steel_table(0.5, 0.5, kStiffness), open_box(0.1), gravity);
+    const double speed = 0.5;
+    system.add_particle({.position = Vec3(-kRadius - 1e-4, 0.002, 0),
+                         .velocity = Vec3(speed, 0, 0),
+                         .radius = kRadius});
+    system.add_particle({.position = Vec3(kRadius + 1e-4, 0, 0),
+                         .velocity = Vec3(-speed, 0, 0),
+                         .radius = kRadius});
+    system.set_time_step_from_collisions(kStepsPerCollision);
+    const Vec3 weight = sphere_mass(kRadius) * gravity;
+    int touching_steps = 0, apart_steps = 0;
+    for (int i = 0; i < 6 * kStepsPerCollision; ++i) {
+      const Vec3 spin_before = system.angular_velocities()[0];
+      system.step();
+      const std::span<const Vec3> force = system.forces();
+      if (system.active_contact_count() > 0) {
+        ++touching_steps;
+        EXPECT_GT((force[0] - weight).norm(), 0.0) << "step " << i;
+        EXPECT_NEAR((force[0] - weight + force[1] - weight).norm(), 0.0,
+                    1e-12 * (force[0] - weight).norm())
+            << "step " << i;
+      } else if (touching_steps > 0) {
+        EXPECT_EQ(force[0], weight) << "step " << i;
+        EXPECT_EQ(force[1], weight) << "step " << i;
+        if (apart_steps++ > 0) {
+          EXPECT_EQ(system.angular_velocities()[0], spin_before) << "step " << i;
+        }
+      }
+    }
+    EXPECT_GT(touching_steps, kStepsPerCollision / 2);
+    EXPECT_GT(apart_steps, kStepsPerCollision);
+    EXPECT_GT(system.angular_velocities()[0].norm(), 0.0) << "the contact turned the balls";
+  }
+}
+
 }  // namespace
 }  // namespace millflow::dem
