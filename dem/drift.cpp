@@ -165,13 +165,13 @@ DriftMaxima drift_on_lanes(const DriftArrays& arrays, const DriftParameters& prm
   __m256d fastest = _mm256_set1_pd(running.peculiar_speed_sq);
   __m256d farthest = _mm256_set1_pd(running.moved_sq);
   std::size_t p = begin;
-  for (; p + 4 <= end; p += 4) {
-    // Four particles without force or torque are not kicked: their forces, torques and inverse
-    // masses, a third of what the pass reads, stay unread.
-    const bool unforced = four_unforced(a.force_state, p);
-    Flat force, torque, kick, turn;
+  // A block of four; kUnforced: none has a force or torque, so none is kicked, and their forces,
+  // torques and inverse masses, a third of what the pass reads, stay unread (a path of its own,
+  // so that the blocks with forces, all of a dense cell's, test nothing more).
+  const auto block = [&]<bool kUnforced>(std::size_t p) __attribute__((always_inline)) {
     Flat v = load(a.velocity + p), w = load(a.angular_velocity + p);
-    if (!unforced) {
+    Flat force{}, torque{}, kick{}, turn{};
+    if constexpr (!kUnforced) {
       force = load(a.force + p);
       torque = load(a.torque + p);
       kick = per_component(_mm256_mul_pd(_mm256_loadu_pd(a.inv_mass + p), half_dt));
@@ -188,7 +188,7 @@ DriftMaxima drift_on_lanes(const DriftArrays& arrays, const DriftParameters& prm
     const Flat x = add_product(position, v, step);
     if (!all_inside(x, lo, hi)) {
       for (std::size_t q = p; q != p + 4; ++q) one(q, running);
-      continue;
+      return;
     }
     __m256d moved_sq = _mm256_setzero_pd();
     if (track) {
@@ -198,17 +198,27 @@ DriftMaxima drift_on_lanes(const DriftArrays& arrays, const DriftParameters& prm
       moved_sq = squared_norms(moved);
       if (_mm256_movemask_pd(_mm256_cmp_pd(moved_sq, image_test_sq, _CMP_LT_OQ)) != 0b1111) {
         for (std::size_t q = p; q != p + 4; ++q) one(q, running);
-        continue;
+        return;
       }
     }
     fastest = _mm256_max_pd(squared_norms(peculiar), fastest);
     farthest = _mm256_max_pd(moved_sq, farthest);
-    store(a.predicted_velocity + p, unforced ? v : add_product(v, force, kick));
-    store(a.predicted_angular_velocity + p, unforced ? w : add_product(w, torque, turn));
     store(a.position + p, x);
-    if (!unforced) {  // unkicked, they are what was read: their lines stay clean
+    if constexpr (kUnforced) {  // unkicked, v and w are what was read: their lines stay clean
+      store(a.predicted_velocity + p, v);
+      store(a.predicted_angular_velocity + p, w);
+    } else {
+      store(a.predicted_velocity + p, add_product(v, force, kick));
+      store(a.predicted_angular_velocity + p, add_product(w, torque, turn));
       store(a.velocity + p, v);
       store(a.angular_velocity + p, w);
+    }
+  };
+  for (; p + 4 <= end; p += 4) {
+    if (four_unforced(a.force_state, p)) {
+      block.template operator()<true>(p);
+    } else {
+      block.template operator()<false>(p);
     }
   }
   for (; p != end; ++p) one(p, running);

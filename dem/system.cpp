@@ -1208,11 +1208,10 @@ void System::compute_particle_forces(double dt, bool closing_kick) {
             // The sums of the particles with a pair in force, and the weight of those whose
             // pairs all left force; the rest (in a sparse cell, most) hold their weight already.
             for (std::size_t p = range.begin(); p != range.end(); ++p) {
-              if (p + 8 <= range.end() && all_weight_only<8>(force_state + p)) {
-                p += 7;
+              if (force_state[p] == kWeightOnly) {  // and the next eight, while they are too
+                while (p + 9 <= range.end() && all_weight_only<8>(force_state + p + 1)) p += 8;
                 continue;
               }
-              if (force_state[p] == kWeightOnly) continue;
               if (force_state[p] == kPairInForce) {
                 const auto [force, torque] = pair_sum(p);
                 store(p, force, torque);
