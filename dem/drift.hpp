@@ -1,10 +1,10 @@
 #pragma once
 // The per-particle passes of velocity Verlet over a range of particles (System::step): the first
-// half kick and the drift, with the two maxima the neighbour list needs, the weights the force
-// gather starts from, and the closing half kick. Passes over seven arrays of 3-vectors per
-// particle, a third of the step of a sparse cell (docs/benchmarks.md, "The drift and the kick on
-// four lanes"): where the build has AVX2, four particles at a time, with the same IEEE operations
-// in the same order as one at a time, so the bits do not depend on the instruction set.
+// half kick and the drift, with the two maxima the neighbour list needs, and the closing half
+// kick. Passes over seven arrays of 3-vectors per particle, a third of the step of a sparse cell
+// (docs/benchmarks.md, "The drift and the kick on four lanes"): where the build has AVX2, four
+// particles at a time, with the same IEEE operations in the same order as one at a time, so the
+// bits do not depend on the instruction set.
 #include <array>
 #include <cstddef>
 #include <cstdint>
