@@ -30,8 +30,8 @@ struct DriftMaxima {
 // The contact law marks the particles with a pair in force; the force gather then sums their
 // forces and marks them summed, and writes the weight over a summed particle's force once its
 // pairs are out of force. A particle on its weight alone keeps it, unwritten, step after step: in
-// the campaign's fine cells nine particles in ten touch nothing (docs/benchmarks.md, "Particles
-// that touch nothing are passed by").
+// the campaign's fine cells most particles touch nothing (docs/benchmarks.md, "Particles that
+// touch nothing are passed by").
 enum ParticleForceState : std::uint8_t {
   kWeightOnly = 0,   // force is exactly m g, torque zero
   kPairInForce = 1,  // a pair in force this step: the gather sums its force

@@ -549,8 +549,8 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   contact_force_ = std::move(force);
   free_contact_slots_.clear();
   contacts_placed_since_compaction_ = 0;
-  // The forces of the particles in their new order are not known to be their weights: the next
-  // gather writes them all.
+  // A rebuild follows every reorder, checkpoint restore and added particle: no force is known to
+  // be a weight, and the next gather writes them all.
   particle_force_state_.assign(size(), kForceSummed);
 
   // Per-particle pair lists in pair order, so force sums run in a fixed order; each list starts at
