@@ -86,6 +86,15 @@ DriftParameters parameters_for(const Domain& d) {
   return prm;
 }
 
+// Every array the drift writes, the same to the bit.
+void expect_same_bits(const Particles& got, const Particles& want) {
+  EXPECT_TRUE(same_bits(got.position, want.position));
+  EXPECT_TRUE(same_bits(got.velocity, want.velocity));
+  EXPECT_TRUE(same_bits(got.angular_velocity, want.angular_velocity));
+  EXPECT_TRUE(same_bits(got.predicted_velocity, want.predicted_velocity));
+  EXPECT_TRUE(same_bits(got.predicted_angular_velocity, want.predicted_angular_velocity));
+}
+
 // Drifts [begin, end) in chunks of `chunk` particles both ways and compares every chunk's maxima
 // (one particle's squared norm decides a chunk's) and then every array.
 void expect_lanes_match(Particles lanes, Particles one_at_a_time, const Domain& domain,
@@ -103,12 +112,7 @@ void expect_lanes_match(Particles lanes, Particles one_at_a_time, const Domain& 
         << "particles " << first << "-" << last << ": " << got.peculiar_speed_sq << " "
         << want.peculiar_speed_sq;
   }
-  EXPECT_TRUE(same_bits(lanes.position, one_at_a_time.position));
-  EXPECT_TRUE(same_bits(lanes.velocity, one_at_a_time.velocity));
-  EXPECT_TRUE(same_bits(lanes.angular_velocity, one_at_a_time.angular_velocity));
-  EXPECT_TRUE(same_bits(lanes.predicted_velocity, one_at_a_time.predicted_velocity));
-  EXPECT_TRUE(
-      same_bits(lanes.predicted_angular_velocity, one_at_a_time.predicted_angular_velocity));
+  expect_same_bits(lanes, one_at_a_time);
 }
 
 TEST(Drift, FourLanesGiveTheBitsOfOneParticleAtATime) {
@@ -199,12 +203,7 @@ TEST(Drift, ParticlesWithoutForcePassedByOnLanesKeepTheBitsOfOneParticleAtATime)
                                     DriftMaxima{});
       kick_particles_one_at_a_time(one_at_a_time.arrays(true), prm.half_dt, begin, n);
     }
-    EXPECT_TRUE(same_bits(marked.position, one_at_a_time.position));
-    EXPECT_TRUE(same_bits(marked.velocity, one_at_a_time.velocity));
-    EXPECT_TRUE(same_bits(marked.angular_velocity, one_at_a_time.angular_velocity));
-    EXPECT_TRUE(same_bits(marked.predicted_velocity, one_at_a_time.predicted_velocity));
-    EXPECT_TRUE(
-        same_bits(marked.predicted_angular_velocity, one_at_a_time.predicted_angular_velocity));
+    expect_same_bits(marked, one_at_a_time);
   }
 }
 
