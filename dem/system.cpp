@@ -10,6 +10,7 @@
 #include <limits>
 #include <numbers>
 #include <stdexcept>
+#include <type_traits>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -520,33 +521,40 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   const auto& pairs = neighbors_.pairs();
   reset_sleeping_pairs();
 
-  // Carry the contacts over to the new list (both lists are sorted by (i, j)), into a store laid
-  // out in the new pairs' order.
+  // Carry the contacts over to the new list (both lists are sorted by (i, j)): the store is laid
+  // out in the new pairs' order, in place (a second store beside it would take a dense cell's
+  // memory at the rebuild up by half, and its fresh pages, which the kernel zeroes, 2% of the
+  // steps: docs/benchmarks.md, "The contact store carried over in place").
   auto key = [](const NeighborPair& p) { return (std::uint64_t{p.i} << 32) | p.j; };
-  // At most the contacts in force now are carried over; the store keeps room beyond them for
-  // those that start before the next rebuild (growth_room; in the sheared cells of bench_cells
-  // the store never grew between rebuilds, and while contacts grow, in a compaction, each is
-  // copied about 16 times).
-  const auto carried = static_cast<std::size_t>(std::count_if(
-      old_slot.begin(), old_slot.end(), [](std::uint32_t s) { return s != kNoContact; }));
-  std::vector<ContactHistory> history;
-  std::vector<ContactForce> force;
-  reserve_on_huge_pages(history, carried + growth_room(carried));
-  reserve_on_huge_pages(force, carried + growth_room(carried));
+  std::vector<std::uint32_t> target(contact_history_.size(), kNoContact);
   assign_on_huge_pages(pair_slot_, pairs.size(), kNoContact);
   assign_on_huge_pages(pair_touching_, pairs.size(), std::uint8_t{0});
+  std::uint32_t carried = 0;
   std::size_t o = 0;
   for (std::size_t k = 0; k < pairs.size() && o < old_pairs.size(); ++k) {
     while (o < old_pairs.size() && key(old_pairs[o]) < key(pairs[k])) ++o;
     if (o < old_pairs.size() && key(old_pairs[o]) == key(pairs[k]) && old_slot[o] != kNoContact) {
-      pair_slot_[k] = static_cast<std::uint32_t>(history.size());
+      target[old_slot[o]] = carried;
+      pair_slot_[k] = carried++;
       pair_touching_[k] = 1;
-      history.push_back(contact_history_[old_slot[o]]);
-      force.push_back(contact_force_[old_slot[o]]);
     }
   }
-  contact_history_ = std::move(history);
-  contact_force_ = std::move(force);
+  place_contacts(target, carried);
+  // The store keeps room beyond the carried contacts for those that start before the next
+  // rebuild (growth_room; in the sheared cells of bench_cells the store never grew between
+  // rebuilds, and while contacts grow, in a compaction, each is copied about 16 times), and gives
+  // back what it holds beyond twice that.
+  const std::size_t room = carried + growth_room(carried);
+  const auto fit = [room](auto& store) {
+    if (store.capacity() < room || store.capacity() > 2 * room) {
+      std::remove_reference_t<decltype(store)> fitted;
+      reserve_on_huge_pages(fitted, room);
+      fitted.insert(fitted.end(), store.begin(), store.end());
+      store = std::move(fitted);
+    }
+  };
+  fit(contact_history_);
+  fit(contact_force_);
   free_contact_slots_.clear();
   contacts_placed_since_compaction_ = 0;
   // A rebuild follows every reorder, checkpoint restore and added particle: no force is known to
@@ -630,6 +638,25 @@ std::uint32_t System::allocate_contact() {
   return slot;
 }
 
+void System::place_contacts(std::vector<std::uint32_t>& target, std::uint32_t kept) {
+  // The slots not given one go after the kept, in slot order: a permutation of the store.
+  std::uint32_t next = kept;
+  for (std::uint32_t& t : target) {
+    if (t == kNoContact) t = next++;
+  }
+  // In place, cycle by cycle: no second store.
+  for (std::uint32_t s = 0; s < target.size(); ++s) {
+    while (target[s] != s) {
+      const std::uint32_t t = target[s];
+      std::swap(contact_history_[s], contact_history_[t]);
+      std::swap(contact_force_[s], contact_force_[t]);
+      std::swap(target[s], target[t]);
+    }
+  }
+  contact_history_.resize(kept);
+  contact_force_.resize(kept);
+}
+
 void System::compact_contacts() {
   const std::size_t store = contact_history_.size();
   // The slot each one moves to: the pairs in force in pair order first, the free slots after.
@@ -643,21 +670,7 @@ void System::compact_contacts() {
     second_contact_slot_[pair_second_slot_[k]] = next;
     ++next;
   }
-  const std::uint32_t in_force = next;
-  for (std::uint32_t& t : target) {
-    if (t == kNoContact) t = next++;
-  }
-  // The permutation in place, cycle by cycle: no second store (bytes_per_particle stays).
-  for (std::uint32_t s = 0; s < store; ++s) {
-    while (target[s] != s) {
-      const std::uint32_t t = target[s];
-      std::swap(contact_history_[s], contact_history_[t]);
-      std::swap(contact_force_[s], contact_force_[t]);
-      std::swap(target[s], target[t]);
-    }
-  }
-  contact_history_.resize(in_force);
-  contact_force_.resize(in_force);
+  place_contacts(target, next);
   free_contact_slots_.clear();
   contacts_placed_since_compaction_ = 0;
   ++compaction_count_;

@@ -299,7 +299,7 @@ class System {
   // with. The neighbour search's build scratch is freed when a build ends and not counted.
   struct MemoryUse {
     std::size_t particles = 0;  // per particle: state, the list's reference positions, the start
-                                // of its pair list and its in-contact flag
+                                // of its pair list and its force state
     std::size_t candidate_pairs = 0;   // per candidate pair: the list, the pair's slot and flags,
                                        // its two entries in the particles' pair lists (padding
                                        // included)
@@ -378,6 +378,10 @@ class System {
   // A slot in the contact store for a pair that starts touching (one freed by a finished contact
   // first), its history cleared.
   std::uint32_t allocate_contact();
+  // Moves each contact record from slot s to target[s] in place and keeps the first `kept`; the
+  // slots target does not name (kNoContact) are dropped. target must give the kept slots 0 ..
+  // kept - 1, each once; it is used up.
+  void place_contacts(std::vector<std::uint32_t>& target, std::uint32_t kept);
   // m_eff of a pair of particles (a kinematic one counts as infinitely heavy) and C_n of their
   // contact.
   double pair_effective_mass(ParticleId i, ParticleId j) const;

@@ -38,6 +38,23 @@ TEST(SystemMemory, TheContactStoreGrowsWithTheContactsAndAWallLessSystemHasNoWal
                                          with.collision_events);
 }
 
+// The neighbour rebuild lays the contact store out again in place, keeping its capacity: once the
+// contacts are gone, it must give the memory back (a store kept at its largest would hold a
+// dilating cell's bytes long after its contacts ended).
+TEST(SystemMemory, ARebuildGivesBackTheStoreOfContactsThatEnded) {
+  System system = two_balls(-0.0004);  // pushed apart from the first step
+  system.step();
+  ASSERT_EQ(system.active_contact_count(), 1u);
+  const std::size_t touching = system.memory_use().contacts;
+  EXPECT_GT(touching, 0u);
+  const std::uint64_t rebuilds = system.neighbor_rebuild_count();
+  for (int i = 0; i < 100000 && system.neighbor_rebuild_count() == rebuilds; ++i) system.step();
+  ASSERT_GT(system.neighbor_rebuild_count(), rebuilds) << "the balls never moved half a skin";
+  EXPECT_EQ(system.active_contact_count(), 0u);
+  // What stays is the free-slot list's one entry, not a record.
+  EXPECT_LT(system.memory_use().contacts, touching / 2);
+}
+
 TEST(SystemCheckpoint, AContactHistoryNotInForceIsRefused) {
   System system = two_balls(-0.0002);
   system.step();
