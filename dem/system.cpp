@@ -541,12 +541,12 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   }
   place_contacts(target, carried);
   // The store keeps room beyond the carried contacts for those that start before the next
-  // rebuild (growth_room; in the sheared cells of bench_cells the store never grew between
-  // rebuilds, and while contacts grow, in a compaction, each is copied about 16 times), and gives
-  // back what it holds beyond twice that.
+  // rebuild (growth_room: while contacts grow, in a compaction, each is copied about 16 times),
+  // and is fitted again when it holds more than an eighth beyond that (a steady cell's contacts
+  // swing by a few per cent; a dilating one's store is given back).
   const std::size_t room = carried + growth_room(carried);
   const auto fit = [room](auto& store) {
-    if (store.capacity() < room || store.capacity() > 2 * room) {
+    if (store.capacity() < room || store.capacity() > room + room / 8) {
       std::remove_reference_t<decltype(store)> fitted;
       reserve_on_huge_pages(fitted, room);
       fitted.insert(fitted.end(), store.begin(), store.end());
