@@ -10,7 +10,6 @@
 #include <limits>
 #include <numbers>
 #include <stdexcept>
-#include <type_traits>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -546,12 +545,8 @@ void System::rebuild_neighbors(std::span<const NeighborPair> old_pairs,
   // swing by a few per cent; a dilating one's store is given back).
   const std::size_t room = carried + growth_room(carried);
   const auto fit = [room](auto& store) {
-    if (store.capacity() < room || store.capacity() > room + room / 8) {
-      std::remove_reference_t<decltype(store)> fitted;
-      reserve_on_huge_pages(fitted, room);
-      fitted.insert(fitted.end(), store.begin(), store.end());
-      store = std::move(fitted);
-    }
+    if (store.capacity() < room || store.capacity() > room + room / 8)
+      reserve_on_huge_pages(store, room);
   };
   fit(contact_history_);
   fit(contact_force_);
