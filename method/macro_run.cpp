@@ -11,6 +11,7 @@
 #include "dem/checkpoint.hpp"
 #include "dem/vtk.hpp"
 #include "util/durable_file.hpp"
+#include "util/sha256.hpp"
 
 namespace millflow::method {
 namespace {
@@ -21,12 +22,22 @@ using nlohmann::json;
 constexpr std::size_t kFramesPerSegment = 16;
 constexpr double kBlocksPerRevolution = 200.0;
 constexpr std::string_view kStateMagic = "MFMACRO1";
-constexpr std::uint32_t kStateVersion = 1;
+// 2: the VTK files' SHA-256s (version 1 held their times only: a file damaged before the
+// checkpoint went into the results; such a state is refused and the run starts again).
+constexpr std::uint32_t kStateVersion = 2;
 constexpr std::uint32_t kShellWall = 0;  // dem::build_mill's shell
 constexpr dem::MaterialId kMedia = 0;    // dem::build_mill's media material
 
+// The most steps an interval may take: 2^53, where doubles stop counting exactly. An interval
+// longer than any run (a VTK interval of 1e15 s) saturates there and so comes only at step 0;
+// converted to an integer unchecked, it wrapped to 1, an action every step.
+constexpr std::uint64_t kMostStepsForAnInterval = std::uint64_t{1}
+                                                  << std::numeric_limits<double>::digits;
+
 std::uint64_t steps_for(double seconds, double dt) {
-  return static_cast<std::uint64_t>(std::max<long long>(1, std::llround(seconds / dt)));
+  const double steps = std::round(seconds / dt);
+  if (!(steps < static_cast<double>(kMostStepsForAnInterval))) return kMostStepsForAnInterval;
+  return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(steps));
 }
 
 std::string segment_name(std::uint64_t index) {
@@ -275,10 +286,13 @@ void MacroRun::capture_frame() {
 
 // The particles and the shell with its lifters at the same moment, so they turn together.
 void MacroRun::write_vtk() {
-  dem::write_particles_vtp(system_, dir_ / "vtk" / vtk_name(vtk_times_.size()));
-  dem::write_mill_outline_vtp(settings_.mill.shell, mill_angle(),
-                              dir_ / "vtk" / outline_name(vtk_times_.size()));
+  const fs::path particles = dir_ / "vtk" / vtk_name(vtk_times_.size());
+  const fs::path outline = dir_ / "vtk" / outline_name(vtk_times_.size());
+  dem::write_particles_vtp(system_, particles);
+  dem::write_mill_outline_vtp(settings_.mill.shell, mill_angle(), outline);
   vtk_times_.push_back(system_.time());
+  for (const fs::path& file : {particles, outline})
+    vtk_digests_.push_back(util::sha256_file_hex(file));
 }
 
 double MacroRun::mill_angle() const {
@@ -301,6 +315,7 @@ void MacroRun::write_state(dem::BinaryWriter& out) const {
   out.put(segments_);
   out.put<std::uint64_t>(pending_frames_.size());
   out.put_span(std::span<const double>(vtk_times_));
+  for (const std::string& digest : vtk_digests_) out.put_string(digest);
   write_events(out, pending_events_);
   power_.write(out);
   charge_.write(out);
@@ -322,6 +337,8 @@ void MacroRun::restore() {
   segments_ = in.get<std::uint64_t>();
   const auto pending = in.get<std::uint64_t>();
   vtk_times_ = in.get_vector<double>();
+  vtk_digests_.clear();
+  for (std::size_t k = 0; k < 2 * vtk_times_.size(); ++k) vtk_digests_.push_back(in.get_string());
   pending_events_ = read_events(in);
   power_.read(in);
   charge_.read(in);
@@ -333,9 +350,14 @@ void MacroRun::restore() {
   // damaged or gone would fail the run at its end, so the checkpoint is refused now instead.
   for (std::uint64_t k = 0; k < segments_; ++k) dem::read_flow_segment(dir_ / segment_name(k));
   for (std::size_t k = 0; k < vtk_times_.size(); ++k) {
-    for (const std::string& name : {vtk_name(k), outline_name(k)}) {
-      if (!fs::is_regular_file(dir_ / "vtk" / name))
-        throw dem::CorruptData(fmt::format("macro state: vtk/{} is missing", name));
+    const std::string names[] = {vtk_name(k), outline_name(k)};
+    for (std::size_t f = 0; f < 2; ++f) {
+      const fs::path file = dir_ / "vtk" / names[f];
+      if (!fs::is_regular_file(file))
+        throw dem::CorruptData(fmt::format("macro state: vtk/{} is missing", names[f]));
+      if (util::sha256_file_hex(file) != vtk_digests_[2 * k + f])
+        throw dem::CorruptData(
+            fmt::format("macro state: vtk/{} is not the file written", names[f]));
     }
   }
   log(fmt::format(

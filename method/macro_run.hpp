@@ -20,7 +20,12 @@
 //
 // Checkpoints: save() writes the DEM state, the measurement accumulators and the frames not yet
 // in a segment into the run's directory (committed by renaming state.bin last); resume()
-// continues from there with the same bits as a run that never stopped.
+// continues from there with the same bits as a run that never stopped. state.bin (MFMACRO1,
+// version 2, a dem/binary_io.hpp container): the step, the measurement's start time and
+// dissipation, the frame, segment and pending-frame counts, the VTK frames' times and each
+// frame's two files' SHA-256 (hex), the pending collision events, the power, charge and
+// collision accumulators. A resume refuses a state whose segments or VTK files are gone or not
+// the bytes written (the run then starts again).
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -139,6 +144,7 @@ class MacroRun {
   std::vector<dem::FlowFrame> pending_frames_;
   std::vector<dem::CollisionEvent> pending_events_;
   std::vector<double> vtk_times_;
+  std::vector<std::string> vtk_digests_;  // SHA-256 of each frame's particles and mill files
 };
 
 // Specific power of ball mills from the classical correlations, kW per tonne of balls, for mill

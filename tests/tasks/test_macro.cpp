@@ -339,6 +339,25 @@ TEST_F(MacroRunTest, WritesPowerCsvAndVtkFiles) {
             std::string::npos);
 }
 
+// An interval longer than any run writes the first frame only. 1e15 s is past the 2^63 steps an
+// integer holds at this dt: the count wrapped, and the run wrote a frame every step.
+TEST(MacroRunVtk, AnIntervalLongerThanTheRunWritesTheFirstFrameOnly) {
+  ScratchDir scratch("macro_vtk_interval");
+  json params = tiny_macro_params();
+  params["macro"]["measure_revolutions"] = 0.25;
+  for (const double interval : {1e15, 1e308}) {
+    params["macro"]["vtk_interval"] = interval;
+    const auto outcome = DirectRun{params, scratch.path() / fmt::format("{}", interval)}.run();
+    ASSERT_FALSE(outcome.interrupted);
+    std::vector<std::string> frames;
+    for (const auto& a : outcome.artifacts) {
+      if (a.name.ends_with(".vtp")) frames.push_back(a.name);
+    }
+    EXPECT_EQ(frames, (std::vector<std::string>{"vtk/particles_0000.vtp", "vtk/mill_0000.vtp"}))
+        << interval;
+  }
+}
+
 // Runs until `fraction` of the run is done and asks it to stop there: true when it stopped.
 bool stopped_at(const DirectRun& run, double fraction) {
   std::stop_source stop;
@@ -444,6 +463,20 @@ TEST_F(MacroRunTest, ADamagedCheckpointIsLoggedAndTheRunStartsAgainToTheSameResu
              const auto vtk = dir / "vtk" / "particles_0000.vtp";
              ASSERT_TRUE(std::filesystem::exists(vtk));
              std::filesystem::remove(vtk);
+           }},
+          // Present but not the bytes written: stored as an artifact, it had been "verified"
+          // against its own damaged bytes.
+          {"truncated VTK file",
+           [](const std::filesystem::path& dir) {
+             const auto vtk = dir / "vtk" / "particles_0000.vtp";
+             ASSERT_TRUE(std::filesystem::exists(vtk));
+             std::filesystem::resize_file(vtk, 10);
+           }},
+          {"flipped VTK outline",
+           [](const std::filesystem::path& dir) {
+             const auto vtk = dir / "vtk" / "mill_0001.vtp";
+             ASSERT_TRUE(std::filesystem::exists(vtk));
+             flip_byte(vtk, 200);
            }},
       };
   for (const auto& [name, damage] : damages) {
