@@ -55,9 +55,24 @@ double collision_duration(double normal_stiffness, double effective_mass, double
 double stiffness_for_collision_duration(double duration, double effective_mass,
                                         double damping_ratio);
 
-// Largest stable explicit time step for a damped linear spring:
-// dt_max = (2 / omega_0) (sqrt(1 + zeta^2) - zeta).
+// Largest stable time step of the library's integrator on a damped linear spring (omega_0 =
+// sqrt(k / m), damping ratio zeta): velocity Verlet with the dashpot on the velocity predicted for
+// the step's end from the last forces, v + dt a (System::step). The largest omega_0 dt at which
+// one step's amplification of (x, v, a) has spectral radius at most 1, found by bisection: 2
+// undamped, about 0.83 at zeta 0.5 and 1 / (2 zeta) when heavily damped. That is about half the
+// (2 / omega_0)(sqrt(1 + zeta^2) - zeta) of a dashpot on the step's velocity, which the library
+// took until 7 December 2026 and which let contacts damped near the critical (restitution 1e-7)
+// grow without end.
 double stable_time_step_limit(double normal_stiffness, double effective_mass, double damping_ratio);
+
+// The largest stable step of a pair's contact: the smaller of its normal oscillator's limit and
+// its tangential one's. The tangential spring k_t and dashpot C_t = tangential_damping_ratio C_n
+// act on the contact points, whose effective mass is 2/7 m_eff (solid spheres roll: each adds
+// 5/2 to its 1/m; against a wall m_eff is the sphere's mass). With the default k_t = 2/7 k_n it
+// oscillates at omega_0 with a damping ratio 7/2 C_t / C_n times the normal one (1.75 times at
+// C_t = C_n / 2): near the critical (restitution 1e-7) it, not the normal one, bounds the step,
+// and a step inside the normal limit alone let a sticking contact's velocity grow without end.
+double pair_stable_time_step_limit(const PairParams& params, double effective_mass);
 
 // m_a m_b / (m_a + m_b); a wall is infinitely heavy: pass a non-positive m_b for a wall.
 inline double effective_mass(double mass_a, double mass_b) {

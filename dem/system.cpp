@@ -243,7 +243,7 @@ double System::stable_time_step() const {
       const PairParams& p = materials_.pair(a, b);
       const double m_eff =
           std::isfinite(lightest[b]) ? effective_mass(lightest[a], lightest[b]) : lightest[a];
-      limit = std::min(limit, stable_time_step_limit(p.normal_stiffness, m_eff, p.damping_ratio));
+      limit = std::min(limit, pair_stable_time_step_limit(p, m_eff));
     }
   }
   return limit;

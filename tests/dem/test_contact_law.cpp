@@ -32,6 +32,37 @@ TEST(DerivedCoefficients, StabilityLimitOfUndampedSpringIsTwoOverOmega) {
   EXPECT_LT(stable_time_step_limit(1e6, 1.0, 0.5), 2e-3);
 }
 
+// The largest value |x| reaches over 2,000 steps of the library's integrator (velocity Verlet, the
+// dashpot on the velocity predicted from the last forces, v + h a) on x'' = -x - 2 zeta v from
+// x = 1 at rest.
+double largest_swing(double zeta, double h) {
+  double x = 1.0, v = 0.0, a = -1.0, largest = 1.0;
+  for (int n = 0; n < 2000; ++n) {
+    const double half = v + 0.5 * h * a;
+    x += h * half;
+    a = -x - 2.0 * zeta * (half + 0.5 * h * a);
+    v = half + 0.5 * h * a;
+    largest = std::max(largest, std::abs(x));
+  }
+  return largest;
+}
+
+// The limit is the integrator's own: a step 1% inside it decays, 1% beyond it grows, at every
+// damping; heavily damped it is 1 / (2 zeta omega). The formula for a dashpot on the step's
+// velocity, (2 / omega)(sqrt(1 + zeta^2) - zeta), which the library took until 7 December 2026,
+// is 1.5-2 times too long where the damping is large.
+TEST(DerivedCoefficients, StabilityLimitIsTheIntegratorsOwn) {
+  for (const double zeta : {0.05, 0.2, 0.5, 0.98, 1.75, 3.0}) {
+    const double limit = stable_time_step_limit(1.0, 1.0, zeta);
+    EXPECT_LE(largest_swing(zeta, 0.99 * limit), 1.0) << zeta;
+    EXPECT_GT(largest_swing(zeta, 1.01 * limit), 1e3) << zeta;
+    if (zeta >= 0.5) {
+      EXPECT_LT(limit, 0.7 * 2.0 * (std::sqrt(1.0 + zeta * zeta) - zeta)) << zeta;
+    }
+  }
+  EXPECT_NEAR(stable_time_step_limit(1.0, 1.0, 10.0), 1.0 / 20.0, 0.01 / 20.0);
+}
+
 TEST(DerivedCoefficients, EffectiveMassTreatsWallAsInfinitelyHeavy) {
   EXPECT_DOUBLE_EQ(effective_mass(2.0, 2.0), 1.0);
   EXPECT_DOUBLE_EQ(effective_mass(3.0, 0.0), 3.0);

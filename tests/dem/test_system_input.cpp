@@ -97,6 +97,48 @@ TEST(SystemInput, ACriticallyDampedContactIsToldHowManyStepsPerCollisionItNeeds)
             "no error");
 }
 
+// A contact damped near the critical (restitution 1e-7) that sticks: its tangential spring and
+// dashpot act on the contact point, whose effective mass is 2/7 of the pair's (the spheres roll),
+// with C_t = C_n / 2, so its tangential oscillator is damped 1.75 times as hard as the normal one
+// and bounds the step. A sphere resting on a floor, pushed along it, is refused 20 steps per
+// collision (the old limit, the normal oscillator's by a formula for another scheme, allowed them,
+// and such cells ran to NaN), and at the steps the message names comes to rest.
+TEST(SystemInput, ANearlyCriticalDashpotGetsAStepItsTangentialOscillatorKeepsStable) {
+  constexpr double kRadius = 0.005, kStiffness = 1e6, g = 9.81, e = 1e-7;
+  const MaterialTable table = steel_table(e, 1e6, kStiffness);
+  System system(table, open_box(1.0), Vec3(0, 0, -g));
+  system.add_wall({.name = "floor",
+                   .material = 0,
+                   .shape = PlaneWall{.origin = Vec3::Zero(), .normal = Vec3::UnitZ()}});
+  const double m = testing::sphere_mass(kRadius);
+  const double v0 = 0.01;
+  system.add_particle({.position = Vec3(0, 0, kRadius - m * g / kStiffness),
+                       .velocity = Vec3(v0, 0, 0),
+                       .radius = kRadius});
+  // The lightest pair: two such spheres.
+  const PairParams& pair = table.pair(0, 0);
+  const double normal = stable_time_step_limit(kStiffness, m / 2.0, pair.damping_ratio);
+  const double limit = pair_stable_time_step_limit(pair, m / 2.0);
+  EXPECT_LT(limit, 0.75 * normal);  // the tangential oscillator's
+  EXPECT_EQ(system.stable_time_step(), limit);
+  const double t_c = system.min_collision_duration();
+  const double needed = std::ceil(t_c / limit);
+  ASSERT_GT(needed, 20.0);
+  EXPECT_EQ(error_of([&] { system.set_time_step_from_collisions(20); }),
+            fmt::format("time step dt = {:.4g} s is above the stability limit {:.4g} s of the "
+                        "stiffest, lightest contact; use dt <= {:.4g} s: {:.0f} or more steps per "
+                        "collision of the shortest contact (t_c = {:.4g} s)",
+                        t_c / 20.0, limit, limit, needed, t_c));
+  system.set_time_step_from_collisions(static_cast<int>(needed));
+  const double start_energy = 0.5 * m * v0 * v0;
+  for (int k = 0; k < 40; ++k) {
+    system.step(static_cast<std::size_t>(needed));
+    const double speed = system.velocities()[0].norm();
+    ASSERT_TRUE(std::isfinite(speed)) << "after " << k + 1 << " contact durations";
+    EXPECT_LE(0.5 * m * speed * speed, start_energy) << "after " << k + 1 << " contact durations";
+  }
+}
+
 TEST(SystemInput, MissingInteractionIsNamedWhenDerivingTheTimeStep) {
   MaterialTable table;
   const MaterialId steel = table.add({"steel", 7800.0});
