@@ -28,6 +28,10 @@ using nlohmann::json;
 // bound keeps a mistyped strain (1e308) from reaching the cell, whose step count would overflow
 // (dem::ShearCell refuses more than 2^53 steps).
 constexpr double kMostCellStrain = 1000.0;
+// The least strain a cell measures: any positive one passed, and 5e-324 failed in the cell ("less
+// than two time steps") after the macro runs; a measurement needs some batches of strain for its
+// mean and standard error (dem/batch_means.hpp), and the campaigns measure 1-8.
+constexpr double kLeastMeasuredStrain = 0.01;
 
 const char* const material_name = "[a-z][a-z0-9_]*";
 const std::vector<std::string> flow_regions = {"bulk", "shoulder",    "cascading",
@@ -376,7 +380,7 @@ std::vector<engine::FieldRule> micro_fields() {
       Field("/shear_cell/measure_strain", FieldType::number,
             "shear strain measured at least (the cell goes on to convergence)")
           .defaults(4.0)
-          .range(above(0), at_most(kMostCellStrain)),
+          .range(at_least(kLeastMeasuredStrain), at_most(kMostCellStrain)),
       Field("/shear_cell/convergence", FieldType::object,
             "measure until the standard errors of friction and powder dissipation reach a target")
           .defaults(json::object()),

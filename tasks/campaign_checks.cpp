@@ -108,6 +108,12 @@ double largest_diameter(const std::vector<BallClass>& balls) {
   return largest;
 }
 
+// x rounded up to two significant digits, so that the figure shown is on the safe side.
+double round_up_2(double x) {
+  const double unit = std::pow(10.0, std::floor(std::log10(x)) - 1.0);
+  return std::ceil(x / unit) * unit;
+}
+
 class ConsistencyChecker {
  public:
   explicit ConsistencyChecker(const Campaign& campaign) : campaign_(campaign) {}
@@ -136,6 +142,8 @@ class ConsistencyChecker {
     check_wall_measured_window();
     check_stiffness_sensitivity();
     check_wall_cell_height();
+    check_cell_gravity();
+    check_restitution_steps();
     return std::move(errors_);
   }
 
@@ -508,6 +516,84 @@ class ConsistencyChecker {
               " (at 6 its friction came out 11% below Lees-Edwards')",
           "raise it to at least " + quantity(dem::kRoughWallLeastHeight) +
               " or use \"lees_edwards\"");
+  }
+
+  // Gravity pulls the bed against a floor, which only rough walls give: every Lees-Edwards cell
+  // of the campaign would fail as it starts, after the macro runs (dem::ShearCellSetup).
+  void check_cell_gravity() {
+    const auto* gravity = campaign_.node("/shear_cell/gravity");
+    const auto* enabled = campaign_.node("/shear_cell/enabled");
+    if (gravity == nullptr || !gravity->is_boolean() || !gravity->get<bool>() ||
+        campaign_.text("/shear_cell/boundary") == "walls" ||
+        (enabled != nullptr && enabled->is_boolean() && !enabled->get<bool>()))
+      return;
+    error("/shear_cell/gravity",
+          "true needs rough walls: a Lees-Edwards cell is periodic along the gradient axis and has "
+          "no floor to hold the bed's weight",
+          "set it to false, or /shear_cell/boundary to \"walls\"");
+  }
+
+  // A contact damped near the critical (restitution near 0) lasts long against its stability
+  // limit, its tangential oscillator's above all (dem::pair_stable_time_step_limit): the runs that
+  // hold the pair would be refused as they start, after hours of a campaign's other tasks. The
+  // steps it needs are exact where the pair holds a run's shortest contact, the one dt follows.
+  void check_restitution_steps() {
+    const auto* interactions = campaign_.node("/interactions");
+    if (interactions == nullptr) return;
+    const auto media = campaign_.text("/media/material");
+    const auto liner = campaign_.text("/mill/liner_material");
+    const auto powder = campaign_.text("/shear_cell/powder/material");
+    for (std::size_t n = 0; n < interactions->size(); ++n) {
+      const std::string at = fmt::format("/interactions/{}", n);
+      const auto restitution = campaign_.number(at + "/restitution");
+      const auto stiffness_ratio = campaign_.number(at + "/tangential_stiffness_ratio");
+      const auto damping_ratio = campaign_.number(at + "/tangential_damping_ratio");
+      const auto a = campaign_.text(at + "/materials/0");
+      const auto b = campaign_.text(at + "/materials/1");
+      if (!restitution || !stiffness_ratio || !damping_ratio || !a || !b) continue;
+      const auto steps_needed = [&](double e) {
+        const double zeta = dem::damping_ratio_for_restitution(e);
+        const dem::PairParams unit{.normal_stiffness = 1.0,
+                                   .tangential_stiffness = *stiffness_ratio,
+                                   .damping_ratio = zeta,
+                                   .tangential_damping_ratio = *damping_ratio};
+        return std::ceil(dem::collision_duration(1.0, 1.0, zeta) /
+                         dem::pair_stable_time_step_limit(unit, 1.0));
+      };
+      // The runs the pair meets in: the macro runs (balls and liner), the cells (balls, powder).
+      const auto among = [&](std::initializer_list<std::optional<std::string>> materials) {
+        const auto in = [&](const std::string& m) {
+          return std::any_of(materials.begin(), materials.end(),
+                             [&](const auto& x) { return x && *x == m; });
+        };
+        return in(*a) && in(*b);
+      };
+      const double needed = steps_needed(*restitution);
+      std::vector<std::string> short_of;  // "path = steps" of each run that steps too coarsely
+      double fewest = needed;
+      for (const auto& [path, meets] :
+           {std::pair{std::string("/dem/steps_per_collision"), among({media, liner})},
+            std::pair{std::string("/shear_cell/steps_per_collision"), among({media, powder})}}) {
+        const auto steps = campaign_.number(path);
+        if (!meets || !steps || *steps >= needed) continue;
+        short_of.push_back(path + " = " + quantity(*steps));
+        fewest = std::min(fewest, *steps);
+      }
+      if (short_of.empty()) continue;
+      // The least restitution the fewest steps hold: steps_needed falls as e rises.
+      double low = *restitution, high = 1.0;
+      for (int k = 0; k < 60; ++k) {
+        const double mid = std::sqrt(low * high);
+        (steps_needed(mid) <= fewest ? high : low) = mid;
+      }
+      const bool both = short_of.size() == 2;
+      error(at + "/restitution",
+            quantity(*restitution) + " damps the contact so near the critical that a run needs " +
+                quantity(needed) + " steps per collision to be stable, more than " +
+                short_of.front() + (both ? " and " + short_of.back() : ""),
+            std::string(both ? "raise both" : "raise it") + " to at least " + quantity(needed) +
+                ", or the restitution to at least " + fmt::format("{:.2g}", round_up_2(high)));
+    }
   }
 
   // A stiffness given as k_n whose contact between the pair's reference particles (balls of the
