@@ -9,9 +9,11 @@
 #include <cstring>
 #include <functional>
 #include <iostream>
+#include <optional>
 
 #include "cli/estimate.hpp"
 #include "cli/executor_choice.hpp"
+#include "cli/number_checks.hpp"
 #include "engine/attempt_files.hpp"
 #include "engine/coordinator_lock.hpp"
 #include "engine/database_path.hpp"
@@ -52,32 +54,13 @@ struct RunFlags {
   int retries = 0;
   std::string executor;  // overrides the campaign's executor.kind
   double poll_interval_s = 10.0;
-  std::string run_dir;             // batch jobs' run directory; default <db>.jobs
-  std::vector<std::string> force;  // task kinds or task key prefixes
-  std::string until;               // a task kind
+  std::string run_dir;               // batch jobs' run directory; default <db>.jobs
+  std::vector<std::string> force;    // task kinds or task key prefixes
+  std::optional<std::string> until;  // a task kind; `--until ""` is no kind, not "no --until"
 };
 
 constexpr int kMaxJobs = 1024;
 constexpr int kMaxRetries = 100;
-
-// A finite number of seconds in [low, high] (CLI11's number checks let NaN through).
-CLI::Validator seconds_between(double low, double high) {
-  return CLI::Validator(
-      [low, high](std::string& text) -> std::string {
-        double value = 0.0;
-        try {
-          std::size_t used = 0;
-          value = std::stod(text, &used);
-          if (used != text.size()) return "\"" + text + "\" is not a number of seconds";
-        } catch (const std::exception&) {
-          return "\"" + text + "\" is not a number of seconds";
-        }
-        if (!(value >= low && value <= high))
-          return fmt::format("{} s is outside [{}, {}] s", text, low, high);
-        return {};
-      },
-      fmt::format("SECONDS in [{}, {}]", low, high));
-}
 
 // The --db of a command that reads an existing database, checked (engine/database_path.hpp)
 // before the command opens or creates anything.
@@ -131,12 +114,12 @@ engine::RunOptions selection(const engine::Registry& registry,
            "name a kind (" + registry.kinds.names() + ") or a key from `millflow explain FILE`"});
     }
   }
-  if (!flags.until.empty() && !registry.kinds.contains(flags.until)) {
-    errors.push_back({"--until", "\"" + flags.until + "\" is not a task kind",
+  if (flags.until && !registry.kinds.contains(*flags.until)) {
+    errors.push_back({"--until", "\"" + *flags.until + "\" is not a task kind",
                       "name one of: " + registry.kinds.names()});
   }
   if (!errors.empty()) throw engine::InvalidInput(errors);
-  options.until = flags.until;
+  options.until = flags.until.value_or("");
   return options;
 }
 
@@ -156,7 +139,7 @@ void add_run_options(CLI::App* command, RunFlags& flags) {
   command
       ->add_option("--poll-interval", flags.poll_interval_s,
                    "Slurm: seconds between polls of the jobs (default 10)")
-      ->check(seconds_between(0.1, 86400.0));
+      ->check(finite_between(0.1, 86400.0, "s"));
   command->add_option(
       "--run-dir", flags.run_dir,
       "Slurm: run directory on a filesystem the compute nodes share (default <db>.jobs)");

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <tbb/task_arena.h>
 
+#include "cli/number_checks.hpp"
 #include "dem/mill_setup.hpp"
 #include "util/sphere.hpp"
 
@@ -84,17 +85,22 @@ void add_demo_command(CLI::App& app) {
   auto* demo = app.add_subcommand(
       "demo", "Run a built-in DEM mill slice (1 m, 40 mm balls) and print its power draw");
   demo->add_option("--fill", options.fill, "Mill filling J (fraction of mill volume)")
-      ->check(CLI::Range(0.05, 0.5));
+      ->check(finite_between(0.05, 0.5));
   demo->add_option("--speed", options.speed_fraction, "Speed as a fraction of critical speed")
-      ->check(CLI::Range(0.1, 1.5));
+      ->check(finite_between(0.1, 1.5));
   demo->add_option("--revolutions", options.revolutions, "Revolutions to measure")
-      ->check(CLI::Range(1.0, 20.0));
+      ->check(finite_between(1.0, 20.0));
   demo->add_option("--threads", options.threads, "Worker threads (0: all cores)")
       ->check(CLI::Range(0, 256));
   demo->callback([] {
     tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
-    arena.execute([] { run_demo(options); });
-    g_exit_code = 0;
+    try {
+      arena.execute([] { run_demo(options); });
+      g_exit_code = 0;
+    } catch (const std::exception& e) {  // a failed run, named, not an abort
+      fmt::print(stderr, "millflow demo: {}\n", e.what());
+      g_exit_code = 1;
+    }
   });
 }
 

@@ -282,7 +282,17 @@ TEST_F(HostileInput, ValuesNoRunCanUseAreExitTwoWithThePathAndAFix) {
   EXPECT_EQ(poll.exit_code, 2);
   EXPECT_EQ(poll.err.substr(0, poll.err.find('\n')),
             "--poll-interval: nan s is outside [0.1, 86400] s");
+  // An empty kind is no kind (it read as no --until at all).
+  const auto until = millflow({"submit", campaign.string(), "--until", "", "--db", db.string()});
+  EXPECT_EQ(until.exit_code, 2);
+  EXPECT_NE(until.err.find("--until: \"\" is not a task kind"), std::string::npos) << until.err;
   EXPECT_FALSE(fs::exists(db));
+  // NaN passed CLI11's ranges: the demo aborted on a NaN fill and ran nothing for NaN revolutions.
+  for (const std::string option : {"--fill", "--speed", "--revolutions"}) {
+    const auto demo = millflow({"demo", option, "nan"});
+    EXPECT_EQ(demo.exit_code, 2) << option;
+    EXPECT_EQ(demo.err.substr(0, demo.err.find(" is outside")), option + ": nan") << option;
+  }
 
   ASSERT_EQ(millflow({"submit", campaign.string(), "--db", db.string()}).exit_code, 0);
   const fs::path file = dir_.path() / "a-file";
