@@ -77,8 +77,7 @@ std::shared_ptr<spdlog::logger> campaign_logger(const fs::path& db, const std::s
 class DryRunner {
  public:
   DryRunner(const Registry& registry, const fs::path& db, const RunOptions& options)
-      : registry_(registry), artifacts_(artifacts_dir(db)) {
-    if (fs::exists(db)) db_.emplace(open_read_only(db));
+      : registry_(registry), artifacts_(artifacts_dir(db)), db_(open_read_only_if_submitted(db)) {
     if (db_) earlier_.emplace(*db_);
     judge_.emplace(artifacts_, options.force, earlier_ ? &*earlier_ : nullptr);
   }
@@ -324,8 +323,26 @@ RunSummary submit_campaign(const Registry& registry, const Campaign& campaign,
                  *lock.stale_holder());
   }
   store.set_coordinator(static_cast<int>(::getpid()), host_name(), campaign.name);
+  // An error out of the run (a damaged store, a full disk) leaves the database as an orderly end
+  // does: the campaign failed, no coordinator recorded. Left behind, the record made the next
+  // coordinator report taking over from one that was gone, and `status` call the campaign
+  // interrupted by a coordinator that died.
+  struct RecordTheEnd {
+    Store& store;
+    std::optional<std::int64_t> campaign;
+    bool finished = false;
+    ~RecordTheEnd() {
+      if (finished) return;
+      try {
+        if (campaign) store.finish_campaign(*campaign, "failed");
+        store.clear_coordinator();
+      } catch (const std::exception&) {  // the store that failed may fail again: the lock is enough
+      }
+    }
+  } record_the_end{store, std::nullopt};
   const std::int64_t id =
       store.register_campaign(campaign.name, campaign.format, campaign.document, planned);
+  record_the_end.campaign = id;
   logger->info("campaign \"{}\": {} planned tasks, code version {}", campaign.name, planned.size(),
                code_version());
 
@@ -350,6 +367,7 @@ RunSummary submit_campaign(const Registry& registry, const Campaign& campaign,
                                                       : "done";
   store.finish_campaign(id, outcome);
   store.clear_coordinator();
+  record_the_end.finished = true;
   logger->info("campaign \"{}\" {}: {}", campaign.name, outcome, summary.describe());
   return summary;
 }

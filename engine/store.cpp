@@ -251,21 +251,29 @@ std::string damaged_database_fix(const fs::path& db) {
       db.string());
 }
 
-sql::Connection open_read_only(const fs::path& db) {
-  if (!fs::exists(db)) {
-    throw std::runtime_error("no database at " + db.string() +
-                             ": submit a campaign first, or pass --db");
-  }
+std::optional<sql::Connection> open_read_only_if_submitted(const fs::path& db) {
+  if (!fs::exists(db)) return std::nullopt;
   sql::Connection connection(db, sql::Access::read_only);
   const int version = readable_user_version(connection, db);
-  if (version == 0) {  // the schema and its version are committed together
-    throw std::runtime_error(
-        "the database " + db.string() +
-        " has no millflow tables (nothing was submitted to it, or its first submit stopped "
-        "before creating them): submit the campaign again");
-  }
+  if (version == 0) return std::nullopt;  // the schema and its version are committed together
   refuse_newer_schema(db, version);
   return connection;
+}
+
+sql::Connection open_read_only(const fs::path& db) {
+  if (!fs::exists(db)) {
+    throw InvalidInput(
+        {{"--db", "no database at " + db.string(), "submit a campaign first, or pass --db"}});
+  }
+  std::optional<sql::Connection> connection = open_read_only_if_submitted(db);
+  if (!connection) {  // bad input, as a file that is no database is: exit 2, not a failed run
+    throw InvalidInput({{"--db",
+                         "the database " + db.string() +
+                             " has no millflow tables (nothing was submitted to it, or its first "
+                             "submit stopped before creating them)",
+                         "submit the campaign again"}});
+  }
+  return std::move(*connection);
 }
 
 void check_database_readable(const fs::path& db) {
@@ -335,8 +343,11 @@ std::optional<StoredCampaign> find_campaign(sql::Connection& db, const std::stri
 namespace {
 
 // A task's result says it skipped its work (r: results; RunSummary::skipped_their_work_done and
-// _cached).
-constexpr std::string_view kResultSaysSkipped = "json_extract(r.result, '$.skipped') IS NOT NULL";
+// _cached). CASE, not AND: SQLite does not promise to skip the second operand of AND, and
+// json_extract on text that is not JSON (a damaged result) fails the whole query.
+constexpr std::string_view kResultSaysSkipped =
+    "CASE WHEN json_valid(r.result) THEN json_extract(r.result, '$.skipped') IS NOT NULL ELSE 0 "
+    "END";
 
 // A task's status as shown (t: tasks, r: results): "skipped" for a done task whose result says
 // it skipped its work.
@@ -350,7 +361,7 @@ const std::string& shown_status() {
 // but its artifacts and children.
 const std::string& stored_task_columns() {
   static const std::string columns =
-      fmt::format("t.status, t.attempts, coalesce(t.error, ''), r.task_key IS NOT NULL, {}",
+      fmt::format("t.status, t.attempts, coalesce(t.error, ''), json_valid(r.result) IS 1, {}",
                   kResultSaysSkipped);
   return columns;
 }

@@ -107,9 +107,15 @@ std::string damaged_database_problem(const std::filesystem::path& db,
                                      std::string_view sqlite_message);
 std::string damaged_database_fix(const std::filesystem::path& db);
 
-// Read-only connection to an existing database whose schema this build understands. A file that
-// is not a readable SQLite database is InvalidInput (path "--db").
+// Read-only connection to an existing database whose schema this build understands. A missing
+// file, one without millflow tables and one that is not a readable SQLite database are
+// InvalidInput (path "--db").
 sql::Connection open_read_only(const std::filesystem::path& db);
+
+// The same for a database that may not hold a campaign yet: none for a missing file or one
+// without millflow tables (a first submit killed before creating them), which a submit takes
+// as an empty store (the dry run too).
+std::optional<sql::Connection> open_read_only_if_submitted(const std::filesystem::path& db);
 
 // Refuses, before anything is written beside it, a database file SQLite cannot read
 // (InvalidInput, path "--db") or one of a newer schema (SchemaTooNew). A missing file, or one
@@ -126,7 +132,7 @@ struct StoredTask {
   TaskStatus status = TaskStatus::pending;
   int attempts = 0;
   std::string error;
-  bool has_result = false;
+  bool has_result = false;  // and it is JSON: a damaged one counts as none, and the task re-runs
   bool skipped_its_work = false;  // its result says it skipped its work (RunSummary)
   std::vector<StoredArtifact> artifacts;
   std::vector<std::string> children;  // declared by its result, in declaration order

@@ -77,11 +77,51 @@ TEST(Store, ReadersOfADatabaseWithoutTablesSayToSubmitAgain) {
     open_read_only(dir.db());
     FAIL() << "a database without tables was opened";
   } catch (const std::runtime_error& error) {
-    EXPECT_EQ(std::string(error.what()), "the database " + dir.db().string() +
+    EXPECT_EQ(std::string(error.what()), "--db: the database " + dir.db().string() +
                                              " has no millflow tables (nothing was submitted to "
                                              "it, or its first submit stopped before creating "
-                                             "them): submit the campaign again");
+                                             "them); submit the campaign again");
+    EXPECT_NE(dynamic_cast<const InvalidInput*>(&error), nullptr);  // exit 2, not 1
   }
+}
+
+// A stored result that is not JSON (a byte of the file changed) failed every submit, resume and
+// status with SQLite's "malformed JSON" from the query that reads whether results say "skipped":
+// it is no result now, and its task runs again.
+TEST(Store, AResultThatIsNotJsonIsNoResultAndItsTaskRunsAgain) {
+  ScratchDir dir;
+  const auto one = test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}}));
+  ASSERT_EQ(submit(one, dir.db()).exit_code(), 0);
+  {
+    sql::Connection raw(dir.db(), sql::Access::read_write);
+    raw.exec("UPDATE results SET result = replace(result, ':', '~')");
+  }
+  ASSERT_EQ(count(dir.db(), "SELECT count(*) FROM results WHERE json_valid(result)"), 0);
+  const RunSummary again = submit(one, dir.db());
+  EXPECT_EQ(again.exit_code(), 0);
+  EXPECT_EQ(again.done, 1);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM results WHERE json_valid(result)"), 1);
+}
+
+// A launcher that fails outright: an error out of the coordinator's run, not out of a task.
+class BrokenLauncher final : public Launcher {
+ public:
+  void launch(std::function<void()>) override { throw std::runtime_error("no worker left"); }
+  void wait_idle() override {}
+};
+
+// A coordinator stopped by an error records the campaign as failed and leaves no coordinator
+// behind; it left its record, and the next submit reported taking over from a coordinator that was
+// gone, and `status` called the campaign interrupted by one that had died.
+TEST(Store, ACoordinatorStoppedByAnErrorLeavesNoRecordOfItself) {
+  ScratchDir dir;
+  const auto one = test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}}));
+  BrokenLauncher broken;
+  SubmitOptions options;
+  options.launcher = &broken;
+  EXPECT_THROW(submit_campaign(testing_registry(), one, dir.db(), options), std::runtime_error);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM coordinator"), 0);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM campaigns WHERE outcome = 'failed'"), 1);
 }
 
 // ... and a submit to it creates the schema: the coordinator lock's look at who held the database
@@ -89,6 +129,11 @@ TEST(Store, ReadersOfADatabaseWithoutTablesSayToSubmitAgain) {
 TEST(Store, SubmitToADatabaseWithoutTablesCreatesThem) {
   ScratchDir dir;
   { sql::Connection raw(dir.db(), sql::Access::read_write); }
+  // The dry run takes it for the empty store the submit finds (it refused what submit ran).
+  const auto one = test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}}));
+  const DryRun dry = dry_run(testing_registry(), one, dir.db());
+  ASSERT_EQ(dry.tasks.size(), 1u);
+  EXPECT_FALSE(dry.tasks[0].decision.cached());
   EXPECT_EQ(submit(test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})), dir.db())
                 .exit_code(),
             0);
