@@ -80,6 +80,15 @@ TEST(SystemInput, TimeStepAboveStabilityLimitIsRefused) {
   EXPECT_EQ(error_of([&] { system.set_time_step(0.5 * limit); }), "no error");
 }
 
+// What set_time_step_from_collisions(20) says when t_c / 20 is above the stability limit.
+std::string refused_at_20_steps(double t_c, double limit) {
+  return fmt::format(
+      "time step dt = {:.4g} s is above the stability limit {:.4g} s of the stiffest, lightest "
+      "contact; use dt <= {:.4g} s: {:.0f} or more steps per collision of the shortest contact "
+      "(t_c = {:.4g} s)",
+      t_c / 20.0, limit, limit, std::ceil(t_c / limit), t_c);
+}
+
 TEST(SystemInput, ACriticallyDampedContactIsToldHowManyStepsPerCollisionItNeeds) {
   // Restitution near 0: the contact lasts long, but its dashpot limits the step far below t_c /
   // 20. The message gives a count of steps per collision that works.
@@ -89,10 +98,7 @@ TEST(SystemInput, ACriticallyDampedContactIsToldHowManyStepsPerCollisionItNeeds)
   const double needed = std::ceil(t_c / limit);
   ASSERT_GT(needed, 20.0);
   EXPECT_EQ(error_of([&] { system.set_time_step_from_collisions(20); }),
-            fmt::format("time step dt = {:.4g} s is above the stability limit {:.4g} s of the "
-                        "stiffest, lightest contact; use dt <= {:.4g} s: {:.0f} or more steps per "
-                        "collision of the shortest contact (t_c = {:.4g} s)",
-                        t_c / 20.0, limit, limit, needed, t_c));
+            refused_at_20_steps(t_c, limit));
   EXPECT_EQ(error_of([&] { system.set_time_step_from_collisions(static_cast<int>(needed)); }),
             "no error");
 }
@@ -125,10 +131,7 @@ TEST(SystemInput, ANearlyCriticalDashpotGetsAStepItsTangentialOscillatorKeepsSta
   const double needed = std::ceil(t_c / limit);
   ASSERT_GT(needed, 20.0);
   EXPECT_EQ(error_of([&] { system.set_time_step_from_collisions(20); }),
-            fmt::format("time step dt = {:.4g} s is above the stability limit {:.4g} s of the "
-                        "stiffest, lightest contact; use dt <= {:.4g} s: {:.0f} or more steps per "
-                        "collision of the shortest contact (t_c = {:.4g} s)",
-                        t_c / 20.0, limit, limit, needed, t_c));
+            refused_at_20_steps(t_c, limit));
   system.set_time_step_from_collisions(static_cast<int>(needed));
   const double start_energy = 0.5 * m * v0 * v0;
   for (int k = 0; k < 40; ++k) {
