@@ -197,7 +197,8 @@ CacheDecision CacheJudge::decide(const TaskSpec& spec, const std::optional<Store
   }
   if (!stored->has_result) {
     decision.reason = RunReason::result_missing;
-    decision.detail = "done, but the store holds no result for it that is JSON";
+    decision.detail =
+        "done, but the store holds no intact result for it (none, not JSON, or not its digest)";
     return decision;
   }
   for (const auto& artifact : stored->artifacts) {

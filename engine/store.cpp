@@ -8,6 +8,7 @@
 #include "engine/canonical_json.hpp"
 #include "engine/validation.hpp"
 #include "engine/version.hpp"
+#include "util/sha256.hpp"
 
 namespace millflow::engine {
 namespace fs = std::filesystem;
@@ -139,6 +140,12 @@ DROP TABLE results;
 PRAGMA legacy_alter_table = ON;
 ALTER TABLE results_rebuilt RENAME TO results;
 PRAGMA legacy_alter_table = OFF;
+)sql",
+      // Each result's SHA-256 (hex) of its text: a result changed in the file, to other valid
+      // JSON, reads as no result, and its task runs again. Rows of earlier versions keep NULL and
+      // are not checked.
+      R"sql(
+ALTER TABLE results ADD COLUMN sha256 TEXT;
 )sql",
   };
   return steps;
@@ -358,19 +365,24 @@ const std::string& shown_status() {
 }
 
 // A stored task's columns (t: tasks, r: results), from column `first` on: what StoredTask holds
-// but its artifacts and children.
-const std::string& stored_task_columns() {
-  static const std::string columns =
-      fmt::format("t.status, t.attempts, coalesce(t.error, ''), json_valid(r.result) IS 1, {}",
-                  kResultSaysSkipped);
-  return columns;
+// but its artifacts and children (the result and its digest, which stored_task_from checks).
+std::string stored_task_columns(sql::Connection& db) {
+  return fmt::format("t.status, t.attempts, coalesce(t.error, ''), r.result, {}, {}",
+                     db.user_version() < 5 ? "NULL" : "r.sha256", kResultSaysSkipped);
+}
+// A result counts when it is JSON and, where the store holds its digest, has it.
+bool result_intact(sql::Statement& row, int result, int digest) {
+  if (row.is_null(result)) return false;
+  const std::string text = row.text(result);
+  return nlohmann::json::accept(text) &&
+         (row.is_null(digest) || util::sha256_hex(text) == row.text(digest));
 }
 StoredTask stored_task_from(sql::Statement& row, int first) {
   return StoredTask{.status = task_status_from(row.text(first)),
                     .attempts = static_cast<int>(row.integer(first + 1)),
                     .error = row.text(first + 2),
-                    .has_result = row.integer(first + 3) != 0,
-                    .skipped_its_work = row.integer(first + 4) != 0,
+                    .has_result = result_intact(row, first + 3, first + 4),
+                    .skipped_its_work = row.integer(first + 5) != 0,
                     .artifacts = {},
                     .children = {}};
 }
@@ -380,7 +392,7 @@ StoredTask stored_task_from(sql::Statement& row, int first) {
 std::optional<StoredTask> find_stored_task(sql::Connection& db, const std::string& key) {
   auto row = db.prepare(fmt::format(
       "SELECT {} FROM tasks t LEFT JOIN results r ON r.task_key = t.key WHERE t.key = ?",
-      stored_task_columns()));
+      stored_task_columns(db)));
   row.bind_all(key);
   if (!row.step()) return std::nullopt;
   StoredTask task = stored_task_from(row, 0);
@@ -395,7 +407,7 @@ std::unordered_map<std::string, StoredTask> find_campaign_tasks(sql::Connection&
   auto rows = db.prepare(
       fmt::format("SELECT t.key, {} FROM campaign_tasks ct JOIN tasks t ON t.key = ct.task_key "
                   "LEFT JOIN results r ON r.task_key = t.key WHERE ct.campaign_id = ?",
-                  stored_task_columns()));
+                  stored_task_columns(db)));
   rows.bind_all(campaign);
   while (rows.step()) tasks.emplace(rows.text(0), stored_task_from(rows, 1));
   auto artifacts = db.prepare(
@@ -542,8 +554,10 @@ void Store::commit_done(std::int64_t campaign, const std::string& key, const nlo
                         const std::vector<TaskSpec>& children, double duration_s) {
   sql::Transaction transaction(db_);
   const double now = clock_.now();
-  statement("INSERT OR REPLACE INTO results (task_key, result, committed_at) VALUES (?, ?, ?)")
-      .bind_all(key, canonical_json(result), now)
+  const std::string text = canonical_json(result);
+  statement(
+      "INSERT OR REPLACE INTO results (task_key, result, committed_at, sha256) VALUES (?, ?, ?, ?)")
+      .bind_all(key, text, now, util::sha256_hex(text))
       .run();
   statement("DELETE FROM artifacts WHERE task_key = ?").bind_all(key).run();
   auto& artifact = statement(

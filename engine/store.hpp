@@ -2,7 +2,7 @@
 // The provenance store: one SQLite file, written by exactly one connection (this class), owned by
 // the coordinating thread. Readers open their own read-only connections (open_read_only).
 //
-// Schema version 4 (PRAGMA user_version = 4); times are Unix seconds (REAL), JSON is canonical
+// Schema version 5 (PRAGMA user_version = 5); times are Unix seconds (REAL), JSON is canonical
 // text.
 //   campaigns      id PK, name UNIQUE, format, document (the loaded campaign JSON), submitted_at,
 //                  finished_at, outcome ('running'|'done'|'failed'|'interrupted'|'partial':
@@ -14,7 +14,11 @@
 //                  host, code_version, error
 //   campaign_tasks campaign_id, task_key: which tasks belong to which campaign (tasks are shared)
 //   edges          downstream, position, upstream: the DAG (position = input order)
-//   results        task_key PK, result (JSON), committed_at (since version 4 WITHOUT ROWID)
+//   results        task_key PK, result (JSON), committed_at (since version 4 WITHOUT ROWID),
+//                  sha256 (since version 5: the SHA-256 hex of the result's text, checked when
+//                  the runtime reads whether a task is done: a result that is not its text any
+//                  more, or not JSON, is no result and its task runs again; NULL in rows committed
+//                  by earlier versions, which are not checked)
 //   artifacts      task_key, name, sha256, size, path (relative to the database's directory);
 //                  files live in <db>.artifacts/<sha[0:2]>/<sha>
 //   status_history id, task_key, status, attempt, at, message: every status change (since
@@ -63,7 +67,7 @@
 
 namespace millflow::engine {
 
-inline constexpr int kSchemaVersion = 4;
+inline constexpr int kSchemaVersion = 5;
 
 // The SQL of migration i takes a database from user_version i to i + 1 (tests build old versions).
 const std::vector<std::string>& schema_migrations();
@@ -132,7 +136,9 @@ struct StoredTask {
   TaskStatus status = TaskStatus::pending;
   int attempts = 0;
   std::string error;
-  bool has_result = false;  // and it is JSON: a damaged one counts as none, and the task re-runs
+  // And it is JSON with the digest stored beside it: a damaged one counts as none, and the task
+  // runs again.
+  bool has_result = false;
   bool skipped_its_work = false;  // its result says it skipped its work (RunSummary)
   std::vector<StoredArtifact> artifacts;
   std::vector<std::string> children;  // declared by its result, in declaration order

@@ -124,6 +124,22 @@ TEST(Store, ACoordinatorStoppedByAnErrorLeavesNoRecordOfItself) {
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM campaigns WHERE outcome = 'failed'"), 1);
 }
 
+// A result changed in the file to other valid JSON (a digit), which SQLite's integrity check
+// passes, was read as the task's: its digest tells it now, and the task runs again.
+TEST(Store, AResultThatIsNotItsDigestsIsNoResultAndItsTaskRunsAgain) {
+  ScratchDir dir;
+  const auto one = test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}}));
+  ASSERT_EQ(submit(one, dir.db()).exit_code(), 0);
+  {
+    sql::Connection raw(dir.db(), sql::Access::read_write);
+    raw.exec("UPDATE results SET result = json_set(result, '$.changed', 1)");
+  }
+  const RunSummary again = submit(one, dir.db());
+  EXPECT_EQ(again.exit_code(), 0);
+  EXPECT_EQ(again.done, 1);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM results WHERE result LIKE '%changed%'"), 0);
+}
+
 // ... and a submit to it creates the schema: the coordinator lock's look at who held the database
 // before must not refuse it (it did, so a crash test round killed that early failed for good).
 TEST(Store, SubmitToADatabaseWithoutTablesCreatesThem) {
@@ -204,6 +220,7 @@ TEST(Store, MigratesAVersion2DatabaseKeepingItsResultsAndJobs) {
     auto reader = open_read_only(dir.db());
     ASSERT_EQ(find_jobs(reader, "k").size(), 1u);
     EXPECT_EQ(find_jobs(reader, "k")[0].job_name, "");
+    EXPECT_TRUE(find_stored_task(reader, "k")->has_result);  // no digest before version 5
   }
   const SystemClock clock;
   {
@@ -217,6 +234,7 @@ TEST(Store, MigratesAVersion2DatabaseKeepingItsResultsAndJobs) {
     EXPECT_EQ(jobs[0].job_id, "7_0");
     EXPECT_EQ(jobs[0].job_name, "");
     EXPECT_EQ(jobs[0].output_dir, "/run/b/0");
+    EXPECT_TRUE(find_stored_task(store.connection(), "k")->has_result);
   }
   EXPECT_EQ(count(dir.db(), "SELECT sum FROM sum_results WHERE task_key = 'k'"), 7);
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM pragma_index_info('tasks_by_kind')"), 1);

@@ -295,7 +295,7 @@ INSERT INTO tasks (key, kind, kind_version, params, key_text, status, created_at
   ('s', 'sites', '1', '{{}}', '', 'done', 0);
 INSERT INTO campaign_tasks VALUES (1, 'm'), (1, 'a'), (1, 's');
 INSERT INTO edges VALUES ('a', 0, 'm'), ('s', 0, 'a');
-INSERT INTO results VALUES ('s', '{}', 0);
+INSERT INTO results (task_key, result, committed_at) VALUES ('s', '{}', 0);
 )sql",
                                       macro_params.dump(), result.dump()));
   auto rows = store.connection().prepare(
