@@ -945,7 +945,11 @@ InvalidInput query_error(const fs::path& db_path, const sql::Error& error) {
 }  // namespace
 
 QueryRows run_read_only_query(sql::Connection& db, const fs::path& db_path,
-                              const std::string& sql_text, std::size_t max_values) {
+                              const std::string& sql_text, std::size_t max_values,
+                              std::size_t max_bytes) {
+  // No one value beyond the total: SQLite refuses to build it ("string or blob too big").
+  sqlite3_limit(db.handle(), SQLITE_LIMIT_LENGTH,
+                static_cast<int>(std::min<std::size_t>(max_bytes, INT32_MAX)));
   std::optional<sql::Statement> statement;
   try {
     statement.emplace(db.prepare(sql_text));
@@ -961,6 +965,7 @@ QueryRows run_read_only_query(sql::Connection& db, const fs::path& db_path,
   for (int column = 0; column < statement->columns(); ++column)
     result.columns.push_back(statement->column_name(column));
   const std::size_t columns = std::max<std::size_t>(result.columns.size(), 1);
+  std::size_t bytes = 0;
   try {
     while (statement->step()) {
       if ((result.rows.size() + 1) * columns > max_values) {
@@ -975,11 +980,23 @@ QueryRows run_read_only_query(sql::Connection& db, const fs::path& db_path,
         if (value.type == SQLITE_INTEGER) value.integer = statement->integer(column);
         if (value.type == SQLITE_FLOAT) value.real = statement->real(column);
         value.text = statement->text(column);
+        bytes += value.text.size();
+        if (bytes > max_bytes) {
+          throw InvalidInput(
+              {{kQueryArgument,
+                fmt::format("the result holds more than {} bytes of text", max_bytes),
+                "add a LIMIT, or select fewer or shorter values"}});
+        }
         row.push_back(std::move(value));
       }
       result.rows.push_back(std::move(row));
     }
   } catch (const sql::Error& error) {
+    if (std::string_view(error.what()).ends_with("string or blob too big")) {
+      throw InvalidInput(
+          {{kQueryArgument, fmt::format("a value of the result is longer than {} bytes", max_bytes),
+            "select a part of it (substr), or fewer values"}});
+    }
     throw query_error(db_path, error);
   }
   return result;

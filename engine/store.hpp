@@ -294,10 +294,13 @@ struct QueryRows {
   std::vector<std::string> columns;
   std::vector<std::vector<QueryValue>> rows;
 };
+// What one query may return: values, and bytes of their text, in all and in any one value (a
+// few large values, zeroblob(1e9) x 41 rows, went past any memory with few values).
 inline constexpr std::size_t kMaxQueryValues = 10'000'000;
+inline constexpr std::size_t kMaxQueryBytes = std::size_t{256} << 20;
 QueryRows run_read_only_query(sql::Connection& db, const std::filesystem::path& db_path,
-                              const std::string& sql_text,
-                              std::size_t max_values = kMaxQueryValues);
+                              const std::string& sql_text, std::size_t max_values = kMaxQueryValues,
+                              std::size_t max_bytes = kMaxQueryBytes);
 
 class Store {
  public:

@@ -347,6 +347,25 @@ TEST(Store, QueryRefusesAResultOfMoreValuesThanItHolds) {
             500u);
 }
 
+// ... and so do a few large values: 41 of zeroblob(1e9) had few values and no end of memory.
+TEST(Store, QueryRefusesAResultOfMoreBytesThanItHolds) {
+  ScratchDir dir;
+  submit(test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}})), dir.db());
+  auto connection = open_read_only(dir.db());
+  const auto problem = [&](const std::string& sql) -> std::string {
+    try {
+      run_read_only_query(connection, dir.db(), sql, kMaxQueryValues, 2500);
+    } catch (const InvalidInput& error) {
+      return error.errors()[0].problem;
+    }
+    return "no error";
+  };
+  EXPECT_EQ(problem("SELECT zeroblob(1000) FROM (VALUES (1), (2), (3))"),
+            "the result holds more than 2500 bytes of text");
+  EXPECT_EQ(problem("SELECT zeroblob(3000)"), "a value of the result is longer than 2500 bytes");
+  EXPECT_EQ(problem("SELECT zeroblob(1000) FROM (VALUES (1), (2))"), "no error");
+}
+
 TEST(CoordinatorLock, SecondCoordinatorIsRefusedWithTheHoldersName) {
   ScratchDir dir;
   const SystemClock clock;
