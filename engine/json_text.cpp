@@ -3,6 +3,10 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
 #include <set>
 #include <string>
 
@@ -13,10 +17,46 @@ namespace {
 
 using nlohmann::json;
 
+// The numbers of a JSON text as written, in order (what is outside strings and starts with a
+// digit or '-'): the parser's events give a number's value, not how it was written.
+std::vector<std::string_view> number_lexemes(std::string_view text) {
+  std::vector<std::string_view> numbers;
+  bool in_string = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (c == '\\')
+        ++i;  // the escaped character, whatever it is
+      else if (c == '"')
+        in_string = false;
+      continue;
+    }
+    if (c == '"') {
+      in_string = true;
+    } else if (c == '-' || (c >= '0' && c <= '9')) {
+      const std::size_t end = text.find_first_not_of("0123456789+-.eE", i);
+      numbers.push_back(text.substr(i, end == std::string_view::npos ? end : end - i));
+      i = (end == std::string_view::npos ? text.size() : end) - 1;
+    }
+  }
+  return numbers;
+}
+
+// Whether a number written this way is too small for a double: it reads as 0 or a subnormal,
+// which strtod reports as a range error (a written 0 is none).
+bool underflows(std::string_view lexeme) {
+  const std::string written(lexeme);
+  errno = 0;
+  const double value = std::strtod(written.c_str(), nullptr);
+  return errno == ERANGE && std::abs(value) < std::numeric_limits<double>::min();
+}
+
 // Follows the parser's events to know the path of every key, and remembers the keys seen in each
 // open object.
 class DuplicateKeyFinder {
  public:
+  explicit DuplicateKeyFinder(std::string_view text) : numbers_(number_lexemes(text)) {}
+
   bool operator()(int /*depth*/, json::parse_event_t event, json& parsed) {
     switch (event) {
       case json::parse_event_t::object_start:
@@ -36,6 +76,7 @@ class DuplicateKeyFinder {
         break;
       case json::parse_event_t::value:
         enter_element();
+        if (parsed.is_number()) check_number(parsed);
         break;
     }
     return true;
@@ -77,6 +118,15 @@ class DuplicateKeyFinder {
                          "check the brackets: a millflow file nests a few levels"}});
   }
 
+  // 1e-401 read as 0 without a word (a number above a double's range is the parser's error).
+  void check_number(const json& parsed) {
+    if (next_number_ >= numbers_.size()) return;
+    const std::string_view lexeme = numbers_[next_number_++];
+    if (!parsed.is_number_float() || !underflows(lexeme)) return;
+    throw InvalidInput({{path(), fmt::format("number underflow parsing '{}'", lexeme),
+                         "write 0, or a number a double can hold (magnitude at least 2.2e-308)"}});
+  }
+
   void on_key(std::string key) {
     auto& frame = frames_.back();
     frame.key = std::move(key);
@@ -96,6 +146,8 @@ class DuplicateKeyFinder {
 
   std::vector<Frame> frames_;
   std::vector<ValidationError> errors_;
+  std::vector<std::string_view> numbers_;
+  std::size_t next_number_ = 0;
 };
 
 // A syntax error at a byte of the text, by line and column.
@@ -135,7 +187,7 @@ ParsedJson parse_json_text(std::string_view text) {
                                         "remove it (JSON text has none; write \\u0000 in a "
                                         "string for one)")});
   }
-  DuplicateKeyFinder finder;
+  DuplicateKeyFinder finder(text);
   ParsedJson parsed;
   try {
     parsed.document = json::parse(text, std::ref(finder));

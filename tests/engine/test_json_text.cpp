@@ -51,6 +51,19 @@ TEST(JsonText, ANulByteIsASyntaxErrorWhereverItIs) {
             "has none; write \\u0000 in a string for one)");
 }
 
+// 1e-401 read as 0 without a word, where 1e400 is refused: a lifter count of 1e-401 validated as
+// no lifters. A written 0, a small normal number and numbers inside strings pass.
+TEST(JsonText, ANumberTooSmallForADoubleIsRefusedWithThePath) {
+  EXPECT_EQ(syntax_message(R"({"a": [0.5, {"b": 1e-401}]})"),
+            "/a/1/b: number underflow parsing '1e-401'; write 0, or a number a double can hold "
+            "(magnitude at least 2.2e-308)");
+  EXPECT_EQ(syntax_message(R"({"a": -4e-320})"),
+            "/a: number underflow parsing '-4e-320'; write 0, or a number a double can hold "
+            "(magnitude at least 2.2e-308)");
+  EXPECT_EQ(syntax_message(R"({"a \" 1e-401": [0, 0.0, 0e-500, 2.3e-308, -1, "1e-401"]})"),
+            "parsed");
+}
+
 TEST(JsonText, KeysWrittenTwiceAreReportedWithTheirPath) {
   const auto parsed = parse_json_text(
       R"({"a": [{"x": 1}, {"y": [0, {"z": 1, "z": 2}], "y2": 0}], "b": 1, "b": 3})");
