@@ -289,6 +289,17 @@ void check_database_readable(const fs::path& db) {
   refuse_newer_schema(db, readable_user_version(connection, db));
 }
 
+// JSON text the store holds, parsed; text that is not JSON (a byte of the file changed) is a
+// damaged store, named, with what to do: the library's parse error said neither.
+nlohmann::json stored_json(const std::string& text, const std::string& what) {
+  nlohmann::json parsed = nlohmann::json::parse(text, nullptr, false);
+  if (!parsed.is_discarded()) return parsed;
+  throw InvalidInput({{"--db", "the stored " + what + " is not JSON: the database is damaged",
+                       "submit the campaign again, which runs a task whose result is damaged "
+                       "again; for a damaged campaign or parameters, restore the database from a "
+                       "backup"}});
+}
+
 std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key) {
   auto row = db.prepare(
       "SELECT kind, kind_version, params, key_text, parent_key, status, attempts, coalesce(error, "
@@ -300,7 +311,7 @@ std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key)
   record.spec = TaskSpec{.key = key,
                          .kind = row.text(0),
                          .version = row.text(1),
-                         .params = nlohmann::json::parse(row.text(2)),
+                         .params = stored_json(row.text(2), "parameters of task " + key),
                          .upstream = {},
                          .key_text = row.text(3)};
   if (!row.is_null(4)) record.parent_key = row.text(4);
@@ -317,7 +328,7 @@ std::optional<nlohmann::json> find_result(sql::Connection& db, const std::string
   auto row = db.prepare("SELECT result FROM results WHERE task_key = ?");
   row.bind_all(key);
   if (!row.step()) return std::nullopt;
-  return nlohmann::json::parse(row.text(0));
+  return stored_json(row.text(0), "result of task " + key);
 }
 
 std::vector<StoredArtifact> find_artifacts(sql::Connection& db, const std::string& key) {
@@ -344,7 +355,8 @@ std::optional<StoredCampaign> find_campaign(sql::Connection& db, const std::stri
                    : "SELECT name, format, document FROM campaigns WHERE name = ?");
   if (!name.empty()) row.bind_all(name);
   if (!row.step()) return std::nullopt;
-  return StoredCampaign{row.text(0), row.text(1), nlohmann::json::parse(row.text(2))};
+  return StoredCampaign{row.text(0), row.text(1),
+                        stored_json(row.text(2), "document of campaign " + row.text(0))};
 }
 
 namespace {
@@ -864,8 +876,10 @@ std::vector<TaskResultRow> find_task_results(sql::Connection& db, const std::str
   rows.bind_all(campaign);
   std::vector<TaskResultRow> tasks;
   while (rows.step()) {
-    tasks.push_back({rows.text(0), rows.text(1), rows.text(2), nlohmann::json::parse(rows.text(3)),
-                     nlohmann::json::parse(rows.text(4))});
+    const std::string key = rows.text(0);
+    tasks.push_back({key, rows.text(1), rows.text(2),
+                     stored_json(rows.text(3), "parameters of task " + key),
+                     stored_json(rows.text(4), "result of task " + key)});
   }
   return tasks;
 }

@@ -97,6 +97,18 @@ TEST(Store, AResultThatIsNotJsonIsNoResultAndItsTaskRunsAgain) {
     raw.exec("UPDATE results SET result = replace(result, ':', '~')");
   }
   ASSERT_EQ(count(dir.db(), "SELECT count(*) FROM results WHERE json_valid(result)"), 0);
+  {  // `show` and `export` read it as a damaged store (exit 2), not as the library's parse error
+    auto reader = open_read_only(dir.db());
+    auto key = reader.prepare("SELECT task_key FROM results");
+    ASSERT_TRUE(key.step());
+    try {
+      find_result(reader, key.text(0));
+      ADD_FAILURE() << "a result that is not JSON was read";
+    } catch (const InvalidInput& error) {
+      EXPECT_EQ(error.errors()[0].problem, "the stored result of task " + key.text(0) +
+                                               " is not JSON: the database is damaged");
+    }
+  }
   const RunSummary again = submit(one, dir.db());
   EXPECT_EQ(again.exit_code(), 0);
   EXPECT_EQ(again.done, 1);
