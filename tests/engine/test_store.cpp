@@ -85,17 +85,23 @@ TEST(Store, ReadersOfADatabaseWithoutTablesSayToSubmitAgain) {
   }
 }
 
+// A campaign of one sum task, submitted into dir's database, which `damage` (SQL) then changes
+// behind the store's back.
+Campaign one_task_done_then(const ScratchDir& dir, const std::string& damage) {
+  const Campaign one = test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}}));
+  EXPECT_EQ(submit(one, dir.db()).exit_code(), 0);
+  sql::Connection raw(dir.db(), sql::Access::read_write);
+  raw.exec(damage);
+  return one;
+}
+
 // A stored result that is not JSON (a byte of the file changed) failed every submit, resume and
 // status with SQLite's "malformed JSON" from the query that reads whether results say "skipped":
 // it is no result now, and its task runs again.
 TEST(Store, AResultThatIsNotJsonIsNoResultAndItsTaskRunsAgain) {
   ScratchDir dir;
-  const auto one = test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}}));
-  ASSERT_EQ(submit(one, dir.db()).exit_code(), 0);
-  {
-    sql::Connection raw(dir.db(), sql::Access::read_write);
-    raw.exec("UPDATE results SET result = replace(result, ':', '~')");
-  }
+  const Campaign one =
+      one_task_done_then(dir, "UPDATE results SET result = replace(result, ':', '~')");
   ASSERT_EQ(count(dir.db(), "SELECT count(*) FROM results WHERE json_valid(result)"), 0);
   {  // `show` and `export` read it as a damaged store (exit 2), not as the library's parse error
     auto reader = open_read_only(dir.db());
@@ -140,12 +146,8 @@ TEST(Store, ACoordinatorStoppedByAnErrorLeavesNoRecordOfItself) {
 // passes, was read as the task's: its digest tells it now, and the task runs again.
 TEST(Store, AResultThatIsNotItsDigestsIsNoResultAndItsTaskRunsAgain) {
   ScratchDir dir;
-  const auto one = test_campaign("one", json::array({{{"id", "a"}, {"kind", "sum"}}}));
-  ASSERT_EQ(submit(one, dir.db()).exit_code(), 0);
-  {
-    sql::Connection raw(dir.db(), sql::Access::read_write);
-    raw.exec("UPDATE results SET result = json_set(result, '$.changed', 1)");
-  }
+  const Campaign one =
+      one_task_done_then(dir, "UPDATE results SET result = json_set(result, '$.changed', 1)");
   const RunSummary again = submit(one, dir.db());
   EXPECT_EQ(again.exit_code(), 0);
   EXPECT_EQ(again.done, 1);
