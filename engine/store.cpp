@@ -307,13 +307,30 @@ std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key)
       "FROM tasks WHERE key = ?");
   row.bind_all(key);
   if (!row.step()) return std::nullopt;
+  // The parameters as hashed into the key: the key text's, when it still hashes to the key (the
+  // params column is a copy for the views, which a changed byte could make another task's).
+  const std::string key_text = row.text(3);
+  if (util::sha256_hex(key_text) != key) {
+    throw InvalidInput({{"--db",
+                         "the stored key text of task " + key +
+                             " does not hash to its key: the database is damaged",
+                         "submit the campaign again, which writes a planned task's key text "
+                         "anew; for a task another declared, restore the database from a backup"}});
+  }
+  constexpr std::string_view kParams = "\nparams:", kUpstream = "\nupstream:";
+  const std::size_t params_at = key_text.find(kParams);
+  const std::size_t params_end = key_text.find(kUpstream, params_at);
+  const std::string params =
+      params_at == std::string::npos || params_end == std::string::npos
+          ? row.text(2)  // a key text of another form: the copy
+          : key_text.substr(params_at + kParams.size(), params_end - params_at - kParams.size());
   TaskRecord record;
   record.spec = TaskSpec{.key = key,
                          .kind = row.text(0),
                          .version = row.text(1),
-                         .params = stored_json(row.text(2), "parameters of task " + key),
+                         .params = stored_json(params, "parameters of task " + key),
                          .upstream = {},
-                         .key_text = row.text(3)};
+                         .key_text = key_text};
   if (!row.is_null(4)) record.parent_key = row.text(4);
   record.status = task_status_from(row.text(5));
   record.attempts = static_cast<int>(row.integer(6));
@@ -503,10 +520,16 @@ std::int64_t Store::register_campaign(const std::string& name, const std::string
 
 void Store::insert_tasks(std::int64_t campaign, const std::vector<TaskSpec>& tasks,
                          const std::optional<std::string>& parent) {
+  // A task's key is the SHA-256 of its key text, which holds its kind, version and parameters:
+  // a stored row that says otherwise was changed behind the store's back, and the spec, whose
+  // key text hashes to the key, puts it right (a row that agrees is not written).
   auto& task = statement(
-      "INSERT OR IGNORE INTO tasks (key, kind, kind_version, params, key_text, parent_key, "
-      "created_at) "
-      "VALUES (?, ?, ?, ?, ?, ?, ?)");
+      "INSERT INTO tasks (key, kind, kind_version, params, key_text, parent_key, created_at) "
+      "VALUES (?, ?, ?, ?, ?, ?, ?) ON CONFLICT (key) DO UPDATE SET kind = excluded.kind, "
+      "kind_version = excluded.kind_version, params = excluded.params, key_text = "
+      "excluded.key_text WHERE tasks.kind IS NOT excluded.kind OR tasks.kind_version IS NOT "
+      "excluded.kind_version OR tasks.params IS NOT excluded.params OR tasks.key_text IS NOT "
+      "excluded.key_text");
   auto& edge =
       statement("INSERT OR IGNORE INTO edges (downstream, position, upstream) VALUES (?, ?, ?)");
   auto& member =

@@ -8,10 +8,12 @@
 //                  finished_at, outcome ('running'|'done'|'failed'|'interrupted'|'partial':
 //                  tasks beyond `--until` left pending)
 //   tasks          key PK (SHA-256 hex), kind, kind_version, params, key_text (exactly what was
-//                  hashed), parent_key (the task whose result declared it; NULL for planned tasks),
-//                  status ('pending'|'running'|'done'|'failed'|'interrupted'|'skipped'),
-//                  attempts (launches ever), created_at, started_at, finished_at, duration_s,
-//                  host, code_version, error
+//                  hashed: find_task takes the parameters from it, and insert_tasks writes a row
+//                  that disagrees with its spec back), parent_key (the task whose result declared
+//                  it; NULL for planned tasks), status
+//                  ('pending'|'running'|'done'|'failed'|'interrupted'|'skipped'), attempts
+//                  (launches ever), created_at, started_at, finished_at, duration_s, host,
+//                  code_version, error
 //   campaign_tasks campaign_id, task_key: which tasks belong to which campaign (tasks are shared)
 //   edges          downstream, position, upstream: the DAG (position = input order)
 //   results        task_key PK, result (JSON), committed_at (since version 4 WITHOUT ROWID),

@@ -12,6 +12,7 @@
 #include "engine/store.hpp"
 #include "engine/validation.hpp"
 #include "support_engine.hpp"
+#include "util/sha256.hpp"
 
 namespace millflow::engine::testing {
 namespace {
@@ -119,6 +120,48 @@ TEST(Store, AResultThatIsNotJsonIsNoResultAndItsTaskRunsAgain) {
   EXPECT_EQ(again.exit_code(), 0);
   EXPECT_EQ(again.done, 1);
   EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM results WHERE json_valid(result)"), 1);
+}
+
+// The key of the one task of dir's database.
+std::string the_task_key(const ScratchDir& dir) {
+  auto reader = open_read_only(dir.db());
+  auto key = reader.prepare("SELECT key FROM tasks");
+  EXPECT_TRUE(key.step());
+  return key.text(0);
+}
+
+// A task's parameters changed in the file (a digit) were what the runtime and the views read;
+// the key text they were hashed from is what the runtime reads now, and a submit writes the copy
+// back.
+TEST(Store, ATasksParametersAreItsKeyTextsAndASubmitWritesThemBack) {
+  ScratchDir dir;
+  const Campaign one =
+      one_task_done_then(dir, "UPDATE tasks SET params = json_set(params, '$.changed', 1)");
+  {
+    auto reader = open_read_only(dir.db());
+    EXPECT_FALSE(find_task(reader, the_task_key(dir))->spec.params.contains("changed"));
+  }
+  EXPECT_EQ(submit(one, dir.db()).cached, 1);
+  EXPECT_EQ(count(dir.db(), "SELECT count(*) FROM tasks WHERE params LIKE '%changed%'"), 0);
+}
+
+// A key text that no longer hashes to its key is a damaged store, named; a submit writes a
+// planned task's anew.
+TEST(Store, AKeyTextThatDoesNotHashToItsKeyIsADamagedStoreASubmitMends) {
+  ScratchDir dir;
+  const Campaign one = one_task_done_then(dir, "UPDATE tasks SET key_text = key_text || ' '");
+  const std::string key = the_task_key(dir);
+  try {
+    auto reader = open_read_only(dir.db());
+    find_task(reader, key);
+    ADD_FAILURE() << "a key text that does not hash to its key was read";
+  } catch (const InvalidInput& error) {
+    EXPECT_EQ(error.errors()[0].problem, "the stored key text of task " + key +
+                                             " does not hash to its key: the database is damaged");
+  }
+  EXPECT_EQ(submit(one, dir.db()).cached, 1);
+  auto reader = open_read_only(dir.db());
+  EXPECT_EQ(util::sha256_hex(find_task(reader, key)->spec.key_text), key);
 }
 
 // A launcher that fails outright: an error out of the coordinator's run, not out of a task.
