@@ -142,10 +142,12 @@ ALTER TABLE results_rebuilt RENAME TO results;
 PRAGMA legacy_alter_table = OFF;
 )sql",
       // Each result's SHA-256 (hex) of its text: a result changed in the file, to other valid
-      // JSON, reads as no result, and its task runs again. Rows of earlier versions keep NULL and
-      // are not checked.
+      // JSON, reads as no result, and its task runs again. The same for each campaign's document,
+      // which `resume` runs: a changed one is a damaged store. Rows of earlier versions keep NULL
+      // and are not checked.
       R"sql(
 ALTER TABLE results ADD COLUMN sha256 TEXT;
+ALTER TABLE campaigns ADD COLUMN document_sha256 TEXT;
 )sql",
   };
   return steps;
@@ -366,14 +368,24 @@ std::vector<std::string> child_keys(sql::Connection& db, const std::string& pare
 }
 
 std::optional<StoredCampaign> find_campaign(sql::Connection& db, const std::string& name) {
+  const std::string columns =
+      fmt::format("name, format, document, {}", db.user_version() < 5 ? "NULL" : "document_sha256");
   auto row = db.prepare(
-      name.empty() ? "SELECT name, format, document FROM campaigns ORDER BY submitted_at DESC, id "
-                     "DESC LIMIT 1"
-                   : "SELECT name, format, document FROM campaigns WHERE name = ?");
+      name.empty()
+          ? fmt::format("SELECT {} FROM campaigns ORDER BY submitted_at DESC, id DESC LIMIT 1",
+                        columns)
+          : fmt::format("SELECT {} FROM campaigns WHERE name = ?", columns));
   if (!name.empty()) row.bind_all(name);
   if (!row.step()) return std::nullopt;
+  const std::string text = row.text(2);
+  if (!row.is_null(3) && util::sha256_hex(text) != row.text(3)) {
+    throw InvalidInput({{"--db",
+                         "the stored document of campaign " + row.text(0) +
+                             " is not the text submitted: the database is damaged",
+                         "submit the campaign file again (resume runs what the store holds)"}});
+  }
   return StoredCampaign{row.text(0), row.text(1),
-                        stored_json(row.text(2), "document of campaign " + row.text(0))};
+                        stored_json(text, "document of campaign " + row.text(0))};
 }
 
 namespace {
@@ -501,11 +513,13 @@ std::int64_t Store::register_campaign(const std::string& name, const std::string
                                       const nlohmann::json& document,
                                       const std::vector<TaskSpec>& tasks) {
   sql::Transaction transaction(db_);
+  const std::string text = canonical_json(document);
   statement(
-      "INSERT INTO campaigns (name, format, document, submitted_at) VALUES (?, ?, ?, ?) "
-      "ON CONFLICT(name) DO UPDATE SET format = excluded.format, document = excluded.document, "
-      "submitted_at = excluded.submitted_at, finished_at = NULL, outcome = 'running'")
-      .bind_all(name, format, canonical_json(document), clock_.now())
+      "INSERT INTO campaigns (name, format, document, submitted_at, document_sha256) VALUES (?, "
+      "?, ?, ?, ?) ON CONFLICT(name) DO UPDATE SET format = excluded.format, document = "
+      "excluded.document, submitted_at = excluded.submitted_at, finished_at = NULL, outcome = "
+      "'running', document_sha256 = excluded.document_sha256")
+      .bind_all(name, format, text, clock_.now(), util::sha256_hex(text))
       .run();
   auto& id_row = statement("SELECT id FROM campaigns WHERE name = ?");
   id_row.bind_all(name);

@@ -6,7 +6,9 @@
 // text.
 //   campaigns      id PK, name UNIQUE, format, document (the loaded campaign JSON), submitted_at,
 //                  finished_at, outcome ('running'|'done'|'failed'|'interrupted'|'partial':
-//                  tasks beyond `--until` left pending)
+//                  tasks beyond `--until` left pending), document_sha256 (since version 5: the
+//                  SHA-256 hex of the document's text; find_campaign refuses a document that is
+//                  not it; NULL in rows of earlier versions, not checked)
 //   tasks          key PK (SHA-256 hex), kind, kind_version, params, key_text (exactly what was
 //                  hashed: find_task takes the parameters from it, and insert_tasks writes a row
 //                  that disagrees with its spec back), parent_key (the task whose result declared

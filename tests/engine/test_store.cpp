@@ -164,6 +164,26 @@ TEST(Store, AKeyTextThatDoesNotHashToItsKeyIsADamagedStoreASubmitMends) {
   EXPECT_EQ(util::sha256_hex(find_task(reader, key)->spec.key_text), key);
 }
 
+// A campaign's document changed in the file (a digit, still JSON) was what `resume` ran: it is a
+// damaged store now, named, until the file is submitted again.
+TEST(Store, ACampaignDocumentThatIsNotItsDigestsIsADamagedStore) {
+  ScratchDir dir;
+  const Campaign one =
+      one_task_done_then(dir, "UPDATE campaigns SET document = json_set(document, '$.changed', 1)");
+  try {
+    auto reader = open_read_only(dir.db());
+    find_campaign(reader, "one");
+    ADD_FAILURE() << "a changed campaign document was read";
+  } catch (const InvalidInput& error) {
+    EXPECT_EQ(error.errors()[0].problem,
+              "the stored document of campaign one is not the text submitted: the database is "
+              "damaged");
+  }
+  EXPECT_EQ(submit(one, dir.db()).cached, 1);
+  auto reader = open_read_only(dir.db());
+  EXPECT_FALSE(find_campaign(reader, "one")->document.contains("changed"));
+}
+
 // A launcher that fails outright: an error out of the coordinator's run, not out of a task.
 class BrokenLauncher final : public Launcher {
  public:
