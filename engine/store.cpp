@@ -142,11 +142,14 @@ ALTER TABLE results_rebuilt RENAME TO results;
 PRAGMA legacy_alter_table = OFF;
 )sql",
       // Each result's SHA-256 (hex) of its text: a result changed in the file, to other valid
-      // JSON, reads as no result, and its task runs again. The same for each campaign's document,
-      // which `resume` runs: a changed one is a damaged store. Rows of earlier versions keep NULL
-      // and are not checked.
+      // JSON, reads as no result, and its task runs again. Rows of earlier versions keep NULL and
+      // are not checked.
       R"sql(
 ALTER TABLE results ADD COLUMN sha256 TEXT;
+)sql",
+      // The same for each campaign's document, which `resume` runs: a changed one is a damaged
+      // store.
+      R"sql(
 ALTER TABLE campaigns ADD COLUMN document_sha256 TEXT;
 )sql",
   };
@@ -369,7 +372,7 @@ std::vector<std::string> child_keys(sql::Connection& db, const std::string& pare
 
 std::optional<StoredCampaign> find_campaign(sql::Connection& db, const std::string& name) {
   const std::string columns =
-      fmt::format("name, format, document, {}", db.user_version() < 5 ? "NULL" : "document_sha256");
+      fmt::format("name, format, document, {}", db.user_version() < 6 ? "NULL" : "document_sha256");
   auto row = db.prepare(
       name.empty()
           ? fmt::format("SELECT {} FROM campaigns ORDER BY submitted_at DESC, id DESC LIMIT 1",

@@ -2,11 +2,11 @@
 // The provenance store: one SQLite file, written by exactly one connection (this class), owned by
 // the coordinating thread. Readers open their own read-only connections (open_read_only).
 //
-// Schema version 5 (PRAGMA user_version = 5); times are Unix seconds (REAL), JSON is canonical
+// Schema version 6 (PRAGMA user_version = 6); times are Unix seconds (REAL), JSON is canonical
 // text.
 //   campaigns      id PK, name UNIQUE, format, document (the loaded campaign JSON), submitted_at,
 //                  finished_at, outcome ('running'|'done'|'failed'|'interrupted'|'partial':
-//                  tasks beyond `--until` left pending), document_sha256 (since version 5: the
+//                  tasks beyond `--until` left pending), document_sha256 (since version 6: the
 //                  SHA-256 hex of the document's text; find_campaign refuses a document that is
 //                  not it; NULL in rows of earlier versions, not checked)
 //   tasks          key PK (SHA-256 hex), kind, kind_version, params, key_text (exactly what was
@@ -71,7 +71,7 @@
 
 namespace millflow::engine {
 
-inline constexpr int kSchemaVersion = 5;
+inline constexpr int kSchemaVersion = 6;
 
 // The SQL of migration i takes a database from user_version i to i + 1 (tests build old versions).
 const std::vector<std::string>& schema_migrations();
