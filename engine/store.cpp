@@ -414,12 +414,13 @@ std::string stored_task_columns(sql::Connection& db) {
   return fmt::format("t.status, t.attempts, coalesce(t.error, ''), r.result, {}, {}",
                      db.user_version() < 5 ? "NULL" : "r.sha256", kResultSaysSkipped);
 }
-// A result counts when it is JSON and, where the store holds its digest, has it.
+// A result counts when it has the digest the store holds beside it (the canonical JSON that was
+// committed), or, in a row of a version without digests, when it is JSON.
 bool result_intact(sql::Statement& row, int result, int digest) {
   if (row.is_null(result)) return false;
   const std::string text = row.text(result);
-  return nlohmann::json::accept(text) &&
-         (row.is_null(digest) || util::sha256_hex(text) == row.text(digest));
+  return row.is_null(digest) ? nlohmann::json::accept(text)
+                             : util::sha256_hex(text) == row.text(digest);
 }
 StoredTask stored_task_from(sql::Statement& row, int first) {
   return StoredTask{.status = task_status_from(row.text(first)),
