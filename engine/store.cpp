@@ -307,14 +307,13 @@ nlohmann::json stored_json(const std::string& text, const std::string& what) {
 
 std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key) {
   auto row = db.prepare(
-      "SELECT kind, kind_version, params, key_text, parent_key, status, attempts, coalesce(error, "
-      "'') "
+      "SELECT kind, kind_version, key_text, parent_key, status, attempts, coalesce(error, '') "
       "FROM tasks WHERE key = ?");
   row.bind_all(key);
   if (!row.step()) return std::nullopt;
   // The parameters as hashed into the key: the key text's, when it still hashes to the key (the
   // params column is a copy for the views, which a changed byte could make another task's).
-  const std::string key_text = row.text(3);
+  const std::string key_text = row.text(2);
   if (util::sha256_hex(key_text) != key) {
     throw InvalidInput({{"--db",
                          "the stored key text of task " + key +
@@ -322,24 +321,18 @@ std::optional<TaskRecord> find_task(sql::Connection& db, const std::string& key)
                          "submit the campaign again, which writes a planned task's key text "
                          "anew; for a task another declared, restore the database from a backup"}});
   }
-  constexpr std::string_view kParams = "\nparams:", kUpstream = "\nupstream:";
-  const std::size_t params_at = key_text.find(kParams);
-  const std::size_t params_end = key_text.find(kUpstream, params_at);
-  const std::string params =
-      params_at == std::string::npos || params_end == std::string::npos
-          ? row.text(2)  // a key text of another form: the copy
-          : key_text.substr(params_at + kParams.size(), params_end - params_at - kParams.size());
   TaskRecord record;
-  record.spec = TaskSpec{.key = key,
-                         .kind = row.text(0),
-                         .version = row.text(1),
-                         .params = stored_json(params, "parameters of task " + key),
-                         .upstream = {},
-                         .key_text = key_text};
-  if (!row.is_null(4)) record.parent_key = row.text(4);
-  record.status = task_status_from(row.text(5));
-  record.attempts = static_cast<int>(row.integer(6));
-  record.error = row.text(7);
+  record.spec = TaskSpec{
+      .key = key,
+      .kind = row.text(0),
+      .version = row.text(1),
+      .params = stored_json(std::string(key_text_params(key_text)), "parameters of task " + key),
+      .upstream = {},
+      .key_text = key_text};
+  if (!row.is_null(3)) record.parent_key = row.text(3);
+  record.status = task_status_from(row.text(4));
+  record.attempts = static_cast<int>(row.integer(5));
+  record.error = row.text(6);
   auto edges = db.prepare("SELECT upstream FROM edges WHERE downstream = ? ORDER BY position");
   edges.bind_all(key);
   while (edges.step()) record.spec.upstream.push_back(edges.text(0));

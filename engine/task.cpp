@@ -9,6 +9,9 @@
 namespace millflow::engine {
 namespace {
 
+// The key text's sections around the parameters.
+constexpr std::string_view kParamsTag = "\nparams:", kUpstreamTag = "\nupstream:";
+
 std::string join_keys(const std::vector<std::string>& keys) {
   std::string text;
   for (const auto& key : keys) {
@@ -29,10 +32,19 @@ TaskSpec make_task_spec(std::string kind, std::string version, nlohmann::json pa
                 .upstream = std::move(upstream),
                 .key_text = {}};
   spec.key_text = "millflow-task 1\nkind:" + spec.kind + "\nversion:" + spec.version +
-                  "\nparams:" + canonical_json(spec.params) +
-                  "\nupstream:" + join_keys(spec.upstream) + "\n";
+                  std::string(kParamsTag) + canonical_json(spec.params) +
+                  std::string(kUpstreamTag) + join_keys(spec.upstream) + "\n";
   spec.key = util::sha256_hex(spec.key_text);
   return spec;
+}
+
+std::string_view key_text_params(std::string_view key_text) {
+  const std::size_t tag = key_text.find(kParamsTag);
+  const std::size_t end =
+      tag == std::string_view::npos ? tag : key_text.find(kUpstreamTag, tag + kParamsTag.size());
+  if (end == std::string_view::npos)
+    throw std::logic_error("key_text_params: not a key text of make_task_spec");
+  return key_text.substr(tag + kParamsTag.size(), end - tag - kParamsTag.size());
 }
 
 void KindRegistry::add(TaskKind kind) {

@@ -36,6 +36,10 @@ struct TaskSpec {
 TaskSpec make_task_spec(std::string kind, std::string version, nlohmann::json params,
                         std::vector<std::string> upstream);
 
+// The parameters' canonical JSON inside a key text make_task_spec wrote (the store reads a
+// task's parameters from there: they are what its key was hashed from).
+std::string_view key_text_params(std::string_view key_text);
+
 // One finished upstream task as its downstream task sees it.
 struct TaskInput {
   std::string key;

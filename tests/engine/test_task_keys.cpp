@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <limits>
+#include <stdexcept>
 
 #include "engine/canonical_json.hpp"
 #include "engine/task.hpp"
@@ -84,6 +85,15 @@ TEST(TaskKey, ChangesWithEveryIngredientAndNothingElse) {
   EXPECT_NE(base.key, make_task_spec("sum", "1", json{{"value", 3.0}, {"w", 1.5}}, {"up"}).key);
   EXPECT_NE(base.key, make_task_spec("sum", "1", json{{"value", 3}, {"w", 1.5}}, {"other"}).key);
   EXPECT_NE(base.key, make_task_spec("fail", "1", json{{"value", 3}, {"w", 1.5}}, {"up"}).key);
+}
+
+// The store reads a task's parameters back from its key text: the canonical JSON hashed into the
+// key, whatever the strings in it hold (a "\nupstream:" inside a parameter stays escaped).
+TEST(TaskKey, TheKeyTextGivesBackTheParametersHashedIntoIt) {
+  const json params = {{"note", "a\nupstream:b"}, {"fill", 0.3}, {"list", {1, 2}}};
+  const TaskSpec spec = make_task_spec("macro", "1", params, {"k1", "k2"});
+  EXPECT_EQ(key_text_params(spec.key_text), canonical_json(params));
+  EXPECT_THROW(key_text_params("millflow-task 1\nkind:macro\n"), std::logic_error);
 }
 
 }  // namespace
