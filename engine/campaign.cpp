@@ -323,26 +323,36 @@ RunSummary submit_campaign(const Registry& registry, const Campaign& campaign,
                  *lock.stale_holder());
   }
   store.set_coordinator(static_cast<int>(::getpid()), host_name(), campaign.name);
-  // An error out of the run (a damaged store, a full disk) leaves the database as an orderly end
-  // does: the campaign failed, no coordinator recorded. Left behind, the record made the next
+  // The campaign's outcome and the coordinator's record, written once however the run ends: an
+  // error out of it (a damaged store, a full disk) leaves the database as an orderly end does,
+  // the campaign failed and no coordinator recorded. Left behind, the record made the next
   // coordinator report taking over from one that was gone, and `status` call the campaign
   // interrupted by a coordinator that died.
-  struct RecordTheEnd {
-    Store& store;
-    std::optional<std::int64_t> campaign;
-    bool finished = false;
-    ~RecordTheEnd() {
-      if (finished) return;
+  class RunEnd {
+   public:
+    explicit RunEnd(Store& store) : store_(store) {}
+    void begin(std::int64_t campaign) { campaign_ = campaign; }
+    void record(const std::string& outcome) {
+      if (campaign_) store_.finish_campaign(*campaign_, outcome);
+      store_.clear_coordinator();
+      recorded_ = true;
+    }
+    ~RunEnd() {
+      if (recorded_) return;
       try {
-        if (campaign) store.finish_campaign(*campaign, "failed");
-        store.clear_coordinator();
+        record("failed");
       } catch (const std::exception&) {  // the store that failed may fail again: the lock is enough
       }
     }
-  } record_the_end{store, std::nullopt};
+
+   private:
+    Store& store_;
+    std::optional<std::int64_t> campaign_;
+    bool recorded_ = false;
+  } run_end(store);
   const std::int64_t id =
       store.register_campaign(campaign.name, campaign.format, campaign.document, planned);
-  record_the_end.campaign = id;
+  run_end.begin(id);
   logger->info("campaign \"{}\": {} planned tasks, code version {}", campaign.name, planned.size(),
                code_version());
 
@@ -365,9 +375,7 @@ RunSummary submit_campaign(const Registry& registry, const Campaign& campaign,
                               : summary.failed > 0    ? "failed"
                               : summary.held_back > 0 ? "partial"
                                                       : "done";
-  store.finish_campaign(id, outcome);
-  store.clear_coordinator();
-  record_the_end.finished = true;
+  run_end.record(outcome);
   logger->info("campaign \"{}\" {}: {}", campaign.name, outcome, summary.describe());
   return summary;
 }
