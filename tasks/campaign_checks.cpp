@@ -152,6 +152,12 @@ class ConsistencyChecker {
     errors_.push_back({std::move(path), std::move(problem), std::move(fix)});
   }
 
+  // A macro-only campaign: /shear_cell/enabled set to false.
+  bool cells_disabled() const {
+    const auto* enabled = campaign_.node("/shear_cell/enabled");
+    return enabled != nullptr && enabled->is_boolean() && !enabled->get<bool>();
+  }
+
   bool defined(const std::string& name) const {
     const auto names = campaign_.materials();
     return std::find(names.begin(), names.end(), name) != names.end();
@@ -188,8 +194,7 @@ class ConsistencyChecker {
   void check_powder_given() {
     const auto* shear_cell = campaign_.node("/shear_cell");
     if (shear_cell == nullptr || campaign_.node("/shear_cell/powder") != nullptr) return;
-    const auto* enabled = campaign_.node("/shear_cell/enabled");
-    if (enabled != nullptr && enabled->is_boolean() && !enabled->get<bool>()) return;
+    if (cells_disabled()) return;
     error("/shear_cell/powder", "required field is missing when /shear_cell/enabled is true",
           "give the powder's material, diameter_ratio and load, or set /shear_cell/enabled to "
           "false for a macro-only campaign");
@@ -522,10 +527,8 @@ class ConsistencyChecker {
   // of the campaign would fail as it starts, after the macro runs (dem::ShearCellSetup).
   void check_cell_gravity() {
     const auto* gravity = campaign_.node("/shear_cell/gravity");
-    const auto* enabled = campaign_.node("/shear_cell/enabled");
     if (gravity == nullptr || !gravity->is_boolean() || !gravity->get<bool>() ||
-        campaign_.text("/shear_cell/boundary") == "walls" ||
-        (enabled != nullptr && enabled->is_boolean() && !enabled->get<bool>()))
+        campaign_.text("/shear_cell/boundary") == "walls" || cells_disabled())
       return;
     error("/shear_cell/gravity",
           "true needs rough walls: a Lees-Edwards cell is periodic along the gradient axis and has "
